@@ -1,0 +1,17 @@
+#![doc = include_str!("../README.md")]
+
+pub mod coeffs;
+pub mod eval;
+mod generated;
+pub mod index;
+pub mod lowdisc;
+pub mod quadrature;
+pub mod real;
+pub mod reference;
+pub mod sampling;
+
+pub use coeffs::{
+    Sh, Sh1, Sh4, Sh9, Sh16, Sh25, Sh36, Sh49, Sh64, ShDyn, ShRgb, ShRgb4, ShRgb9, ShRgb16, ShRgb25, ShRgb36,
+};
+pub use eval::{eval_basis, eval_into, eval_sh};
+pub use real::Real;
