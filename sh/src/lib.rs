@@ -2,6 +2,7 @@
 
 pub mod coeffs;
 pub mod eval;
+#[rustfmt::skip]
 mod generated;
 pub mod index;
 pub mod lowdisc;
