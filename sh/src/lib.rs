@@ -5,6 +5,7 @@ pub mod eval;
 #[rustfmt::skip]
 mod generated;
 pub mod index;
+pub mod irradiance;
 pub mod lowdisc;
 pub mod quadrature;
 pub mod real;

@@ -1,0 +1,1 @@
+//! lightvol-hemibasis (work in progress).

@@ -1,0 +1,1 @@
+//! lightvol-sampler (work in progress).

@@ -1,0 +1,1 @@
+//! lightvol-volume (work in progress).
