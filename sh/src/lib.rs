@@ -1,16 +1,21 @@
 #![doc = include_str!("../README.md")]
 
 pub mod coeffs;
+pub mod convention;
 pub mod eval;
 #[rustfmt::skip]
 mod generated;
 pub mod index;
 pub mod irradiance;
+pub mod linalg;
 pub mod lowdisc;
+pub mod project;
 pub mod quadrature;
 pub mod real;
 pub mod reference;
+pub mod rotate;
 pub mod sampling;
+pub mod zonal;
 
 pub use coeffs::{
     Sh, Sh1, Sh4, Sh9, Sh16, Sh25, Sh36, Sh49, Sh64, ShDyn, ShRgb, ShRgb4, ShRgb9, ShRgb16, ShRgb25, ShRgb36,
