@@ -1,1 +1,13 @@
-//! lightvol-volume (work in progress).
+#![doc = include_str!("../README.md")]
+
+pub mod accumulator;
+pub mod error;
+pub mod fill;
+pub mod grid;
+pub mod volume;
+
+pub use accumulator::Accumulator;
+pub use error::{FileFormat, VolumeError};
+pub use fill::FillReport;
+pub use grid::{GridSpec, Placement};
+pub use volume::{BakeMetadata, IrradianceVolume};

@@ -1,0 +1,256 @@
+//! The baked irradiance volume: RGB SH radiance coefficients and a weight per node.
+//!
+//! Kontkanen & Laine 2006 (seed 000), §3: each node `i` stores the coefficients `c_ij` of
+//! the incident *radiance* `L(x_i, ω) ≈ Σ_j c_ij Y_j(ω)` (Eq. 2), from which irradiance is
+//! reconstructed at run time (Eq. 1 and 3; see [`crate::lookup`]). The per-node weight is
+//! the fraction of the node's trilinear support that lies in the domain of interest (the
+//! normalised denominator of Eq. 5-6, see [`crate::accumulator`]): 0 marks a node that
+//! received no samples and was filled from its neighbours.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{VolumeError, check_finite};
+use crate::grid::GridSpec;
+
+/// The SH coefficient counts per colour channel this crate supports (2, 3 and 4 bands).
+pub const SUPPORTED_COEFFS: [usize; 3] = [4, 9, 16];
+
+/// Checks that `coeffs` is one of [`SUPPORTED_COEFFS`].
+pub fn check_coeffs(coeffs: usize) -> Result<(), VolumeError> {
+    if SUPPORTED_COEFFS.contains(&coeffs) { Ok(()) } else { Err(VolumeError::UnsupportedCoeffs(coeffs)) }
+}
+
+/// How a volume was made, carried through every file format.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BakeMetadata {
+    /// Sampling method, e.g. `"point"` (Kontkanen & Laine Eq. 4) or `"domain"` (Eq. 5-6).
+    pub method: String,
+    /// Total number of rays / samples the bake used.
+    pub samples: u64,
+    /// Seed of the bake's random (Halton scrambling) streams.
+    pub seed: u64,
+    /// Index of this shard among `shard_count` (0 for an unsharded bake).
+    pub shard_index: u32,
+    /// Number of shards the bake was split into (1 for an unsharded bake).
+    pub shard_count: u32,
+    /// A hash identifying the scene and bake settings (free-form hex string).
+    pub scene_hash: String,
+    /// The radiometric unit of the coefficients, e.g. `"W sr^-1 m^-2"` or
+    /// `"relative"` (default).
+    pub units: String,
+}
+
+impl Default for BakeMetadata {
+    fn default() -> Self {
+        Self {
+            method: "unknown".into(),
+            samples: 0,
+            seed: 0,
+            shard_index: 0,
+            shard_count: 1,
+            scene_hash: String::new(),
+            units: "relative".into(),
+        }
+    }
+}
+
+/// An irradiance volume: a [`GridSpec`], `coeffs` (4, 9 or 16) RGB SH radiance coefficients
+/// per node and a weight per node (Kontkanen & Laine 2006, §3).
+///
+/// Coefficients are stored as f32 in the layout `[node][coeff][rgb]` (the 3·coeffs floats of
+/// one node are contiguous, which makes the 8 fetches of a trilinear lookup 8 short
+/// contiguous reads). Coefficient `j` follows lightvol-sh: real orthonormal SH, flat index
+/// `l(l+1)+m`, no Condon-Shortley phase, +z polar axis, world-space directions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct IrradianceVolume {
+    spec: GridSpec,
+    coeffs: usize,
+    data: Vec<f32>,
+    weights: Vec<f32>,
+    meta: BakeMetadata,
+}
+
+impl IrradianceVolume {
+    /// Builds a volume from its parts; errors if the lengths do not match the grid, the
+    /// coefficient count is unsupported, a value is not finite, or a weight is outside
+    /// `[0, 1]`.
+    pub fn new(
+        spec: GridSpec,
+        coeffs: usize,
+        data: Vec<f32>,
+        weights: Vec<f32>,
+    ) -> Result<Self, VolumeError> {
+        check_coeffs(coeffs)?;
+        let n = spec.node_count();
+        if data.len() != n * coeffs * 3 {
+            return Err(VolumeError::Mismatch(format!(
+                "coefficient array has {} floats, grid needs {} ({n} nodes x {coeffs} coeffs x 3)",
+                data.len(),
+                n * coeffs * 3
+            )));
+        }
+        if weights.len() != n {
+            return Err(VolumeError::Mismatch(format!("{} weights for {n} nodes", weights.len())));
+        }
+        check_finite("coefficients", &data)?;
+        check_finite("weights", &weights)?;
+        if let Some(i) = weights.iter().position(|w| !(0.0..=1.0).contains(w)) {
+            return Err(VolumeError::InvalidData(format!(
+                "weight {} at node {i} outside [0, 1]",
+                weights[i]
+            )));
+        }
+        Ok(Self { spec, coeffs, data, weights, meta: BakeMetadata::default() })
+    }
+
+    /// An all-zero volume with all weights 1.
+    pub fn zeros(spec: GridSpec, coeffs: usize) -> Result<Self, VolumeError> {
+        check_coeffs(coeffs)?;
+        let n = spec.node_count();
+        Self::new(spec, coeffs, vec![0.0; n * coeffs * 3], vec![1.0; n])
+    }
+
+    /// A volume whose node `i` holds `f(world position of node i)`, which must return
+    /// `coeffs` RGB triples `[coeff][rgb]`; weights are 1.
+    pub fn from_fn(
+        spec: GridSpec,
+        coeffs: usize,
+        mut f: impl FnMut([f64; 3]) -> Vec<[f64; 3]>,
+    ) -> Result<Self, VolumeError> {
+        check_coeffs(coeffs)?;
+        let n = spec.node_count();
+        let mut data = Vec::with_capacity(n * coeffs * 3);
+        for node in 0..n {
+            let [i, j, k] = spec.node_coords(node);
+            let c = f(spec.node_position_world(i, j, k));
+            if c.len() != coeffs {
+                return Err(VolumeError::Mismatch(format!(
+                    "closure returned {} coefficients, want {coeffs}",
+                    c.len()
+                )));
+            }
+            data.extend(c.iter().flatten().map(|&v| v as f32));
+        }
+        Self::new(spec, coeffs, data, vec![1.0; n])
+    }
+
+    /// The grid.
+    #[must_use]
+    pub fn spec(&self) -> &GridSpec {
+        &self.spec
+    }
+
+    /// SH coefficients per colour channel (4, 9 or 16).
+    #[must_use]
+    pub fn coeffs(&self) -> usize {
+        self.coeffs
+    }
+
+    /// SH bands (`sqrt(coeffs)`: 2, 3 or 4).
+    #[must_use]
+    pub fn bands(&self) -> usize {
+        self.coeffs.isqrt()
+    }
+
+    /// All coefficients, `[node][coeff][rgb]`.
+    #[must_use]
+    pub fn data(&self) -> &[f32] {
+        &self.data
+    }
+
+    /// The `3 · coeffs` floats of one node, `[coeff][rgb]`.
+    #[must_use]
+    #[inline]
+    pub fn node(&self, node: usize) -> &[f32] {
+        let k = self.coeffs * 3;
+        &self.data[node * k..(node + 1) * k]
+    }
+
+    /// Coefficient `j` of `node` as RGB.
+    #[must_use]
+    pub fn coeff_rgb(&self, node: usize, j: usize) -> [f32; 3] {
+        let s = self.node(node);
+        [s[3 * j], s[3 * j + 1], s[3 * j + 2]]
+    }
+
+    /// Overwrites one node's coefficients (`[coeff][rgb]`, 3·coeffs finite floats).
+    pub fn set_node(&mut self, node: usize, values: &[f32]) -> Result<(), VolumeError> {
+        let k = self.coeffs * 3;
+        if node >= self.spec.node_count() || values.len() != k {
+            return Err(VolumeError::Mismatch(format!("node {node} / {} values (want {k})", values.len())));
+        }
+        check_finite("node coefficients", values)?;
+        self.data[node * k..(node + 1) * k].copy_from_slice(values);
+        Ok(())
+    }
+
+    /// Per-node weights in `[0, 1]`: the fraction of the node's support inside the domain
+    /// of interest; 0 for filled nodes.
+    #[must_use]
+    pub fn weights(&self) -> &[f32] {
+        &self.weights
+    }
+
+    /// The bake metadata.
+    #[must_use]
+    pub fn metadata(&self) -> &BakeMetadata {
+        &self.meta
+    }
+
+    /// Replaces the bake metadata.
+    pub fn set_metadata(&mut self, meta: BakeMetadata) {
+        self.meta = meta;
+    }
+
+    /// The same volume with `meta` attached.
+    #[must_use]
+    pub fn with_metadata(mut self, meta: BakeMetadata) -> Self {
+        self.meta = meta;
+        self
+    }
+
+    /// Bytes of coefficient and weight storage at f32 (seed 002's memory figure: 9 RGB
+    /// coefficients are 108 bytes per node).
+    #[must_use]
+    pub fn memory_bytes(&self) -> usize {
+        (self.data.len() + self.weights.len()) * size_of::<f32>()
+    }
+
+    /// Consumes the volume, returning `(spec, coeffs, data, weights, metadata)`.
+    #[must_use]
+    pub fn into_parts(self) -> (GridSpec, usize, Vec<f32>, Vec<f32>, BakeMetadata) {
+        (self.spec, self.coeffs, self.data, self.weights, self.meta)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validates_parts() {
+        let spec = GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+        assert!(IrradianceVolume::new(spec.clone(), 9, vec![0.0; 8 * 27], vec![1.0; 8]).is_ok());
+        assert!(matches!(
+            IrradianceVolume::new(spec.clone(), 5, vec![0.0; 8 * 15], vec![1.0; 8]),
+            Err(VolumeError::UnsupportedCoeffs(5))
+        ));
+        assert!(IrradianceVolume::new(spec.clone(), 9, vec![0.0; 8 * 26], vec![1.0; 8]).is_err());
+        let mut d = vec![0.0; 8 * 27];
+        d[100] = f32::NAN;
+        assert!(matches!(
+            IrradianceVolume::new(spec.clone(), 9, d, vec![1.0; 8]),
+            Err(VolumeError::NonFinite { index: 100, .. })
+        ));
+        assert!(IrradianceVolume::new(spec, 4, vec![0.0; 8 * 12], vec![1.5; 8]).is_err());
+    }
+
+    #[test]
+    fn memory_matches_seed_002_per_node_figure() {
+        // Seed 002: "3rd order SH approximation for R, G, and B: 27 floats" per sample.
+        let spec = GridSpec::new([0.0; 3], [1.0; 3], [17, 17, 17]).unwrap();
+        let v = IrradianceVolume::zeros(spec, 9).unwrap();
+        assert_eq!(v.data().len(), 17 * 17 * 17 * 27);
+        assert_eq!(v.memory_bytes(), 17 * 17 * 17 * (27 + 1) * 4);
+    }
+}
