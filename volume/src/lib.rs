@@ -4,6 +4,7 @@ pub mod accumulator;
 pub mod error;
 pub mod fill;
 pub mod grid;
+pub mod lookup;
 pub mod volume;
 
 pub use accumulator::Accumulator;

@@ -11,6 +11,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{VolumeError, check_finite};
 use crate::grid::GridSpec;
+use crate::lookup::LookupParams;
 
 /// The SH coefficient counts per colour channel this crate supports (2, 3 and 4 bands).
 pub const SUPPORTED_COEFFS: [usize; 3] = [4, 9, 16];
@@ -68,6 +69,7 @@ pub struct IrradianceVolume {
     data: Vec<f32>,
     weights: Vec<f32>,
     meta: BakeMetadata,
+    lut: LookupParams,
 }
 
 impl IrradianceVolume {
@@ -100,7 +102,8 @@ impl IrradianceVolume {
                 weights[i]
             )));
         }
-        Ok(Self { spec, coeffs, data, weights, meta: BakeMetadata::default() })
+        let lut = LookupParams::new(&spec);
+        Ok(Self { spec, coeffs, data, weights, meta: BakeMetadata::default(), lut })
     }
 
     /// An all-zero volume with all weights 1.
@@ -138,6 +141,12 @@ impl IrradianceVolume {
     #[must_use]
     pub fn spec(&self) -> &GridSpec {
         &self.spec
+    }
+
+    /// The f32 constants of the fast lookup paths.
+    #[inline]
+    pub(crate) fn lookup_params(&self) -> &LookupParams {
+        &self.lut
     }
 
     /// SH coefficients per colour channel (4, 9 or 16).
