@@ -1,0 +1,80 @@
+//! Errors of scene loading and baking.
+
+use std::path::PathBuf;
+
+/// Everything that can go wrong while loading or assembling a [`Scene`](crate::Scene).
+///
+/// Missing MTL files and missing textures are *not* errors: the loaders record a warning in
+/// [`LoadReport::warnings`](crate::LoadReport) and fall back to the material factor.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// The scene file does not exist.
+    #[error("scene file not found: {0}")]
+    NotFound(PathBuf),
+    /// The file exists but could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The file extension names no format we read.
+    #[error("unsupported scene format {0:?} (expected .obj, .gltf or .glb)")]
+    UnsupportedFormat(PathBuf),
+    /// The OBJ parser failed.
+    #[error("OBJ error in {path}: {message}")]
+    Obj {
+        /// The file.
+        path: PathBuf,
+        /// What tobj said.
+        message: String,
+    },
+    /// The glTF parser failed.
+    #[error("glTF error in {path}: {message}")]
+    Gltf {
+        /// The file.
+        path: PathBuf,
+        /// What the gltf crate said.
+        message: String,
+    },
+    /// An environment map could not be read.
+    #[error("environment map {path}: {message}")]
+    EnvironmentMap {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+    /// A vertex or a material value is NaN or infinite.
+    #[error("non-finite value in {what}")]
+    NonFinite {
+        /// Which value (e.g. "vertex 2 of triangle 17 in mesh 'floor'").
+        what: String,
+    },
+    /// A material index does not exist.
+    #[error("triangle refers to material {index}, but only {count} materials exist")]
+    BadMaterial {
+        /// The index used.
+        index: u32,
+        /// The number of materials.
+        count: usize,
+    },
+    /// After loading, no (non-degenerate) triangle remained.
+    #[error("scene {0} has no triangles")]
+    Empty(String),
+}
+
+/// Errors of a bake ([`bake`](crate::bake())).
+#[derive(Debug, thiserror::Error)]
+pub enum BakeError {
+    /// The caller's cancel flag was raised; nothing is returned.
+    #[error("bake cancelled")]
+    Cancelled,
+    /// Invalid settings (zero samples, shard index out of range, ...).
+    #[error("invalid bake settings: {0}")]
+    Settings(String),
+    /// The volume crate rejected the grid or the accumulation.
+    #[error("volume error: {0}")]
+    Volume(String),
+}

@@ -1,0 +1,427 @@
+//! The scene: triangles with per-triangle diffuse materials, plus the lights.
+//!
+//! World frame: **+Z is up** (the SH polar axis of lightvol-sh). Loaders rotate +Y-up files
+//! (glTF, most OBJ exports) into this frame, see [`UpAxis`].
+//!
+//! Front faces wind counter-clockwise: the geometric normal is `(v1 - v0) × (v2 - v0)`. A ray
+//! with `dot(normal, direction) > 0` meets the back face; on a single-sided material that
+//! is a *back-face hit* in the sense of Kontkanen & Laine 2006 §5.
+
+use glam::{DVec2, DVec3};
+
+use crate::error::SceneError;
+use crate::lights::{Environment, PunctualLight, Sun};
+use crate::texture::Texture;
+
+/// A diffuse material (Kontkanen & Laine 2006 Algorithm 2's `brdf`, Lambertian only).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name from the file (for reports).
+    pub name: String,
+    /// Diffuse albedo factor, linear RGB in [0, 1].
+    pub albedo: [f64; 3],
+    /// Optional base-colour texture (index into [`Scene::textures`]), multiplied by
+    /// `albedo` at the hit's texture coordinates.
+    pub albedo_texture: Option<u32>,
+    /// Emitted radiance, linear RGB (W·sr⁻¹·m⁻² in scene units), from the front face (both
+    /// faces if `double_sided`).
+    pub emission: [f64; 3],
+    /// Double-sided materials have no back face: both sides reflect and emit, and hitting
+    /// them never marks a point as outside the domain of interest.
+    pub double_sided: bool,
+}
+
+impl Material {
+    /// A single-sided diffuse material.
+    #[must_use]
+    pub fn diffuse(name: &str, albedo: [f64; 3]) -> Self {
+        Self { name: name.to_owned(), albedo, albedo_texture: None, emission: [0.0; 3], double_sided: false }
+    }
+
+    /// A single-sided emitter with the given albedo.
+    #[must_use]
+    pub fn emitter(name: &str, albedo: [f64; 3], emission: [f64; 3]) -> Self {
+        Self { emission, ..Self::diffuse(name, albedo) }
+    }
+
+    /// The same material, double-sided.
+    #[must_use]
+    pub fn two_sided(mut self) -> Self {
+        self.double_sided = true;
+        self
+    }
+
+    /// True when any emission channel is positive.
+    #[must_use]
+    pub fn is_emissive(&self) -> bool {
+        self.emission.iter().any(|&e| e > 0.0)
+    }
+}
+
+/// One triangle in world space (+Z up), counter-clockwise front face.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Triangle {
+    /// Vertices.
+    pub v: [DVec3; 3],
+    /// Texture coordinates per vertex (zero when the file has none).
+    pub uv: [DVec2; 3],
+    /// Material index into [`Scene::materials`].
+    pub material: u32,
+}
+
+impl Triangle {
+    /// The unnormalised geometric normal `(v1 - v0) × (v2 - v0)` (length = twice the area).
+    #[must_use]
+    #[inline]
+    pub fn cross(&self) -> DVec3 {
+        (self.v[1] - self.v[0]).cross(self.v[2] - self.v[0])
+    }
+
+    /// Unit geometric normal (front side).
+    #[must_use]
+    #[inline]
+    pub fn normal(&self) -> DVec3 {
+        self.cross().normalize_or_zero()
+    }
+
+    /// Area.
+    #[must_use]
+    pub fn area(&self) -> f64 {
+        0.5 * self.cross().length()
+    }
+
+    /// The point with barycentric weights `(1 - u - v, u, v)`.
+    #[must_use]
+    #[inline]
+    pub fn point(&self, u: f64, v: f64) -> DVec3 {
+        self.v[0] * (1.0 - u - v) + self.v[1] * u + self.v[2] * v
+    }
+
+    /// Interpolated texture coordinates.
+    #[must_use]
+    #[inline]
+    pub fn uv_at(&self, u: f64, v: f64) -> DVec2 {
+        self.uv[0] * (1.0 - u - v) + self.uv[1] * u + self.uv[2] * v
+    }
+
+    /// Centroid.
+    #[must_use]
+    pub fn centroid(&self) -> DVec3 {
+        (self.v[0] + self.v[1] + self.v[2]) / 3.0
+    }
+}
+
+/// A triangle is dropped as degenerate when twice its area is below this fraction of its
+/// longest edge squared (its smallest angle is below ~1e-9 rad): f32 ray tests cannot hit
+/// such slivers reliably, and their normals are noise.
+pub const DEGENERATE_RELATIVE_AREA: f64 = 1e-9;
+
+/// What a loader noticed besides errors.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct LoadReport {
+    /// Degenerate triangles skipped (see [`DEGENERATE_RELATIVE_AREA`]).
+    pub degenerate_skipped: usize,
+    /// Human-readable warnings (missing MTL or texture, unsupported features).
+    pub warnings: Vec<String>,
+}
+
+/// The axis that points up in a source file. The world frame is always +Z up.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UpAxis {
+    /// +Y up (glTF 2.0, most OBJ exports): rotated by +90° about X, `(x, y, z) -> (x, -z, y)`.
+    #[default]
+    Y,
+    /// +Z up: no rotation.
+    Z,
+}
+
+impl UpAxis {
+    /// Maps a file-space point or direction into the world frame (a rotation, so it keeps
+    /// handedness and winding).
+    #[must_use]
+    #[inline]
+    pub fn to_world(self, p: DVec3) -> DVec3 {
+        match self {
+            Self::Y => DVec3::new(p.x, -p.z, p.y),
+            Self::Z => p,
+        }
+    }
+}
+
+/// The scene: geometry, materials, textures and lights. Build one with [`SceneBuilder`],
+/// a loader ([`load_scene`](crate::load_scene)) or a built-in ([`builtin`](crate::builtin)).
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// A label (file name or built-in name).
+    pub name: String,
+    /// The triangles.
+    pub triangles: Vec<Triangle>,
+    /// The materials.
+    pub materials: Vec<Material>,
+    /// Decoded textures.
+    pub textures: Vec<Texture>,
+    /// What surrounds the scene (uniform sky, lat-long map, or black).
+    pub environment: Environment,
+    /// An optional sun.
+    pub sun: Option<Sun>,
+    /// Point, spot and directional lights (glTF KHR_lights_punctual).
+    pub punctual: Vec<PunctualLight>,
+    /// Loader notes.
+    pub report: LoadReport,
+}
+
+impl Scene {
+    /// Axis-aligned bounds of the geometry.
+    #[must_use]
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for t in &self.triangles {
+            for v in t.v {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        (lo, hi)
+    }
+
+    /// A length used to offset secondary ray origins off surfaces: `1e-5` of the scene's
+    /// extent plus its largest coordinate, i.e. about 100 f32 ulps at the scene's scale
+    /// (the BVH intersects in f32).
+    #[must_use]
+    pub fn epsilon(&self) -> f64 {
+        let (lo, hi) = self.bounds();
+        RAY_EPSILON_RELATIVE * ((hi - lo).length() + lo.abs().max(hi.abs()).max_element())
+    }
+
+    /// Diffuse albedo of triangle `tri` at barycentrics `(u, v)`: factor × texture.
+    #[must_use]
+    pub fn albedo(&self, tri: u32, u: f64, v: f64) -> [f64; 3] {
+        let t = &self.triangles[tri as usize];
+        let m = &self.materials[t.material as usize];
+        match m.albedo_texture {
+            Some(tex) => {
+                let uv = t.uv_at(u, v);
+                let c = self.textures[tex as usize].sample([uv.x, uv.y]);
+                [m.albedo[0] * c[0], m.albedo[1] * c[1], m.albedo[2] * c[2]]
+            }
+            None => m.albedo,
+        }
+    }
+
+    /// The material of triangle `tri`.
+    #[must_use]
+    #[inline]
+    pub fn material_of(&self, tri: u32) -> &Material {
+        &self.materials[self.triangles[tri as usize].material as usize]
+    }
+}
+
+/// Relative size of the self-intersection offset, see [`Scene::epsilon`].
+pub const RAY_EPSILON_RELATIVE: f64 = 1e-5;
+
+/// Assembles a [`Scene`], validating as it goes.
+#[derive(Debug, Default)]
+pub struct SceneBuilder {
+    scene_name: String,
+    triangles: Vec<Triangle>,
+    materials: Vec<Material>,
+    textures: Vec<Texture>,
+    report: LoadReport,
+    /// Lights to attach.
+    pub environment: Environment,
+    /// Sun to attach.
+    pub sun: Option<Sun>,
+    /// Punctual lights to attach.
+    pub punctual: Vec<PunctualLight>,
+}
+
+impl SceneBuilder {
+    /// An empty builder for a scene called `name`.
+    #[must_use]
+    pub fn new(name: &str) -> Self {
+        Self { scene_name: name.to_owned(), ..Self::default() }
+    }
+
+    /// Adds a material, returning its index.
+    ///
+    /// # Errors
+    /// [`SceneError::NonFinite`] if a factor is NaN or infinite.
+    pub fn add_material(&mut self, m: Material) -> Result<u32, SceneError> {
+        if !m.albedo.iter().chain(m.emission.iter()).all(|x| x.is_finite()) {
+            return Err(SceneError::NonFinite { what: format!("material '{}'", m.name) });
+        }
+        self.materials.push(m);
+        Ok(self.materials.len() as u32 - 1)
+    }
+
+    /// Adds a texture, returning its index.
+    pub fn add_texture(&mut self, t: Texture) -> u32 {
+        self.textures.push(t);
+        self.textures.len() as u32 - 1
+    }
+
+    /// Records a warning.
+    pub fn warn(&mut self, w: String) {
+        self.report.warnings.push(w);
+    }
+
+    /// Number of materials so far.
+    #[must_use]
+    pub fn material_count(&self) -> usize {
+        self.materials.len()
+    }
+
+    /// Adds a triangle. Returns `Ok(false)` (and counts it) when it is degenerate.
+    ///
+    /// # Errors
+    /// [`SceneError::NonFinite`] for NaN/infinite coordinates, [`SceneError::BadMaterial`]
+    /// for an unknown material.
+    pub fn add_triangle(&mut self, v: [DVec3; 3], uv: [DVec2; 3], material: u32) -> Result<bool, SceneError> {
+        if !v.iter().all(|p| p.is_finite()) {
+            return Err(SceneError::NonFinite {
+                what: format!("vertex of triangle {} in scene '{}'", self.triangles.len(), self.scene_name),
+            });
+        }
+        if material as usize >= self.materials.len() {
+            return Err(SceneError::BadMaterial { index: material, count: self.materials.len() });
+        }
+        let uv = if uv.iter().all(|t| t.is_finite()) { uv } else { [DVec2::ZERO; 3] };
+        let tri = Triangle { v, uv, material };
+        let longest = (v[1] - v[0])
+            .length_squared()
+            .max((v[2] - v[1]).length_squared())
+            .max((v[0] - v[2]).length_squared());
+        if !(tri.cross().length() > DEGENERATE_RELATIVE_AREA * longest) {
+            self.report.degenerate_skipped += 1;
+            return Ok(false);
+        }
+        self.triangles.push(tri);
+        Ok(true)
+    }
+
+    /// Adds a planar quad `a b c d` (counter-clockwise seen from the front) as two triangles.
+    ///
+    /// # Errors
+    /// As [`add_triangle`](Self::add_triangle).
+    pub fn add_quad(&mut self, q: [DVec3; 4], material: u32) -> Result<(), SceneError> {
+        let uv = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+        self.add_triangle([q[0], q[1], q[2]], [uv[0], uv[1], uv[2]], material)?;
+        self.add_triangle([q[0], q[2], q[3]], [uv[0], uv[2], uv[3]], material)?;
+        Ok(())
+    }
+
+    /// Adds an axis-aligned box as 12 triangles with outward (`outward = true`) or inward
+    /// normals. `skip_bottom` omits the -Z face (buildings standing on the ground).
+    ///
+    /// # Errors
+    /// As [`add_triangle`](Self::add_triangle).
+    pub fn add_box(
+        &mut self,
+        lo: DVec3,
+        hi: DVec3,
+        material: u32,
+        outward: bool,
+        skip_bottom: bool,
+    ) -> Result<(), SceneError> {
+        let c = |x: usize, y: usize, z: usize| {
+            DVec3::new(
+                if x == 0 { lo.x } else { hi.x },
+                if y == 0 { lo.y } else { hi.y },
+                if z == 0 { lo.z } else { hi.z },
+            )
+        };
+        // Each face listed counter-clockwise seen from outside.
+        let faces = [
+            ([c(1, 0, 0), c(1, 1, 0), c(1, 1, 1), c(1, 0, 1)], false), // +X
+            ([c(0, 0, 0), c(0, 0, 1), c(0, 1, 1), c(0, 1, 0)], false), // -X
+            ([c(0, 1, 0), c(0, 1, 1), c(1, 1, 1), c(1, 1, 0)], false), // +Y
+            ([c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)], false), // -Y
+            ([c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)], false), // +Z
+            ([c(0, 0, 0), c(0, 1, 0), c(1, 1, 0), c(1, 0, 0)], true),  // -Z
+        ];
+        for (mut q, bottom) in faces {
+            if bottom && skip_bottom {
+                continue;
+            }
+            if !outward {
+                q.reverse();
+            }
+            self.add_quad(q, material)?;
+        }
+        Ok(())
+    }
+
+    /// Finishes the scene.
+    ///
+    /// # Errors
+    /// [`SceneError::Empty`] when no triangle was kept.
+    pub fn build(self) -> Result<Scene, SceneError> {
+        if self.triangles.is_empty() {
+            return Err(SceneError::Empty(self.scene_name));
+        }
+        Ok(Scene {
+            name: self.scene_name,
+            triangles: self.triangles,
+            materials: self.materials,
+            textures: self.textures,
+            environment: self.environment,
+            sun: self.sun,
+            punctual: self.punctual,
+            report: self.report,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn up_axis_rotation_keeps_handedness() {
+        let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
+        let r = UpAxis::Y;
+        assert_eq!(r.to_world(y), DVec3::Z);
+        // A rotation maps x × y to (Rx) × (Ry).
+        assert_eq!(r.to_world(x).cross(r.to_world(y)), r.to_world(x.cross(y)));
+        assert_eq!(r.to_world(z).length(), 1.0);
+    }
+
+    #[test]
+    fn builder_skips_degenerate_and_rejects_nan() {
+        let mut b = SceneBuilder::new("t");
+        let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+        let ok = b.add_triangle([DVec3::ZERO, DVec3::X, DVec3::Y], [DVec2::ZERO; 3], m).unwrap();
+        let collinear = b.add_triangle([DVec3::ZERO, DVec3::X, 2.0 * DVec3::X], [DVec2::ZERO; 3], m).unwrap();
+        assert!(ok && !collinear);
+        assert!(matches!(
+            b.add_triangle([DVec3::ZERO, DVec3::X, DVec3::new(f64::NAN, 0.0, 0.0)], [DVec2::ZERO; 3], m),
+            Err(SceneError::NonFinite { .. })
+        ));
+        assert!(matches!(
+            b.add_triangle([DVec3::ZERO, DVec3::X, DVec3::Y], [DVec2::ZERO; 3], 9),
+            Err(SceneError::BadMaterial { .. })
+        ));
+        let s = b.build().unwrap();
+        assert_eq!(s.triangles.len(), 1);
+        assert_eq!(s.report.degenerate_skipped, 1);
+        assert!(matches!(SceneBuilder::new("e").build(), Err(SceneError::Empty(_))));
+    }
+
+    /// Every face of an outward box has its normal pointing away from the centre.
+    #[test]
+    fn box_normals_point_outward() {
+        let mut b = SceneBuilder::new("box");
+        let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+        let (lo, hi) = (DVec3::new(-1.0, -2.0, 0.0), DVec3::new(1.0, 1.0, 3.0));
+        b.add_box(lo, hi, m, true, false).unwrap();
+        let s = b.build().unwrap();
+        assert_eq!(s.triangles.len(), 12);
+        let centre = (lo + hi) / 2.0;
+        let total: f64 = s.triangles.iter().map(Triangle::area).sum();
+        assert!((total - 2.0 * (2.0 * 3.0 + 2.0 * 3.0 + 3.0 * 3.0)).abs() < 1e-12);
+        for t in &s.triangles {
+            assert!(t.normal().dot(t.centroid() - centre) > 0.0);
+        }
+    }
+}
