@@ -3,6 +3,7 @@
 pub mod coeffs;
 pub mod convention;
 pub mod eval;
+pub mod gaunt;
 #[rustfmt::skip]
 mod generated;
 pub mod index;
