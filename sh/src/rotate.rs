@@ -188,30 +188,23 @@ impl ShRotation {
     ///
     /// # Panics
     /// If the coefficient count is not a square or needs more bands than are cached.
+    #[inline]
     pub fn apply_in_place<T: Real>(&self, coeffs: &mut [T]) {
         let bands = crate::index::bands_of(coeffs.len()).expect("coefficient count must be a square");
         assert!(bands <= self.bands, "rotation has {} bands, coefficients need {bands}", self.bands);
-        let mut tmp = [T::ZERO; 32];
         for l in 1..bands {
-            let size = 2 * l + 1;
-            let start = l * l;
             let block = &self.blocks[block_offset(l)..block_offset(l + 1)];
-            let src = &mut coeffs[start..start + size];
-            let mut heap;
-            let scratch: &mut [T] = if size <= tmp.len() {
-                &mut tmp[..size]
-            } else {
-                heap = vec![T::ZERO; size];
-                &mut heap
-            };
-            scratch.copy_from_slice(src);
-            for i in 0..size {
-                let row = &block[i * size..(i + 1) * size];
-                let mut acc = T::ZERO;
-                for j in 0..size {
-                    acc = T::from_f64(row[j]).mul_add(scratch[j], acc);
-                }
-                src[i] = acc;
+            let src = &mut coeffs[l * l..(l + 1) * (l + 1)];
+            // Fixed sizes let the compiler unroll the small blocks completely.
+            match l {
+                1 => apply_block::<T, 3>(block, src),
+                2 => apply_block::<T, 5>(block, src),
+                3 => apply_block::<T, 7>(block, src),
+                4 => apply_block::<T, 9>(block, src),
+                5 => apply_block::<T, 11>(block, src),
+                6 => apply_block::<T, 13>(block, src),
+                7 => apply_block::<T, 15>(block, src),
+                _ => apply_block_dyn(block, src),
             }
         }
     }
@@ -228,6 +221,29 @@ impl ShRotation {
     #[must_use]
     pub fn apply_rgb<T: Real, const N: usize>(&self, f: &ShRgb<T, N>) -> ShRgb<T, N> {
         f.map(|c| self.apply(c))
+    }
+}
+
+#[inline(always)]
+fn apply_block<T: Real, const S: usize>(block: &[f64], src: &mut [T]) {
+    let block = &block[..S * S];
+    let src = &mut src[..S];
+    let input: [T; S] = core::array::from_fn(|j| src[j]);
+    for i in 0..S {
+        let mut acc = T::ZERO;
+        for j in 0..S {
+            acc = T::from_f64(block[i * S + j]).mul_add(input[j], acc);
+        }
+        src[i] = acc;
+    }
+}
+
+fn apply_block_dyn<T: Real>(block: &[f64], src: &mut [T]) {
+    let size = src.len();
+    let input = src.to_vec();
+    for i in 0..size {
+        let row = &block[i * size..(i + 1) * size];
+        src[i] = row.iter().zip(&input).fold(T::ZERO, |acc, (&r, &x)| T::from_f64(r).mul_add(x, acc));
     }
 }
 
