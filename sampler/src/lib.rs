@@ -1,5 +1,6 @@
 #![doc = include_str!("../README.md")]
 
+pub mod bvh;
 pub mod envmap;
 pub mod error;
 pub mod lights;
@@ -8,6 +9,7 @@ pub mod load_obj;
 pub mod scene;
 pub mod texture;
 
+pub use bvh::{BuildQuality, Hit, Tracer};
 pub use error::{BakeError, SceneError};
 pub use glam::{DVec2, DVec3};
 pub use lights::{Environment, PunctualLight, Sun};
