@@ -24,3 +24,15 @@ pub use coeffs::{
 };
 pub use eval::{eval_basis, eval_into, eval_sh};
 pub use real::Real;
+
+/// The most used items, for `use lightvol_sh::prelude::*`.
+pub mod prelude {
+    pub use crate::coeffs::{Sh, Sh4, Sh9, Sh16, Sh25, Sh36, ShDyn, ShRgb, ShRgb4, ShRgb9, ShRgb16};
+    pub use crate::eval::{eval_basis, eval_into, eval_sh};
+    pub use crate::irradiance::{irradiance, irradiance_rgb, radiance_to_irradiance};
+    pub use crate::project::{ProjectionAccumulator, project_fn};
+    pub use crate::quadrature::SphereQuadrature;
+    pub use crate::real::Real;
+    pub use crate::rotate::ShRotation;
+    pub use crate::zonal::Zh;
+}

@@ -109,3 +109,26 @@ fn directional_light_truncation_error_is_three_32nds() {
     // The peak (E at n = d) is 1.
     assert!((worst - 3.0 / 32.0).abs() < EXACT, "max error {worst}");
 }
+
+/// Seed 000 Table 1 prints wrong digits; the derivations give the right ones. This test pins
+/// both, so nobody "fixes" a constant back to the printed value.
+#[test]
+fn seed000_table1_errata() {
+    let y0 = 0.5 / PI.sqrt();
+    assert!((y0 - 0.282095).abs() < 5e-7, "Y_0 = 1/(2 sqrt pi) = {y0}");
+    assert!((y0 - 0.282209).abs() > 1e-4, "the printed 0.282209 is wrong");
+    let a1 = cosine_lobe_factor(1);
+    assert!((a1 - 2.094395).abs() < 5e-7, "A_1 = 2pi/3 = {a1}");
+    assert!((a1 - 2.09395).abs() > 4e-4, "the printed 2.09395 drops a digit");
+    // The digits that are right: sqrt(3/4pi), sqrt(15/4pi), sqrt(5/16pi), sqrt(15/16pi), pi/4.
+    for (v, printed) in [
+        ((3.0 / (4.0 * PI)).sqrt(), 0.488603),
+        ((15.0 / (4.0 * PI)).sqrt(), 1.092548),
+        ((5.0 / (16.0 * PI)).sqrt(), 0.315392),
+        ((15.0 / (16.0 * PI)).sqrt(), 0.546274),
+        (cosine_lobe_factor(2), 0.785398),
+        (cosine_lobe_factor(0), 3.141593),
+    ] {
+        assert!((v - printed).abs() < 5e-7, "{v} vs {printed}");
+    }
+}
