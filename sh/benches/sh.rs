@@ -26,7 +26,7 @@ fn dirs<T: Copy>(conv: impl Fn(f64) -> T) -> Vec<[T; 3]> {
 const PER_ITER: usize = 1024;
 
 #[divan::bench(consts = [9, 16, 36, 64], counter = divan::counter::ItemsCount::new(PER_ITER))]
-fn eval_f32<const N: usize>(b: Bencher) {
+fn eval_f32<const N: usize>(b: Bencher<'_, '_>) {
     let d = dirs(|v| v as f32);
     b.bench_local(|| {
         let mut acc = 0.0f32;
@@ -39,7 +39,7 @@ fn eval_f32<const N: usize>(b: Bencher) {
 }
 
 #[divan::bench(consts = [9, 16, 36, 64], counter = divan::counter::ItemsCount::new(PER_ITER))]
-fn eval_f64<const N: usize>(b: Bencher) {
+fn eval_f64<const N: usize>(b: Bencher<'_, '_>) {
     let d = dirs(|v| v);
     b.bench_local(|| {
         let mut acc = 0.0f64;
@@ -53,7 +53,7 @@ fn eval_f64<const N: usize>(b: Bencher) {
 
 /// Baseline: the same values by the runtime recurrence loop.
 #[divan::bench(consts = [9, 64], counter = divan::counter::ItemsCount::new(PER_ITER))]
-fn eval_f64_recurrence_loop<const N: usize>(b: Bencher) {
+fn eval_f64_recurrence_loop<const N: usize>(b: Bencher<'_, '_>) {
     let d = dirs(|v| v);
     b.bench_local(|| {
         let mut acc = 0.0f64;
@@ -68,7 +68,7 @@ fn eval_f64_recurrence_loop<const N: usize>(b: Bencher) {
 
 /// Baseline: the textbook reference (angles, factorials, Legendre recurrences).
 #[divan::bench(consts = [9], counter = divan::counter::ItemsCount::new(PER_ITER))]
-fn eval_f64_reference<const N: usize>(b: Bencher) {
+fn eval_f64_reference<const N: usize>(b: Bencher<'_, '_>) {
     let d = dirs(|v| v);
     b.bench_local(|| {
         let mut acc = 0.0f64;
@@ -80,7 +80,7 @@ fn eval_f64_reference<const N: usize>(b: Bencher) {
 }
 
 #[divan::bench(consts = [9, 16, 36])]
-fn rotation_apply_f32<const N: usize>(b: Bencher) {
+fn rotation_apply_f32<const N: usize>(b: Bencher<'_, '_>) {
     let rot = ShRotation::from_quat(N.isqrt(), DQuat::from_euler(glam::EulerRot::ZYX, 0.3, 1.1, -0.7));
     let mut r = SplitMix64::new(2);
     let f = Sh::<f32, N>(core::array::from_fn(|_| r.next_f64() as f32));
@@ -88,7 +88,7 @@ fn rotation_apply_f32<const N: usize>(b: Bencher) {
 }
 
 #[divan::bench(consts = [9, 16, 36])]
-fn rotation_apply_f64<const N: usize>(b: Bencher) {
+fn rotation_apply_f64<const N: usize>(b: Bencher<'_, '_>) {
     let rot = ShRotation::from_quat(N.isqrt(), DQuat::from_euler(glam::EulerRot::ZYX, 0.3, 1.1, -0.7));
     let mut r = SplitMix64::new(2);
     let f = Sh::<f64, N>(core::array::from_fn(|_| r.next_f64()));
@@ -96,14 +96,14 @@ fn rotation_apply_f64<const N: usize>(b: Bencher) {
 }
 
 #[divan::bench(consts = [9, 16, 36])]
-fn rotation_build<const N: usize>(b: Bencher) {
+fn rotation_build<const N: usize>(b: Bencher<'_, '_>) {
     let q = DQuat::from_euler(glam::EulerRot::ZYX, 0.3, 1.1, -0.7);
     b.bench_local(|| ShRotation::from_quat(N.isqrt(), black_box(q)));
 }
 
 /// Projection throughput: RGB samples into 9 and 16 coefficients (f64 accumulation).
 #[divan::bench(consts = [9, 16], counter = divan::counter::ItemsCount::new(PER_ITER))]
-fn project_samples<const N: usize>(b: Bencher) {
+fn project_samples<const N: usize>(b: Bencher<'_, '_>) {
     let d = dirs(|v| v);
     b.bench_local(|| {
         let mut acc = ProjectionAccumulator::<N>::new();

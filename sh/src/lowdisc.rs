@@ -37,7 +37,7 @@ pub fn primes(count: usize) -> Vec<u64> {
     let mut out = Vec::with_capacity(count);
     let mut candidate = 2u64;
     while out.len() < count {
-        if out.iter().take_while(|&&p| p * p <= candidate).all(|&p| candidate % p != 0) {
+        if out.iter().take_while(|&&p| p * p <= candidate).all(|&p| !candidate.is_multiple_of(p)) {
             out.push(candidate);
         }
         candidate += 1;

@@ -113,6 +113,7 @@ fn directional_light_truncation_error_is_three_32nds() {
 /// Seed 000 Table 1 prints wrong digits; the derivations give the right ones. This test pins
 /// both, so nobody "fixes" a constant back to the printed value.
 #[test]
+#[allow(clippy::approx_constant, reason = "the printed digits of seed 000 are the subject of this test")]
 fn seed000_table1_errata() {
     let y0 = 0.5 / PI.sqrt();
     assert!((y0 - 0.282095).abs() < 5e-7, "Y_0 = 1/(2 sqrt pi) = {y0}");
