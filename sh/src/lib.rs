@@ -16,6 +16,7 @@ pub mod real;
 pub mod reference;
 pub mod rotate;
 pub mod sampling;
+pub mod shexp;
 pub mod window;
 pub mod zonal;
 
