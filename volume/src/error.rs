@@ -86,7 +86,6 @@ pub enum VolumeError {
     },
 }
 
-#[allow(dead_code, reason = "used by the file modules that follow")]
 impl VolumeError {
     pub(crate) fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Self::Io { path: path.into(), source }

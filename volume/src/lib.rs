@@ -1,11 +1,18 @@
 #![doc = include_str!("../README.md")]
 
 pub mod accumulator;
+pub mod bevy;
+pub mod dds_io;
 pub mod encode;
 pub mod error;
+pub mod exr_io;
 pub mod fill;
 pub mod grid;
+pub mod io_util;
+pub mod ktx2_io;
 pub mod lookup;
+pub mod sidecar;
+pub mod slab;
 pub mod volume;
 
 pub use accumulator::Accumulator;

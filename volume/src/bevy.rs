@@ -1,0 +1,272 @@
+//! Export to Bevy's irradiance-volume layout (ambient cubes in an RGBA16F KTX2 3D texture).
+//!
+//! Bevy's irradiance volumes (`bevy_pbr::light_probe::irradiance_volume`) store Valve's
+//! *ambient cube* (Mitchell 2006, "Shading in Valve's Source Engine", slide 28) per voxel:
+//! six colours for the cardinal directions, blended by the squared normal,
+//! `E(n) ≈ n_x² C[sign n_x, X] + n_y² C[sign n_y, Y] + n_z² C[sign n_z, Z]`.
+//! We store the six irradiances `C[±, a] = E(±e_a)` of the SH volume (Kontkanen & Laine
+//! Eq. 1 at the node, evaluated in f64 and rounded once to f16).
+//!
+//! ## Texture layout (the authority is Bevy's shader `irradiance_volume.wgsl`)
+//! For a volume of `(Rx, Ry, Rz)` voxels the texture is `Rx × 2Ry × 3Rz`. The shader computes
+//! `uvw` of the voxel inside the first block and samples face `a` at
+//! `uvw + (0, neg_a ? 0.5 : 0, a/3)`. Hence the texel of voxel `(x, y, z)` and side `S`:
+//!
+//! - `s = x`;
+//! - `t = y` for `S ∈ {+X, +Y, +Z}`, `t = y + Ry` for `S ∈ {-X, -Y, -Z}` (the shader's
+//!   `neg_offset = 0.5` for `N < 0`; the module documentation of `irradiance_volume.rs`
+//!   states the opposite, but its own table, "+X +Y +Z" above "-X -Y -Z", and the shader
+//!   agree with this);
+//! - `p = z + Rz · a`, `a = 0, 1, 2` for X, Y, Z.
+//!
+//! Bevy places voxel centres at `(i + 0.5)/R` of the light probe's unit cube
+//! `[-0.5, 0.5]³` and clamps lookups to the outer voxel centres; our nodes lie on the box
+//! corners. [`bevy_world_from_probe`] gives the probe transform that makes the two
+//! coincide: the box grown by half a cell on every side (`size · R/(R-1)`), centred on
+//! the box, then the volume's placement. Bevy's `Transform` holds translation, rotation
+//! and scale only; a sheared placement cannot be represented there.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use lightvol_sh::eval::eval_into;
+use lightvol_sh::index::sh_lm;
+use lightvol_sh::irradiance::cosine_lobe_factor;
+
+use crate::error::{FileFormat, VolumeError};
+use crate::grid::GridSpec;
+use crate::io_util::{f16_bytes, guard, read_bounded, write_atomic};
+use crate::ktx2_io::{KTX2_WRITER, ktx2_rgba16f_bytes, parse_ktx2_rgba16f};
+use crate::volume::IrradianceVolume;
+
+const F: FileFormat = FileFormat::Bevy;
+
+/// Key of the embedded [`BevyInfo`] JSON in the KTX2 key/value data.
+pub const BEVY_INFO_KEY: &str = "lightvol.bevy";
+
+/// The six sides of an ambient cube.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Face {
+    /// +X.
+    PosX,
+    /// -X.
+    NegX,
+    /// +Y.
+    PosY,
+    /// -Y.
+    NegY,
+    /// +Z.
+    PosZ,
+    /// -Z.
+    NegZ,
+}
+
+impl Face {
+    /// All six, in the order `+X, -X, +Y, -Y, +Z, -Z`.
+    pub const ALL: [Face; 6] = [Face::PosX, Face::NegX, Face::PosY, Face::NegY, Face::PosZ, Face::NegZ];
+
+    /// Axis index (0, 1, 2 for X, Y, Z).
+    #[must_use]
+    pub fn axis(self) -> usize {
+        match self {
+            Face::PosX | Face::NegX => 0,
+            Face::PosY | Face::NegY => 1,
+            Face::PosZ | Face::NegZ => 2,
+        }
+    }
+
+    /// Whether the side faces the negative axis.
+    #[must_use]
+    pub fn negative(self) -> bool {
+        matches!(self, Face::NegX | Face::NegY | Face::NegZ)
+    }
+
+    /// The unit direction of the side.
+    #[must_use]
+    pub fn dir(self) -> [f64; 3] {
+        let mut d = [0.0; 3];
+        d[self.axis()] = if self.negative() { -1.0 } else { 1.0 };
+        d
+    }
+
+    /// Texel `(s, t, p)` of this side of voxel `(x, y, z)` in a volume of `res` voxels
+    /// (module docs, after Bevy's `irradiance_volume.wgsl`).
+    #[must_use]
+    pub fn texel(self, voxel: [u32; 3], res: [u32; 3]) -> [u32; 3] {
+        let t = voxel[1] + if self.negative() { res[1] } else { 0 };
+        let p = voxel[2] + res[2] * self.axis() as u32;
+        [voxel[0], t, p]
+    }
+}
+
+/// What the embedded JSON says about a Bevy export.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BevyInfo {
+    /// Voxels per axis `(Rx, Ry, Rz)`.
+    pub res: [u32; 3],
+    /// Row-major 3×4 world-from-probe matrix for Bevy's light-probe transform (maps the
+    /// unit cube `[-0.5, 0.5]³` so that voxel centres land on the volume's nodes).
+    pub world_from_probe: [[f64; 4]; 3],
+    /// The stored quantity.
+    pub quantity: String,
+    /// The irradiance unit (the volume's radiance unit times steradians).
+    pub units: String,
+}
+
+/// The grid-to-world-consistent probe transform of the module docs (row-major 3×4).
+#[must_use]
+pub fn bevy_world_from_probe(spec: &GridSpec) -> [[f64; 4]; 3] {
+    let (min, max) = spec.bounds();
+    let res = spec.res();
+    // Grid space from probe space: scale by the grown box size, translate to the centre.
+    let mut g = [[0.0; 4]; 3];
+    for a in 0..3 {
+        let size = (max[a] - min[a]) * f64::from(res[a]) / f64::from(res[a] - 1);
+        g[a][a] = size;
+        g[a][3] = 0.5 * (min[a] + max[a]);
+    }
+    match spec.placement() {
+        None => g,
+        Some(p) => {
+            let w = p.to_world_matrix();
+            let mut out = [[0.0; 4]; 3];
+            for r in 0..3 {
+                for c in 0..4 {
+                    out[r][c] =
+                        (0..3).map(|k| w[r][k] * g[k][c]).sum::<f64>() + if c == 3 { w[r][3] } else { 0.0 };
+                }
+            }
+            out
+        }
+    }
+}
+
+/// The six irradiances `E(±e_a)` at every node, `[node][face in Face::ALL order][rgb]`, in
+/// f64 (Kontkanen & Laine Eq. 1 with the node's coefficients).
+#[must_use]
+pub fn ambient_cubes(vol: &IrradianceVolume) -> Vec<[[f64; 3]; 6]> {
+    let coeffs = vol.coeffs();
+    let factors: Vec<Vec<f64>> = Face::ALL
+        .iter()
+        .map(|f| {
+            let mut y = vec![0.0; coeffs];
+            eval_into(vol.bands(), f.dir(), &mut y);
+            (0..coeffs).map(|j| cosine_lobe_factor(sh_lm(j).0) * y[j]).collect()
+        })
+        .collect();
+    (0..vol.spec().node_count())
+        .map(|node| {
+            let c = vol.node(node);
+            std::array::from_fn(|face| {
+                std::array::from_fn(|ch| {
+                    (0..coeffs).map(|j| factors[face][j] * f64::from(c[3 * j + ch])).sum()
+                })
+            })
+        })
+        .collect()
+}
+
+/// Serialises the Bevy export of `vol` (KTX2 RGBA16F, alpha 1) in memory.
+pub fn bevy_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
+    let spec = vol.spec();
+    let res = spec.res();
+    let [rx, ry, rz] = res.map(|v| v as usize);
+    let dims = [res[0], 2 * res[1], 3 * res[2]];
+    let mut texels = vec![0u8; rx * 2 * ry * 3 * rz * 8];
+    for (node, cube) in ambient_cubes(vol).iter().enumerate() {
+        let voxel = spec.node_coords(node);
+        for (fi, face) in Face::ALL.iter().enumerate() {
+            let [s, t, p] = face.texel(voxel, res).map(|v| v as usize);
+            let at = ((p * 2 * ry + t) * rx + s) * 8;
+            let c = cube[fi];
+            for (i, v) in [c[0] as f32, c[1] as f32, c[2] as f32, 1.0].into_iter().enumerate() {
+                texels[at + 2 * i..at + 2 * i + 2].copy_from_slice(&f16_bytes(v, "ambient-cube irradiance")?);
+            }
+        }
+    }
+    let info = BevyInfo {
+        res,
+        world_from_probe: bevy_world_from_probe(spec),
+        quantity: "irradiance E(+-axis) ambient cube (Bevy irradiance volume)".into(),
+        units: format!("({}) * sr", vol.metadata().units),
+    };
+    let json = serde_json::to_string(&info).expect("plain data");
+    Ok(ktx2_rgba16f_bytes(dims, &texels, &[("KTXwriter", KTX2_WRITER), (BEVY_INFO_KEY, &json)]))
+}
+
+/// Writes the Bevy export (temporary file and rename).
+pub fn write_bevy(path: &Path, vol: &IrradianceVolume) -> Result<(), VolumeError> {
+    write_atomic(path, &bevy_to_bytes(vol)?)
+}
+
+/// A Bevy irradiance volume read back: its info and the six f16-rounded colours per voxel.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BevyVolume {
+    /// The embedded info.
+    pub info: BevyInfo,
+    /// `[voxel][face in Face::ALL order][rgb]`, voxel index x fastest.
+    pub cubes: Vec<[[f32; 3]; 6]>,
+}
+
+impl BevyVolume {
+    /// Valve's ambient-cube evaluation at a voxel, as Bevy's shader does it:
+    /// `Σ_a n_a² C[sign n_a, a]` (the shader selects the negative side for `n_a < 0`).
+    #[must_use]
+    pub fn shade(&self, voxel: usize, n: [f32; 3]) -> [f32; 3] {
+        let cube = &self.cubes[voxel];
+        let mut out = [0.0f32; 3];
+        for a in 0..3 {
+            let face = 2 * a + usize::from(n[a] < 0.0);
+            for ch in 0..3 {
+                out[ch] += n[a] * n[a] * cube[face][ch];
+            }
+        }
+        out
+    }
+}
+
+/// Parses a Bevy export (validating the KTX2 header, dimensions against the embedded info,
+/// and finiteness).
+pub fn bevy_from_bytes(bytes: &[u8]) -> Result<BevyVolume, VolumeError> {
+    guard(F, || {
+        let (dims, kvd, data) = parse_ktx2_rgba16f(bytes, F)?;
+        let raw = kvd
+            .iter()
+            .find(|(k, _)| k == BEVY_INFO_KEY)
+            .map(|(_, v)| v.as_slice())
+            .ok_or_else(|| VolumeError::malformed(F, format!("missing key {BEVY_INFO_KEY}")))?;
+        let raw = raw.strip_suffix(&[0]).unwrap_or(raw);
+        let info: BevyInfo =
+            serde_json::from_slice(raw).map_err(|e| VolumeError::malformed(F, e.to_string()))?;
+        let res = info.res;
+        if res.contains(&0)
+            || [u64::from(dims[0]), u64::from(dims[1]), u64::from(dims[2])]
+                != [u64::from(res[0]), 2 * u64::from(res[1]), 3 * u64::from(res[2])]
+        {
+            return Err(VolumeError::malformed(F, format!("texture {dims:?} does not fit {res:?} voxels")));
+        }
+        let [rx, ry, rz] = res.map(|v| v as usize);
+        let mut cubes = vec![[[0.0f32; 3]; 6]; rx * ry * rz];
+        for (vi, cube) in cubes.iter_mut().enumerate() {
+            let voxel = [(vi % rx) as u32, ((vi / rx) % ry) as u32, (vi / (rx * ry)) as u32];
+            for (fi, face) in Face::ALL.iter().enumerate() {
+                let [s, t, p] = face.texel(voxel, res).map(|v| v as usize);
+                let at = ((p * 2 * ry + t) * rx + s) * 8;
+                for ch in 0..3 {
+                    let v = half::f16::from_le_bytes([data[at + 2 * ch], data[at + 2 * ch + 1]]).to_f32();
+                    if !v.is_finite() {
+                        return Err(VolumeError::NonFinite { what: "Bevy texel", index: at / 8 });
+                    }
+                    cube[fi][ch] = v;
+                }
+            }
+        }
+        Ok(BevyVolume { info, cubes })
+    })
+}
+
+/// Reads a Bevy export from a file.
+pub fn read_bevy(path: &Path) -> Result<BevyVolume, VolumeError> {
+    bevy_from_bytes(&read_bounded(path)?)
+}

@@ -1,0 +1,394 @@
+//! The native file format: a multi-part OpenEXR file (the `exr` crate).
+//!
+//! ## Layout
+//! - One part per SH coefficient `j`, named `sh00`, `sh01`, …, with channels `R`, `G`, `B`
+//!   and the part attributes `lightvol.sh_index`, `lightvol.sh_l`, `lightvol.sh_m`.
+//! - One part named `weight` with a single channel `Y` (the node weights).
+//! - Every part is an `nx × (ny·nz)` image: the z-slices of the grid stacked vertically,
+//!   pixel `(x, y + ny·z)` = node `(x, y, z)`. Any EXR viewer shows each coefficient as a
+//!   strip of slices.
+//! - Image attributes (shared by all parts): `lightvol.version` (i32), `lightvol.dims`
+//!   (int vec3), `lightvol.bounds_min` / `lightvol.bounds_max` / `lightvol.to_world` (text:
+//!   JSON arrays of f64, exact), `lightvol.sh_coeffs`, `lightvol.sh_bands` (i32),
+//!   `lightvol.convention`, `lightvol.quantity`, `lightvol.encoding`, `lightvol.units`,
+//!   `lightvol.bake.method`, `lightvol.bake.scene_hash` (text), `lightvol.bake.samples`,
+//!   `lightvol.bake.seed` (text, decimal u64), `lightvol.bake.shard` (int vec2: index,
+//!   count).
+//!
+//! Samples are f32 (bit-exact round trip) or f16 ([`ExrSample`]); compression is lossless.
+//!
+//! ## Reading
+//! The reader first parses only the headers and checks the attributes, part names, channel
+//! lists, sample types and data-window sizes against the declared dimensions; only then
+//! does it decode pixels. Every problem is a [`VolumeError`]; panics inside the `exr` crate
+//! on hostile input are caught and reported as malformed data.
+
+use std::collections::HashMap;
+use std::io::Cursor;
+use std::path::Path;
+
+use exr::image::{AnyChannel, AnyChannels, Encoding as ExrEncoding, FlatSamples, Image, Layer};
+use exr::math::Vec2;
+use exr::meta::attribute::{AttributeValue, Compression, IntegerBounds, SampleType, Text};
+use exr::meta::header::{ImageAttributes, LayerAttributes};
+use exr::prelude::{ReadChannels, ReadLayers, SmallVec, WritableImage};
+
+use lightvol_sh::index::sh_lm;
+
+use crate::encode::Encoding;
+use crate::error::{FileFormat, VolumeError, check_finite};
+use crate::grid::{GridSpec, Placement};
+use crate::io_util::{guard, read_bounded, write_atomic};
+use crate::sidecar::{FORMAT_VERSION, QUANTITY, SH_CONVENTION};
+use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
+
+const F: FileFormat = FileFormat::Exr;
+
+/// Sample type of the coefficient channels.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ExrSample {
+    /// 32-bit float: bit-exact.
+    #[default]
+    F32,
+    /// 16-bit float: half the size; values beyond ±65504 are an error.
+    F16,
+}
+
+/// Lossless compression of the parts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ExrCompression {
+    /// ZIP, 16 scan lines per block (small files).
+    #[default]
+    Zip,
+    /// PIZ wavelet compression.
+    Piz,
+    /// No compression.
+    None,
+}
+
+/// Options of [`write_exr`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct ExrOptions {
+    /// Coefficient sample type (the weight channel is always f32).
+    pub sample: ExrSample,
+    /// Compression.
+    pub compression: ExrCompression,
+}
+
+fn text(s: &str) -> Result<Text, VolumeError> {
+    Text::new_or_none(s).ok_or_else(|| {
+        VolumeError::InvalidData(format!("{s:?} has characters EXR text attributes cannot hold"))
+    })
+}
+
+fn layer_name(j: usize) -> String {
+    format!("sh{j:02}")
+}
+
+/// Serialises `vol` as a multi-part EXR file in memory.
+pub fn exr_to_bytes(vol: &IrradianceVolume, options: &ExrOptions) -> Result<Vec<u8>, VolumeError> {
+    let spec = vol.spec();
+    let [nx, ny, nz] = spec.res();
+    let size = Vec2(nx as usize, ny as usize * nz as usize);
+    let n = spec.node_count();
+    let coeffs = vol.coeffs();
+    let k = coeffs * 3;
+    let encoding = ExrEncoding {
+        compression: match options.compression {
+            ExrCompression::Zip => Compression::ZIP16,
+            ExrCompression::Piz => Compression::PIZ,
+            ExrCompression::None => Compression::Uncompressed,
+        },
+        ..ExrEncoding::SMALL_LOSSLESS
+    };
+    let mut layers: Vec<Layer<AnyChannels<FlatSamples>>> = Vec::with_capacity(coeffs + 1);
+    for j in 0..coeffs {
+        let channel = |ch: usize| -> Result<FlatSamples, VolumeError> {
+            let vals = (0..n).map(|node| vol.data()[node * k + 3 * j + ch]);
+            Ok(match options.sample {
+                ExrSample::F32 => FlatSamples::F32(vals.collect()),
+                ExrSample::F16 => FlatSamples::F16(
+                    vals.map(|v| {
+                        let h = half::f16::from_f32(v);
+                        if h.is_finite() {
+                            Ok(h)
+                        } else {
+                            Err(VolumeError::InvalidData(format!("coefficient {v} exceeds the f16 range")))
+                        }
+                    })
+                    .collect::<Result<_, _>>()?,
+                ),
+            })
+        };
+        let channels = AnyChannels::sort(SmallVec::from_vec(vec![
+            AnyChannel::new("R", channel(0)?),
+            AnyChannel::new("G", channel(1)?),
+            AnyChannel::new("B", channel(2)?),
+        ]));
+        let mut attrs = LayerAttributes::named(text(&layer_name(j))?);
+        let (l, m) = sh_lm(j);
+        attrs.other.insert(text("lightvol.sh_index")?, AttributeValue::I32(j as i32));
+        attrs.other.insert(text("lightvol.sh_l")?, AttributeValue::I32(l as i32));
+        attrs.other.insert(text("lightvol.sh_m")?, AttributeValue::I32(m));
+        layers.push(Layer::new(size, attrs, encoding.clone(), channels));
+    }
+    let weights = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
+        "Y",
+        FlatSamples::F32(vol.weights().to_vec()),
+    )]));
+    layers.push(Layer::new(size, LayerAttributes::named(text("weight")?), encoding, weights));
+
+    let mut ia = ImageAttributes::new(IntegerBounds::from_dimensions(size));
+    let meta = vol.metadata();
+    let (min, max) = spec.bounds();
+    let enc_name = match options.sample {
+        ExrSample::F32 => Encoding::F32.name(),
+        ExrSample::F16 => Encoding::F16.name(),
+    };
+    let mut put = |key: &str, value: AttributeValue| -> Result<(), VolumeError> {
+        ia.other.insert(text(key)?, value);
+        Ok(())
+    };
+    put("lightvol.version", AttributeValue::I32(FORMAT_VERSION as i32))?;
+    put("lightvol.dims", AttributeValue::IntVec3((nx as i32, ny as i32, nz as i32)))?;
+    put("lightvol.bounds_min", AttributeValue::Text(text(&json(&min))?))?;
+    put("lightvol.bounds_max", AttributeValue::Text(text(&json(&max))?))?;
+    if let Some(p) = spec.placement() {
+        put("lightvol.to_world", AttributeValue::Text(text(&json(&p.to_world_matrix()))?))?;
+    }
+    put("lightvol.sh_coeffs", AttributeValue::I32(coeffs as i32))?;
+    put("lightvol.sh_bands", AttributeValue::I32(vol.bands() as i32))?;
+    put("lightvol.convention", AttributeValue::Text(text(SH_CONVENTION)?))?;
+    put("lightvol.quantity", AttributeValue::Text(text(QUANTITY)?))?;
+    put("lightvol.encoding", AttributeValue::Text(text(enc_name)?))?;
+    put("lightvol.units", AttributeValue::Text(text(&meta.units)?))?;
+    put("lightvol.bake.method", AttributeValue::Text(text(&meta.method)?))?;
+    put("lightvol.bake.scene_hash", AttributeValue::Text(text(&meta.scene_hash)?))?;
+    put("lightvol.bake.samples", AttributeValue::Text(text(&meta.samples.to_string())?))?;
+    put("lightvol.bake.seed", AttributeValue::Text(text(&meta.seed.to_string())?))?;
+    put(
+        "lightvol.bake.shard",
+        AttributeValue::IntVec2(Vec2(meta.shard_index as i32, meta.shard_count as i32)),
+    )?;
+
+    let image = Image::from_layers(ia, layers);
+    let mut out = Cursor::new(Vec::new());
+    image
+        .write()
+        .non_parallel()
+        .to_buffered(&mut out)
+        .map_err(|e| VolumeError::InvalidData(format!("EXR encoder: {e}")))?;
+    Ok(out.into_inner())
+}
+
+/// An f64 array as JSON (exact through serde_json's shortest round-trip printing).
+fn json<T: serde::Serialize>(v: &T) -> String {
+    serde_json::to_string(v).expect("plain arrays serialise")
+}
+
+/// Writes `vol` to `path` as multi-part EXR (temporary file and rename).
+pub fn write_exr(path: &Path, vol: &IrradianceVolume, options: &ExrOptions) -> Result<(), VolumeError> {
+    write_atomic(path, &exr_to_bytes(vol, options)?)
+}
+
+/// Reads a volume written by [`write_exr`].
+pub fn read_exr(path: &Path) -> Result<IrradianceVolume, VolumeError> {
+    exr_from_bytes(&read_bounded(path)?)
+}
+
+/// Typed access to the `lightvol.*` attributes.
+struct Attrs<'a>(&'a HashMap<Text, AttributeValue>);
+
+impl Attrs<'_> {
+    fn get(&self, key: &str) -> Result<&AttributeValue, VolumeError> {
+        self.0
+            .iter()
+            .find(|(k, _)| k.to_string() == key)
+            .map(|(_, v)| v)
+            .ok_or_else(|| VolumeError::malformed(F, format!("missing attribute {key}")))
+    }
+    fn opt(&self, key: &str) -> Option<&AttributeValue> {
+        self.0.iter().find(|(k, _)| k.to_string() == key).map(|(_, v)| v)
+    }
+    fn text(&self, key: &str) -> Result<String, VolumeError> {
+        match self.get(key)? {
+            AttributeValue::Text(t) => Ok(t.to_string()),
+            _ => Err(VolumeError::malformed(F, format!("attribute {key} is not text"))),
+        }
+    }
+    fn i32(&self, key: &str) -> Result<i32, VolumeError> {
+        match self.get(key)? {
+            AttributeValue::I32(v) => Ok(*v),
+            _ => Err(VolumeError::malformed(F, format!("attribute {key} is not an i32"))),
+        }
+    }
+    fn u64(&self, key: &str) -> Result<u64, VolumeError> {
+        self.text(key)?
+            .parse()
+            .map_err(|_| VolumeError::malformed(F, format!("attribute {key} is not a u64")))
+    }
+    fn json<T: serde::de::DeserializeOwned>(&self, key: &str) -> Result<T, VolumeError> {
+        serde_json::from_str(&self.text(key)?)
+            .map_err(|e| VolumeError::malformed(F, format!("attribute {key}: {e}")))
+    }
+}
+
+/// Everything the header declares, validated.
+struct Declared {
+    spec: GridSpec,
+    coeffs: usize,
+    sample: SampleType,
+    meta: BakeMetadata,
+}
+
+fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeError> {
+    let a = Attrs(attrs);
+    let version = a.i32("lightvol.version")?;
+    if version < 1 || version as u32 > FORMAT_VERSION {
+        return Err(VolumeError::unsupported(F, format!("lightvol.version {version}")));
+    }
+    let dims = match a.get("lightvol.dims")? {
+        AttributeValue::IntVec3((x, y, z)) => [*x, *y, *z],
+        _ => return Err(VolumeError::malformed(F, "lightvol.dims is not an int vec3")),
+    };
+    let res = dims.map(|d| u32::try_from(d).unwrap_or(0));
+    let min: [f64; 3] = a.json("lightvol.bounds_min")?;
+    let max: [f64; 3] = a.json("lightvol.bounds_max")?;
+    let mut spec = GridSpec::new(min, max, res)?;
+    if a.opt("lightvol.to_world").is_some() {
+        spec = spec.with_placement(Placement::new(a.json("lightvol.to_world")?)?);
+    }
+    let coeffs = usize::try_from(a.i32("lightvol.sh_coeffs")?).unwrap_or(0);
+    check_coeffs(coeffs)?;
+    if usize::try_from(a.i32("lightvol.sh_bands")?).ok() != Some(coeffs.isqrt()) {
+        return Err(VolumeError::malformed(F, "lightvol.sh_bands does not match lightvol.sh_coeffs"));
+    }
+    if a.text("lightvol.convention")? != SH_CONVENTION {
+        return Err(VolumeError::unsupported(F, "SH convention differs from lightvol's"));
+    }
+    if a.text("lightvol.quantity")? != QUANTITY {
+        return Err(VolumeError::unsupported(F, "stored quantity is not radiance"));
+    }
+    let sample = match a.text("lightvol.encoding")?.as_str() {
+        "f32" => SampleType::F32,
+        "f16" => SampleType::F16,
+        other => return Err(VolumeError::unsupported(F, format!("encoding {other:?}"))),
+    };
+    let (shard_index, shard_count) = match a.get("lightvol.bake.shard")? {
+        AttributeValue::IntVec2(v) => {
+            (u32::try_from(v.0).unwrap_or(u32::MAX), u32::try_from(v.1).unwrap_or(0))
+        }
+        _ => return Err(VolumeError::malformed(F, "lightvol.bake.shard is not an int vec2")),
+    };
+    if shard_count == 0 || shard_index >= shard_count {
+        return Err(VolumeError::malformed(F, format!("shard {shard_index} of {shard_count}")));
+    }
+    let meta = BakeMetadata {
+        method: a.text("lightvol.bake.method")?,
+        samples: a.u64("lightvol.bake.samples")?,
+        seed: a.u64("lightvol.bake.seed")?,
+        shard_index,
+        shard_count,
+        scene_hash: a.text("lightvol.bake.scene_hash")?,
+        units: a.text("lightvol.units")?,
+    };
+    Ok(Declared { spec, coeffs, sample, meta })
+}
+
+/// Parses a multi-part EXR volume from memory (see the module docs for what is checked).
+pub fn exr_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
+    guard(F, || exr_from_bytes_inner(bytes))
+}
+
+fn exr_from_bytes_inner(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
+    let e = |err: exr::error::Error| VolumeError::malformed(F, err.to_string());
+    // 1. Headers only.
+    let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), true).map_err(e)?;
+    let first = meta.headers.first().ok_or_else(|| VolumeError::malformed(F, "no parts"))?;
+    // Custom image attributes are written into every header; readers of the exr crate
+    // file unknown attributes under the part's own attributes, so look in both.
+    let mut attrs = first.shared_attributes.other.clone();
+    attrs.extend(first.own_attributes.other.iter().map(|(k, v)| (k.clone(), v.clone())));
+    let d = declared(&attrs)?;
+    let [nx, ny, nz] = d.spec.res().map(|v| v as usize);
+    let size = Vec2(nx, ny * nz);
+    if meta.headers.len() != d.coeffs + 1 {
+        return Err(VolumeError::malformed(
+            F,
+            format!("{} parts, expected {}", meta.headers.len(), d.coeffs + 1),
+        ));
+    }
+    let mut seen = vec![false; d.coeffs + 1];
+    for h in &meta.headers {
+        let name = h.own_attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default();
+        let (slot, want): (usize, &[(&str, SampleType)]) = if name == "weight" {
+            (d.coeffs, &[("Y", SampleType::F32)])
+        } else {
+            let j = (0..d.coeffs)
+                .find(|&j| layer_name(j) == name)
+                .ok_or_else(|| VolumeError::malformed(F, format!("unexpected part {name:?}")))?;
+            (j, &[("B", d.sample), ("G", d.sample), ("R", d.sample)])
+        };
+        if std::mem::replace(&mut seen[slot], true) {
+            return Err(VolumeError::malformed(F, format!("duplicate part {name:?}")));
+        }
+        if h.deep || h.layer_size != size {
+            return Err(VolumeError::malformed(
+                F,
+                format!("part {name:?} is {:?} (deep: {}), expected {size:?}", h.layer_size, h.deep),
+            ));
+        }
+        let got: Vec<(String, SampleType)> =
+            h.channels.list.iter().map(|c| (c.name.to_string(), c.sample_type)).collect();
+        let want: Vec<(String, SampleType)> = want.iter().map(|(n, t)| ((*n).to_string(), *t)).collect();
+        if got != want {
+            return Err(VolumeError::malformed(
+                F,
+                format!("part {name:?} has channels {got:?}, expected {want:?}"),
+            ));
+        }
+    }
+
+    // 2. Pixels.
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .non_parallel()
+        .pedantic()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(e)?;
+    let n = d.spec.node_count();
+    let k = d.coeffs * 3;
+    let mut data = vec![0.0f32; n * k];
+    let mut weights = vec![0.0f32; n];
+    for layer in &image.layer_data {
+        let name = layer.attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default();
+        for ch in &layer.channel_data.list {
+            let vals: Vec<f32> = ch.sample_data.values_as_f32().collect();
+            if vals.len() != n {
+                return Err(VolumeError::malformed(F, format!("part {name:?} has {} samples", vals.len())));
+            }
+            if name == "weight" {
+                weights = vals;
+                continue;
+            }
+            let j = (0..d.coeffs)
+                .find(|&j| layer_name(j) == name)
+                .ok_or_else(|| VolumeError::malformed(F, "part"))?;
+            let c = match ch.name.to_string().as_str() {
+                "R" => 0,
+                "G" => 1,
+                _ => 2,
+            };
+            for (node, v) in vals.into_iter().enumerate() {
+                data[node * k + 3 * j + c] = v;
+            }
+        }
+    }
+    check_finite("EXR coefficients", &data)?;
+    check_finite("EXR weights", &weights)?;
+    Ok(IrradianceVolume::new(d.spec, d.coeffs, data, weights)?.with_metadata(d.meta))
+}

@@ -1,0 +1,206 @@
+//! Engine export: a KTX2 3D texture in RGBA16F (`VK_FORMAT_R16G16B16A16_SFLOAT`), written
+//! with the `ktx2` crate's header, level-index and data-format-descriptor types.
+//!
+//! ## Layout
+//! Width `nx`, height `ny`, depth `coeffs · nz`: the coefficients are slabs along z.
+//! Texel `(x, y, j·nz + z)` holds coefficient `j` of node `(x, y, z)` in RGB and the node's
+//! weight (its domain-of-interest fraction, 0 for filled nodes) in A. One mip level, no
+//! supercompression. A shader samples coefficient `j` at normalised z
+//! `(j + (z_grid + 0.5)/nz) / coeffs`, i.e. with hardware filtering *within* a slab
+//! (clamp z to half a texel inside the slab to avoid bleeding across slabs).
+//!
+//! The key/value data holds `KTXwriter` and the JSON sidecar under [`KTX2_SIDECAR_KEY`]
+//! (grid transform, SH convention, encoding, units, bake metadata; see
+//! [`crate::sidecar`]). The reader validates the header against the sidecar and the data
+//! length against the dimensions and rejects non-finite texels.
+
+use std::path::Path;
+
+use ktx2::{Format, Header, Index, LevelIndex, SupercompressionScheme};
+
+use crate::encode::Encoding;
+use crate::error::{FileFormat, VolumeError};
+use crate::io_util::{guard, read_bounded, write_atomic};
+use crate::sidecar::Sidecar;
+use crate::slab::{SLAB_LAYOUT, slab_texels, volume_from_slab_texels};
+use crate::volume::IrradianceVolume;
+
+/// Key of the embedded JSON sidecar in the KTX2 key/value data.
+pub const KTX2_SIDECAR_KEY: &str = "lightvol.sidecar";
+/// Value of the `KTXwriter` key.
+pub const KTX2_WRITER: &str = concat!("lightvol-volume ", env!("CARGO_PKG_VERSION"));
+use crate::slab::TEXEL_BYTES;
+
+/// Assembles a single-level, uncompressed RGBA16F 3D KTX2 file (shared with the Bevy
+/// export). `texels` is the level data (x fastest, then y, then z); `kvd` the key/value
+/// pairs, which must be sorted by key.
+pub(crate) fn ktx2_rgba16f_bytes(dims: [u32; 3], texels: &[u8], kvd: &[(&str, &str)]) -> Vec<u8> {
+    debug_assert_eq!(texels.len(), dims.iter().map(|&d| d as usize).product::<usize>() * TEXEL_BYTES);
+    let format = Format::R16G16B16A16_SFLOAT;
+    let (dfd, type_size) = ktx2::dfd::Basic::from_format(format).expect("RGBA16F has a generated DFD");
+    let dfd_block = ktx2::dfd::Block::Basic(dfd).to_vec();
+    let mut dfd_bytes = Vec::with_capacity(4 + dfd_block.len());
+    dfd_bytes.extend_from_slice(&((4 + dfd_block.len()) as u32).to_le_bytes());
+    dfd_bytes.extend_from_slice(&dfd_block);
+
+    // Key/value data: u32 length of "key\0value\0", the bytes, padding to 4.
+    let mut kvd_bytes = Vec::new();
+    for (k, v) in kvd {
+        let len = k.len() + 1 + v.len() + 1;
+        kvd_bytes.extend_from_slice(&(len as u32).to_le_bytes());
+        kvd_bytes.extend_from_slice(k.as_bytes());
+        kvd_bytes.push(0);
+        kvd_bytes.extend_from_slice(v.as_bytes());
+        kvd_bytes.push(0);
+        while kvd_bytes.len() % 4 != 0 {
+            kvd_bytes.push(0);
+        }
+    }
+
+    let dfd_offset = Header::LENGTH + LevelIndex::LENGTH;
+    let kvd_offset = dfd_offset + dfd_bytes.len();
+    // Level data aligned to lcm(texel size 8, 4) = 8.
+    let data_offset = (kvd_offset + kvd_bytes.len()).next_multiple_of(8);
+    let header = Header {
+        format: Some(format),
+        type_size,
+        pixel_width: dims[0],
+        pixel_height: dims[1],
+        pixel_depth: dims[2],
+        layer_count: 0,
+        face_count: 1,
+        level_count: 1,
+        supercompression_scheme: None::<SupercompressionScheme>,
+        index: Index {
+            dfd_byte_offset: dfd_offset as u32,
+            dfd_byte_length: dfd_bytes.len() as u32,
+            kvd_byte_offset: if kvd_bytes.is_empty() { 0 } else { kvd_offset as u32 },
+            kvd_byte_length: kvd_bytes.len() as u32,
+            sgd_byte_offset: 0,
+            sgd_byte_length: 0,
+        },
+    };
+    let level = LevelIndex {
+        byte_offset: data_offset as u64,
+        byte_length: texels.len() as u64,
+        uncompressed_byte_length: texels.len() as u64,
+    };
+    let mut out = Vec::with_capacity(data_offset + texels.len());
+    out.extend_from_slice(&header.as_bytes());
+    out.extend_from_slice(&level.as_bytes());
+    out.extend_from_slice(&dfd_bytes);
+    out.extend_from_slice(&kvd_bytes);
+    out.resize(data_offset, 0);
+    out.extend_from_slice(texels);
+    out
+}
+
+/// Parses an RGBA16F 3D KTX2 file: checks the header (format, type size, one face, no
+/// layers, one level, no supercompression), the level length against the dimensions, and
+/// returns `(dims, key/value pairs, level data)`.
+pub(crate) fn parse_ktx2_rgba16f(
+    bytes: &[u8],
+    format_tag: FileFormat,
+) -> Result<([u32; 3], Vec<(String, Vec<u8>)>, Vec<u8>), VolumeError> {
+    let bad = |r: String| VolumeError::malformed(format_tag, r);
+    let reader = ktx2::Reader::new(bytes).map_err(|e| bad(e.to_string()))?;
+    let h = reader.header();
+    if h.format != Some(Format::R16G16B16A16_SFLOAT) {
+        return Err(VolumeError::unsupported(
+            format_tag,
+            format!("pixel format {:?} (expected RGBA16F)", h.format),
+        ));
+    }
+    if h.type_size != 2 {
+        return Err(bad(format!("type size {} (RGBA16F needs 2)", h.type_size)));
+    }
+    if h.supercompression_scheme.is_some() {
+        return Err(VolumeError::unsupported(format_tag, "supercompressed data"));
+    }
+    if h.face_count != 1 || h.layer_count != 0 || h.level_count > 1 {
+        return Err(VolumeError::unsupported(
+            format_tag,
+            format!(
+                "{} faces, {} layers, {} levels (expected 1, 0, 1)",
+                h.face_count, h.layer_count, h.level_count
+            ),
+        ));
+    }
+    if h.pixel_height == 0 || h.pixel_depth == 0 {
+        return Err(bad("not a 3D texture (zero height or depth)".into()));
+    }
+    let dims = [h.pixel_width, h.pixel_height, h.pixel_depth];
+    let want = dims
+        .iter()
+        .try_fold(TEXEL_BYTES, |acc, &d| acc.checked_mul(d as usize))
+        .ok_or_else(|| bad("dimensions overflow".into()))?;
+    let level = reader.levels().next().ok_or_else(|| bad("no mip level".into()))?;
+    if level.data.len() != want || level.uncompressed_byte_length != want as u64 {
+        return Err(bad(format!("level 0 has {} bytes, dimensions need {want}", level.data.len())));
+    }
+    let kvd = reader.key_value_data().map(|(k, v)| (k.to_string(), v.to_vec())).collect();
+    Ok((dims, kvd, level.data.to_vec()))
+}
+
+/// Serialises `vol` as an RGBA16F KTX2 3D texture in memory.
+pub fn ktx2_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
+    let [nx, ny, nz] = vol.spec().res();
+    let depth = (vol.coeffs() as u32)
+        .checked_mul(nz)
+        .ok_or_else(|| VolumeError::InvalidData("texture depth overflows u32".into()))?;
+    let sidecar = Sidecar::describe(
+        vol,
+        Encoding::F16,
+        None,
+        &format!("KTX2 R16G16B16A16_SFLOAT 3D texture; {SLAB_LAYOUT}"),
+    );
+    let json = sidecar.to_json();
+    Ok(ktx2_rgba16f_bytes(
+        [nx, ny, depth],
+        &slab_texels(vol)?,
+        &[("KTXwriter", KTX2_WRITER), (KTX2_SIDECAR_KEY, &json)],
+    ))
+}
+
+/// Writes `vol` as a KTX2 3D texture (temporary file and rename).
+pub fn write_ktx2(path: &Path, vol: &IrradianceVolume) -> Result<(), VolumeError> {
+    write_atomic(path, &ktx2_to_bytes(vol)?)
+}
+
+/// Reads a volume written by [`write_ktx2`].
+pub fn read_ktx2(path: &Path) -> Result<IrradianceVolume, VolumeError> {
+    ktx2_from_bytes(&read_bounded(path)?)
+}
+
+/// Parses a KTX2 volume from memory (see the module docs for what is checked).
+pub fn ktx2_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
+    let f = FileFormat::Ktx2;
+    guard(f, || {
+        let (dims, kvd, data) = parse_ktx2_rgba16f(bytes, f)?;
+        let raw = kvd
+            .iter()
+            .find(|(k, _)| k == KTX2_SIDECAR_KEY)
+            .map(|(_, v)| v.as_slice())
+            .ok_or_else(|| VolumeError::malformed(f, format!("missing key {KTX2_SIDECAR_KEY}")))?;
+        let raw = raw.strip_suffix(&[0]).unwrap_or(raw);
+        let text = std::str::from_utf8(raw).map_err(|e| VolumeError::malformed(f, e.to_string()))?;
+        let sidecar = Sidecar::from_json(text)?;
+        if sidecar.encoding != Encoding::F16 {
+            return Err(VolumeError::malformed(f, "sidecar encoding is not f16"));
+        }
+        let spec = sidecar.grid_spec()?;
+        let coeffs = sidecar.sh.coeffs;
+        let [nx, ny, nz] = spec.res();
+        if [dims[0], dims[1]] != [nx, ny] || u64::from(dims[2]) != u64::from(nz) * coeffs as u64 {
+            return Err(VolumeError::malformed(
+                f,
+                format!(
+                    "texture is {dims:?}, the sidecar's grid needs [{nx}, {ny}, {}]",
+                    nz as usize * coeffs
+                ),
+            ));
+        }
+        let (values, weights) = volume_from_slab_texels(spec.node_count(), coeffs, &data, f)?;
+        Ok(IrradianceVolume::new(spec, coeffs, values, weights)?.with_metadata(sidecar.metadata()))
+    })
+}

@@ -1,0 +1,299 @@
+//! The JSON sidecar: a small human-readable description of a volume file.
+//!
+//! It states everything an engine needs to interpret the texels: the grid (box,
+//! resolution, grid-to-world transform), the SH convention and order, the encoding, the
+//! units, the texture layout and the bake metadata. The KTX2 export embeds it in its
+//! key/value data (key [`crate::ktx2_io::KTX2_SIDECAR_KEY`]); DDS and Bevy exports, which
+//! have no room for metadata, write it beside the texture. f64 values round-trip exactly
+//! (serde_json with `float_roundtrip`).
+//!
+//! ```json
+//! {
+//!   "format": "lightvol-volume", "version": 1,
+//!   "grid": { "min": [0,0,0], "max": [4,2,3], "res": [9,5,7], "to_world": null },
+//!   "sh": { "coeffs": 9, "bands": 3, "quantity": "radiance", "convention": "..." },
+//!   "encoding": { "kind": "f16" }, "units": "relative",
+//!   "storage": { "file": "level.ktx2", "layout": "..." },
+//!   "bake": { "method": "domain", "samples": 1000000, "seed": 1, ... }
+//! }
+//! ```
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::encode::Encoding;
+use crate::error::{FileFormat, VolumeError};
+use crate::grid::{GridSpec, Placement};
+use crate::io_util::{read_bounded, write_atomic};
+use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
+
+/// Value of the `format` field.
+pub const FORMAT_NAME: &str = "lightvol-volume";
+/// Current sidecar / file-format version; readers accept this version and older.
+pub const FORMAT_VERSION: u32 = 1;
+/// The SH convention every lightvol file uses (lightvol-sh's); readers reject others.
+pub const SH_CONVENTION: &str = "real orthonormal SH; flat index l*(l+1)+m; no Condon-Shortley phase; \
+                                 +z polar axis; world-space directions";
+/// What the coefficients represent.
+pub const QUANTITY: &str = "radiance";
+
+/// The grid section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GridJson {
+    /// Grid-space box minimum.
+    pub min: [f64; 3],
+    /// Grid-space box maximum.
+    pub max: [f64; 3],
+    /// Nodes per axis.
+    pub res: [u32; 3],
+    /// Row-major 3×4 grid-to-world matrix, or null for identity.
+    pub to_world: Option<[[f64; 4]; 3]>,
+}
+
+/// The SH section.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ShJson {
+    /// Coefficients per colour channel.
+    pub coeffs: usize,
+    /// Bands (`sqrt(coeffs)`).
+    pub bands: usize,
+    /// What the coefficients represent ([`QUANTITY`]).
+    pub quantity: String,
+    /// The basis convention ([`SH_CONVENTION`]).
+    pub convention: String,
+}
+
+/// Where and how the texels are stored.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StorageJson {
+    /// The described file's name, if the sidecar sits beside one.
+    pub file: Option<String>,
+    /// The texel layout, in words.
+    pub layout: String,
+}
+
+/// The bake section (everything of [`BakeMetadata`] except the units).
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BakeJson {
+    /// Sampling method.
+    pub method: String,
+    /// Samples used.
+    pub samples: u64,
+    /// Random seed.
+    pub seed: u64,
+    /// Shard index.
+    pub shard_index: u32,
+    /// Shard count.
+    pub shard_count: u32,
+    /// Scene/settings hash.
+    pub scene_hash: String,
+}
+
+/// The whole sidecar document.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Sidecar {
+    /// Always [`FORMAT_NAME`].
+    pub format: String,
+    /// Format version ([`FORMAT_VERSION`]).
+    pub version: u32,
+    /// Grid.
+    pub grid: GridJson,
+    /// SH order and convention.
+    pub sh: ShJson,
+    /// How the texels encode the coefficients.
+    pub encoding: Encoding,
+    /// Radiometric unit of the coefficients.
+    pub units: String,
+    /// Texel layout.
+    pub storage: StorageJson,
+    /// Bake metadata.
+    pub bake: BakeJson,
+}
+
+impl Sidecar {
+    /// Describes `vol` stored with `encoding` in the given `layout`.
+    #[must_use]
+    pub fn describe(vol: &IrradianceVolume, encoding: Encoding, file: Option<String>, layout: &str) -> Self {
+        let spec = vol.spec();
+        let (min, max) = spec.bounds();
+        let m = vol.metadata();
+        Self {
+            format: FORMAT_NAME.into(),
+            version: FORMAT_VERSION,
+            grid: GridJson {
+                min,
+                max,
+                res: spec.res(),
+                to_world: spec.placement().map(Placement::to_world_matrix),
+            },
+            sh: ShJson {
+                coeffs: vol.coeffs(),
+                bands: vol.bands(),
+                quantity: QUANTITY.into(),
+                convention: SH_CONVENTION.into(),
+            },
+            encoding,
+            units: m.units.clone(),
+            storage: StorageJson { file, layout: layout.into() },
+            bake: BakeJson {
+                method: m.method.clone(),
+                samples: m.samples,
+                seed: m.seed,
+                shard_index: m.shard_index,
+                shard_count: m.shard_count,
+                scene_hash: m.scene_hash.clone(),
+            },
+        }
+    }
+
+    /// Pretty-printed JSON.
+    #[must_use]
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("the sidecar is plain data")
+    }
+
+    /// Parses and validates a sidecar: format name, version, SH convention and quantity,
+    /// coefficient count, and the grid (via [`Self::grid_spec`]).
+    pub fn from_json(text: &str) -> Result<Self, VolumeError> {
+        let s: Sidecar = serde_json::from_str(text)
+            .map_err(|e| VolumeError::malformed(FileFormat::Sidecar, e.to_string()))?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Checks every field that a reader relies on.
+    pub fn validate(&self) -> Result<(), VolumeError> {
+        let f = FileFormat::Sidecar;
+        if self.format != FORMAT_NAME {
+            return Err(VolumeError::malformed(
+                f,
+                format!("format is {:?}, expected {FORMAT_NAME:?}", self.format),
+            ));
+        }
+        if self.version == 0 || self.version > FORMAT_VERSION {
+            return Err(VolumeError::unsupported(
+                f,
+                format!("version {} (this reader supports 1..={FORMAT_VERSION})", self.version),
+            ));
+        }
+        if self.sh.convention != SH_CONVENTION {
+            return Err(VolumeError::unsupported(f, format!("SH convention {:?}", self.sh.convention)));
+        }
+        if self.sh.quantity != QUANTITY {
+            return Err(VolumeError::unsupported(f, format!("quantity {:?}", self.sh.quantity)));
+        }
+        check_coeffs(self.sh.coeffs)?;
+        if self.sh.bands * self.sh.bands != self.sh.coeffs {
+            return Err(VolumeError::malformed(
+                f,
+                format!("{} bands but {} coeffs", self.sh.bands, self.sh.coeffs),
+            ));
+        }
+        if self.bake.shard_count == 0 || self.bake.shard_index >= self.bake.shard_count {
+            return Err(VolumeError::malformed(
+                f,
+                format!("shard {} of {}", self.bake.shard_index, self.bake.shard_count),
+            ));
+        }
+        self.grid_spec()?;
+        Ok(())
+    }
+
+    /// The validated grid.
+    pub fn grid_spec(&self) -> Result<GridSpec, VolumeError> {
+        let g = GridSpec::new(self.grid.min, self.grid.max, self.grid.res)?;
+        Ok(match self.grid.to_world {
+            Some(m) => g.with_placement(Placement::new(m)?),
+            None => g,
+        })
+    }
+
+    /// The bake metadata (with the units).
+    #[must_use]
+    pub fn metadata(&self) -> BakeMetadata {
+        BakeMetadata {
+            method: self.bake.method.clone(),
+            samples: self.bake.samples,
+            seed: self.bake.seed,
+            shard_index: self.bake.shard_index,
+            shard_count: self.bake.shard_count,
+            scene_hash: self.bake.scene_hash.clone(),
+            units: self.units.clone(),
+        }
+    }
+}
+
+/// Writes a sidecar atomically (temporary file and rename).
+pub fn write_sidecar(path: &Path, sidecar: &Sidecar) -> Result<(), VolumeError> {
+    write_atomic(path, sidecar.to_json().as_bytes())
+}
+
+/// Reads and validates a sidecar.
+pub fn read_sidecar(path: &Path) -> Result<Sidecar, VolumeError> {
+    let bytes = read_bounded(path)?;
+    let text = std::str::from_utf8(&bytes)
+        .map_err(|e| VolumeError::malformed(FileFormat::Sidecar, e.to_string()))?;
+    Sidecar::from_json(text)
+}
+
+/// The conventional sidecar path for a texture file: `name.ext` → `name.ext.json`.
+#[must_use]
+pub fn sidecar_path(texture: &Path) -> std::path::PathBuf {
+    let mut s = texture.as_os_str().to_owned();
+    s.push(".json");
+    s.into()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn vol() -> IrradianceVolume {
+        let spec = GridSpec::new([0.1, -0.3, 1.0 / 3.0], [4.0, 2.0, 3.0], [9, 5, 7])
+            .unwrap()
+            .with_placement(Placement::translation([1e-17, 2.5, -7.0]).unwrap());
+        IrradianceVolume::zeros(spec, 9).unwrap()
+    }
+
+    #[test]
+    fn round_trips_exactly() {
+        let v = vol();
+        let s = Sidecar::describe(&v, Encoding::SRGB8, Some("x.dds".into()), "test layout");
+        let back = Sidecar::from_json(&s.to_json()).unwrap();
+        assert_eq!(back, s);
+        assert_eq!(&back.grid_spec().unwrap(), v.spec());
+        assert_eq!(back.metadata(), *v.metadata());
+        assert!(s.to_json().contains("\"kind\": \"srgb8\""));
+    }
+
+    #[test]
+    fn rejects_wrong_fields() {
+        let s = Sidecar::describe(&vol(), Encoding::F32, None, "");
+        let bad = |edit: &dyn Fn(&mut Sidecar)| {
+            let mut t = s.clone();
+            edit(&mut t);
+            Sidecar::from_json(&t.to_json()).is_err()
+        };
+        assert!(bad(&|t| t.format = "other".into()));
+        assert!(bad(&|t| t.version = 2));
+        assert!(bad(&|t| t.sh.convention = "Condon-Shortley".into()));
+        assert!(bad(&|t| t.sh.coeffs = 8));
+        assert!(bad(&|t| t.sh.bands = 2));
+        assert!(bad(&|t| t.grid.res = [1, 5, 7]));
+        assert!(bad(&|t| t.grid.to_world = Some([[0.0; 4]; 3])));
+        assert!(bad(&|t| t.bake.shard_count = 0));
+        assert!(Sidecar::from_json("{").is_err());
+        assert!(Sidecar::from_json("[]").is_err());
+    }
+
+    #[test]
+    fn file_round_trip_and_path() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = sidecar_path(&dir.path().join("v.dds"));
+        assert!(p.to_string_lossy().ends_with("v.dds.json"));
+        let s = Sidecar::describe(&vol(), Encoding::F16, Some("v.dds".into()), "l");
+        write_sidecar(&p, &s).unwrap();
+        assert_eq!(read_sidecar(&p).unwrap(), s);
+    }
+}
