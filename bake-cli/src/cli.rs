@@ -1,0 +1,60 @@
+//! Command-line definitions (clap derive).
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// lightvol: precomputed volumetric lighting (irradiance volumes baked by domain-of-interest
+/// sampling, Kontkanen & Laine 2006).
+#[derive(Debug, Parser)]
+#[command(name = "lightvol", version, about, long_about = None, propagate_version = true)]
+pub struct Cli {
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The verbs.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
+    Info(InfoArgs),
+    /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).
+    Export(ExportArgs),
+}
+
+/// `lightvol info`.
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// The native EXR volume to describe.
+    pub volume: PathBuf,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Engine export formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ExportFormat {
+    /// KTX2 3D texture, RGBA16F, coefficient slabs along z, weight in alpha (+ JSON sidecar).
+    Ktx2,
+    /// DDS volume texture, RGBA16F (+ JSON sidecar).
+    Dds,
+    /// Bevy irradiance volume: ambient cube of six irradiances per voxel (KTX2, RGBA16F).
+    Bevy,
+    /// The JSON sidecar alone (grid transform, SH convention, encoding, units).
+    Json,
+}
+
+/// `lightvol export`.
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// The native EXR volume to export.
+    pub volume: PathBuf,
+    /// Target format.
+    #[arg(long, value_enum)]
+    pub format: ExportFormat,
+    /// Output file (a `.json` sidecar is written beside texture outputs).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
