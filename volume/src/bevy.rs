@@ -34,6 +34,7 @@ use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::irradiance::cosine_lobe_factor;
 
+use crate::checksum::{fnv1a, from_hex, to_hex};
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::GridSpec;
 use crate::io_util::{f16_bytes, guard, read_bounded, write_atomic};
@@ -112,6 +113,8 @@ pub struct BevyInfo {
     pub quantity: String,
     /// The irradiance unit (the volume's radiance unit times steradians).
     pub units: String,
+    /// FNV-1a checksum (16 hex digits) of the level data.
+    pub texel_checksum: String,
 }
 
 /// The grid-to-world-consistent probe transform of the module docs (row-major 3×4).
@@ -190,6 +193,7 @@ pub fn bevy_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
         world_from_probe: bevy_world_from_probe(spec),
         quantity: "irradiance E(+-axis) ambient cube (Bevy irradiance volume)".into(),
         units: format!("({}) * sr", vol.metadata().units),
+        texel_checksum: to_hex(fnv1a(&texels)),
     };
     let json = serde_json::to_string(&info).expect("plain data");
     Ok(ktx2_rgba16f_bytes(dims, &texels, &[("KTXwriter", KTX2_WRITER), (BEVY_INFO_KEY, &json)]))
@@ -245,6 +249,9 @@ pub fn bevy_from_bytes(bytes: &[u8]) -> Result<BevyVolume, VolumeError> {
                 != [u64::from(res[0]), 2 * u64::from(res[1]), 3 * u64::from(res[2])]
         {
             return Err(VolumeError::malformed(F, format!("texture {dims:?} does not fit {res:?} voxels")));
+        }
+        if from_hex(&info.texel_checksum) != Some(fnv1a(&data)) {
+            return Err(VolumeError::malformed(F, "texel checksum mismatch: the file is damaged"));
         }
         let [rx, ry, rz] = res.map(|v| v as usize);
         let mut cubes = vec![[[0.0f32; 3]; 6]; rx * ry * rz];

@@ -13,6 +13,7 @@ use std::path::Path;
 
 use ddsfile::{AlphaMode, Caps2, D3D10ResourceDimension, Dds, DxgiFormat, NewDxgiParams};
 
+use crate::checksum::{through_f16, to_hex, verify, volume_checksum};
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
 use crate::io_util::{guard, read_bounded, write_atomic};
@@ -22,15 +23,17 @@ use crate::volume::IrradianceVolume;
 
 const F: FileFormat = FileFormat::Dds;
 
-/// The sidecar that [`write_dds`] writes beside a DDS file named `file`.
-#[must_use]
-pub fn dds_sidecar(vol: &IrradianceVolume, file: Option<String>) -> Sidecar {
-    Sidecar::describe(
+/// The sidecar that [`write_dds`] writes beside a DDS file named `file` (with the checksum
+/// of the volume as the DDS decodes to); errors if a value exceeds the f16 range.
+pub fn dds_sidecar(vol: &IrradianceVolume, file: Option<String>) -> Result<Sidecar, VolumeError> {
+    let mut s = Sidecar::describe(
         vol,
         Encoding::F16,
         file,
         &format!("DDS DXGI_FORMAT_R16G16B16A16_FLOAT volume texture; {SLAB_LAYOUT}"),
-    )
+    );
+    s.checksum = Some(to_hex(volume_checksum(&through_f16(vol, true)?)));
+    Ok(s)
 }
 
 /// Serialises `vol` as an RGBA16F DDS volume texture in memory (the texture only).
@@ -107,7 +110,10 @@ pub fn dds_from_bytes(bytes: &[u8], sidecar: &Sidecar) -> Result<IrradianceVolum
             ));
         }
         let (values, weights) = volume_from_slab_texels(spec.node_count(), coeffs, &dds.data, F)?;
-        Ok(IrradianceVolume::new(spec.clone(), coeffs, values, weights)?.with_metadata(sidecar.metadata()))
+        let vol =
+            IrradianceVolume::new(spec.clone(), coeffs, values, weights)?.with_metadata(sidecar.metadata());
+        verify(F, sidecar.checksum.as_deref(), &vol)?;
+        Ok(vol)
     })
 }
 
@@ -116,7 +122,7 @@ pub fn write_dds(path: &Path, vol: &IrradianceVolume) -> Result<(), VolumeError>
     let bytes = dds_to_bytes(vol)?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
     write_atomic(path, &bytes)?;
-    write_sidecar(&sidecar_path(path), &dds_sidecar(vol, name))
+    write_sidecar(&sidecar_path(path), &dds_sidecar(vol, name)?)
 }
 
 /// Reads a DDS volume and the sidecar beside it.

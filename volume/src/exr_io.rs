@@ -35,6 +35,7 @@ use exr::prelude::{ReadChannels, ReadLayers, SmallVec, WritableImage};
 
 use lightvol_sh::index::sh_lm;
 
+use crate::checksum::{through_f16, to_hex, verify, volume_checksum};
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError, check_finite};
 use crate::grid::{GridSpec, Placement};
@@ -149,6 +150,7 @@ pub fn exr_to_bytes(vol: &IrradianceVolume, options: &ExrOptions) -> Result<Vec<
         ia.other.insert(text(key)?, value);
         Ok(())
     };
+    // (lightvol.checksum is added last, below.)
     put("lightvol.version", AttributeValue::I32(FORMAT_VERSION as i32))?;
     put("lightvol.dims", AttributeValue::IntVec3((nx as i32, ny as i32, nz as i32)))?;
     put("lightvol.bounds_min", AttributeValue::Text(text(&json(&min))?))?;
@@ -170,6 +172,12 @@ pub fn exr_to_bytes(vol: &IrradianceVolume, options: &ExrOptions) -> Result<Vec<
         "lightvol.bake.shard",
         AttributeValue::IntVec2(Vec2(meta.shard_index as i32, meta.shard_count as i32)),
     )?;
+
+    let decoded = match options.sample {
+        ExrSample::F32 => volume_checksum(vol),
+        ExrSample::F16 => volume_checksum(&through_f16(vol, false)?),
+    };
+    ia.other.insert(text("lightvol.checksum")?, AttributeValue::Text(text(&to_hex(decoded))?));
 
     let image = Image::from_layers(ia, layers);
     let mut out = Cursor::new(Vec::new());
@@ -239,6 +247,7 @@ struct Declared {
     coeffs: usize,
     sample: SampleType,
     meta: BakeMetadata,
+    checksum: String,
 }
 
 fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeError> {
@@ -292,7 +301,8 @@ fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeErr
         scene_hash: a.text("lightvol.bake.scene_hash")?,
         units: a.text("lightvol.units")?,
     };
-    Ok(Declared { spec, coeffs, sample, meta })
+    let checksum = a.text("lightvol.checksum")?;
+    Ok(Declared { spec, coeffs, sample, meta, checksum })
 }
 
 /// Parses a multi-part EXR volume from memory (see the module docs for what is checked).
@@ -390,5 +400,7 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
     }
     check_finite("EXR coefficients", &data)?;
     check_finite("EXR weights", &weights)?;
-    Ok(IrradianceVolume::new(d.spec, d.coeffs, data, weights)?.with_metadata(d.meta))
+    let vol = IrradianceVolume::new(d.spec, d.coeffs, data, weights)?.with_metadata(d.meta);
+    verify(F, Some(&d.checksum), &vol)?;
+    Ok(vol)
 }

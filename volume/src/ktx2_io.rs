@@ -18,6 +18,7 @@ use std::path::Path;
 
 use ktx2::{Format, Header, Index, LevelIndex, SupercompressionScheme};
 
+use crate::checksum::{through_f16, to_hex, verify, volume_checksum};
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
 use crate::io_util::{guard, read_bounded, write_atomic};
@@ -148,12 +149,13 @@ pub fn ktx2_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
     let depth = (vol.coeffs() as u32)
         .checked_mul(nz)
         .ok_or_else(|| VolumeError::InvalidData("texture depth overflows u32".into()))?;
-    let sidecar = Sidecar::describe(
+    let mut sidecar = Sidecar::describe(
         vol,
         Encoding::F16,
         None,
         &format!("KTX2 R16G16B16A16_SFLOAT 3D texture; {SLAB_LAYOUT}"),
     );
+    sidecar.checksum = Some(to_hex(volume_checksum(&through_f16(vol, true)?)));
     let json = sidecar.to_json();
     Ok(ktx2_rgba16f_bytes(
         [nx, ny, depth],
@@ -201,6 +203,8 @@ pub fn ktx2_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
             ));
         }
         let (values, weights) = volume_from_slab_texels(spec.node_count(), coeffs, &data, f)?;
-        Ok(IrradianceVolume::new(spec, coeffs, values, weights)?.with_metadata(sidecar.metadata()))
+        let vol = IrradianceVolume::new(spec, coeffs, values, weights)?.with_metadata(sidecar.metadata());
+        verify(f, sidecar.checksum.as_deref(), &vol)?;
+        Ok(vol)
     })
 }

@@ -2,6 +2,7 @@
 
 pub mod accumulator;
 pub mod bevy;
+pub mod checksum;
 pub mod dds_io;
 pub mod encode;
 pub mod error;

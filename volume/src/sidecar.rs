@@ -109,6 +109,11 @@ pub struct Sidecar {
     pub storage: StorageJson,
     /// Bake metadata.
     pub bake: BakeJson,
+    /// FNV-1a checksum (16 hex digits) of the volume as the described file decodes to
+    /// ([`crate::checksum::volume_checksum`]); written by the KTX2 and DDS exports and
+    /// required by their readers.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub checksum: Option<String>,
 }
 
 impl Sidecar {
@@ -144,6 +149,7 @@ impl Sidecar {
                 shard_count: m.shard_count,
                 scene_hash: m.scene_hash.clone(),
             },
+            checksum: None,
         }
     }
 

@@ -160,8 +160,8 @@ mod ktx2_dds_bevy {
         assert_eq!([dds.get_width(), dds.get_height(), dds.get_depth()], [3, 4, 18]);
         // A sidecar for another grid is rejected.
         let other = common::random_volume(9, [3, 4, 3], 1);
-        assert!(dds_from_bytes(&dds_to_bytes(&vol).unwrap(), &dds_sidecar(&other, None)).is_err());
-        assert!(dds_from_bytes(&dds_to_bytes(&vol).unwrap(), &dds_sidecar(&vol, None)).is_ok());
+        assert!(dds_from_bytes(&dds_to_bytes(&vol).unwrap(), &dds_sidecar(&other, None).unwrap()).is_err());
+        assert!(dds_from_bytes(&dds_to_bytes(&vol).unwrap(), &dds_sidecar(&vol, None).unwrap()).is_ok());
         // Missing sidecar: an I/O error, not a panic.
         std::fs::remove_file(sidecar_path(&path)).unwrap();
         assert!(matches!(read_dds(&path), Err(VolumeError::Io { .. })));

@@ -1,0 +1,189 @@
+//! Integrity checksums, so that a damaged file is an error rather than a silently
+//! different volume.
+//!
+//! Byte-level corruption of a file either breaks its structure (caught by the format
+//! checks) or changes values that still parse: a coefficient, a bound, a metadata string.
+//! Every lightvol file therefore carries a 64-bit FNV-1a checksum of the volume *as it will
+//! be decoded* (grid, SH order, metadata, coefficient and weight bits), and readers
+//! recompute it. The checksum detects accidental damage; it is not a cryptographic
+//! signature.
+
+use crate::error::VolumeError;
+use crate::volume::IrradianceVolume;
+
+/// FNV-1a 64-bit offset basis.
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+/// FNV-1a 64-bit prime.
+const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
+
+/// Incremental FNV-1a (64-bit).
+#[derive(Debug, Clone, Copy)]
+pub struct Fnv1a(u64);
+
+impl Default for Fnv1a {
+    fn default() -> Self {
+        Self(FNV_OFFSET)
+    }
+}
+
+impl Fnv1a {
+    /// Feeds bytes.
+    pub fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= u64::from(b);
+            self.0 = self.0.wrapping_mul(FNV_PRIME);
+        }
+    }
+
+    /// Feeds a length-prefixed string.
+    pub fn write_str(&mut self, s: &str) {
+        self.write(&(s.len() as u64).to_le_bytes());
+        self.write(s.as_bytes());
+    }
+
+    /// The hash so far.
+    #[must_use]
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
+
+/// FNV-1a of a byte string.
+#[must_use]
+pub fn fnv1a(bytes: &[u8]) -> u64 {
+    let mut h = Fnv1a::default();
+    h.write(bytes);
+    h.finish()
+}
+
+/// The checksum of everything a reader reconstructs: grid (box, resolution, placement),
+/// coefficient count, metadata, and the bits of every coefficient and weight.
+#[must_use]
+pub fn volume_checksum(vol: &IrradianceVolume) -> u64 {
+    let mut h = Fnv1a::default();
+    h.write_str("lightvol-volume checksum v1");
+    let spec = vol.spec();
+    let (min, max) = spec.bounds();
+    for v in min.iter().chain(&max) {
+        h.write(&v.to_bits().to_le_bytes());
+    }
+    for r in spec.res() {
+        h.write(&r.to_le_bytes());
+    }
+    match spec.placement() {
+        None => h.write(&[0]),
+        Some(p) => {
+            h.write(&[1]);
+            for v in p.to_world_matrix().iter().flatten() {
+                h.write(&v.to_bits().to_le_bytes());
+            }
+        }
+    }
+    h.write(&(vol.coeffs() as u64).to_le_bytes());
+    let m = vol.metadata();
+    for s in [&m.method, &m.scene_hash, &m.units] {
+        h.write_str(s);
+    }
+    for v in [m.samples, m.seed, u64::from(m.shard_index), u64::from(m.shard_count)] {
+        h.write(&v.to_le_bytes());
+    }
+    for v in vol.data().iter().chain(vol.weights()) {
+        h.write(&v.to_bits().to_le_bytes());
+    }
+    h.finish()
+}
+
+/// 16 lowercase hex digits.
+#[must_use]
+pub fn to_hex(v: u64) -> String {
+    format!("{v:016x}")
+}
+
+/// Parses 16 hex digits.
+pub fn from_hex(s: &str) -> Option<u64> {
+    (s.len() == 16 && s.bytes().all(|b| b.is_ascii_hexdigit()))
+        .then(|| u64::from_str_radix(s, 16).ok())
+        .flatten()
+}
+
+/// Compares a stored hex checksum with the recomputed one.
+pub(crate) fn verify(
+    format: crate::error::FileFormat,
+    stored: Option<&str>,
+    vol: &IrradianceVolume,
+) -> Result<(), VolumeError> {
+    let stored = stored.ok_or_else(|| VolumeError::malformed(format, "missing checksum"))?;
+    let want =
+        from_hex(stored).ok_or_else(|| VolumeError::malformed(format, format!("bad checksum {stored:?}")))?;
+    let got = volume_checksum(vol);
+    if got == want {
+        Ok(())
+    } else {
+        Err(VolumeError::malformed(
+            format,
+            format!("checksum mismatch (stored {want:016x}, data {got:016x}): the file is damaged"),
+        ))
+    }
+}
+
+/// `vol` with every coefficient (and, if `weights_too`, every weight) rounded through f16:
+/// what an f16 file decodes to. Errors if a value exceeds the f16 range.
+pub(crate) fn through_f16(
+    vol: &IrradianceVolume,
+    weights_too: bool,
+) -> Result<IrradianceVolume, VolumeError> {
+    let round = |v: f32| {
+        let h = half::f16::from_f32(v);
+        if h.is_finite() {
+            Ok(h.to_f32())
+        } else {
+            Err(VolumeError::InvalidData(format!("value {v} exceeds the f16 range (65504)")))
+        }
+    };
+    let data = vol.data().iter().map(|&v| round(v)).collect::<Result<Vec<_>, _>>()?;
+    let weights = if weights_too {
+        vol.weights().iter().map(|&v| round(v)).collect::<Result<Vec<_>, _>>()?
+    } else {
+        vol.weights().to_vec()
+    };
+    Ok(IrradianceVolume::new(vol.spec().clone(), vol.coeffs(), data, weights)?
+        .with_metadata(vol.metadata().clone()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fnv1a_reference_values() {
+        // Published FNV-1a 64 test vectors (Fowler/Noll/Vo): "" and "a", "foobar".
+        assert_eq!(fnv1a(b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a(b"foobar"), 0x8594_4171_f739_67e8);
+    }
+
+    #[test]
+    fn hex_round_trip() {
+        for v in [0, 1, u64::MAX, 0x0123_4567_89ab_cdef] {
+            assert_eq!(from_hex(&to_hex(v)), Some(v));
+        }
+        assert_eq!(from_hex("123"), None);
+        assert_eq!(from_hex("+123456789abcdef"), None);
+    }
+
+    #[test]
+    fn checksum_sees_every_part() {
+        let spec = crate::GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+        let v = IrradianceVolume::zeros(spec.clone(), 4).unwrap();
+        let c = volume_checksum(&v);
+        let mut w = v.clone();
+        w.set_node(3, &[0.0, 0.0, 0.0, -0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]).unwrap();
+        assert_ne!(volume_checksum(&w), c, "sign of zero");
+        let mut m = v.metadata().clone();
+        m.seed = 1;
+        assert_ne!(volume_checksum(&v.clone().with_metadata(m)), c);
+        let moved =
+            IrradianceVolume::zeros(spec.with_placement(crate::Placement::translation([0.0; 3]).unwrap()), 4);
+        assert_ne!(volume_checksum(&moved.unwrap()), c);
+    }
+}
