@@ -9,6 +9,7 @@ use lightvol_volume::sidecar::{Sidecar, sidecar_path, write_sidecar};
 
 use crate::cli::{ExportArgs, ExportFormat};
 
+/// Runs `lightvol export`.
 pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
     let vol = read_exr(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
     let out = &args.output;

@@ -7,6 +7,7 @@ use lightvol_volume::exr_io::read_exr;
 
 use crate::cli::InfoArgs;
 
+/// Runs `lightvol info`.
 pub fn run(args: &InfoArgs) -> anyhow::Result<ExitCode> {
     let vol = read_exr(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
     let spec = vol.spec();

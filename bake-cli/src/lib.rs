@@ -1,0 +1,73 @@
+#![doc = include_str!("../README.md")]
+
+pub mod cli;
+mod cmd_export;
+mod cmd_info;
+pub mod imaging;
+
+use std::ffi::OsString;
+use std::process::ExitCode;
+
+use clap::Parser;
+
+/// Parses `args` (including the program name) and runs the command. `--help` and
+/// `--version` print and return success; parse errors return an error.
+pub fn run_from_args<I, T>(args: I) -> anyhow::Result<ExitCode>
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    let cli = match cli::Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e)
+            if matches!(
+                e.kind(),
+                clap::error::ErrorKind::DisplayHelp | clap::error::ErrorKind::DisplayVersion
+            ) =>
+        {
+            print!("{e}");
+            return Ok(ExitCode::SUCCESS);
+        }
+        Err(e) => {
+            return Err(anyhow::anyhow!(
+                "{}",
+                e.to_string()
+                    .lines()
+                    .next()
+                    .unwrap_or("invalid arguments")
+                    .trim_start_matches("error: ")
+                    .to_owned()
+            ));
+        }
+    };
+    run(cli)
+}
+
+/// Runs a parsed command.
+pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
+    match args.command {
+        cli::Command::Info(a) => cmd_info::run(&a),
+        cli::Command::Export(a) => cmd_export::run(&a),
+    }
+}
+
+/// The binary's entry: runs and turns an error into one line on stderr and exit code 1.
+pub fn main_with_args<I, T>(args: I) -> ExitCode
+where
+    I: IntoIterator<Item = T>,
+    T: Into<OsString> + Clone,
+{
+    match run_from_args(args) {
+        Ok(code) => code,
+        Err(err) => {
+            eprintln!("error: {}", one_line(&err));
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// The error and its context chain on one line.
+#[must_use]
+pub fn one_line(err: &anyhow::Error) -> String {
+    format!("{err:#}").replace('\n', " ")
+}
