@@ -4,6 +4,7 @@ pub mod cli;
 mod cmd_export;
 mod cmd_info;
 pub mod imaging;
+pub mod metrics;
 
 use std::ffi::OsString;
 use std::process::ExitCode;
