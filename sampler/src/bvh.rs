@@ -40,6 +40,8 @@ pub struct Hit {
     /// A *back-face hit* in the sense of Kontkanen & Laine 2006 §5: `from_behind` on a
     /// single-sided material.
     pub back_face: bool,
+    /// The material is single-sided.
+    pub single_sided: bool,
 }
 
 /// BVH build quality presets (obvhs' own presets).
@@ -150,6 +152,7 @@ impl Tracer {
             normal,
             from_behind,
             back_face: from_behind && self.single_sided[tri as usize],
+            single_sided: self.single_sided[tri as usize],
         }
     }
 

@@ -1,20 +1,31 @@
 #![doc = include_str!("../README.md")]
 
+pub mod bake;
+pub mod builtin;
 pub mod bvh;
+pub mod domain;
 pub mod envmap;
 pub mod error;
+pub mod light_sampler;
 pub mod lights;
 pub mod load_gltf;
 pub mod load_obj;
+pub mod reference;
 pub mod scene;
+pub mod stats;
 pub mod texture;
+pub mod transport;
 
+pub use bake::{BakeControl, BakeOutput, BakeSettings, Method, Progress, bake};
 pub use bvh::{BuildQuality, Hit, Tracer};
 pub use error::{BakeError, SceneError};
 pub use glam::{DVec2, DVec3};
 pub use lights::{Environment, PunctualLight, Sun};
 pub use load_obj::{LoadOptions, load_obj, load_scene};
+pub use reference::{reference_irradiance, reference_irradiance_many};
 pub use scene::{LoadReport, Material, Scene, SceneBuilder, Triangle, UpAxis};
+pub use stats::{BakeStats, RayCounts};
+pub use transport::{PathRng, Transport, TransportSettings};
 
 #[cfg(test)]
 mod cornell_tests {

@@ -1,0 +1,158 @@
+//! Ground truth for evaluation: reference irradiance `E(x, n)` by path tracing with many
+//! quasi-Monte Carlo samples (the "ray traced" row of Kontkanen & Laine 2006 Fig. 6).
+
+use glam::DVec3;
+use lightvol_sh::lowdisc::{Halton, hash2};
+use rayon::prelude::*;
+
+use crate::stats::RayCounts;
+use crate::transport::{PathRng, Transport};
+
+/// Reference irradiance at `x` for receiver normal `n` (unit) with `samples` QMC samples:
+/// the first five dimensions (cosine direction, light choice and position) come from an
+/// Owen-scrambled Halton stream keyed by `(seed, stream)`, the path beyond from a per-sample
+/// generator. `x` is moved off surfaces by the scene's epsilon along `n`.
+#[must_use]
+pub fn reference_irradiance(
+    t: &Transport<'_>,
+    x: DVec3,
+    n: DVec3,
+    samples: u32,
+    seed: u64,
+    stream: u64,
+) -> ([f64; 3], RayCounts) {
+    let h = Halton::new(hash2(seed, stream), 5);
+    let x = x + n * t.epsilon();
+    let mut rays = RayCounts::default();
+    let mut sum = [0.0; 3];
+    for i in 0..u64::from(samples) {
+        let p = h.point::<5>(i);
+        let mut rng = PathRng::new(seed, stream, i);
+        let e = t.irradiance_sample(x, n, [p[0], p[1]], [p[2], p[3], p[4]], &mut rng, &mut rays);
+        for c in 0..3 {
+            sum[c] += e[c];
+        }
+    }
+    let k = 1.0 / f64::from(samples.max(1));
+    (sum.map(|s| s * k), rays)
+}
+
+/// [`reference_irradiance`] over many points in parallel (point `i` uses stream `i`;
+/// bit-identical for any thread count).
+#[must_use]
+pub fn reference_irradiance_many(
+    t: &Transport<'_>,
+    points: &[(DVec3, DVec3)],
+    samples: u32,
+    seed: u64,
+) -> Vec<[f64; 3]> {
+    points
+        .par_iter()
+        .enumerate()
+        .map(|(i, &(x, n))| reference_irradiance(t, x, n, samples, seed, i as u64).0)
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    //! Acceptance 2: light transport against analytic answers.
+    use super::*;
+    use crate::bvh::Tracer;
+    use crate::lights::{Environment, Sun};
+    use crate::scene::{Material, Scene, SceneBuilder};
+    use crate::transport::TransportSettings;
+    use std::f64::consts::PI;
+
+    fn plane(albedo: f64, half: f64) -> SceneBuilder {
+        let mut b = SceneBuilder::new("plane");
+        let m = b.add_material(Material::diffuse("ground", [albedo; 3])).unwrap();
+        b.add_quad(
+            [
+                DVec3::new(-half, -half, 0.0),
+                DVec3::new(half, -half, 0.0),
+                DVec3::new(half, half, 0.0),
+                DVec3::new(-half, half, 0.0),
+            ],
+            m,
+        )
+        .unwrap();
+        b
+    }
+
+    /// A horizontal plane under a uniform sky L: E = πL for an upward receiver (every
+    /// cosine-sampled ray escapes, so each sample is exactly πL), and for a receiver tilted
+    /// by θ: πL(1 + cos θ)/2 from the sky plus πaL(1 - cos θ)/2 from the plane, whose
+    /// radiance is aL (it receives πL and reflects a/π of it).
+    #[test]
+    fn plane_under_uniform_sky() {
+        let l = 1.5;
+        let mut b = plane(0.5, 1e4);
+        b.environment = Environment::UniformSky { sky: [l; 3], ground: None };
+        let s = b.build().unwrap();
+        let tr = Tracer::new(&s);
+        let t = Transport::new(&s, &tr, TransportSettings::default());
+        let x = DVec3::new(0.3, -0.2, 0.0);
+        let (e, _) = reference_irradiance(&t, x, DVec3::Z, 256, 1, 0);
+        // Every sample is πL up to the f64 rounding of the sum.
+        assert!((e[0] - PI * l).abs() < 1e-12, "{e:?}");
+        let th = 1.0f64;
+        let n = DVec3::new(th.sin(), 0.0, th.cos());
+        let (e, _) = reference_irradiance(&t, DVec3::new(0.0, 0.0, 1.0), n, 8192, 2, 0);
+        let exact = PI * l * (1.0 + th.cos()) / 2.0 + PI * 0.5 * l * (1.0 - th.cos()) / 2.0;
+        // QMC over a two-valued integrand (sky or ground) with edge discontinuity: ~1e-3.
+        assert!((e[0] - exact).abs() < 3e-3 * exact, "{} {exact}", e[0]);
+    }
+
+    /// Furnace: inside a closed box whose walls have albedo a and emit Le (uniform), the
+    /// radiance is the geometric series Le (1 + a + a² + …) = Le / (1 - a) everywhere, so
+    /// E = π Le / (1 - a) for any receiver.
+    #[test]
+    fn furnace_matches_geometric_series() {
+        for (a, tol) in [(0.5, 0.012), (0.8, 0.025)] {
+            let mut b = SceneBuilder::new("furnace");
+            let m = b.add_material(Material::emitter("wall", [a; 3], [1.0; 3])).unwrap();
+            b.add_box(DVec3::splat(-1.0), DVec3::new(1.0, 2.0, 1.5), m, false, false).unwrap();
+            let s: Scene = b.build().unwrap();
+            let tr = Tracer::new(&s);
+            let t = Transport::new(&s, &tr, TransportSettings::default());
+            let exact = PI / (1.0 - a);
+            for (i, n) in [DVec3::Z, DVec3::new(0.6, 0.0, -0.8)].into_iter().enumerate() {
+                let (e, rays) = reference_irradiance(&t, DVec3::new(0.2, 0.1, -0.3), n, 16384, 3, i as u64);
+                // Russian roulette keeps the series unbiased; the tolerance is ~4 standard
+                // errors of the 16384-sample mean (per-sample relative sd ≈ 0.33 at a = 0.5,
+                // measured with 3M samples: mean 2.00005 ± 0.0002 of the exact 2).
+                assert!((e[1] - exact).abs() < tol * exact, "a={a}: {} vs {exact}", e[1]);
+                assert!(rays.bounce > 0 && rays.shadow > 0);
+            }
+            // incident_radiance alone: Le / (1 - a) along any direction.
+            let mut sum = 0.0;
+            let mut rays = RayCounts::default();
+            for k in 0..4096u64 {
+                let mut rng = PathRng::new(5, 0, k);
+                let d = DVec3::from_array(lightvol_sh::sampling::sample_uniform_sphere(rng.next2()));
+                sum += t.incident_radiance(DVec3::new(0.1, 0.2, 0.3), d, &mut rng, &mut rays)[0];
+            }
+            let mean = sum / 4096.0;
+            assert!((mean - 1.0 / (1.0 - a)).abs() < 2.0 * tol / (1.0 - a), "{mean}");
+        }
+    }
+
+    /// A small sun of irradiance E_sun at zenith angle θ gives E = E_sun cos θ on an upward
+    /// receiver (exact for a uniform disk wholly above the horizon), for a cone sun through
+    /// MIS and for a delta sun through next-event estimation.
+    #[test]
+    fn small_sun_gives_cosine_law() {
+        for radius in [0.01, 0.0] {
+            let mut b = plane(0.0, 1.0);
+            // Move the plane far below so it does not matter; ground is black anyway.
+            b.sun = Some(Sun::from_angles(50.0, 30.0, [2.0, 1.0, 0.5], radius));
+            let s = b.build().unwrap();
+            let tr = Tracer::new(&s);
+            let t = Transport::new(&s, &tr, TransportSettings::default());
+            let (e, _) = reference_irradiance(&t, DVec3::new(5.0, 5.0, 3.0), DVec3::Z, 1024, 7, 0);
+            let exact = 2.0 * 50f64.to_radians().sin();
+            // Cone: light samples dominate and vary only with cos over a 0.01 rad disk.
+            assert!((e[0] - exact).abs() < 1e-3 * exact, "r={radius}: {} vs {exact}", e[0]);
+        }
+    }
+}

@@ -1,0 +1,112 @@
+//! Bake statistics: rays by kind, domain classification counts, fill, timing.
+
+use std::time::Duration;
+
+/// Rays traced, by kind.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounts {
+    /// Sampling rays (Kontkanen & Laine 2006 Algorithm 2; point-sampling directions).
+    pub sampling: u64,
+    /// Query rays towards back-face points (Algorithm 2) and point-classifier rays.
+    pub query: u64,
+    /// Path continuation rays after a diffuse bounce.
+    pub bounce: u64,
+    /// Shadow rays of next-event estimation.
+    pub shadow: u64,
+}
+
+impl RayCounts {
+    /// Sum over all kinds.
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        self.sampling + self.query + self.bounce + self.shadow
+    }
+
+    /// Adds another count.
+    pub fn add(&mut self, o: &Self) {
+        self.sampling += o.sampling;
+        self.query += o.query;
+        self.bounce += o.bounce;
+        self.shadow += o.shadow;
+    }
+}
+
+/// Everything a bake reports besides the volume.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct BakeStats {
+    /// Rays by kind.
+    pub rays: RayCounts,
+    /// Cells processed (or nodes, for point sampling).
+    pub units: u64,
+    /// Cells in which at least one back-face point was found (Algorithm 2).
+    pub cells_with_back_faces: u64,
+    /// Candidate samples generated.
+    pub candidates: u64,
+    /// Samples kept (accumulated).
+    pub samples_kept: u64,
+    /// Candidates rejected as outside the domain of interest.
+    pub samples_rejected: u64,
+    /// Back-face points found.
+    pub back_face_points: u64,
+    /// Nodes that received no weight (filled by lightvol-volume, see `fill_report`).
+    pub zero_weight_nodes: u64,
+    /// How lightvol-volume filled zero-weight nodes (its `FillReport`, formatted).
+    pub fill_report: String,
+    /// Wall time of the sampling (excluding BVH build).
+    pub wall_time: Duration,
+    /// BVH build time.
+    pub bvh_build_time: Duration,
+}
+
+impl BakeStats {
+    /// Million rays per second over the sampling wall time.
+    #[must_use]
+    pub fn mrays_per_second(&self) -> f64 {
+        let s = self.wall_time.as_secs_f64();
+        if s > 0.0 { self.rays.total() as f64 / s / 1e6 } else { 0.0 }
+    }
+
+    /// Adds the counters of another (disjoint) part of the bake; times are not added.
+    pub fn add_counts(&mut self, o: &Self) {
+        self.rays.add(&o.rays);
+        self.units += o.units;
+        self.cells_with_back_faces += o.cells_with_back_faces;
+        self.candidates += o.candidates;
+        self.samples_kept += o.samples_kept;
+        self.samples_rejected += o.samples_rejected;
+        self.back_face_points += o.back_face_points;
+    }
+}
+
+impl std::fmt::Display for BakeStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let r = &self.rays;
+        writeln!(
+            f,
+            "rays: {} total ({} sampling, {} query, {} bounce, {} shadow)",
+            r.total(),
+            r.sampling,
+            r.query,
+            r.bounce,
+            r.shadow
+        )?;
+        writeln!(
+            f,
+            "units: {}, with back faces: {}, back-face points: {}",
+            self.units, self.cells_with_back_faces, self.back_face_points
+        )?;
+        writeln!(
+            f,
+            "samples: {} candidates, {} kept, {} rejected",
+            self.candidates, self.samples_kept, self.samples_rejected
+        )?;
+        writeln!(f, "zero-weight nodes: {} ({})", self.zero_weight_nodes, self.fill_report)?;
+        write!(
+            f,
+            "wall time: {:.3} s (BVH {:.3} s), {:.2} Mrays/s",
+            self.wall_time.as_secs_f64(),
+            self.bvh_build_time.as_secs_f64(),
+            self.mrays_per_second()
+        )
+    }
+}

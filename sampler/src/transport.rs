@@ -1,0 +1,330 @@
+//! Light transport: `incidentRadiance` of Kontkanen & Laine 2006 Algorithm 2, by path
+//! tracing with the diffuse BRDF, next-event estimation and multiple importance sampling.
+//!
+//! A path bounces `bounces` times (default 2) unconditionally, then continues under
+//! Russian roulette, so the estimate is unbiased for any albedo < 1. Back-face hits on
+//! single-sided materials end a path with zero radiance (the inside of a solid is dark;
+//! that is exactly what point sampling picks up inside buildings).
+//!
+//! Random numbers come from a per-path [`SplitMix64`] seeded from (stream, sample), never
+//! from a shared generator, so results do not depend on thread scheduling.
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use lightvol_sh::lowdisc::{SplitMix64, hash2};
+use lightvol_sh::sampling::{Frame, sample_cosine_hemisphere};
+
+use crate::bvh::{Hit, Tracer};
+use crate::light_sampler::{LightSampler, power_heuristic};
+use crate::scene::Scene;
+use crate::stats::RayCounts;
+
+/// Shadow rays towards a sampled point stop this fraction of the distance short of it:
+/// far above f32 intersection error (~1e-7 relative), far below any real occluder gap.
+pub const SHADOW_MARGIN: f64 = 1e-4;
+
+/// Path-tracing settings.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TransportSettings {
+    /// Diffuse bounces traced before Russian roulette starts (0 = direct light only on the
+    /// first surface, then roulette).
+    pub bounces: u32,
+    /// Continue with Russian roulette after `bounces` (unbiased); `false` truncates.
+    pub russian_roulette: bool,
+    /// Hard cap on path length (guards against albedo ≥ 1 scenes).
+    pub max_depth: u32,
+}
+
+impl Default for TransportSettings {
+    fn default() -> Self {
+        Self { bounces: 2, russian_roulette: true, max_depth: 64 }
+    }
+}
+
+/// The per-path random source.
+#[derive(Clone, Debug)]
+pub struct PathRng(SplitMix64);
+
+impl PathRng {
+    /// The generator for sample `sample` of stream `stream` (a cell, node or plate point)
+    /// under bake seed `seed`.
+    #[must_use]
+    pub fn new(seed: u64, stream: u64, sample: u64) -> Self {
+        Self(SplitMix64::new(hash2(hash2(seed, stream), sample)))
+    }
+
+    /// Uniform in [0, 1).
+    #[inline]
+    pub fn next(&mut self) -> f64 {
+        self.0.next_f64()
+    }
+
+    /// Two uniforms.
+    #[inline]
+    pub fn next2(&mut self) -> [f64; 2] {
+        [self.next(), self.next()]
+    }
+
+    /// Three uniforms.
+    #[inline]
+    pub fn next3(&mut self) -> [f64; 3] {
+        [self.next(), self.next(), self.next()]
+    }
+}
+
+/// The light-transport engine for one scene.
+#[derive(Debug)]
+pub struct Transport<'a> {
+    scene: &'a Scene,
+    tracer: &'a Tracer,
+    lights: LightSampler,
+    settings: TransportSettings,
+    eps: f64,
+}
+
+#[inline]
+fn mul(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] * b[0], a[1] * b[1], a[2] * b[2]]
+}
+
+#[inline]
+fn add_scaled(acc: &mut [f64; 3], a: [f64; 3], s: f64) {
+    for c in 0..3 {
+        acc[c] += a[c] * s;
+    }
+}
+
+impl<'a> Transport<'a> {
+    /// An engine over `scene` traced by `tracer` (built from the same scene).
+    #[must_use]
+    pub fn new(scene: &'a Scene, tracer: &'a Tracer, settings: TransportSettings) -> Self {
+        Self { scene, tracer, lights: LightSampler::new(scene), settings, eps: scene.epsilon() }
+    }
+
+    /// The scene.
+    #[must_use]
+    pub fn scene(&self) -> &'a Scene {
+        self.scene
+    }
+
+    /// The tracer.
+    #[must_use]
+    pub fn tracer(&self) -> &'a Tracer {
+        self.tracer
+    }
+
+    /// The self-intersection offset used for secondary rays.
+    #[must_use]
+    pub fn epsilon(&self) -> f64 {
+        self.eps
+    }
+
+    /// The settings.
+    #[must_use]
+    pub fn settings(&self) -> &TransportSettings {
+        &self.settings
+    }
+
+    /// Radiance arriving at `origin` from direction `dir` (unit): Algorithm 2's
+    /// `incidentRadiance`. Lights seen directly along `dir` count fully.
+    pub fn incident_radiance(
+        &self,
+        origin: DVec3,
+        dir: DVec3,
+        rng: &mut PathRng,
+        rays: &mut RayCounts,
+    ) -> [f64; 3] {
+        rays.sampling += 1;
+        let hit = self.tracer.closest_hit(origin, dir, 0.0, f64::INFINITY);
+        self.radiance_from_hit(dir, hit, None, rng, rays)
+    }
+
+    /// Radiance arriving at `origin` along `dir` given the already traced first hit (the
+    /// classification rays of Algorithm 2 are reused this way). `dir_pdf` is the density
+    /// (per steradian) of the technique that chose `dir` when the caller also samples lights
+    /// at `origin` (see [`light_sample`](Self::light_sample)): lights seen directly along
+    /// `dir` are then weighted by the power heuristic. `None` counts them fully.
+    pub fn radiance_from_hit(
+        &self,
+        dir: DVec3,
+        hit: Option<Hit>,
+        dir_pdf: Option<f64>,
+        rng: &mut PathRng,
+        rays: &mut RayCounts,
+    ) -> [f64; 3] {
+        let scene = self.scene;
+        let mut l = [0.0; 3];
+        let mut beta = [1.0; 3];
+        let (mut d, mut hit, mut prev_pdf) = (dir, hit, dir_pdf);
+        for depth in 0..=self.settings.max_depth {
+            let Some(h) = hit else {
+                self.add_escaped(&mut l, beta, d, prev_pdf);
+                break;
+            };
+            if h.back_face {
+                break;
+            }
+            let tri = h.triangle;
+            let t = &scene.triangles[tri as usize];
+            let m = &scene.materials[t.material as usize];
+            // Shading normal: the geometric normal on the side the ray came from.
+            let n = if h.from_behind { -h.normal } else { h.normal };
+            let x = t.point(h.bary[0], h.bary[1]);
+            if m.is_emissive() {
+                let w = match prev_pdf {
+                    Some(p) => power_heuristic(p, self.lights.pdf_emitter(scene, tri, d, h.t)),
+                    None => 1.0,
+                };
+                add_scaled(&mut l, mul(beta, m.emission), w);
+            }
+            if depth == self.settings.max_depth {
+                break;
+            }
+            if depth >= self.settings.bounces {
+                if !self.settings.russian_roulette {
+                    // Truncated: the last surface still gets its direct light below.
+                    self.add_direct(
+                        &mut l,
+                        beta,
+                        x,
+                        n,
+                        scene.albedo(tri, h.bary[0], h.bary[1]),
+                        false,
+                        rng,
+                        rays,
+                    );
+                    break;
+                }
+                let q = beta.iter().copied().fold(0.0, f64::max).clamp(0.05, 0.95);
+                if rng.next() >= q {
+                    break;
+                }
+                beta = beta.map(|b| b / q);
+            }
+            let albedo = scene.albedo(tri, h.bary[0], h.bary[1]);
+            if albedo.iter().all(|&a| a <= 0.0) {
+                break;
+            }
+            self.add_direct(&mut l, beta, x, n, albedo, true, rng, rays);
+            // Cosine-weighted bounce: f cos / pdf = albedo.
+            let local = sample_cosine_hemisphere(rng.next2());
+            let nd = DVec3::from_array(Frame::from_normal(n.to_array()).to_world(local));
+            beta = mul(beta, albedo);
+            prev_pdf = Some(local[2].max(0.0) / PI);
+            d = nd;
+            rays.bounce += 1;
+            hit = self.tracer.closest_hit(x + n * self.eps, d, 0.0, f64::INFINITY);
+        }
+        l
+    }
+
+    /// Environment and sun radiance for an escaped ray, MIS-weighted against light sampling.
+    fn add_escaped(&self, l: &mut [f64; 3], beta: [f64; 3], d: DVec3, prev_pdf: Option<f64>) {
+        let scene = self.scene;
+        let env = scene.environment.radiance(d);
+        let w_env = prev_pdf.map_or(1.0, |p| power_heuristic(p, self.lights.pdf_env(scene, d)));
+        add_scaled(l, mul(beta, env), w_env);
+        if let Some(sun) = scene.sun {
+            let ls = sun.radiance_along(d);
+            if ls.iter().any(|&v| v > 0.0) {
+                let w = prev_pdf.map_or(1.0, |p| power_heuristic(p, self.lights.pdf_sun(scene, d)));
+                add_scaled(l, mul(beta, ls), w);
+            }
+        }
+    }
+
+    /// Next-event estimation at a diffuse surface point `x` with normal `n`. When no BSDF
+    /// sample follows (`bsdf_follows = false`, a truncated path) the light sample takes
+    /// full weight.
+    #[allow(clippy::too_many_arguments)]
+    fn add_direct(
+        &self,
+        l: &mut [f64; 3],
+        beta: [f64; 3],
+        x: DVec3,
+        n: DVec3,
+        albedo: [f64; 3],
+        bsdf_follows: bool,
+        rng: &mut PathRng,
+        rays: &mut RayCounts,
+    ) {
+        let u = rng.next3();
+        // Sample from the offset origin the shadow ray starts at, so the ray ends exactly on
+        // the sampled point: sampling from the surface and tracing from the offset point
+        // lets grazing shadow rays hit the emitter's own plane early (a 0.2 % furnace bias).
+        let x = x + n * self.eps;
+        let Some(s) = self.lights.sample(self.scene, x, u) else { return };
+        let cos = n.dot(s.dir);
+        if cos <= 0.0 {
+            return;
+        }
+        if !self.visible(x, &s, rays) {
+            return;
+        }
+        let w = if s.delta || !bsdf_follows { 1.0 } else { power_heuristic(s.pdf, cos / PI) };
+        // f = albedo / π.
+        let k = cos * w / (PI * s.pdf);
+        add_scaled(l, mul(mul(beta, albedo), s.radiance), k);
+    }
+
+    fn visible(&self, from: DVec3, s: &crate::light_sampler::LightSample, rays: &mut RayCounts) -> bool {
+        rays.shadow += 1;
+        // Stop short of the sampled point by a relative margin (f32 intersection error).
+        let tmax = if s.dist.is_finite() { s.dist * (1.0 - SHADOW_MARGIN) } else { f64::INFINITY };
+        tmax > 0.0 && !self.tracer.occluded(from, s.dir, 0.0, tmax)
+    }
+
+    /// One light-sampling term at a free-space point `x` for projecting incident radiance
+    /// (no cosine): the direction and `radiance × weight / pdf`, MIS-weighted against a
+    /// direction technique of density `dir_pdf` (e.g. `1/4π` for uniform sphere sampling).
+    /// `None` when the sample carries nothing (no lights, occluded, facing away).
+    pub fn light_sample(
+        &self,
+        x: DVec3,
+        dir_pdf: f64,
+        u: [f64; 3],
+        rays: &mut RayCounts,
+    ) -> Option<(DVec3, [f64; 3])> {
+        let s = self.lights.sample(self.scene, x, u)?;
+        if !self.visible(x, &s, rays) {
+            return None;
+        }
+        let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, dir_pdf) };
+        let k = w / s.pdf;
+        Some((s.dir, s.radiance.map(|v| v * k)))
+    }
+
+    /// One estimate of irradiance `E(x, n) = ∫ L cos θ dω` at a free-space point `x` for a
+    /// receiver normal `n`: a cosine-sampled direction (from `u_dir`) MIS-combined with a
+    /// light sample (from `u_light`).
+    pub fn irradiance_sample(
+        &self,
+        x: DVec3,
+        n: DVec3,
+        u_dir: [f64; 2],
+        u_light: [f64; 3],
+        rng: &mut PathRng,
+        rays: &mut RayCounts,
+    ) -> [f64; 3] {
+        let local = sample_cosine_hemisphere(u_dir);
+        let d = DVec3::from_array(Frame::from_normal(n.to_array()).to_world(local));
+        let pdf = local[2] / PI;
+        let mut e = [0.0; 3];
+        if pdf > 0.0 {
+            rays.sampling += 1;
+            let hit = self.tracer.closest_hit(x, d, 0.0, f64::INFINITY);
+            let l = self.radiance_from_hit(d, hit, Some(pdf), rng, rays);
+            // L cos / pdf = π L.
+            add_scaled(&mut e, l, PI);
+        }
+        if let Some(s) = self.lights.sample(self.scene, x, u_light) {
+            let cos = n.dot(s.dir);
+            if cos > 0.0 && self.visible(x, &s, rays) {
+                let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, cos / PI) };
+                add_scaled(&mut e, s.radiance, cos * w / s.pdf);
+            }
+        }
+        e
+    }
+}
