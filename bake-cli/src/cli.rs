@@ -17,6 +17,8 @@ pub struct Cli {
 /// The verbs.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Bake an irradiance volume from a glTF/OBJ scene or a built-in scene.
+    Bake(crate::cmd_bake::BakeArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
     /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).

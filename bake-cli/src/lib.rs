@@ -1,10 +1,12 @@
 #![doc = include_str!("../README.md")]
 
 pub mod cli;
+pub mod cmd_bake;
 mod cmd_export;
 mod cmd_info;
 pub mod imaging;
 pub mod metrics;
+pub mod setup;
 
 use std::ffi::OsString;
 use std::process::ExitCode;
@@ -47,6 +49,7 @@ where
 /// Runs a parsed command.
 pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
     match args.command {
+        cli::Command::Bake(a) => cmd_bake::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
         cli::Command::Export(a) => cmd_export::run(&a),
     }

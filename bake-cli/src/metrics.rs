@@ -95,7 +95,12 @@ mod tests {
     #[test]
     fn hand_computed_example() {
         // Valid: (1,1) exact, (0.5,1) too dark & near, (2,1) too bright; invalid ignored.
-        let pts = [p(1.0, 1.0, true, false), p(0.5, 1.0, true, true), p(2.0, 1.0, true, false), p(9.0, 1.0, false, true)];
+        let pts = [
+            p(1.0, 1.0, true, false),
+            p(0.5, 1.0, true, true),
+            p(2.0, 1.0, true, false),
+            p(9.0, 1.0, false, true),
+        ];
         let m = compute(&pts);
         assert_eq!(m.valid_points, 3);
         assert_eq!(m.near_points, 1);

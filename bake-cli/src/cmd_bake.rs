@@ -1,0 +1,273 @@
+//! `lightvol bake`: bake an irradiance volume.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use lightvol_sampler::{
+    BakeControl, BakeOutput, BakeSettings, Progress, Tracer, Transport, TransportSettings,
+};
+use lightvol_volume::exr_io::{ExrOptions, write_exr};
+use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
+use serde::Serialize;
+
+use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, with_threads};
+
+/// `lightvol bake`.
+#[derive(Debug, Args)]
+pub struct BakeArgs {
+    /// Scene and lights.
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// Grid.
+    #[command(flatten)]
+    pub grid: GridArgs,
+    /// Sampling.
+    #[command(flatten)]
+    pub sampling: SampleArgs,
+    /// Sampling method: `point` (Eq. 4 at each node), `prefilter` (Eq. 5-6, no domain test)
+    /// or `doi` (Eq. 5-6 restricted to the domain of interest, Algorithm 2).
+    #[arg(long, default_value = "doi")]
+    /// Method name.
+    pub method: String,
+    /// Output volume (native multi-part EXR).
+    #[arg(short, long, default_value = "volume.exr")]
+    pub output: PathBuf,
+    /// Print the bake statistics as JSON on stdout.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Bake statistics as printed by `bake --json`.
+#[derive(Debug, Serialize)]
+pub struct BakeReport {
+    /// Scene label.
+    pub scene: String,
+    /// Method name.
+    pub method: String,
+    /// The grid.
+    pub grid: GridJson,
+    /// Samples per cell or node.
+    pub samples: u32,
+    /// Seed.
+    pub seed: u64,
+    /// Rays by kind.
+    pub rays: RaysJson,
+    /// Cells where Algorithm 2 found back faces.
+    pub cells_with_back_faces: u64,
+    /// Candidate samples.
+    pub candidates: u64,
+    /// Samples kept.
+    pub samples_kept: u64,
+    /// Samples rejected as outside the domain.
+    pub samples_rejected: u64,
+    /// Nodes with zero weight.
+    pub zero_weight_nodes: usize,
+    /// Zero-weight nodes filled from neighbours.
+    pub filled_nodes: usize,
+    /// Sampling wall time.
+    pub seconds: f64,
+    /// BVH build time.
+    pub bvh_seconds: f64,
+    /// Throughput.
+    pub mrays_per_second: f64,
+    /// Output file.
+    pub output: String,
+}
+
+/// Grid description in reports.
+#[derive(Debug, Serialize, Clone)]
+pub struct GridJson {
+    /// Nodes per axis.
+    pub res: [u32; 3],
+    /// Min and max corners.
+    pub bounds: [[f64; 3]; 2],
+}
+
+impl GridJson {
+    /// Describes a grid.
+    pub fn of(spec: &GridSpec) -> Self {
+        let (a, b) = spec.bounds();
+        Self { res: spec.res(), bounds: [a, b] }
+    }
+}
+
+/// Rays by kind in reports.
+#[derive(Debug, Serialize, Clone, Copy)]
+pub struct RaysJson {
+    /// Sampling rays.
+    pub sampling: u64,
+    /// Query rays (Algorithm 2).
+    pub query: u64,
+    /// Bounce rays.
+    pub bounce: u64,
+    /// Shadow rays.
+    pub shadow: u64,
+    /// All rays.
+    pub total: u64,
+}
+
+impl RaysJson {
+    /// Converts counts.
+    pub fn of(r: &lightvol_sampler::RayCounts) -> Self {
+        Self { sampling: r.sampling, query: r.query, bounce: r.bounce, shadow: r.shadow, total: r.total() }
+    }
+}
+
+/// A progress bar on stderr (hidden when quiet or not a terminal).
+pub fn progress_bar(quiet: bool, len: u64, what: &str) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(len);
+    pb.set_style(
+        ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")
+            .expect("valid template")
+            .progress_chars("=> "),
+    );
+    pb.set_message(what.to_owned());
+    pb
+}
+
+/// Bakes `loaded` on `grid` with `settings`, showing progress. Returns the output and the
+/// BVH build time.
+pub fn run_bake(
+    loaded: &LoadedScene,
+    tracer: &Tracer,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    transport_settings: TransportSettings,
+    quiet: bool,
+    label: &str,
+) -> anyhow::Result<BakeOutput> {
+    let transport = Transport::new(&loaded.scene, tracer, transport_settings);
+    let pb = progress_bar(quiet, 0, label);
+    let report = |p: Progress| {
+        pb.set_length(p.total as u64);
+        pb.set_position(p.done as u64);
+    };
+    let control = BakeControl { progress: Some(&report), cancel: None };
+    let out = lightvol_sampler::bake(&transport, grid, settings, &control).context("baking")?;
+    pb.finish_and_clear();
+    Ok(out)
+}
+
+/// A short stable hash of the scene geometry and bake settings (FNV-1a over the triangle
+/// vertices and the settings' text), for the file metadata.
+pub fn scene_hash(loaded: &LoadedScene, extra: &str) -> String {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |bytes: &[u8]| {
+        for &b in bytes {
+            h ^= u64::from(b);
+            h = h.wrapping_mul(0x0100_0000_01b3);
+        }
+    };
+    for t in &loaded.scene.triangles {
+        for v in t.v {
+            for c in v.to_array() {
+                eat(&c.to_le_bytes());
+            }
+        }
+    }
+    eat(extra.as_bytes());
+    format!("{h:016x}")
+}
+
+/// Finalizes an accumulator into a volume with metadata.
+pub fn finish_volume(
+    out: &BakeOutput,
+    meta: BakeMetadata,
+) -> (IrradianceVolume, lightvol_volume::FillReport) {
+    let (vol, fill) = out.accumulator.finalize();
+    (vol.with_metadata(meta), fill)
+}
+
+/// Runs `lightvol bake`.
+pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
+    let method = parse_method(&args.method)?;
+    let loaded = args.scene.load()?;
+    let grid = args.grid.grid(&loaded)?;
+    if args.sampling.samples == 0 {
+        anyhow::bail!("--samples must be at least 1");
+    }
+    let settings = BakeSettings {
+        method,
+        samples: args.sampling.samples,
+        coeffs: args.grid.coeffs(),
+        seed: args.sampling.seed,
+        ..BakeSettings::default()
+    };
+    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let (out, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
+        let t0 = Instant::now();
+        let tracer = Tracer::new(&loaded.scene);
+        let bvh_seconds = t0.elapsed().as_secs_f64();
+        Ok((run_bake(&loaded, &tracer, &grid, &settings, ts, args.quiet, &args.method)?, bvh_seconds))
+    })??;
+    let meta = BakeMetadata {
+        method: args.method.clone(),
+        samples: out.stats.rays.sampling,
+        seed: args.sampling.seed,
+        shard_index: 0,
+        shard_count: 1,
+        scene_hash: scene_hash(&loaded, &format!("{:?} {:?}", grid.bounds(), grid.res())),
+        units: "relative".into(),
+    };
+    let (vol, fill) = finish_volume(&out, meta);
+    write_exr(&args.output, &vol, &ExrOptions::default())
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    let s = &out.stats;
+    let report = BakeReport {
+        scene: loaded.label.clone(),
+        method: args.method.clone(),
+        grid: GridJson::of(&grid),
+        samples: args.sampling.samples,
+        seed: args.sampling.seed,
+        rays: RaysJson::of(&s.rays),
+        cells_with_back_faces: s.cells_with_back_faces,
+        candidates: s.candidates,
+        samples_kept: s.samples_kept,
+        samples_rejected: s.samples_rejected,
+        zero_weight_nodes: vol.weights().iter().filter(|&&w| w == 0.0).count(),
+        filled_nodes: fill.filled,
+        seconds: s.wall_time.as_secs_f64(),
+        bvh_seconds,
+        mrays_per_second: s.mrays_per_second(),
+        output: args.output.display().to_string(),
+    };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        eprintln!(
+            "baked {} ({}) on {}x{}x{} nodes: {} rays ({} sampling, {} query, {} bounce, {} shadow) in {:.2} s = {:.2} Mrays/s",
+            report.scene,
+            report.method,
+            report.grid.res[0],
+            report.grid.res[1],
+            report.grid.res[2],
+            report.rays.total,
+            report.rays.sampling,
+            report.rays.query,
+            report.rays.bounce,
+            report.rays.shadow,
+            report.seconds,
+            report.mrays_per_second
+        );
+        eprintln!(
+            "cells with back faces {}, samples kept {} / rejected {}, zero-weight nodes {} (filled {})",
+            report.cells_with_back_faces,
+            report.samples_kept,
+            report.samples_rejected,
+            report.zero_weight_nodes,
+            report.filled_nodes
+        );
+        eprintln!("wrote {}", args.output.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,325 @@
+//! Scene, light, grid and bake options shared by `bake`, `compare`, `render`, `lint` and
+//! `bench`, and their validation (every problem is one clear error before any heavy work).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use clap::Args;
+use lightvol_sampler::builtin::{BUILTIN_NAMES, builtin};
+use lightvol_sampler::envmap::EnvMap;
+use lightvol_sampler::{DVec3, Environment, LoadOptions, Method, Scene, Sun, UpAxis, load_scene};
+use lightvol_volume::GridSpec;
+
+/// Where the scene comes from and how to light it.
+#[derive(Debug, Clone, Args)]
+pub struct SceneArgs {
+    /// A glTF (.gltf/.glb) or OBJ file, or `builtin:NAME` (city, interior, maze).
+    pub scene: String,
+    /// Up axis of the file: glTF is +Y up by specification; many scenes are +Z up. lightvol
+    /// works +Z up internally.
+    #[arg(long, value_parser = ["y", "z"], default_value = "y")]
+    pub up: String,
+    /// Uniform scale applied to file positions (e.g. 0.001 for millimetres).
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: f64,
+    /// Sky radiance R,G,B over the upper hemisphere (replaces the scene's environment).
+    #[arg(long, value_name = "R,G,B")]
+    pub sky: Option<String>,
+    /// Ground radiance R,G,B below the horizon (with --sky).
+    #[arg(long, value_name = "R,G,B")]
+    pub ground: Option<String>,
+    /// A sun: direction towards it, irradiance on a facing surface, optional angular
+    /// radius in degrees (0 = directional light).
+    #[arg(long, value_name = "DX,DY,DZ:INTENSITY[:ANGLE_DEG]")]
+    pub sun: Option<String>,
+    /// A latitude-longitude EXR environment map (replaces the scene's environment).
+    #[arg(long, value_name = "FILE.exr")]
+    pub env: Option<PathBuf>,
+}
+
+/// The grid: bounds and resolution (or spacing), and the SH order.
+#[derive(Debug, Clone, Args)]
+pub struct GridArgs {
+    /// Grid bounds `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` (default: the built-in scene's recommended
+    /// grid, or the scene bounds grown by 5%).
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1")]
+    pub bounds: Option<String>,
+    /// Nodes per axis `NX,NY,NZ` (each at least 2).
+    #[arg(long, value_name = "NX,NY,NZ", conflicts_with = "spacing")]
+    pub res: Option<String>,
+    /// Node spacing (sets the resolution from the bounds).
+    #[arg(long)]
+    pub spacing: Option<f64>,
+    /// SH order: 2, 3 or 4 bands (4, 9 or 16 coefficients per channel).
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(2..=4))]
+    pub order: u32,
+    /// Refuse grids whose bake would need more memory than this many MiB (default: half of
+    /// the available memory).
+    #[arg(long)]
+    pub max_memory_mib: Option<u64>,
+}
+
+/// Sampling options.
+#[derive(Debug, Clone, Args)]
+pub struct SampleArgs {
+    /// Samples per cell (prefilter, doi) or directions per node (point).
+    #[arg(long, default_value_t = 256)]
+    pub samples: u32,
+    /// Diffuse bounces before Russian roulette.
+    #[arg(long, default_value_t = 2)]
+    pub bounces: u32,
+    /// Seed of every random stream (results are bit-identical for a seed).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// A loaded scene with its recommended grid (built-ins) and plate heights.
+pub struct LoadedScene {
+    /// The scene with lights applied.
+    pub scene: Scene,
+    /// Recommended grid (built-in scenes).
+    pub grid: Option<GridSpec>,
+    /// Recommended plate heights (built-in scenes).
+    pub plate_heights: Vec<f64>,
+    /// Label for reports.
+    pub label: String,
+    /// Up axis of the source: "y" or "z".
+    pub up: &'static str,
+}
+
+fn parse_floats<const N: usize>(what: &str, s: &str) -> anyhow::Result<[f64; N]> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|t| t.trim().parse::<f64>().with_context(|| format!("{what}: '{t}' is not a number")))
+        .collect::<anyhow::Result<_>>()?;
+    let arr: [f64; N] = v
+        .try_into()
+        .map_err(|v: Vec<f64>| anyhow::anyhow!("{what}: expected {N} numbers, got {}", v.len()))?;
+    if let Some(x) = arr.iter().find(|x| !x.is_finite()) {
+        bail!("{what}: {x} is not finite");
+    }
+    Ok(arr)
+}
+
+fn parse_rgb(what: &str, s: &str) -> anyhow::Result<[f64; 3]> {
+    let c = parse_floats::<3>(what, s)?;
+    if c.iter().any(|&v| v < 0.0) {
+        bail!("{what}: radiance must not be negative");
+    }
+    Ok(c)
+}
+
+/// Parses `DX,DY,DZ:INTENSITY[:ANGLE_DEG]`.
+pub fn parse_sun(s: &str) -> anyhow::Result<Sun> {
+    let parts: Vec<&str> = s.split(':').collect();
+    if !(2..=3).contains(&parts.len()) {
+        bail!("--sun: expected DX,DY,DZ:INTENSITY[:ANGLE_DEG], got '{s}'");
+    }
+    let d = parse_floats::<3>("--sun direction", parts[0])?;
+    let dir = DVec3::from(d);
+    if dir.length() < 1e-12 {
+        bail!("--sun: direction must not be zero");
+    }
+    let intensity: f64 = parts[1]
+        .trim()
+        .parse()
+        .with_context(|| format!("--sun: intensity '{}' is not a number", parts[1]))?;
+    if !intensity.is_finite() || intensity < 0.0 {
+        bail!("--sun: intensity must be finite and non-negative, got {intensity}");
+    }
+    let angle = match parts.get(2) {
+        Some(a) => a.trim().parse::<f64>().with_context(|| format!("--sun: angle '{a}' is not a number"))?,
+        None => 0.27,
+    };
+    if !angle.is_finite() || !(0.0..90.0).contains(&angle) {
+        bail!("--sun: angular radius must be in [0, 90) degrees, got {angle}");
+    }
+    Ok(Sun { direction: dir.normalize(), irradiance: [intensity; 3], angular_radius: angle.to_radians() })
+}
+
+impl SceneArgs {
+    /// Loads (or builds) the scene and applies the light options.
+    pub fn load(&self) -> anyhow::Result<LoadedScene> {
+        let up = if self.up == "z" { UpAxis::Z } else { UpAxis::Y };
+        let mut loaded = if let Some(name) = self.scene.strip_prefix("builtin:") {
+            let b = builtin(name).with_context(|| {
+                format!("unknown built-in scene '{name}' (choose from {})", BUILTIN_NAMES.join(", "))
+            })?;
+            LoadedScene {
+                scene: b.scene,
+                grid: Some(b.grid),
+                plate_heights: b.plate_heights,
+                label: format!("builtin:{name}"),
+                up: "z",
+            }
+        } else {
+            if !(self.scale.is_finite() && self.scale > 0.0) {
+                bail!("--scale must be a positive finite number");
+            }
+            let path = Path::new(&self.scene);
+            let opts = LoadOptions { up, scale: self.scale, ..LoadOptions::default() };
+            let scene = load_scene(path, &opts).with_context(|| format!("loading {}", path.display()))?;
+            for w in &scene.report.warnings {
+                eprintln!("warning: {w}");
+            }
+            LoadedScene {
+                scene,
+                grid: None,
+                plate_heights: Vec::new(),
+                label: self.scene.clone(),
+                up: if self.up == "z" { "z" } else { "y" },
+            }
+        };
+        let s = &mut loaded.scene;
+        if let Some(sky) = &self.sky {
+            let ground = self.ground.as_deref().map(|g| parse_rgb("--ground", g)).transpose()?;
+            s.environment = Environment::UniformSky { sky: parse_rgb("--sky", sky)?, ground };
+        } else if self.ground.is_some() {
+            bail!("--ground needs --sky");
+        }
+        if let Some(env) = &self.env {
+            let map =
+                EnvMap::from_exr(env).with_context(|| format!("loading environment {}", env.display()))?;
+            s.environment = Environment::Map(map);
+        }
+        if let Some(sun) = &self.sun {
+            s.sun = Some(parse_sun(sun)?);
+        }
+        let has_emitter = s.materials.iter().any(|m| m.is_emissive());
+        if matches!(s.environment, Environment::Black)
+            && s.sun.is_none()
+            && s.punctual.is_empty()
+            && !has_emitter
+        {
+            eprintln!("note: the scene has no lights; using a uniform white sky (radiance 1)");
+            s.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
+        }
+        Ok(loaded)
+    }
+}
+
+/// Bytes a bake of this grid needs: the f64 accumulator (numerators, denominators,
+/// outside sums) plus the finalized f32 volume and weights.
+#[must_use]
+pub fn bake_memory_bytes(res: [u64; 3], coeffs: usize) -> u128 {
+    let nodes = u128::from(res[0]) * u128::from(res[1]) * u128::from(res[2]);
+    let k = coeffs as u128 * 3;
+    nodes * ((k + 2) * 8 + (k + 1) * 4)
+}
+
+fn available_memory_bytes() -> u128 {
+    std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|m| {
+            m.lines()
+                .find(|l| l.starts_with("MemAvailable:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|v| v.parse::<u128>().ok())
+        })
+        .map_or(8 << 30, |kib| kib * 1024)
+}
+
+impl GridArgs {
+    /// SH coefficients per channel.
+    #[must_use]
+    pub fn coeffs(&self) -> usize {
+        (self.order * self.order) as usize
+    }
+
+    /// The grid from the options, the built-in recommendation, or the scene bounds; refuses
+    /// invalid or oversized grids before anything is allocated.
+    pub fn grid(&self, scene: &LoadedScene) -> anyhow::Result<GridSpec> {
+        let (min, max) = match &self.bounds {
+            Some(b) => {
+                let v = parse_floats::<6>("--bounds", b)?;
+                let (min, max) = ([v[0], v[1], v[2]], [v[3], v[4], v[5]]);
+                if (0..3).any(|i| min[i] >= max[i]) {
+                    bail!("--bounds: min {min:?} must be below max {max:?} on every axis");
+                }
+                (min, max)
+            }
+            None => match &scene.grid {
+                Some(g) => g.bounds(),
+                None => {
+                    let (lo, hi) = scene.scene.bounds();
+                    let pad = (hi - lo) * 0.05 + DVec3::splat(1e-3);
+                    ((lo - pad).to_array(), (hi + pad).to_array())
+                }
+            },
+        };
+        let res: [u64; 3] = if let Some(r) = &self.res {
+            let v = parse_floats::<3>("--res", r)?;
+            if v.iter().any(|&x| x < 2.0 || x.fract() != 0.0 || x > f64::from(u32::MAX)) {
+                bail!("--res: each axis needs a whole number of at least 2 nodes, got {r}");
+            }
+            v.map(|x| x as u64)
+        } else if let Some(s) = self.spacing {
+            if !(s.is_finite() && s > 0.0) {
+                bail!("--spacing must be a positive finite number");
+            }
+            core::array::from_fn(|i| (((max[i] - min[i]) / s).ceil() as u64 + 1).max(2))
+        } else if let (Some(g), None) = (&scene.grid, &self.bounds) {
+            g.res().map(u64::from)
+        } else {
+            // Default: about 16 cells along the longest axis.
+            let longest = (0..3).map(|i| max[i] - min[i]).fold(0.0, f64::max);
+            core::array::from_fn(|i| (((max[i] - min[i]) / longest * 16.0).ceil() as u64 + 1).max(2))
+        };
+        let coeffs = self.coeffs();
+        let need = bake_memory_bytes(res, coeffs);
+        let limit = self.max_memory_mib.map_or_else(|| available_memory_bytes() / 2, |m| u128::from(m) << 20);
+        if need > limit {
+            bail!(
+                "grid {}x{}x{} with {coeffs} coefficients needs about {:.1} GiB, more than the {:.1} GiB allowed (lower --res or raise --max-memory-mib)",
+                res[0],
+                res[1],
+                res[2],
+                need as f64 / f64::from(1u32 << 30),
+                limit as f64 / f64::from(1u32 << 30)
+            );
+        }
+        let res32 = res.map(|r| u32::try_from(r).expect("bounded by the memory check"));
+        let mut spec = GridSpec::new(min, max, res32).context("invalid grid")?;
+        if self.bounds.is_none()
+            && self.res.is_none()
+            && self.spacing.is_none()
+            && let Some(g) = &scene.grid
+            && let Some(p) = g.placement()
+        {
+            spec = spec.with_placement(p.clone());
+        }
+        Ok(spec)
+    }
+}
+
+/// Parses `K/N`.
+pub fn parse_shard(s: &str) -> anyhow::Result<(u32, u32)> {
+    let (k, n) = s.split_once('/').with_context(|| format!("--shard: expected K/N, got '{s}'"))?;
+    let k: u32 = k.trim().parse().with_context(|| format!("--shard: '{k}' is not a whole number"))?;
+    let n: u32 = n.trim().parse().with_context(|| format!("--shard: '{n}' is not a whole number"))?;
+    if n == 0 || k >= n {
+        bail!("--shard: need 0 <= K < N, got {k}/{n}");
+    }
+    Ok((k, n))
+}
+
+/// Parses a method name.
+pub fn parse_method(s: &str) -> anyhow::Result<Method> {
+    s.parse::<Method>().map_err(|e| anyhow::anyhow!(e))
+}
+
+/// Runs `f` on a rayon pool of `threads` threads (or the global pool).
+pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
+    match threads {
+        None => Ok(f()),
+        Some(0) => bail!("--threads must be at least 1"),
+        Some(n) => {
+            let pool =
+                rayon::ThreadPoolBuilder::new().num_threads(n).build().context("creating the thread pool")?;
+            Ok(pool.install(f))
+        }
+    }
+}
