@@ -211,9 +211,25 @@ fn batch_kernel<const N: usize, const K: usize>(
                 frac[a][l] = fr;
             }
         }
-        // Stage 2 and 3 per lane: gather-interpolate (vectorised over coefficients), shade.
+        let mut base = [0usize; LANES];
         for l in 0..m {
-            let base = cell[0][l] as usize + nx * cell[1][l] as usize + nxy * cell[2][l] as usize;
+            base[l] = cell[0][l] as usize + nx * cell[1][l] as usize + nxy * cell[2][l] as usize;
+        }
+        // Stage 2, memory-level parallelism: touch both ends of the 4 corner-pair rows
+        // (2·K contiguous floats each) of every lane before any arithmetic, so the cache
+        // misses of all lanes overlap instead of being taken one lookup at a time. The sum
+        // only keeps the loads alive; it does not enter the results.
+        let mut touch = 0.0f32;
+        for l in 0..m {
+            for r in [0, 2, 4, 6] {
+                let s = (base[l] + lp.offsets[r]) * K;
+                touch += data[s] + data[s + 2 * K - 1];
+            }
+        }
+        std::hint::black_box(touch);
+        // Stage 3 per lane: gather-interpolate (vectorised over coefficients), shade.
+        for l in 0..m {
+            let base = base[l];
             let w = weights8(frac[0][l], frac[1][l], frac[2][l]);
             let acc = interpolate::<K>(data, base, &lp.offsets, &w);
             ob[l] = shade::<N, K>(&acc, f, db[l]);
