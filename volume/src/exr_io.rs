@@ -131,7 +131,7 @@ pub fn exr_to_bytes(vol: &IrradianceVolume, options: &ExrOptions) -> Result<Vec<
         attrs.other.insert(text("lightvol.sh_index")?, AttributeValue::I32(j as i32));
         attrs.other.insert(text("lightvol.sh_l")?, AttributeValue::I32(l as i32));
         attrs.other.insert(text("lightvol.sh_m")?, AttributeValue::I32(m));
-        layers.push(Layer::new(size, attrs, encoding.clone(), channels));
+        layers.push(Layer::new(size, attrs, encoding, channels));
     }
     let weights = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new(
         "Y",
@@ -211,12 +211,12 @@ impl Attrs<'_> {
     fn get(&self, key: &str) -> Result<&AttributeValue, VolumeError> {
         self.0
             .iter()
-            .find(|(k, _)| k.to_string() == key)
+            .find(|(k, _)| k.as_slice() == key.as_bytes())
             .map(|(_, v)| v)
             .ok_or_else(|| VolumeError::malformed(F, format!("missing attribute {key}")))
     }
     fn opt(&self, key: &str) -> Option<&AttributeValue> {
-        self.0.iter().find(|(k, _)| k.to_string() == key).map(|(_, v)| v)
+        self.0.iter().find(|(k, _)| k.as_slice() == key.as_bytes()).map(|(_, v)| v)
     }
     fn text(&self, key: &str) -> Result<String, VolumeError> {
         match self.get(key)? {

@@ -66,7 +66,8 @@ impl Placement {
         let det = a(0, 0) * cof[0][0] + a(0, 1) * cof[0][1] + a(0, 2) * cof[0][2];
         let row_norm = |r: usize| (a(r, 0).powi(2) + a(r, 1).powi(2) + a(r, 2).powi(2)).sqrt();
         let scale = row_norm(0) * row_norm(1) * row_norm(2);
-        if !(det.abs() > Self::MIN_RELATIVE_DET * scale) {
+        // `<=` alone would let a NaN determinant through.
+        if det.is_nan() || det.abs() <= Self::MIN_RELATIVE_DET * scale {
             return Err(VolumeError::InvalidGrid(format!("placement matrix is singular (det = {det:e})")));
         }
         // inverse(A) = adj(A) / det, adj = transpose of the cofactor matrix.
@@ -139,7 +140,7 @@ impl GridSpec {
             if !min[a].is_finite() || !max[a].is_finite() {
                 return Err(VolumeError::InvalidGrid(format!("axis {a}: bounds must be finite")));
             }
-            if !(max[a] > min[a]) {
+            if max[a] <= min[a] {
                 return Err(VolumeError::InvalidGrid(format!(
                     "axis {a}: max ({}) must exceed min ({})",
                     max[a], min[a]
@@ -153,7 +154,7 @@ impl GridSpec {
             }
             // Node positions must be distinct in f64.
             let step = (max[a] - min[a]) / f64::from(res[a] - 1);
-            if !(step > 0.0) || min[a] + step == min[a] || max[a] - step == max[a] {
+            if step <= 0.0 || min[a] + step == min[a] || max[a] - step == max[a] {
                 return Err(VolumeError::InvalidGrid(format!("axis {a}: cell size underflows")));
             }
         }

@@ -96,13 +96,13 @@ pub(crate) fn ktx2_rgba16f_bytes(dims: [u32; 3], texels: &[u8], kvd: &[(&str, &s
     out
 }
 
+/// `(dims, key/value pairs, level data)` of a parsed KTX2 file.
+pub(crate) type ParsedKtx2 = ([u32; 3], Vec<(String, Vec<u8>)>, Vec<u8>);
+
 /// Parses an RGBA16F 3D KTX2 file: checks the header (format, type size, one face, no
 /// layers, one level, no supercompression), the level length against the dimensions, and
 /// returns `(dims, key/value pairs, level data)`.
-pub(crate) fn parse_ktx2_rgba16f(
-    bytes: &[u8],
-    format_tag: FileFormat,
-) -> Result<([u32; 3], Vec<(String, Vec<u8>)>, Vec<u8>), VolumeError> {
+pub(crate) fn parse_ktx2_rgba16f(bytes: &[u8], format_tag: FileFormat) -> Result<ParsedKtx2, VolumeError> {
     let bad = |r: String| VolumeError::malformed(format_tag, r);
     let reader = ktx2::Reader::new(bytes).map_err(|e| bad(e.to_string()))?;
     let h = reader.header();

@@ -73,7 +73,7 @@ impl LookupParams {
 
     /// Grid-space point of a world-space point.
     #[inline(always)]
-    fn to_grid(&self, p: [f32; 3]) -> [f32; 3] {
+    fn grid_point(&self, p: [f32; 3]) -> [f32; 3] {
         match &self.to_grid {
             None => p,
             Some(m) => std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]),
@@ -92,7 +92,7 @@ impl LookupParams {
     /// Base node index and trilinear corner weights of a world-space point.
     #[inline(always)]
     fn locate(&self, nx: usize, nxy: usize, p: [f32; 3]) -> (usize, [f32; 8]) {
-        let g = self.to_grid(p);
+        let g = self.grid_point(p);
         let (i, fx) = self.axis(0, g[0]);
         let (j, fy) = self.axis(1, g[1]);
         let (k, fz) = self.axis(2, g[2]);
@@ -180,6 +180,9 @@ fn query<const N: usize, const K: usize>(
     shade::<N, K>(&acc, f, n)
 }
 
+/// Signature of a monomorphised batched kernel.
+type BatchKernel = fn(&IrradianceVolume, &[f32; 16], &[[f32; 3]], &[[f32; 3]], &mut [[f32; 3]]);
+
 /// The batched kernel over one contiguous run of queries (single thread).
 fn batch_kernel<const N: usize, const K: usize>(
     vol: &IrradianceVolume,
@@ -197,7 +200,7 @@ fn batch_kernel<const N: usize, const K: usize>(
         // Stage 1, structure of arrays: grid coordinates, cells and fractions per lane.
         let mut g = [[0.0f32; LANES]; 3];
         for l in 0..m {
-            let q = lp.to_grid(pb[l]);
+            let q = lp.grid_point(pb[l]);
             for a in 0..3 {
                 g[a][l] = q[a];
             }
@@ -328,7 +331,7 @@ impl IrradianceVolume {
             )));
         }
         let f = factors(self.coeffs(), irr);
-        let kernel: fn(&Self, &[f32; 16], &[[f32; 3]], &[[f32; 3]], &mut [[f32; 3]]) = match self.coeffs() {
+        let kernel: BatchKernel = match self.coeffs() {
             4 => batch_kernel::<4, 12>,
             9 => batch_kernel::<9, 27>,
             _ => batch_kernel::<16, 48>,

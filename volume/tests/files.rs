@@ -66,11 +66,7 @@ fn exr_is_readable_by_the_exr_crate_as_layers() {
         .from_buffered(std::io::Cursor::new(&bytes))
         .unwrap();
     assert_eq!(image.layer_data.len(), 5);
-    let l2 = image
-        .layer_data
-        .iter()
-        .find(|l| l.attributes.layer_name.as_ref().unwrap().to_string() == "sh02")
-        .unwrap();
+    let l2 = image.layer_data.iter().find(|l| l.attributes.layer_name.as_ref().unwrap().eq("sh02")).unwrap();
     assert_eq!(l2.size, exr::math::Vec2(3, 4));
     let g = l2.channel_data.list.iter().find(|c| c.name.to_string() == "G").unwrap();
     // Pixel (x, y + ny z) = node (x, y, z): node (2, 1, 1) = flat 2 + 3 (1 + 2) = 11.
