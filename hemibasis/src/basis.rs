@@ -1,0 +1,195 @@
+//! The [`HemiBasis`] trait shared by every basis.
+//!
+//! A basis is a finite set of real functions `B_i` on the upper hemisphere `z >= 0` of
+//! tangent space (`z` = surface normal). Everything else in the crate (projection, SH
+//! conversion, encoding, shader generation, the IMSE comparison) is written once against
+//! this trait.
+
+use crate::convert;
+use crate::project::{self, Matrix};
+use crate::quad::HemiRule;
+use crate::shader::Program;
+
+/// A set of basis functions on the upper hemisphere.
+///
+/// The trait is object safe: the comparison code keeps `Box<dyn HemiBasis>`.
+///
+/// Coefficient vectors are plain slices of length [`len`](Self::len); RGB coefficients are
+/// coefficient-major `[[r, g, b]; len]` (one `vec3` per basis function, as shaders want).
+pub trait HemiBasis: Send + Sync {
+    /// Stable machine name used in JSON output: `"sh"`, `"hl2"`, `"hsh"`, `"makhotkin"`,
+    /// `"zernike"`, `"hbasis"` or `"hbasis_mod"`.
+    fn name(&self) -> &'static str;
+
+    /// Human-readable name, e.g. `"Hemispherical Harmonics"`.
+    fn label(&self) -> &'static str;
+
+    /// Number of coefficients `K`.
+    fn len(&self) -> usize;
+
+    /// Always false: a basis has at least one function. (Present for `clippy::len_without_is_empty`.)
+    fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// Shader identifier, name plus count: `hsh9`, `hbasis_mod6`.
+    fn tag(&self) -> String {
+        format!("{}{}", self.name(), self.len())
+    }
+
+    /// True when the functions are orthonormal on the upper hemisphere (projection is then a
+    /// plain inner product; otherwise it goes through the inverse Gram matrix).
+    fn orthonormal(&self) -> bool;
+
+    /// Highest polynomial order (band `l`, or radial order `n`) of the functions; sizes the
+    /// quadrature rules.
+    fn order(&self) -> usize;
+
+    /// Index of the coefficient that is a lightmap (non-negative for non-negative signals) and
+    /// is stored in sRGB by [`crate::encode`]; `None` when there is none (Half-Life 2).
+    fn dc_index(&self) -> Option<usize> {
+        Some(0)
+    }
+
+    /// Evaluates all `K` functions at the unit tangent-space direction `dir` (`dir[2] >= 0`).
+    ///
+    /// # Panics
+    /// If `out.len() < K`.
+    fn eval_f64(&self, dir: [f64; 3], out: &mut [f64]);
+
+    /// [`eval_f64`](Self::eval_f64) in single precision.
+    fn eval_f32(&self, dir: [f32; 3], out: &mut [f32]);
+
+    /// The functions as straight-line shader code (see [`crate::shader`]).
+    fn program(&self) -> Program;
+
+    /// `Σ c_i B_i(dir)`.
+    fn reconstruct_f64(&self, coeffs: &[f64], dir: [f64; 3]) -> f64 {
+        let mut b = vec![0.0; self.len()];
+        self.eval_f64(dir, &mut b);
+        b.iter().zip(coeffs).map(|(b, c)| b * c).sum()
+    }
+
+    /// `Σ c_i B_i(dir)` in single precision.
+    fn reconstruct_f32(&self, coeffs: &[f32], dir: [f32; 3]) -> f32 {
+        let mut b = vec![0.0; self.len()];
+        self.eval_f32(dir, &mut b);
+        b.iter().zip(coeffs).map(|(b, c)| b * c).sum()
+    }
+
+    /// `Σ c_i B_i(dir)` per colour channel.
+    fn reconstruct_rgb_f64(&self, coeffs: &[[f64; 3]], dir: [f64; 3]) -> [f64; 3] {
+        let mut b = vec![0.0; self.len()];
+        self.eval_f64(dir, &mut b);
+        let mut out = [0.0; 3];
+        for (b, c) in b.iter().zip(coeffs) {
+            for ch in 0..3 {
+                out[ch] += b * c[ch];
+            }
+        }
+        out
+    }
+
+    /// `Σ c_i B_i(dir)` per colour channel, in single precision.
+    fn reconstruct_rgb_f32(&self, coeffs: &[[f32; 3]], dir: [f32; 3]) -> [f32; 3] {
+        let mut b = vec![0.0; self.len()];
+        self.eval_f32(dir, &mut b);
+        let mut out = [0.0; 3];
+        for (b, c) in b.iter().zip(coeffs) {
+            for ch in 0..3 {
+                out[ch] += b * c[ch];
+            }
+        }
+        out
+    }
+
+    /// The Gram matrix `G_ij = ∫_H B_i B_j dω`, by a quadrature exact for the basis (see
+    /// [`HemiRule::for_orders`]).
+    fn gram(&self) -> Matrix {
+        project::gram(self.as_dyn(), &HemiRule::for_orders(self.order(), 0))
+    }
+
+    /// Least-squares projection of an arbitrary function `f` on the upper hemisphere:
+    /// `c = G⁻¹ b`, `b_i = ∫_H f B_i dω`, by [`HemiRule::for_functions`] (a fine product rule;
+    /// use [`project::Projector`] to choose the rule or to project many functions).
+    fn project(&self, f: &dyn Fn([f64; 3]) -> f64) -> Vec<f64> {
+        project::Projector::new(self.as_dyn(), HemiRule::for_functions()).project(f)
+    }
+
+    /// [`project`](Self::project) per colour channel.
+    fn project_rgb(&self, f: &dyn Fn([f64; 3]) -> [f64; 3]) -> Vec<[f64; 3]> {
+        project::Projector::new(self.as_dyn(), HemiRule::for_functions()).project_rgb(f)
+    }
+
+    /// The `K × bands²` matrix that maps SH irradiance coefficients (lightvol-sh order and
+    /// normalisation) to this basis: the least-squares fit over the upper hemisphere,
+    /// `M = G⁻¹ C`, `C_ij = ∫_H B_i y_j dω`, derived by quadrature (never typed in).
+    fn sh_irradiance_matrix(&self, bands: usize) -> Matrix {
+        convert::sh_to_basis_matrix(self.as_dyn(), bands)
+    }
+
+    /// Converts SH irradiance coefficients (length must be a square) to this basis.
+    ///
+    /// # Panics
+    /// If `sh.len()` is not a square number.
+    fn convert_sh_irradiance(&self, sh: &[f64]) -> Vec<f64> {
+        let bands = sh.len().isqrt();
+        assert_eq!(bands * bands, sh.len(), "SH coefficient count must be a square");
+        self.sh_irradiance_matrix(bands).mul_vec(sh)
+    }
+
+    /// Converts RGB SH irradiance coefficients (coefficient-major) to this basis.
+    ///
+    /// # Panics
+    /// If `sh.len()` is not a square number.
+    fn convert_sh_irradiance_rgb(&self, sh: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        let bands = sh.len().isqrt();
+        assert_eq!(bands * bands, sh.len(), "SH coefficient count must be a square");
+        self.sh_irradiance_matrix(bands).mul_rgb(sh)
+    }
+
+    /// Upcast helper for the provided methods.
+    fn as_dyn(&self) -> &dyn HemiBasis;
+}
+
+/// Implements the precision-specific trait methods from an inherent generic
+/// `fn eval<T: Real>(&self, dir: [T; 3], out: &mut [T])`.
+macro_rules! forward_eval {
+    () => {
+        fn eval_f64(&self, dir: [f64; 3], out: &mut [f64]) {
+            self.eval(dir, out);
+        }
+        fn eval_f32(&self, dir: [f32; 3], out: &mut [f32]) {
+            self.eval(dir, out);
+        }
+        fn as_dyn(&self) -> &dyn $crate::basis::HemiBasis {
+            self
+        }
+    };
+}
+pub(crate) use forward_eval;
+
+/// The basis called `name` (as in [`HemiBasis::name`]) with `count` coefficients, if that
+/// basis is compiled in and has such a size: `sh` (squares), `hl2` (3), `hsh` and
+/// `makhotkin` (squares), `zernike` (triangular numbers), `hbasis`/`hbasis_mod` (4, 6).
+#[must_use]
+pub fn by_name(name: &str, count: usize) -> Option<Box<dyn HemiBasis>> {
+    let bands = count.isqrt();
+    let square = bands * bands == count && bands > 0;
+    match name {
+        "sh" if square && bands <= 16 => Some(Box::new(crate::ShBasis::new(bands))),
+        #[cfg(feature = "hl2")]
+        "hl2" if count == 3 => Some(Box::new(crate::Hl2)),
+        #[cfg(feature = "hsh")]
+        "hsh" if square && bands <= 12 => Some(Box::new(crate::Hsh::new(bands))),
+        #[cfg(feature = "makhotkin")]
+        "makhotkin" if square && bands <= 10 => Some(Box::new(crate::Makhotkin::new(bands))),
+        #[cfg(feature = "zernike")]
+        "zernike" => crate::Zernike::with_count(count).map(|z| Box::new(z) as Box<dyn HemiBasis>),
+        #[cfg(feature = "hbasis")]
+        "hbasis" => crate::HBasis::new(count).map(|b| Box::new(b) as Box<dyn HemiBasis>),
+        #[cfg(feature = "hbasis")]
+        "hbasis_mod" => crate::HBasis::modified(count).map(|b| Box::new(b) as Box<dyn HemiBasis>),
+        _ => None,
+    }
+}
