@@ -19,6 +19,9 @@ pub struct Cli {
 pub enum Command {
     /// Bake an irradiance volume from a glTF/OBJ scene or a built-in scene.
     Bake(crate::cmd_bake::BakeArgs),
+    /// Bake every method at equal sample budget and measure leakage on a plate against a
+    /// path-traced reference (Kontkanen & Laine 2006 Fig. 6).
+    Compare(crate::cmd_compare::CompareArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
     /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).

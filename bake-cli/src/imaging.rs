@@ -22,6 +22,19 @@ impl Rgb32 {
         Self { width, height, pixels: vec![[0.0; 3]; width * height] }
     }
 
+    /// Nearest-neighbour enlargement by an integer factor (for small plates).
+    #[must_use]
+    pub fn upscale(&self, k: usize) -> Self {
+        let k = k.max(1);
+        let mut out = Self::new(self.width * k, self.height * k);
+        for y in 0..out.height {
+            for x in 0..out.width {
+                out.pixels[y * out.width + x] = self.pixels[(y / k) * self.width + x / k];
+            }
+        }
+        out
+    }
+
     /// Sets a pixel (ignored outside the image).
     pub fn set(&mut self, x: usize, y: usize, c: [f32; 3]) {
         if x < self.width && y < self.height {
@@ -39,11 +52,17 @@ pub fn srgb8(v: f32) -> u8 {
 
 /// Writes an 8-bit RGB PNG atomically (temporary file, then rename).
 pub fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> anyhow::Result<()> {
-    let tmp = path.with_extension("png.partial");
-    image::save_buffer(&tmp, rgb, width as u32, height as u32, image::ExtendedColorType::Rgb8)
-        .with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;
-    Ok(())
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image::write_buffer_with_format(
+        &mut bytes,
+        rgb,
+        width as u32,
+        height as u32,
+        image::ExtendedColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
+    .with_context(|| format!("encoding {}", path.display()))?;
+    write_atomic(path, &bytes.into_inner())
 }
 
 /// Tone-maps a linear image by `exposure` (value mapped to 1.0 = 1/exposure) and writes it.
