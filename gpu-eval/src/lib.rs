@@ -1,2 +1,23 @@
-//! lightvol-gpu (work in progress).
-#![allow(unsafe_code, reason = "Vulkan through ash is unsafe FFI; every block carries a SAFETY comment")]
+#![doc = include_str!("../README.md")]
+#![allow(
+    unsafe_code,
+    reason = "Vulkan through ash is FFI: every unsafe block carries a SAFETY comment and every unsafe fn a Safety section"
+)]
+
+pub mod buffer;
+pub mod context;
+pub mod error;
+pub mod info;
+pub mod lookup;
+pub mod pipeline;
+pub mod shaders;
+pub mod synthetic;
+pub mod testing;
+
+pub use buffer::GpuBuffer;
+pub use context::{ContextOptions, GpuContext, VALIDATION_ENV};
+pub use error::GpuError;
+pub use info::{DEVICE_ENV, DeviceInfo, DeviceKind, gpu_info, select_device};
+pub use lookup::{LookupBatch, Quantity, VolumeLookup};
+pub use pipeline::{ComputePipeline, DispatchStats};
+pub use testing::{REQUIRE_GPU_ENV, gpu_or_skip};
