@@ -29,7 +29,7 @@ use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::bands_of;
 use lightvol_sh::lowdisc::{Halton, hash2};
 use lightvol_sh::sampling::sample_uniform_sphere;
-use lightvol_volume::{Accumulator, GridSpec};
+use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
 use crate::domain::{Retest, classify_cell};
@@ -129,6 +129,19 @@ pub struct BakeOutput {
     pub accumulator: Accumulator,
     /// Counters and timing.
     pub stats: BakeStats,
+}
+
+impl BakeOutput {
+    /// Finalizes the volume (Eq. 6 division and lightvol-volume's zero-weight fill) and
+    /// records the fill in the statistics.
+    #[must_use]
+    pub fn finish(mut self) -> (IrradianceVolume, BakeStats) {
+        let zero = self.accumulator.denominator().iter().filter(|&&d| !(d > 0.0)).count();
+        let (volume, report) = self.accumulator.finalize();
+        self.stats.zero_weight_nodes = zero as u64;
+        self.stats.fill_report = format!("{report:?}");
+        (volume, self.stats)
+    }
 }
 
 /// One sample's contribution: trilinear weights of its origin for the unit's 8 nodes, and
@@ -354,3 +367,7 @@ fn cell_unit(
     out.stats.samples_kept = candidates.len() as u64;
     out
 }
+
+#[cfg(test)]
+#[path = "bake_tests.rs"]
+mod tests;
