@@ -57,6 +57,35 @@ impl Accumulator {
         })
     }
 
+    /// Rebuilds an accumulator from its sums (e.g. read back from a shard file by
+    /// [`crate::accumulator_io`]); errors if the lengths do not fit the grid or a sum is not
+    /// finite.
+    pub fn from_parts(
+        spec: GridSpec,
+        coeffs: usize,
+        numerator: Vec<f64>,
+        denominator: Vec<f64>,
+        outside: Vec<f64>,
+        contributions: u64,
+    ) -> Result<Self, VolumeError> {
+        check_coeffs(coeffs)?;
+        let n = spec.node_count();
+        if numerator.len() != n * coeffs * 3 || denominator.len() != n || outside.len() != n {
+            return Err(VolumeError::Mismatch(format!(
+                "accumulator arrays of {}, {}, {} values for {n} nodes x {coeffs} coeffs",
+                numerator.len(),
+                denominator.len(),
+                outside.len()
+            )));
+        }
+        for (what, v) in [("numerator", &numerator), ("denominator", &denominator), ("outside", &outside)] {
+            if let Some(index) = v.iter().position(|x| !x.is_finite()) {
+                return Err(VolumeError::NonFinite { what, index });
+            }
+        }
+        Ok(Self { spec, coeffs, numerator, denominator, outside, contributions })
+    }
+
     /// The grid.
     #[must_use]
     pub fn spec(&self) -> &GridSpec {

@@ -18,6 +18,8 @@ pub enum FileFormat {
     Bevy,
     /// The JSON sidecar ([`crate::sidecar`]).
     Sidecar,
+    /// An accumulator shard file ([`crate::accumulator_io`]).
+    Shard,
 }
 
 impl std::fmt::Display for FileFormat {
@@ -28,6 +30,7 @@ impl std::fmt::Display for FileFormat {
             Self::Dds => "DDS",
             Self::Bevy => "Bevy KTX2",
             Self::Sidecar => "JSON sidecar",
+            Self::Shard => "accumulator shard",
         })
     }
 }

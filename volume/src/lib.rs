@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod accumulator;
+pub mod accumulator_io;
 pub mod bevy;
 pub mod checksum;
 pub mod dds_io;

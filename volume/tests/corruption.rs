@@ -5,7 +5,8 @@
 //! cases are the same on every run): up to 8 random byte overwrites, or a truncation. The
 //! reader must return `Err`, or (when the damage hit bytes the reader ignores, e.g.
 //! padding or an unused standard EXR attribute) exactly the original volume. Truncations
-//! must always be `Err`. 1,000 cases in total.
+//! must always be `Err`; every edit of an accumulator shard must be `Err`. 1,100 cases in
+//! total.
 
 mod common;
 
@@ -13,6 +14,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
 use lightvol_volume::IrradianceVolume;
+use lightvol_volume::accumulator_io::{accumulator_from_bytes, accumulator_to_bytes};
 use lightvol_volume::bevy::{BevyVolume, bevy_from_bytes, bevy_to_bytes};
 use lightvol_volume::dds_io::{dds_from_bytes, dds_sidecar, dds_to_bytes};
 use lightvol_volume::exr_io::{ExrCompression, ExrOptions, ExrSample, exr_from_bytes, exr_to_bytes};
@@ -108,6 +110,16 @@ proptest! {
             let s = Sidecar::from_json(&json).unwrap();
             prop_assert!(err_or_same(dds_from_bytes(&mutate(&bytes, &e), &s), &original));
         }
+    }
+
+    #[test]
+    fn accumulator_shard_mutations_are_always_errors(e in edits()) {
+        // The shard checksum covers every byte, so every edit must be rejected.
+        let vol = volume();
+        let mut acc = lightvol_volume::Accumulator::new(vol.spec().clone(), 4).unwrap();
+        acc.add_sample([0.0, 1.0, 3.0], [1.0, 2.0, 3.0], &[0.5, -0.25, 0.125, 1.0]);
+        let bytes = accumulator_to_bytes(&acc, vol.metadata()).unwrap();
+        prop_assert!(accumulator_from_bytes(&mutate(&bytes, &e)).is_err());
     }
 
     #[test]

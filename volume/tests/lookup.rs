@@ -162,6 +162,40 @@ fn scalar_f32_path_matches_algorithm_1_reference() {
 }
 
 #[test]
+fn non_finite_queries_clamp_instead_of_panicking() {
+    let vol = random_volume(9, grid(), 3);
+    let (lo, _) = vol.spec().bounds();
+    let lo32 = lo.map(|v| v as f32);
+    // NaN coordinates are treated as the box minimum on that axis, infinities clamp.
+    let at_min = vol.irradiance(lo32, [0.0, 0.0, 1.0]);
+    assert_eq!(vol.irradiance([f32::NAN, lo32[1], lo32[2]], [0.0, 0.0, 1.0]), at_min);
+    assert_eq!(vol.irradiance([f32::NEG_INFINITY, lo32[1], f32::NAN], [0.0, 0.0, 1.0]), at_min);
+    let e = vol.irradiance([f32::INFINITY; 3], [1.0, 0.0, 0.0]);
+    assert!(e.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn radiance_at_a_node_is_the_sh_expansion() {
+    let vol = random_volume(16, grid(), 8);
+    let spec = vol.spec().clone();
+    let node = spec.node_index(3, 2, 1);
+    let x = spec.node_position_world(3, 2, 1);
+    let sh: ShRgb<f64, 16> =
+        ShRgb(std::array::from_fn(|ch| Sh(std::array::from_fn(|c| f64::from(vol.coeff_rgb(node, c)[ch])))));
+    let mut rng = SplitMix64::new(2);
+    for _ in 0..50 {
+        let d = sample_uniform_sphere([rng.next_f64(), rng.next_f64()]);
+        let want = sh.eval(d);
+        let got = vol.radiance_reference(x, d);
+        let fast = vol.radiance(x.map(|v| v as f32), d.map(|v| v as f32));
+        for ch in 0..3 {
+            assert!((got[ch] - want[ch]).abs() <= 1e-13);
+            assert!((f64::from(fast[ch]) - want[ch]).abs() <= F32_VS_F64_REL * 16.0);
+        }
+    }
+}
+
+#[test]
 fn acceptance_2_irradiance_at_a_node_agrees_with_lightvol_sh() {
     let vol = random_volume(9, grid(), 21);
     let spec = vol.spec().clone();

@@ -1,0 +1,181 @@
+//! Shard files: an [`Accumulator`] saved exactly, so that bakes split over machines or
+//! resumed after an interruption can be merged later (Kontkanen & Laine Eq. 6 sums add).
+//!
+//! ## Format (little-endian)
+//! | bytes | content |
+//! | --- | --- |
+//! | 8 | magic `LVACC\0`, then the format version as u16 (1) |
+//! | 4 | length `h` of the JSON header |
+//! | h | JSON header: grid (as in the sidecar), coefficient count, contribution count, bake metadata |
+//! | 8·(n·3c + 2n) | f64 numerator `[node][coeff][rgb]`, denominator `[node]`, outside `[node]` |
+//! | 8 | FNV-1a 64 of every preceding byte |
+//!
+//! The reader verifies the checksum first (any damaged byte is an error), then the magic,
+//! version, header, and that the file size equals what the header's grid requires, before it
+//! allocates the arrays; non-finite sums are rejected. f64 values round-trip bit-exactly.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::accumulator::Accumulator;
+use crate::checksum::fnv1a;
+use crate::error::{FileFormat, VolumeError};
+use crate::grid::{GridSpec, Placement};
+use crate::io_util::{read_bounded, write_atomic};
+use crate::sidecar::GridJson;
+use crate::volume::{BakeMetadata, check_coeffs};
+
+/// First six bytes of a shard file.
+pub const ACC_MAGIC: &[u8; 6] = b"LVACC\0";
+/// Current shard-file version.
+pub const ACC_VERSION: u16 = 1;
+/// Largest JSON header accepted (1 MiB; real headers are well under 1 KiB).
+const MAX_HEADER: usize = 1 << 20;
+const F: FileFormat = FileFormat::Shard;
+
+#[derive(Debug, Serialize, Deserialize)]
+struct AccHeader {
+    grid: GridJson,
+    coeffs: usize,
+    contributions: u64,
+    bake: BakeMetadata,
+}
+
+/// Serialises an accumulator and its bake metadata in memory. Errors if a sum is not
+/// finite (a NaN radiance reached the bake: fix the source rather than persist it).
+pub fn accumulator_to_bytes(acc: &Accumulator, meta: &BakeMetadata) -> Result<Vec<u8>, VolumeError> {
+    let spec = acc.spec();
+    let (min, max) = spec.bounds();
+    let header = AccHeader {
+        grid: GridJson {
+            min,
+            max,
+            res: spec.res(),
+            to_world: spec.placement().map(Placement::to_world_matrix),
+        },
+        coeffs: acc.coeffs(),
+        contributions: acc.contributions(),
+        bake: meta.clone(),
+    };
+    let json = serde_json::to_vec(&header).expect("plain data");
+    let arrays = [acc.numerator(), acc.denominator(), acc.outside()];
+    for (what, v) in ["numerator", "denominator", "outside"].into_iter().zip(arrays) {
+        if let Some(index) = v.iter().position(|x| !x.is_finite()) {
+            return Err(VolumeError::NonFinite { what, index });
+        }
+    }
+    let values: usize = arrays.iter().map(|a| a.len()).sum();
+    let mut out = Vec::with_capacity(8 + 4 + json.len() + 8 * values + 8);
+    out.extend_from_slice(ACC_MAGIC);
+    out.extend_from_slice(&ACC_VERSION.to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(&json);
+    for v in arrays.into_iter().flatten() {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    let sum = fnv1a(&out);
+    out.extend_from_slice(&sum.to_le_bytes());
+    Ok(out)
+}
+
+/// Parses a shard file from memory (see the module docs for the checks).
+pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata), VolumeError> {
+    let bad = |r: String| VolumeError::malformed(F, r);
+    if bytes.len() < 8 + 4 + 8 {
+        return Err(bad(format!("{} bytes is too short", bytes.len())));
+    }
+    let (body, tail) = bytes.split_at(bytes.len() - 8);
+    let stored = u64::from_le_bytes(tail.try_into().expect("8 bytes"));
+    if fnv1a(body) != stored {
+        return Err(bad("checksum mismatch: the file is damaged or truncated".into()));
+    }
+    if &body[..6] != ACC_MAGIC {
+        return Err(bad("not a lightvol accumulator (bad magic)".into()));
+    }
+    let version = u16::from_le_bytes([body[6], body[7]]);
+    if version == 0 || version > ACC_VERSION {
+        return Err(VolumeError::unsupported(F, format!("version {version}")));
+    }
+    let h = u32::from_le_bytes(body[8..12].try_into().expect("4 bytes")) as usize;
+    if h > MAX_HEADER || 12 + h > body.len() {
+        return Err(bad(format!("header length {h} does not fit the file")));
+    }
+    let header: AccHeader = serde_json::from_slice(&body[12..12 + h]).map_err(|e| bad(e.to_string()))?;
+    check_coeffs(header.coeffs)?;
+    let mut spec = GridSpec::new(header.grid.min, header.grid.max, header.grid.res)?;
+    if let Some(m) = header.grid.to_world {
+        spec = spec.with_placement(Placement::new(m)?);
+    }
+    let n = spec.node_count();
+    let k = header.coeffs * 3;
+    let data = &body[12 + h..];
+    if data.len() as u64 != 8 * (n as u64 * k as u64 + 2 * n as u64) {
+        return Err(bad(format!("{} data bytes, the grid needs {}", data.len(), 8 * (n * k + 2 * n))));
+    }
+    let mut vals = data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")));
+    let numerator: Vec<f64> = vals.by_ref().take(n * k).collect();
+    let denominator: Vec<f64> = vals.by_ref().take(n).collect();
+    let outside: Vec<f64> = vals.collect();
+    let acc =
+        Accumulator::from_parts(spec, header.coeffs, numerator, denominator, outside, header.contributions)?;
+    if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
+        return Err(bad(format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
+    }
+    Ok((acc, header.bake))
+}
+
+/// Writes a shard file atomically.
+pub fn write_accumulator(path: &Path, acc: &Accumulator, meta: &BakeMetadata) -> Result<(), VolumeError> {
+    write_atomic(path, &accumulator_to_bytes(acc, meta)?)
+}
+
+/// Reads a shard file.
+pub fn read_accumulator(path: &Path) -> Result<(Accumulator, BakeMetadata), VolumeError> {
+    accumulator_from_bytes(&read_bounded(path)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn acc() -> Accumulator {
+        let spec = GridSpec::new([0.0; 3], [1.0, 2.0, 3.0], [3, 2, 2])
+            .unwrap()
+            .with_placement(Placement::translation([0.5, -1.0, 1e-300]).unwrap());
+        let mut a = Accumulator::new(spec, 4).unwrap();
+        a.add_sample([0.3, 1.1, 2.9], [1.0 / 3.0, 2.0, -7.0], &[0.1, 0.2, -0.3, 1e-17]);
+        a.add_outside(5, 0.125);
+        a
+    }
+
+    #[test]
+    fn round_trip_is_bit_exact() {
+        let a = acc();
+        let meta = BakeMetadata { shard_index: 1, shard_count: 3, ..BakeMetadata::default() };
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("s1.lvacc");
+        write_accumulator(&p, &a, &meta).unwrap();
+        let (b, m) = read_accumulator(&p).unwrap();
+        assert_eq!(b, a);
+        assert_eq!(m, meta);
+    }
+
+    #[test]
+    fn rejects_damage_and_nan() {
+        let a = acc();
+        let bytes = accumulator_to_bytes(&a, &BakeMetadata::default()).unwrap();
+        for i in [0, 7, 13, bytes.len() / 2, bytes.len() - 1] {
+            let mut d = bytes.clone();
+            d[i] ^= 0x20;
+            assert!(accumulator_from_bytes(&d).is_err(), "byte {i}");
+        }
+        assert!(accumulator_from_bytes(&bytes[..bytes.len() - 3]).is_err());
+        let mut nan = a.clone();
+        nan.add(0, 1.0, [f64::NAN, 0.0, 0.0], &[1.0, 0.0, 0.0, 0.0]);
+        assert!(matches!(
+            accumulator_to_bytes(&nan, &BakeMetadata::default()),
+            Err(VolumeError::NonFinite { what: "numerator", .. })
+        ));
+    }
+}
