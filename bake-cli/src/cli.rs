@@ -22,6 +22,9 @@ pub enum Command {
     /// Bake every method at equal sample budget and measure leakage on a plate against a
     /// path-traced reference (Kontkanen & Laine 2006 Fig. 6).
     Compare(crate::cmd_compare::CompareArgs),
+    /// The main job: compare the methods on the built-in city, interior and maze scenes,
+    /// sweep the grid resolution, and write an index.html with every panel and metric.
+    Demo(crate::cmd_demo::DemoArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
     /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).

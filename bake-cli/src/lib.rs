@@ -3,6 +3,7 @@
 pub mod cli;
 pub mod cmd_bake;
 pub mod cmd_compare;
+pub mod cmd_demo;
 mod cmd_export;
 mod cmd_info;
 pub mod imaging;
@@ -52,6 +53,7 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
     match args.command {
         cli::Command::Bake(a) => cmd_bake::run(&a),
         cli::Command::Compare(a) => cmd_compare::run(&a),
+        cli::Command::Demo(a) => cmd_demo::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
         cli::Command::Export(a) => cmd_export::run(&a),
     }

@@ -1,0 +1,179 @@
+//! `lightvol demo`: the main job on the built-in scenes. Runs `compare` on `city`,
+//! `interior` and `maze` at their recommended settings, sweeps the grid resolution on
+//! `city`, and writes an `index.html` that shows every panel, the metrics and the plot.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::Args;
+use lightvol_sampler::Tracer;
+use lightvol_sampler::builtin::BUILTIN_NAMES;
+use lightvol_volume::GridSpec;
+
+use crate::cmd_compare::{CompareArgs, CompareReport, compare, plate, run_method};
+use crate::imaging::{Plot, write_atomic};
+use crate::setup::{GridArgs, SampleArgs, SceneArgs, parse_method};
+
+/// `lightvol demo`.
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// Output directory.
+    #[arg(short, long, default_value = "lightvol-demo")]
+    pub output: PathBuf,
+    /// Reduced settings that finish in under two minutes on a 2-core machine.
+    #[arg(long)]
+    pub quick: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// No progress bars.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// Settings of one demo level.
+struct Level {
+    samples: u32,
+    plate_res: u32,
+    reference_samples: u32,
+    sweep: &'static [u32],
+}
+
+const QUICK: Level = Level { samples: 64, plate_res: 64, reference_samples: 192, sweep: &[8, 12, 16, 24] };
+const FULL: Level =
+    Level { samples: 256, plate_res: 160, reference_samples: 1024, sweep: &[8, 12, 16, 24, 32] };
+
+fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> CompareArgs {
+    CompareArgs {
+        scene: SceneArgs {
+            scene: format!("builtin:{scene}"),
+            up: "z".into(),
+            scale: 1.0,
+            sky: None,
+            ground: None,
+            sun: None,
+            env: None,
+        },
+        grid: GridArgs { bounds: None, res: None, spacing: None, order: 3, max_memory_mib: None },
+        sampling: SampleArgs { samples: level.samples, bounces: 2, seed: 1, threads: args.threads },
+        plate_height: None,
+        plate_res: level.plate_res,
+        methods: vec!["point".into(), "prefilter".into(), "doi".into()],
+        reference_samples: level.reference_samples,
+        classify_dirs: 256,
+        output: out,
+        quiet: args.quiet,
+    }
+}
+
+/// Relative RMSE against grid resolution on `city` for every method (one plate and
+/// reference, re-used for every grid).
+fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
+    let ca = compare_args("city", args.output.join("city"), level, args);
+    let loaded = ca.scene.load()?;
+    let base = loaded.grid.clone().context("built-in city has a grid")?;
+    let (min, max) = base.bounds();
+    let height = loaded.plate_heights[0];
+    crate::setup::with_threads(args.threads, || -> anyhow::Result<Plot> {
+        let tracer = Tracer::new(&loaded.scene);
+        let (plate, _) = plate(&loaded, &tracer, &base, &ca, height)?;
+        let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
+        for name in &ca.methods {
+            let method = parse_method(name)?;
+            let mut pts = Vec::new();
+            for &nx in level.sweep {
+                // Same cell aspect as the recommended grid, nx nodes along x.
+                let scale = f64::from(nx - 1) / f64::from(base.res()[0] - 1);
+                let res = base.res().map(|r| ((f64::from(r - 1) * scale).round() as u32 + 1).max(2));
+                let grid = GridSpec::new(min, max, res)?;
+                let run = run_method(&loaded, &tracer, &grid, &ca, name, method, &plate)?;
+                pts.push((f64::from(nx), run.json.metrics.rel_rmse));
+                if !args.quiet {
+                    eprintln!(
+                        "sweep {name:>9} {nx:>3} nodes along x: rel RMSE {:.4}",
+                        run.json.metrics.rel_rmse
+                    );
+                }
+            }
+            series.push((name.clone(), pts));
+        }
+        Ok(Plot {
+            title: "city: relative RMSE of irradiance on the plate vs grid resolution".into(),
+            x_label: "grid nodes along x".into(),
+            y_label: "relative RMSE".into(),
+            series,
+        })
+    })?
+}
+
+fn html(reports: &[(String, CompareReport)], quick: bool) -> String {
+    let mut s = String::from(
+        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>lightvol demo</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}table{border-collapse:collapse;}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right;}img{image-rendering:pixelated;margin:4px;border:1px solid #ddd;}</style></head><body>\n<h1>lightvol: domain-of-interest sampling vs point sampling</h1>\n",
+    );
+    let _ = writeln!(
+        s,
+        "<p>Each scene is baked with every method at the same sample budget and evaluated on a horizontal plate (normal up) against a path-traced reference, as in Kontkanen &amp; Laine 2006, Fig. 6. Panels show method | reference; points outside the domain of interest (inside solids) are bright green. Error maps: blue too dark, red too bright (±50% of the mean). Settings: {}.</p>",
+        if quick { "quick" } else { "full" }
+    );
+    for (scene, r) in reports {
+        let _ = writeln!(
+            s,
+            "<h2>{scene}</h2>\n<p>plate at height {} m, {}×{} points, {} valid, {} near a surface; grid {}×{}×{}; reference {} samples per point.</p>",
+            r.plate.height,
+            r.plate.res[0],
+            r.plate.res[1],
+            r.plate.valid_points,
+            r.plate.near_points,
+            r.grid.res[0],
+            r.grid.res[1],
+            r.grid.res[2],
+            r.reference.samples
+        );
+        s.push_str("<table><tr><th>method</th><th>rel_rmse</th><th>bias</th><th>too_dark</th><th>too_dark_near</th><th>too_bright</th><th>rays</th><th>seconds</th></tr>\n");
+        for (name, v) in &r.methods {
+            let g = |k: &str| v.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
+            let rays =
+                v.get("rays").and_then(|r| r.get("total")).and_then(serde_json::Value::as_u64).unwrap_or(0);
+            let _ = writeln!(
+                s,
+                "<tr><th>{name}</th><td>{:.4}</td><td>{:+.4}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td><td>{rays}</td><td>{:.2}</td></tr>",
+                g("rel_rmse"),
+                g("bias"),
+                g("too_dark"),
+                g("too_dark_near"),
+                g("too_bright"),
+                g("seconds")
+            );
+        }
+        s.push_str("</table>\n");
+        for (name, _) in &r.methods {
+            let _ = writeln!(
+                s,
+                "<div><b>{name}</b><br><img src=\"{scene}/panel_{name}.png\" alt=\"{name} | reference\"><img src=\"{scene}/error_{name}.png\" alt=\"{name} error\"></div>"
+            );
+        }
+    }
+    s.push_str("<h2>Grid resolution sweep (city)</h2>\n<img src=\"sweep.svg\" alt=\"relative RMSE vs resolution\"><p>Also as <a href=\"sweep.png\">PNG</a>.</p>\n</body></html>\n");
+    s
+}
+
+/// Runs `lightvol demo`.
+pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+    let level = if args.quick { &QUICK } else { &FULL };
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    let mut reports = Vec::new();
+    for scene in BUILTIN_NAMES {
+        if !args.quiet {
+            eprintln!("== {scene}");
+        }
+        let ca = compare_args(scene, args.output.join(scene), level, args);
+        reports.push((scene.to_owned(), compare(&ca).with_context(|| format!("comparing on {scene}"))?));
+    }
+    let plot = sweep(args, level)?;
+    plot.write(&args.output.join("sweep"))?;
+    write_atomic(&args.output.join("index.html"), html(&reports, args.quick).as_bytes())?;
+    eprintln!("wrote {}", args.output.join("index.html").display());
+    Ok(ExitCode::SUCCESS)
+}
