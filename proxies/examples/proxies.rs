@@ -1,0 +1,136 @@
+//! `lightvol proxies [SCENE] [-o DIR] [--size W H] [--samples N] [--order 3|4]`
+//!
+//! Renders a receiver scene (the built-in default: ground, two walls, a sphere-set
+//! character under a sky/sun light; or a JSON scene file, the serde form of
+//! `lightvol_proxies::scene::Scene`) without proxies, with proxy shadows, with shadows and
+//! indirect light, and path-traced with the spheres as real geometry. Writes `none.png`,
+//! `shadows.png`, `shadows_indirect.png`, `reference.png` and `report.json` (relative RMSE
+//! of each variant against the reference on the receivers) to DIR (default `proxies-out`).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, bail};
+use lightvol_proxies::compare::{CompareConfig, Comparison, compare};
+use lightvol_proxies::scene::Scene;
+
+struct Args {
+    scene: Option<PathBuf>,
+    out: PathBuf,
+    size: [usize; 2],
+    samples: u32,
+    order: usize,
+}
+
+fn parse() -> anyhow::Result<Args> {
+    let mut a =
+        Args { scene: None, out: PathBuf::from("proxies-out"), size: [320, 240], samples: 256, order: 4 };
+    let mut it = std::env::args().skip(1);
+    while let Some(x) = it.next() {
+        let mut next = |what: &str| it.next().with_context(|| format!("{x} needs {what}"));
+        match x.as_str() {
+            "-o" | "--out" => a.out = PathBuf::from(next("a directory")?),
+            "--size" => {
+                a.size = [next("a width")?.parse()?, next("a height")?.parse()?];
+            }
+            "--samples" => a.samples = next("a number")?.parse()?,
+            "--order" => a.order = next("3 or 4")?.parse()?,
+            "-h" | "--help" => {
+                println!(
+                    "usage: proxies [SCENE.json|default] [-o DIR] [--size W H] [--samples N] [--order 3|4]"
+                );
+                std::process::exit(0);
+            }
+            s if s.starts_with('-') => bail!("unknown option {s}"),
+            s => a.scene = (s != "default").then(|| PathBuf::from(s)),
+        }
+    }
+    if a.size[0] < 8 || a.size[1] < 8 || a.size[0] % 2 != 0 || a.size[1] % 2 != 0 {
+        bail!("--size needs even dimensions of at least 8");
+    }
+    if a.order != 3 && a.order != 4 {
+        bail!("--order must be 3 or 4");
+    }
+    Ok(a)
+}
+
+/// Writes `bytes` to `path` through a temporary file in the same directory.
+fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> anyhow::Result<()>) -> anyhow::Result<()> {
+    let tmp = path.with_extension("tmp");
+    write(&tmp).with_context(|| format!("writing {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;
+    Ok(())
+}
+
+fn srgb(x: f32) -> u8 {
+    let x = x.clamp(0.0, 1.0);
+    let y = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    (y * 255.0 + 0.5) as u8
+}
+
+fn save_png(path: &Path, c: &Comparison, img: &[[f32; 3]], exposure: f32) -> anyhow::Result<()> {
+    let [w, h] = c.size;
+    let mut bytes = Vec::with_capacity(w * h * 3);
+    for px in img {
+        bytes.extend(px.map(|v| srgb(v * exposure)));
+    }
+    let im = image::RgbImage::from_raw(w as u32, h as u32, bytes).context("image size")?;
+    write_atomic(path, |tmp| Ok(im.save_with_format(tmp, image::ImageFormat::Png)?))
+}
+
+fn main() -> anyhow::Result<()> {
+    let args = parse()?;
+    let scene = match &args.scene {
+        Some(p) => {
+            let text = std::fs::read_to_string(p).with_context(|| format!("reading {}", p.display()))?;
+            Scene::from_json(&text)?
+        }
+        None => Scene::default_scene(),
+    };
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let tolerance = 1.0 / 256.0;
+    let mut cfg = if args.order == 4 {
+        CompareConfig::derived::<16>(args.size[0], args.size[1], tolerance)
+    } else {
+        CompareConfig::derived::<9>(args.size[0], args.size[1], tolerance)
+    };
+    cfg.samples = args.samples;
+    eprintln!(
+        "rendering {}x{} (receivers at 1/{}), eta shadow {:.2}, indirect {:.2}",
+        cfg.width, cfg.height, cfg.factor, cfg.eta_shadow, cfg.eta_indirect
+    );
+    let c = if args.order == 4 { compare::<16>(&scene, &cfg) } else { compare::<9>(&scene, &cfg) };
+
+    // Exposure: the reference's 99th-percentile channel value maps to 0.9.
+    let mut vals: Vec<f32> =
+        c.reference.iter().zip(&c.mask).filter(|(_, m)| **m).map(|(p, _)| p[0].max(p[1]).max(p[2])).collect();
+    vals.sort_by(f32::total_cmp);
+    let p99 = vals.get(vals.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-6);
+    let exposure = 0.9 / p99;
+    for (name, img) in [
+        ("none", &c.none),
+        ("shadows", &c.shadows),
+        ("shadows_indirect", &c.shadows_indirect),
+        ("reference", &c.reference),
+    ] {
+        save_png(&args.out.join(format!("{name}.png")), &c, img, exposure)?;
+    }
+    let report = serde_json::json!({
+        "variants": {
+            "none": {"rel_rmse": c.errors.none},
+            "shadows": {"rel_rmse": c.errors.shadows},
+            "shadows_indirect": {"rel_rmse": c.errors.shadows_indirect},
+        },
+        "proxies": scene.proxies.len(),
+        "receivers": c.receivers,
+        "display": c.size,
+        "order": args.order,
+        "eta": {"shadow": cfg.eta_shadow, "indirect": cfg.eta_indirect, "tolerance": tolerance},
+        "reference_samples": cfg.samples,
+        "compared_pixels": c.mask.iter().filter(|m| **m).count(),
+        "upsampling_fallbacks": c.fallbacks,
+    });
+    let path = args.out.join("report.json");
+    write_atomic(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_string_pretty(&report)? + "\n")?))?;
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}

@@ -1,0 +1,302 @@
+//! The f32 per-receiver kernels of the image-space pipeline: proxy accumulation (Eq. 4, 8,
+//! 12, 15) and the exponentiation pass (HYB, Eq. 9), with precomputed, pre-scaled,
+//! smooth-clamped f32 tables. [`crate::accumulate::shade_receiver`] is the f64 reference;
+//! `tests/kernel.rs` compares the two.
+//!
+//! Only bands 0-2 of the incident radiance reach a diffuse receiver (the clamped cosine has
+//! no band-3 term), so the kernels output `L_p` with 9 coefficients per channel even when
+//! shadows are accumulated with 16.
+
+use lightvol_sh::coeffs::ShRgb;
+use lightvol_sh::eval::eval_basis;
+use lightvol_sh::gaunt::GauntTable;
+use lightvol_sh::irradiance::radiance_to_irradiance_rgb;
+use lightvol_sh::shexp::{HYB_NORM_THRESHOLD, OlTable};
+use lightvol_sh::zonal::zh_scale;
+
+use crate::accumulate::shared_ol_table;
+use crate::light::LightField;
+use crate::operators::d_paper_fit;
+use crate::proxy::SphereProxy;
+use crate::tables::{MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, TABLE_ENTRIES, Table, table_alpha};
+
+/// RGB × 9 coefficients: incident radiance as the diffuse shader sees it.
+pub type Rgb9 = [f32; 27];
+
+/// A proxy prepared for the kernels: f32 geometry and `(ρ/π) L̃(c)` per channel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreparedProxy<const N: usize> {
+    /// Centre.
+    pub center: [f32; 3],
+    /// Radius.
+    pub radius: f32,
+    /// `(ρ_c / π) L̃_c(centre)`: the proxy's exit radiance per unit `κ` weight (Eq. 15).
+    pub exit: [[f32; N]; 3],
+}
+
+/// Prepares proxies: light at each centre, convolved to irradiance, times albedo/π.
+#[must_use]
+pub fn prepare<const N: usize>(proxies: &[SphereProxy], light: &impl LightField<N>) -> Vec<PreparedProxy<N>> {
+    proxies
+        .iter()
+        .map(|p| {
+            let irr: ShRgb<f64, N> = radiance_to_irradiance_rgb(&light.radiance_at(p.center));
+            PreparedProxy {
+                center: p.center.map(|v| v as f32),
+                radius: p.radius as f32,
+                exit: core::array::from_fn(|c| {
+                    core::array::from_fn(|i| (irr.0[c].0[i] * p.albedo[c] / std::f64::consts::PI) as f32)
+                }),
+            }
+        })
+        .collect()
+}
+
+/// Per-receiver accumulators (the receiver buffer's accumulation targets).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Accum<const N: usize> {
+    /// `Σ rot(O^log)` (Eq. 4).
+    pub log_vis: [f32; N],
+    /// `Ĩ_p` (bands 0-2, RGB).
+    pub indirect: Rgb9,
+    /// `ω_p` (clamped).
+    pub omega: f32,
+    /// Number of proxies that touched the receiver.
+    pub count: u32,
+}
+
+impl<const N: usize> Default for Accum<N> {
+    fn default() -> Self {
+        Self { log_vis: [0.0; N], indirect: [0.0; 27], omega: 0.0, count: 0 }
+    }
+}
+
+/// Output of the exponentiation pass for one receiver.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Incident {
+    /// `O_p * L` (bands 0-2).
+    pub shadowed: Rgb9,
+    /// `I_p = ξ_p Ĩ_p` (bands 0-2).
+    pub indirect: Rgb9,
+}
+
+/// The f32 tables and product schedules for `N` = 9 or 16 coefficients.
+#[derive(Clone, Debug)]
+pub struct Kernel<const N: usize> {
+    olog: Vec<[f32; MAX_BANDS]>,
+    vis: Vec<[f32; MAX_BANDS]>,
+    omega: Vec<f32>,
+    d: Vec<[f32; MAX_BANDS]>,
+    alpha_shadow: f32,
+    alpha_indirect: f32,
+    indirect: bool,
+    ol: &'static OlTable<N>,
+    square: Vec<(u16, u16, u16, f32)>,
+    prod9: Vec<(u16, u16, u16, f32)>,
+}
+
+/// Which `D` the kernel uses for the averaged indirect light (Eq. 15).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KernelIndirect {
+    /// No indirect light.
+    None,
+    /// The exact `D(α)` table.
+    Averaged,
+    /// The paper's polynomial fits.
+    AveragedPaperFit,
+}
+
+impl<const N: usize> Kernel<N> {
+    /// Builds the kernel: tables scaled by `sqrt(4π/(2l+1))` (Eq. 8) and smooth-clamped at
+    /// `1/eta_shadow` (log visibility) and `1/eta_indirect` (visibility).
+    #[must_use]
+    pub fn new(eta_shadow: f64, eta_indirect: f64, indirect: KernelIndirect) -> Self {
+        let t = ProxyTables::shared::<N>();
+        let (cs, ci) = (SmoothClamp::new(eta_shadow), SmoothClamp::new(eta_indirect));
+        let scaled = |z: [f64; MAX_BANDS], w: f64| -> [f32; MAX_BANDS] {
+            core::array::from_fn(|l| (z[l] * w * zh_scale(l as u32)) as f32)
+        };
+        let mut k = Self {
+            olog: Vec::new(),
+            vis: Vec::new(),
+            omega: Vec::new(),
+            d: Vec::new(),
+            alpha_shadow: (1.0 / eta_shadow) as f32,
+            alpha_indirect: (1.0 / eta_indirect) as f32,
+            indirect: indirect != KernelIndirect::None,
+            ol: shared_ol_table::<N>(),
+            square: Vec::new(),
+            prod9: Vec::new(),
+        };
+        for i in 0..TABLE_ENTRIES {
+            let a = table_alpha(i);
+            k.olog.push(scaled(t.entry(Table::LogVisibility, i), cs.weight(a)));
+            let v = t.entry(Table::Visibility, i);
+            k.vis.push(scaled(v, ci.weight(a)));
+            k.omega.push((v[0] * ci.weight(a) * SQRT_4PI) as f32);
+            let d = match indirect {
+                KernelIndirect::AveragedPaperFit => {
+                    let f = d_paper_fit(a);
+                    [f[0], f[1], f[2], 0.0]
+                }
+                _ => t.entry(Table::Averaged, i),
+            };
+            k.d.push(scaled(d, 1.0));
+        }
+        let bands = N.isqrt();
+        for e in GauntTable::cached(bands).entries() {
+            if e.i <= e.j {
+                let v = if e.i == e.j { e.value } else { 2.0 * e.value };
+                k.square.push((e.i, e.j, e.k, v as f32));
+            }
+            if e.k < 9 {
+                k.prod9.push((e.i, e.j, e.k, e.value as f32));
+            }
+        }
+        k
+    }
+
+    /// Adds the proxies `list` (indices into `proxies`) seen from receiver `p`, normal `n`.
+    pub fn accumulate(
+        &self,
+        p: [f32; 3],
+        n: [f32; 3],
+        proxies: &[PreparedProxy<N>],
+        list: &[u32],
+        acc: &mut Accum<N>,
+    ) {
+        for &pi in list {
+            let pr = &proxies[pi as usize];
+            let Some((dir, alpha)) = view_f32(pr.center, pr.radius, p, n) else { continue };
+            let shadow = alpha > self.alpha_shadow;
+            let ind = self.indirect && alpha > self.alpha_indirect;
+            if !shadow && !ind {
+                continue;
+            }
+            acc.count += 1;
+            let y = eval_basis::<f32, N>(dir);
+            let x = alpha * (TABLE_ENTRIES - 1) as f32;
+            let i = (x as usize).min(TABLE_ENTRIES - 2);
+            let t = x - i as f32;
+            let lerp = |tab: &[[f32; MAX_BANDS]]| -> [f32; MAX_BANDS] {
+                core::array::from_fn(|l| tab[i][l] + t * (tab[i + 1][l] - tab[i][l]))
+            };
+            if shadow {
+                let z = lerp(&self.olog);
+                for j in 0..N {
+                    acc.log_vis[j] += z[band(j)] * y[j];
+                }
+            }
+            if ind {
+                let v = lerp(&self.vis);
+                let d = lerp(&self.d);
+                acc.omega += self.omega[i] + t * (self.omega[i + 1] - self.omega[i]);
+                for c in 0..3 {
+                    let mut kappa = 0.0;
+                    for j in 0..N {
+                        kappa += d[band(j)] * y[j] * pr.exit[c][j];
+                    }
+                    for j in 0..9 {
+                        acc.indirect[9 * c + j] += kappa * v[band(j)] * y[j];
+                    }
+                }
+            }
+        }
+    }
+
+    /// The exponentiation pass: `O_p = exp(f)` by HYB, `O_p * L` and `ξ_p Ĩ_p` (Eq. 9, 12).
+    #[must_use]
+    pub fn finish(&self, acc: &Accum<N>, light: &[[f32; N]; 3]) -> Incident {
+        let mut out = Incident { shadowed: [0.0; 27], indirect: [0.0; 27] };
+        if acc.count == 0 {
+            for c in 0..3 {
+                out.shadowed[9 * c..9 * c + 9].copy_from_slice(&light[c][..9]);
+            }
+            return out;
+        }
+        let o = self.exp_hyb(&acc.log_vis);
+        // Product matrix of O restricted to output bands 0-2: (M_O)_{kj} = Σ_i G_ijk O_i.
+        let mut m = [[0.0f32; N]; 9];
+        for &(i, j, k, v) in &self.prod9 {
+            m[k as usize][j as usize] += v * o[i as usize];
+        }
+        for c in 0..3 {
+            for k in 0..9 {
+                out.shadowed[9 * c + k] = (0..N).map(|j| m[k][j] * light[c][j]).sum();
+            }
+        }
+        if acc.omega > 0.0 {
+            let xi = (SQRT_4PI as f32 - o[0]) / (acc.omega / SQRT_4PI as f32);
+            for j in 0..27 {
+                out.indirect[j] = xi * acc.indirect[j];
+            }
+        }
+        out
+    }
+
+    /// HYB exponential in f32 (Ren et al. 2006; the algorithm of
+    /// `lightvol_sh::shexp::exp_hyb`, with the shared OL table).
+    #[must_use]
+    pub fn exp_hyb(&self, f: &[f32; N]) -> [f32; N] {
+        let mut hat = *f;
+        hat[0] = 0.0;
+        let norm = hat.iter().map(|v| v * v).sum::<f32>().sqrt();
+        let mut k = 0u32;
+        while f64::from(norm) / f64::from(1u32 << k) > HYB_NORM_THRESHOLD && k < 30 {
+            k += 1;
+        }
+        let s = 1.0 / (1u32 << k) as f32;
+        let (a, b) = self.ol.coefficients(f64::from(norm * s));
+        let mut g = hat.map(|v| v * s * b as f32);
+        g[0] = (a * SQRT_4PI) as f32;
+        for _ in 0..k {
+            let mut h = [0.0f32; N];
+            for &(i, j, kk, v) in &self.square {
+                h[kk as usize] += v * g[i as usize] * g[j as usize];
+            }
+            g = h;
+        }
+        let dc = (f[0] / SQRT_4PI as f32).exp();
+        g.map(|v| v * dc)
+    }
+}
+
+/// Band `l` of flat index `j < 16`.
+#[inline(always)]
+fn band(j: usize) -> usize {
+    match j {
+        0 => 0,
+        1..=3 => 1,
+        4..=8 => 2,
+        _ => 3,
+    }
+}
+
+/// [`crate::proxy::view_from`] in f32: direction and `α` of the (replaced) sphere.
+#[inline]
+pub fn view_f32(c: [f32; 3], r: f32, p: [f32; 3], n: [f32; 3]) -> Option<([f32; 3], f32)> {
+    let h = (c[0] - p[0]) * n[0] + (c[1] - p[1]) * n[1] + (c[2] - p[2]) * n[2];
+    if h <= -r {
+        return None;
+    }
+    let (c, r) = if h >= r {
+        (c, r)
+    } else {
+        let r2 = 0.5 * (h + r);
+        let s = r2 - h;
+        ([c[0] + s * n[0], c[1] + s * n[1], c[2] + s * n[2]], r2)
+    };
+    let v = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
+    let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    if !(d > 0.0) {
+        return None;
+    }
+    Some(([v[0] / d, v[1] / d, v[2] / d], (r / d).min(1.0)))
+}
+
+/// The light at `p` as f32 arrays.
+#[must_use]
+pub fn light_f32<const N: usize>(light: &impl LightField<N>, p: [f32; 3]) -> [[f32; N]; 3] {
+    let l = light.radiance_at(p.map(f64::from));
+    core::array::from_fn(|c| l.0[c].0.map(|v| v as f32))
+}
