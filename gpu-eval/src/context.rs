@@ -80,10 +80,10 @@ unsafe extern "system" fn debug_callback(
     if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::ERROR) {
         log.errors.fetch_add(1, Ordering::Relaxed);
         eprintln!("vulkan validation error: {msg}");
-        if let Ok(mut v) = log.first_errors.lock() {
-            if v.len() < KEPT_ERRORS {
-                v.push(msg);
-            }
+        if let Ok(mut v) = log.first_errors.lock()
+            && v.len() < KEPT_ERRORS
+        {
+            v.push(msg);
         }
     } else if severity.contains(vk::DebugUtilsMessageSeverityFlagsEXT::WARNING) {
         log.warnings.fetch_add(1, Ordering::Relaxed);

@@ -15,7 +15,7 @@ impl Shader {
     /// The SPIR-V words (little-endian in the file; SPIR-V consumers accept either order
     /// via the magic number, but we decode as the file was written).
     pub fn words(&self) -> Result<Vec<u32>, GpuError> {
-        if self.bytes.len() % 4 != 0 || self.bytes.len() < 20 {
+        if !self.bytes.len().is_multiple_of(4) || self.bytes.len() < 20 {
             return Err(GpuError::Spirv(self.name));
         }
         Ok(self.bytes.chunks_exact(4).map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect())
