@@ -409,6 +409,10 @@ pub struct EncodingErrorReport {
     pub rms: f64,
     /// Largest `|E(n)|` seen, for scale.
     pub max_irradiance: f64,
+    /// Largest error relative to the node's mean irradiance `Ē = π Y_00 c_00` (per
+    /// channel, nodes with `Ē > 0`): what a viewer notices in dim regions, where a
+    /// volume-wide scale (as in [`Encoding::Srgb8`]) costs the most precision.
+    pub max_rel: f64,
     /// The analytic bound (max over nodes and channels) that `max_abs` must respect.
     pub bound: f64,
     /// Coefficients clamped by the encoding.
@@ -436,7 +440,8 @@ pub fn irradiance_error(
         .map(|l| cosine_lobe_factor(l as u32) * ((2 * l + 1) as f64 / (4.0 * std::f64::consts::PI)).sqrt())
         .collect();
     let ctx = BoundContext::new(vol, encoding);
-    let per_node: Vec<(f64, f64, f64, f64)> = (0..vol.spec().node_count())
+    let y00 = 0.5 / std::f64::consts::PI.sqrt();
+    let per_node: Vec<[f64; 5]> = (0..vol.spec().node_count())
         .into_par_iter()
         .map(|node| {
             let (orig, got) = (vol.node(node), dec.node(node));
@@ -451,7 +456,7 @@ pub fn irradiance_error(
             }
             let mut rng = SplitMix64::new(hash2(seed, node as u64));
             let mut y = vec![0.0f64; coeffs];
-            let (mut max_abs, mut sum_sq, mut max_e) = (0.0f64, 0.0f64, 0.0f64);
+            let (mut max_abs, mut sum_sq, mut max_e, mut max_rel) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
             for _ in 0..normals_per_node {
                 let n = sample_uniform_sphere([rng.next_f64(), rng.next_f64()]);
                 eval_into(bands, n, &mut y);
@@ -464,24 +469,32 @@ pub fn irradiance_error(
                     max_abs = max_abs.max((e1 - e0).abs());
                     sum_sq += (e1 - e0).powi(2);
                     max_e = max_e.max(e0.abs());
+                    let mean = std::f64::consts::PI * y00 * f64::from(orig[ch]);
+                    if mean > 0.0 {
+                        max_rel = max_rel.max((e1 - e0).abs() / mean);
+                    }
                 }
             }
-            (max_abs, sum_sq, max_e, bound)
+            [max_abs, sum_sq, max_e, bound, max_rel]
         })
         .collect();
     let count = (vol.spec().node_count() * normals_per_node * 3).max(1) as f64;
-    let (mut max_abs, mut sum_sq, mut max_e, mut bound) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
-    for (m, s, e, b) in per_node {
+    let (mut max_abs, mut sum_sq, mut max_e, mut bound, mut max_rel) =
+        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    // Reduced in node order: the same sums for any thread count.
+    for [m, s, e, b, r] in per_node {
         max_abs = max_abs.max(m);
         sum_sq += s;
         max_e = max_e.max(e);
         bound = bound.max(b);
+        max_rel = max_rel.max(r);
     }
     Ok(EncodingErrorReport {
         encoding,
         max_abs,
         rms: (sum_sq / count).sqrt(),
         max_irradiance: max_e,
+        max_rel,
         bound,
         clamped: enc.clamped(),
         bytes: enc.byte_size(),
