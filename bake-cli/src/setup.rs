@@ -30,7 +30,7 @@ pub struct SceneArgs {
     pub ground: Option<String>,
     /// A sun: direction towards it, irradiance on a facing surface, optional angular
     /// radius in degrees (0 = directional light).
-    #[arg(long, value_name = "DX,DY,DZ:INTENSITY[:ANGLE_DEG]")]
+    #[arg(long, value_name = "DX,DY,DZ:INTENSITY[:ANGLE_DEG]", allow_hyphen_values = true)]
     pub sun: Option<String>,
     /// A latitude-longitude EXR environment map (replaces the scene's environment).
     #[arg(long, value_name = "FILE.exr")]
@@ -42,10 +42,10 @@ pub struct SceneArgs {
 pub struct GridArgs {
     /// Grid bounds `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` (default: the built-in scene's recommended
     /// grid, or the scene bounds grown by 5%).
-    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1")]
+    #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
     pub bounds: Option<String>,
     /// Nodes per axis `NX,NY,NZ` (each at least 2).
-    #[arg(long, value_name = "NX,NY,NZ", conflicts_with = "spacing")]
+    #[arg(long, value_name = "NX,NY,NZ", conflicts_with = "spacing", allow_hyphen_values = true)]
     pub res: Option<String>,
     /// Node spacing (sets the resolution from the bounds).
     #[arg(long)]
