@@ -33,14 +33,23 @@ pub fn directions() -> [[f64; 3]; 3] {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Hl2;
 
+/// `1/(2 sqrt π)`, `sqrt(3/(4π))`, `1/sqrt(2π)`, `1/sqrt π`: the entries of
+/// `sqrt(3/(2π)) h_i` (products of Eq. 1.18-1.21's constants; tested against them).
+const A: f64 = core::f64::consts::FRAC_2_SQRT_PI / 4.0;
+const B: f64 = 0.488_602_511_902_919_9;
+const C: f64 = core::f64::consts::FRAC_2_SQRT_PI * core::f64::consts::FRAC_1_SQRT_2 / 2.0;
+const D: f64 = core::f64::consts::FRAC_2_SQRT_PI / 2.0;
+
+/// The rows `sqrt(3/(2π)) h_i`: `B_i(n) = row_i · n`.
+const ROWS: [[f64; 3]; 3] = [[-A, -B, C], [-A, B, C], [D, 0.0, C]];
+
 impl Hl2 {
     fn rows() -> [[f64; 3]; 3] {
-        let k = (3.0 / (2.0 * PI)).sqrt();
-        directions().map(|h| h.map(|c| c * k))
+        ROWS
     }
 
     fn eval<T: Real>(&self, dir: [T; 3], out: &mut [T]) {
-        for (o, r) in out.iter_mut().zip(Self::rows()) {
+        for (o, r) in out.iter_mut().zip(ROWS) {
             *o = T::from_f64(r[0]) * dir[0] + T::from_f64(r[1]) * dir[1] + T::from_f64(r[2]) * dir[2];
         }
     }
@@ -96,6 +105,17 @@ mod tests {
                 assert!((d - if i == j { 1.0 } else { 0.0 }).abs() < DIR_TOL);
             }
         }
+    }
+
+    #[test]
+    fn row_constants_match_definition() {
+        let k = (3.0 / (2.0 * PI)).sqrt();
+        for (row, h) in ROWS.iter().zip(directions()) {
+            for (r, c) in row.iter().zip(h) {
+                assert!((r - k * c).abs() < DIR_TOL, "{r} vs {}", k * c);
+            }
+        }
+        assert!((B - (3.0 / (4.0 * PI)).sqrt()).abs() < DIR_TOL);
     }
 
     #[test]
