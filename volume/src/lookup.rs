@@ -54,10 +54,12 @@ pub(crate) struct LookupParams {
     max_cell: [u32; 3],
     /// Node index offsets of the 8 corners, `c = dx + 2 dy + 4 dz`.
     offsets: [usize; 8],
+    /// `A_l(j)` per coefficient (irradiance), and all ones (radiance).
+    factors: [[f32; 16]; 2],
 }
 
 impl LookupParams {
-    pub(crate) fn new(spec: &GridSpec) -> Self {
+    pub(crate) fn new(spec: &GridSpec, coeffs: usize) -> Self {
         let (min, max) = spec.bounds();
         let res = spec.res();
         let (nx, nxy) = (res[0] as usize, res[0] as usize * res[1] as usize);
@@ -68,6 +70,7 @@ impl LookupParams {
             cells: std::array::from_fn(|a| (res[a] - 1) as f32),
             max_cell: std::array::from_fn(|a| res[a] - 2),
             offsets: [0, 1, nx, nx + 1, nxy, nxy + 1, nxy + nx, nxy + nx + 1],
+            factors: [factors(coeffs, true), factors(coeffs, false)],
         }
     }
 
@@ -191,7 +194,7 @@ fn batch_kernel<const N: usize, const K: usize>(
     dirs: &[[f32; 3]],
     out: &mut [[f32; 3]],
 ) {
-    let lp = *vol.lookup_params();
+    let lp = vol.lookup_params();
     let [nx, ny, _] = vol.spec().res().map(|v| v as usize);
     let nxy = nx * ny;
     let data = vol.data();
@@ -256,12 +259,12 @@ impl IrradianceVolume {
     }
 
     fn eval_scalar(&self, p: [f32; 3], n: [f32; 3], irr: bool) -> [f32; 3] {
-        let lp = *self.lookup_params();
-        let f = factors(self.coeffs(), irr);
+        let lp = self.lookup_params();
+        let f = &lp.factors[usize::from(!irr)];
         match self.coeffs() {
-            4 => query::<4, 12>(self, &lp, &f, p, n),
-            9 => query::<9, 27>(self, &lp, &f, p, n),
-            _ => query::<16, 48>(self, &lp, &f, p, n),
+            4 => query::<4, 12>(self, lp, f, p, n),
+            9 => query::<9, 27>(self, lp, f, p, n),
+            _ => query::<16, 48>(self, lp, f, p, n),
         }
     }
 
@@ -271,7 +274,7 @@ impl IrradianceVolume {
     /// # Panics
     /// If `out` is shorter than `3 · coeffs`.
     pub fn coeffs_at(&self, p: [f32; 3], out: &mut [f32]) {
-        let lp = *self.lookup_params();
+        let lp = self.lookup_params();
         let [nx, ny, _] = self.spec().res().map(|v| v as usize);
         let (base, w) = lp.locate(nx, nx * ny, p);
         let k = self.coeffs() * 3;
@@ -330,7 +333,7 @@ impl IrradianceVolume {
                 out.len()
             )));
         }
-        let f = factors(self.coeffs(), irr);
+        let f = self.lookup_params().factors[usize::from(!irr)];
         let kernel: BatchKernel = match self.coeffs() {
             4 => batch_kernel::<4, 12>,
             9 => batch_kernel::<9, 27>,

@@ -102,7 +102,7 @@ impl IrradianceVolume {
                 weights[i]
             )));
         }
-        let lut = LookupParams::new(&spec);
+        let lut = LookupParams::new(&spec, coeffs);
         Ok(Self { spec, coeffs, data, weights, meta: BakeMetadata::default(), lut })
     }
 
