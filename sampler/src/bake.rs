@@ -7,8 +7,8 @@
 //! - [`Method::Doi`]: Eq. 5-6 restricted to the domain of interest by Algorithm 2.
 //!
 //! Origins and directions come from one 5-D Owen-scrambled Halton sequence per cell
-//! (dimensions 0-2 the position in the cell, 3-4 the direction), scrambled per cell so cells
-//! are decorrelated. Each sample's radiance is one path ([`Transport`]); when
+//! (dimensions 0-2 the position in the cell, 3-4 the direction), scrambled and rotated per
+//! cell so cells are decorrelated ([`Qmc`]). Each sample's radiance is one path ([`Transport`]); when
 //! `light_sampling` is on, each sample also carries one light sample at its origin,
 //! MIS-weighted against the uniform sphere density 1/4π, so suns and punctual lights reach
 //! the probes (uniform directions alone would almost never hit a small sun, and never a
@@ -27,13 +27,14 @@ use std::time::Instant;
 use glam::DVec3;
 use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::bands_of;
-use lightvol_sh::lowdisc::{Halton, hash2};
+use lightvol_sh::lowdisc::hash2;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
 use crate::domain::{Retest, classify_cell};
 use crate::error::BakeError;
+use crate::qmc::Qmc;
 use crate::stats::BakeStats;
 use crate::transport::{PathRng, Transport};
 
@@ -193,7 +194,6 @@ pub fn bake(
     let (lo, hi) = (units * k as usize / n as usize, units * (k as usize + 1) / n as usize);
     let start = Instant::now();
     let mut stats = BakeStats::default();
-    let base = Halton::new(settings.seed, 5);
     let chunk = settings.chunk.max(1);
     let mut basis = vec![0.0; settings.coeffs];
     let mut done = 0;
@@ -206,8 +206,8 @@ pub fn bake(
                     return None;
                 }
                 Some(match settings.method {
-                    Method::Point => point_unit(transport, grid, settings, &base, u),
-                    Method::Prefilter | Method::Doi => cell_unit(transport, grid, settings, &base, u),
+                    Method::Point => point_unit(transport, grid, settings, u),
+                    Method::Prefilter | Method::Doi => cell_unit(transport, grid, settings, u),
                 })
             })
             .collect();
@@ -279,21 +279,15 @@ fn sample_terms(
     ([first, (DVec3::Z, [0.0; 3])], 1)
 }
 
-fn point_unit(
-    t: &Transport<'_>,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    base: &Halton,
-    node: usize,
-) -> UnitOut {
+fn point_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, node: usize) -> UnitOut {
     let [i, j, k] = grid.node_coords(node);
     let x = DVec3::from_array(grid.node_position_world(i, j, k));
-    let h = base.with_stream(node as u64);
+    let h = Qmc::<5>::new(settings.seed, hash2(node as u64, 0x706f_696e_74));
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     let mut weights = [0.0; 8];
     weights[0] = 1.0;
     for s in 0..u64::from(settings.samples) {
-        let p = h.point::<5>(s);
+        let p = h.point(s);
         let dir = DVec3::from_array(sample_uniform_sphere([p[3], p[4]]));
         let mut rng = PathRng::new(settings.seed, hash2(node as u64, 0x706f_696e_74), s);
         out.stats.rays.sampling += 1;
@@ -307,21 +301,15 @@ fn point_unit(
     out
 }
 
-fn cell_unit(
-    t: &Transport<'_>,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    base: &Halton,
-    cell: usize,
-) -> UnitOut {
+fn cell_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, cell: usize) -> UnitOut {
     let (lo, hi) = grid.cell_bounds(cell);
     let (lo, hi) = (DVec3::from_array(lo), DVec3::from_array(hi));
-    let h = base.with_stream(cell as u64);
+    let h = Qmc::<5>::new(settings.seed, cell as u64);
     let mut out = UnitOut { nodes: grid.cell_corners(cell), ..Default::default() };
     let n = u64::from(settings.samples);
     // Grid-space origin (for the weights) and world-space ray.
     let candidate_at = |i: u64| -> (DVec3, DVec3, DVec3) {
-        let p = h.point::<5>(i);
+        let p = h.point(i);
         let g = lo + (hi - lo) * DVec3::new(p[0], p[1], p[2]);
         let w = DVec3::from_array(grid.to_world(g.to_array()));
         (g, w, DVec3::from_array(sample_uniform_sphere([p[3], p[4]])))

@@ -9,8 +9,8 @@
 //!   (`gray.direction`), which is what we use (the test
 //!   `retest_uses_the_query_direction` shows the difference).
 
+use crate::qmc::Qmc;
 use glam::DVec3;
-use lightvol_sh::lowdisc::Halton;
 use lightvol_sh::sampling::sample_uniform_sphere;
 
 use crate::bvh::{Hit, Tracer};
@@ -36,9 +36,9 @@ pub struct PointClass {
 /// stops at the first back-face hit.
 #[must_use]
 pub fn classify_point(tracer: &Tracer, x: DVec3, dirs: u32, seed: u64) -> PointClass {
-    let h = Halton::new(seed, 2);
+    let h = Qmc::<2>::new(seed, 0);
     for i in 0..u64::from(dirs) {
-        let d = DVec3::from_array(sample_uniform_sphere(h.point::<2>(i)));
+        let d = DVec3::from_array(sample_uniform_sphere(h.point(i)));
         if let Some(hit) = tracer.closest_hit(x, d, 0.0, f64::INFINITY)
             && hit.back_face
         {
@@ -218,12 +218,12 @@ mod tests {
     fn clean_cells_trace_no_query_rays() {
         let s = solid_box(DVec3::ZERO, DVec3::ONE, false);
         let tr = Tracer::new(&s);
-        let h = Halton::new(4, 5);
+        let h = Qmc::<5>::new(4, 0);
         let c = classify_cell(
             &tr,
             200,
             |i| {
-                let p = h.point::<5>(i);
+                let p = h.point(i);
                 (DVec3::new(2.0 + p[0], p[1], p[2]), DVec3::from_array(sample_uniform_sphere([p[3], p[4]])))
             },
             Retest::QueryDirection,

@@ -3,6 +3,7 @@
 pub mod bake;
 pub mod builtin;
 pub mod bvh;
+pub mod diagnostics;
 pub mod domain;
 pub mod envmap;
 pub mod error;
@@ -10,6 +11,7 @@ pub mod light_sampler;
 pub mod lights;
 pub mod load_gltf;
 pub mod load_obj;
+pub mod qmc;
 pub mod reference;
 pub mod scene;
 pub mod stats;

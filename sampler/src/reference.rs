@@ -1,16 +1,16 @@
 //! Ground truth for evaluation: reference irradiance `E(x, n)` by path tracing with many
 //! quasi-Monte Carlo samples (the "ray traced" row of Kontkanen & Laine 2006 Fig. 6).
 
+use crate::qmc::Qmc;
 use glam::DVec3;
-use lightvol_sh::lowdisc::{Halton, hash2};
 use rayon::prelude::*;
 
 use crate::stats::RayCounts;
 use crate::transport::{PathRng, Transport};
 
 /// Reference irradiance at `x` for receiver normal `n` (unit) with `samples` QMC samples:
-/// the first five dimensions (cosine direction, light choice and position) come from an
-/// Owen-scrambled Halton stream keyed by `(seed, stream)`, the path beyond from a per-sample
+/// the first five dimensions (cosine direction, light choice and position) come from a
+/// [`Qmc`] stream keyed by `(seed, stream)`, the path beyond from a per-sample
 /// generator. `x` is moved off surfaces by the scene's epsilon along `n`.
 #[must_use]
 pub fn reference_irradiance(
@@ -21,12 +21,12 @@ pub fn reference_irradiance(
     seed: u64,
     stream: u64,
 ) -> ([f64; 3], RayCounts) {
-    let h = Halton::new(hash2(seed, stream), 5);
+    let h = Qmc::<5>::new(seed, stream);
     let x = x + n * t.epsilon();
     let mut rays = RayCounts::default();
     let mut sum = [0.0; 3];
     for i in 0..u64::from(samples) {
-        let p = h.point::<5>(i);
+        let p = h.point(i);
         let mut rng = PathRng::new(seed, stream, i);
         let e = t.irradiance_sample(x, n, [p[0], p[1]], [p[2], p[3], p[4]], &mut rng, &mut rays);
         for c in 0..3 {
