@@ -11,8 +11,6 @@
 //! functions `{x, y, z}` — there is no constant term, which is why [`HemiBasis::dc_index`] is
 //! `None`. The thesis's definitions are correct as printed (checked in the tests).
 
-use std::f64::consts::PI;
-
 use lightvol_sh::Real;
 
 use crate::basis::{HemiBasis, forward_eval};
@@ -90,6 +88,8 @@ impl HemiBasis for Hl2 {
 
 #[cfg(test)]
 mod tests {
+    use std::f64::consts::PI;
+
     use super::*;
     use crate::test_util::assert_orthonormal;
 
