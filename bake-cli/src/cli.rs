@@ -25,6 +25,8 @@ pub enum Command {
     /// The main job: compare the methods on the built-in city, interior and maze scenes,
     /// sweep the grid resolution, and write an index.html with every panel and metric.
     Demo(crate::cmd_demo::DemoArgs),
+    /// Merge shard bakes (`bake --shard K/N`) into one volume; refuses mismatched grids.
+    Merge(crate::cmd_merge::MergeArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
     /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).

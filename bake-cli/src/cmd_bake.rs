@@ -10,11 +10,12 @@ use indicatif::{ProgressBar, ProgressStyle};
 use lightvol_sampler::{
     BakeControl, BakeOutput, BakeSettings, Progress, Tracer, Transport, TransportSettings,
 };
+use lightvol_volume::accumulator_io::write_accumulator;
 use lightvol_volume::exr_io::{ExrOptions, write_exr};
 use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
 use serde::Serialize;
 
-use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, with_threads};
+use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, parse_shard, with_threads};
 
 /// `lightvol bake`.
 #[derive(Debug, Args)]
@@ -33,6 +34,15 @@ pub struct BakeArgs {
     #[arg(long, default_value = "doi")]
     /// Method name.
     pub method: String,
+    /// Bake only shard K of N (by cells, or nodes for point sampling). The shard's exact f64
+    /// sums are written beside the output as `<stem>.lvacc`; `lightvol merge` combines
+    /// shards into the volume the whole bake would give.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<String>,
+    /// Also write the exact accumulator (`<stem>.lvacc`) for an unsharded bake, so that it
+    /// can later be merged with more samples (e.g. another seed).
+    #[arg(long)]
+    pub keep_accumulator: bool,
     /// Output volume (native multi-part EXR).
     #[arg(short, long, default_value = "volume.exr")]
     pub output: PathBuf,
@@ -196,11 +206,13 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     if args.sampling.samples == 0 {
         anyhow::bail!("--samples must be at least 1");
     }
+    let shard = args.shard.as_deref().map(parse_shard).transpose()?.unwrap_or((0, 1));
     let settings = BakeSettings {
         method,
         samples: args.sampling.samples,
         coeffs: args.grid.coeffs(),
         seed: args.sampling.seed,
+        shard,
         ..BakeSettings::default()
     };
     let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
@@ -214,11 +226,22 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         method: args.method.clone(),
         samples: out.stats.rays.sampling,
         seed: args.sampling.seed,
-        shard_index: 0,
-        shard_count: 1,
-        scene_hash: scene_hash(&loaded, &format!("{:?} {:?}", grid.bounds(), grid.res())),
+        shard_index: shard.0,
+        shard_count: shard.1,
+        scene_hash: scene_hash(
+            &loaded,
+            &format!("{:?} {:?} {} {}", grid.bounds(), grid.res(), args.method, settings.samples),
+        ),
         units: "relative".into(),
     };
+    if args.shard.is_some() || args.keep_accumulator {
+        let acc_path = args.output.with_extension("lvacc");
+        write_accumulator(&acc_path, &out.accumulator, &meta)
+            .with_context(|| format!("writing {}", acc_path.display()))?;
+        if !args.json {
+            eprintln!("wrote {}", acc_path.display());
+        }
+    }
     let (vol, fill) = finish_volume(&out, meta);
     write_exr(&args.output, &vol, &ExrOptions::default())
         .with_context(|| format!("writing {}", args.output.display()))?;

@@ -1,0 +1,196 @@
+//! The CLI's bake pipeline end to end (acceptance 4 and 5 of the CLI issue): bake → info →
+//! export → merge, sharded bakes merged against the whole bake, and bad input.
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use lightvol_volume::exr_io::read_exr;
+
+fn run(args: &[&str]) -> Result<ExitCode, String> {
+    lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()))
+        .map_err(|e| lightvol::one_line(&e))
+}
+
+fn ok(args: &[&str]) {
+    if let Err(e) = run(args) {
+        panic!("lightvol {}: {e}", args.join(" "));
+    }
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Two shards merged equal the whole bake: the Eq. 6 sums are added exactly (f64), so the
+/// finalized f32 coefficients agree to within one f32 rounding (relative 2^-23 ≈ 1.2e-7,
+/// the only place the two paths differ being the order of the f64 additions).
+#[test]
+fn bake_info_export_and_sharded_merge() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let common = ["--samples", "16", "--res", "8,8,4", "--quiet", "--seed", "7"];
+    let whole = d.join("whole.exr");
+    let mut a = vec!["bake", "builtin:maze", "-o", s(&whole)];
+    a.extend_from_slice(&common);
+    ok(&a);
+    for k in 0..2 {
+        let out = d.join(format!("part{k}.exr"));
+        let shard = format!("{k}/2");
+        let mut a = vec!["bake", "builtin:maze", "--shard", &shard, "-o", s(&out)];
+        a.extend_from_slice(&common);
+        ok(&a);
+        assert!(d.join(format!("part{k}.lvacc")).is_file());
+    }
+    let merged = d.join("merged.exr");
+    ok(&["merge", s(&d.join("part1.exr")), s(&d.join("part0.lvacc")), "-o", s(&merged)]);
+    let (w, m) = (read_exr(&whole).unwrap(), read_exr(&merged).unwrap());
+    assert_eq!(w.spec().res(), m.spec().res());
+    assert_eq!(m.metadata().shard_count, 1, "a complete merge is no longer a shard");
+    let mut worst = 0.0f64;
+    for (a, b) in w.data().iter().zip(m.data()) {
+        let rel = f64::from((a - b).abs()) / f64::from(a.abs().max(1e-6));
+        worst = worst.max(rel);
+    }
+    assert!(worst <= 1.2e-7, "merged vs whole: worst relative difference {worst}");
+    assert_eq!(w.weights(), m.weights());
+    // info and export on the merged volume.
+    ok(&["info", s(&merged)]);
+    ok(&["info", s(&merged), "--json"]);
+    for (fmt, ext) in [("ktx2", "ktx2"), ("dds", "dds"), ("bevy", "ktx2"), ("json", "json")] {
+        let out = d.join(format!("export_{fmt}.{ext}"));
+        ok(&["export", s(&merged), "--format", fmt, "-o", s(&out)]);
+        assert!(out.metadata().unwrap().len() > 0);
+    }
+    // The same bake twice is bit-identical (and with one thread).
+    let again = d.join("again.exr");
+    let mut a = vec!["bake", "builtin:maze", "-o", s(&again), "--threads", "1"];
+    a.extend_from_slice(&common);
+    ok(&a);
+    assert_eq!(read_exr(&again).unwrap().data(), w.data());
+}
+
+/// Acceptance 5: every kind of bad input is one clear line, an error (no panic: a panic
+/// fails this test), and leaves no output file behind.
+#[test]
+fn bad_input_is_refused_cleanly() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("out.exr");
+    let o = s(&out);
+    let malformed_obj = d.join("bad.obj");
+    std::fs::write(&malformed_obj, "v 0 0 0\nv 1 0 0\nf 1 2 7\nthis is not obj\n").unwrap();
+    let malformed_gltf = d.join("bad.gltf");
+    std::fs::write(&malformed_gltf, "{ \"asset\": { \"version\": \"2.0\" }, \"meshes\": [ {").unwrap();
+    let empty_obj = d.join("empty.obj");
+    std::fs::write(&empty_obj, "# nothing here\nv 0 0 0\n").unwrap();
+    let nan_obj = d.join("nan.obj");
+    std::fs::write(&nan_obj, "v 0 0 0\nv 1 0 NaN\nv 0 1 0\nf 1 2 3\n").unwrap();
+    let cases: Vec<(Vec<String>, &str)> = vec![
+        (vec!["bake".into(), s(&d.join("missing.obj")).into(), "-o".into(), o.into()], "missing.obj"),
+        (vec!["bake".into(), s(&malformed_obj).into(), "-o".into(), o.into()], "bad.obj"),
+        (vec!["bake".into(), s(&malformed_gltf).into(), "-o".into(), o.into()], "bad.gltf"),
+        (vec!["bake".into(), s(&empty_obj).into(), "-o".into(), o.into()], "empty"),
+        (vec!["bake".into(), s(&nan_obj).into(), "-o".into(), o.into()], "finite"),
+        (
+            vec!["bake".into(), "builtin:city".into(), "--res".into(), "0,0,0".into(), "-o".into(), o.into()],
+            "--res",
+        ),
+        (
+            vec![
+                "bake".into(),
+                "builtin:city".into(),
+                "--bounds".into(),
+                "1,0,0,0,1,1".into(),
+                "-o".into(),
+                o.into(),
+            ],
+            "--bounds",
+        ),
+        (
+            vec![
+                "bake".into(),
+                "builtin:city".into(),
+                "--res".into(),
+                "4000,4000,4000".into(),
+                "-o".into(),
+                o.into(),
+            ],
+            "GiB",
+        ),
+        (
+            vec![
+                "bake".into(),
+                "builtin:city".into(),
+                "--sun".into(),
+                "NaN,0,1:3".into(),
+                "-o".into(),
+                o.into(),
+            ],
+            "--sun",
+        ),
+        (
+            vec![
+                "bake".into(),
+                "builtin:city".into(),
+                "--sun".into(),
+                "0,0,1:NaN".into(),
+                "-o".into(),
+                o.into(),
+            ],
+            "--sun",
+        ),
+        (vec!["bake".into(), "builtin:nowhere".into(), "-o".into(), o.into()], "nowhere"),
+        (
+            vec!["bake".into(), "builtin:city".into(), "--shard".into(), "2/2".into(), "-o".into(), o.into()],
+            "--shard",
+        ),
+        (
+            vec!["bake".into(), "builtin:city".into(), "--samples".into(), "0".into(), "-o".into(), o.into()],
+            "samples",
+        ),
+    ];
+    for (args, needle) in &cases {
+        let a: Vec<&str> = args.iter().map(String::as_str).collect();
+        let err = run(&a).expect_err(&format!("lightvol {} must fail", a.join(" ")));
+        assert!(!err.contains('\n'), "one line: {err}");
+        assert!(err.to_lowercase().contains(&needle.to_lowercase()), "'{err}' should mention '{needle}'");
+        assert!(!out.exists(), "no output after: lightvol {}", a.join(" "));
+    }
+    // Mismatched merges: different grids.
+    let a = d.join("a.exr");
+    let b = d.join("b.exr");
+    ok(&[
+        "bake",
+        "builtin:maze",
+        "--samples",
+        "4",
+        "--res",
+        "4,4,3",
+        "--shard",
+        "0/2",
+        "--quiet",
+        "-o",
+        s(&a),
+    ]);
+    ok(&[
+        "bake",
+        "builtin:maze",
+        "--samples",
+        "4",
+        "--res",
+        "5,4,3",
+        "--shard",
+        "1/2",
+        "--quiet",
+        "-o",
+        s(&b),
+    ]);
+    let err = run(&["merge", s(&a), s(&b), "-o", o]).unwrap_err();
+    assert!(!err.contains('\n') && (err.contains("same bake") || err.contains("grid")), "{err}");
+    // A finalized volume without its accumulator cannot be merged.
+    let c = d.join("c.exr");
+    ok(&["bake", "builtin:maze", "--samples", "4", "--res", "4,4,3", "--quiet", "-o", s(&c)]);
+    let err = run(&["merge", s(&c), s(&a), "-o", o]).unwrap_err();
+    assert!(err.contains("accumulator"), "{err}");
+    assert!(!out.exists());
+}
