@@ -8,6 +8,9 @@
 //! Eq. 1 at the node, evaluated in f64 and rounded once to f16).
 //!
 //! ## Texture layout (the authority is Bevy's shader `irradiance_volume.wgsl`)
+//! Checked against `crates/bevy_pbr/src/light_probe/irradiance_volume.wgsl` (bevyengine/bevy
+//! at commit 00620e1d, the version with `light_from_world` and `(unit_pos + 0.5) *
+//! resolution`; older versions mapped world to voxel coordinates directly).
 //! For a volume of `(Rx, Ry, Rz)` voxels the texture is `Rx × 2Ry × 3Rz`. The shader computes
 //! `uvw` of the voxel inside the first block and samples face `a` at
 //! `uvw + (0, neg_a ? 0.5 : 0, a/3)`. Hence the texel of voxel `(x, y, z)` and side `S`:
