@@ -1,0 +1,67 @@
+//! Acceptance 6 of the CLI issue: `lightvol demo --quick` writes index.html, the PNG panels,
+//! the plot and a report.json per scene that follows the documented schema.
+
+use serde_json::Value;
+
+fn check_schema(r: &Value) {
+    assert!(r["scene"].is_string());
+    assert!(matches!(r["up"].as_str(), Some("y" | "z")));
+    assert!(r["plate"]["height"].is_f64());
+    let res = r["plate"]["res"].as_array().expect("plate.res");
+    assert_eq!(res.len(), 2);
+    assert!(res.iter().all(|v| v.as_u64().is_some_and(|n| n >= 2)));
+    assert!(r["plate"]["valid_points"].as_u64().is_some());
+    let gres = r["grid"]["res"].as_array().expect("grid.res");
+    assert_eq!(gres.len(), 3);
+    let bounds = r["grid"]["bounds"].as_array().expect("grid.bounds");
+    assert_eq!(bounds.len(), 2);
+    assert!(bounds.iter().all(|c| c.as_array().is_some_and(|a| a.len() == 3 && a.iter().all(Value::is_f64))));
+    assert!(r["reference"]["samples"].as_u64().is_some_and(|n| n > 0));
+    let methods = r["methods"].as_object().expect("methods");
+    for name in ["point", "prefilter", "doi"] {
+        let m = &methods[name];
+        assert!(m["samples"].as_u64().is_some(), "{name}.samples");
+        for k in ["sampling", "query", "total"] {
+            assert!(m["rays"][k].as_u64().is_some(), "{name}.rays.{k}");
+        }
+        assert!(m["rays"]["total"].as_u64() >= m["rays"]["sampling"].as_u64());
+        for k in ["seconds", "rel_rmse", "bias", "too_dark", "too_dark_near", "too_bright"] {
+            let v = m[k].as_f64().unwrap_or_else(|| panic!("{name}.{k}"));
+            assert!(v.is_finite(), "{name}.{k} = {v}");
+        }
+        for k in ["too_dark", "too_dark_near", "too_bright"] {
+            assert!((0.0..=1.0).contains(&m[k].as_f64().unwrap()), "{name}.{k} is a share");
+        }
+    }
+}
+
+#[test]
+fn demo_quick_writes_everything() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("demo");
+    let code =
+        lightvol::run_from_args(["lightvol", "demo", "--quick", "--quiet", "-o", out.to_str().unwrap()])
+            .unwrap_or_else(|e| panic!("demo --quick: {}", lightvol::one_line(&e)));
+    assert_eq!(code, std::process::ExitCode::SUCCESS);
+    let index = std::fs::read_to_string(out.join("index.html")).expect("index.html");
+    for scene in ["city", "interior", "maze"] {
+        let text = std::fs::read_to_string(out.join(scene).join("report.json")).expect("report.json");
+        let r: Value = serde_json::from_str(&text).expect("report.json parses");
+        check_schema(&r);
+        for m in ["point", "prefilter", "doi"] {
+            for kind in ["panel", "error"] {
+                let png = out.join(scene).join(format!("{kind}_{m}.png"));
+                let bytes = std::fs::read(&png).unwrap_or_else(|_| panic!("{}", png.display()));
+                assert_eq!(&bytes[1..4], b"PNG", "{} is a PNG", png.display());
+                assert!(
+                    index.contains(&format!("{scene}/{kind}_{m}.png")),
+                    "index.html shows {kind}_{m} of {scene}"
+                );
+            }
+        }
+    }
+    for f in ["sweep.svg", "sweep.png"] {
+        assert!(out.join(f).metadata().unwrap().len() > 100, "{f}");
+    }
+    assert!(std::fs::read_to_string(out.join("sweep.svg")).unwrap().contains("<polyline"));
+}
