@@ -3,8 +3,8 @@
 //! [`smooth_random_volume`] fills a grid with coefficients that vary smoothly in space
 //! (a few random sinusoids per coefficient and channel) with a dominant, positive DC term,
 //! so irradiance is positive and well away from zero for every normal: relative errors
-//! are meaningful on it. It stands in for a baked scene until lightvol-sampler can bake
-//! one (see `tests/lookup.rs`, `TEST_VOLUME`).
+//! are meaningful on it. The GPU-vs-CPU tests run on it beside a baked built-in scene
+//! (see `tests/lookup.rs`, `TEST_VOLUME`); benchmarks use it because it needs no bake.
 
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::lowdisc::SplitMix64;

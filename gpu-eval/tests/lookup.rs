@@ -3,28 +3,35 @@
 //! Every test gets its device from `lightvol_gpu::gpu_or_skip()`: without Vulkan it prints
 //! `skipped: no Vulkan device (...)` and passes, unless `LIGHTVOL_REQUIRE_GPU=1`.
 //!
-//! **Test volume.** Acceptance 2 asks for a baked built-in scene. lightvol-sampler cannot
-//! bake yet, so [`TEST_VOLUME`] is [`TestVolume::Synthetic`]: smooth seeded random
-//! coefficients (`lightvol_gpu::synthetic::smooth_random_volume`). To switch, add a
-//! `Baked` variant that bakes a built-in scene at a small resolution in [`test_volume`] and
-//! point `TEST_VOLUME` at it; the comparisons below do not change.
+//! **Test volumes.** [`TEST_VOLUME`] picks the volume the comparisons run on:
+//! [`TestVolume::BakedCity`] (default, acceptance 2) bakes lightvol-sampler's built-in
+//! city on a small grid with the paper's domain-of-interest method (a few seconds);
+//! [`TestVolume::Synthetic`] uses smooth seeded random coefficients
+//! (`lightvol_gpu::synthetic::smooth_random_volume`), whose irradiance is positive and
+//! well-conditioned everywhere. `gpu_lookup_matches_cpu_on_synthetic_volume` always runs on
+//! the synthetic one too.
+
+use std::sync::Mutex;
 
 use lightvol_gpu::lookup::Quantity;
 use lightvol_gpu::synthetic::{random_queries, smooth_random_volume};
 use lightvol_gpu::{ContextOptions, GpuError, VolumeLookup, gpu_or_skip};
+use lightvol_sampler::{BakeControl, BakeSettings, Method, TransportSettings, bake};
 use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::irradiance::cosine_lobe_factor;
 use lightvol_volume::{GridSpec, IrradianceVolume, Placement};
 
 /// Which volume the comparisons run on (see the module docs).
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum TestVolume {
+    /// The built-in city baked by lightvol-sampler (`Method::Doi`, 7×7×4 nodes).
+    BakedCity,
     /// `smooth_random_volume`: positive irradiance everywhere, seeded.
     Synthetic,
 }
 
-const TEST_VOLUME: TestVolume = TestVolume::Synthetic;
+const TEST_VOLUME: TestVolume = TestVolume::BakedCity;
 
 /// Acceptance 2: GPU within 1e-5 relative of the CPU lookup. Both sides are f32 with the
 /// same operations in the same order; the differences come from FMA contraction by the
@@ -39,21 +46,43 @@ const QUERIES: usize = 4096;
 /// outside the box and exercise clamping.
 const MARGIN: f64 = 0.15;
 
-fn test_volume(coeffs: usize, placed: bool, seed: u64) -> IrradianceVolume {
-    match TEST_VOLUME {
+/// Rotation about z by 30 degrees, anisotropic scale, translation.
+fn placement() -> Placement {
+    let (s, c) = 30f64.to_radians().sin_cos();
+    Placement::new([[2.0 * c, -s, 0.0, 10.0], [2.0 * s, c, 0.0, -4.0], [0.0, 0.0, 0.5, 1.0]]).unwrap()
+}
+
+/// The built-in city baked with `coeffs` coefficients (cached: each bake runs once per
+/// test binary).
+fn baked_city(coeffs: usize) -> IrradianceVolume {
+    static CACHE: Mutex<Vec<(usize, IrradianceVolume)>> = Mutex::new(Vec::new());
+    let mut cache = CACHE.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+    if let Some((_, v)) = cache.iter().find(|(c, _)| *c == coeffs) {
+        return v.clone();
+    }
+    let city = lightvol_sampler::builtin::city();
+    let tracer = lightvol_sampler::Tracer::new(&city.scene);
+    let transport = lightvol_sampler::Transport::new(&city.scene, &tracer, TransportSettings::default());
+    let grid = GridSpec::new([-14.0, -14.0, -1.0], [14.0, 14.0, 11.0], [7, 7, 4]).unwrap();
+    let settings = BakeSettings { method: Method::Doi, samples: 16, coeffs, seed: 8, ..Default::default() };
+    let (vol, _) = bake(&transport, &grid, &settings, &BakeControl::default()).unwrap().finish();
+    cache.push((coeffs, vol.clone()));
+    vol
+}
+
+fn test_volume(source: TestVolume, coeffs: usize, placed: bool, seed: u64) -> IrradianceVolume {
+    let vol = match source {
+        TestVolume::BakedCity => baked_city(coeffs),
         TestVolume::Synthetic => {
-            let mut spec = GridSpec::new([-1.0, 0.0, 2.0], [3.0, 1.5, 5.0], [9, 6, 7]).unwrap();
-            if placed {
-                // Rotation about z by 30 degrees, anisotropic scale, translation.
-                let (s, c) = 30f64.to_radians().sin_cos();
-                spec = spec.with_placement(
-                    Placement::new([[2.0 * c, -s, 0.0, 10.0], [2.0 * s, c, 0.0, -4.0], [0.0, 0.0, 0.5, 1.0]])
-                        .unwrap(),
-                );
-            }
+            let spec = GridSpec::new([-1.0, 0.0, 2.0], [3.0, 1.5, 5.0], [9, 6, 7]).unwrap();
             smooth_random_volume(spec, coeffs, seed).unwrap()
         }
+    };
+    if !placed {
+        return vol;
     }
+    let (spec, coeffs, data, weights, _) = vol.into_parts();
+    IrradianceVolume::new(spec.with_placement(placement()), coeffs, data, weights).unwrap()
 }
 
 /// `Σ_j |f_j Y_j(n)| |L_j(x)|` per channel: the magnitude scale of the lookup's rounding
@@ -74,8 +103,19 @@ fn term_magnitude(vol: &IrradianceVolume, q: Quantity, p: [f32; 3], n: [f32; 3])
     })
 }
 
-/// Compares GPU and CPU on random queries; returns the worst relative error.
-fn compare(lookup: &VolumeLookup, vol: &IrradianceVolume, q: Quantity, seed: u64) -> f64 {
+/// What one comparison found.
+struct Agreement {
+    /// Worst plain relative error over well-conditioned values.
+    worst_rel: f64,
+    /// Values (query × channel) with |E| ≥ M/4, where the plain relative check applies.
+    well_conditioned: usize,
+    /// Values bit-identical to the CPU f32 lookup.
+    identical: usize,
+}
+
+/// Compares GPU and CPU on random queries: every value within `GPU_VS_CPU_REL` of its
+/// term magnitude, and within `GPU_VS_CPU_REL` relative where it is not a cancellation.
+fn compare(lookup: &VolumeLookup, vol: &IrradianceVolume, q: Quantity, seed: u64) -> Agreement {
     let (points, dirs) = random_queries(vol.spec(), QUERIES, MARGIN, seed);
     let gpu = lookup.evaluate(q, &points, &dirs).unwrap();
     let mut cpu = vec![[0.0f32; 3]; QUERIES];
@@ -83,8 +123,7 @@ fn compare(lookup: &VolumeLookup, vol: &IrradianceVolume, q: Quantity, seed: u64
         Quantity::Irradiance => vol.irradiance_batch(&points, &dirs, &mut cpu).unwrap(),
         Quantity::Radiance => vol.radiance_batch(&points, &dirs, &mut cpu).unwrap(),
     }
-    let mut worst = 0.0f64;
-    let mut well_conditioned = 0;
+    let mut a = Agreement { worst_rel: 0.0, well_conditioned: 0, identical: 0 };
     for i in 0..QUERIES {
         let m = term_magnitude(vol, q, points[i], dirs[i]);
         let reference = match q {
@@ -95,6 +134,7 @@ fn compare(lookup: &VolumeLookup, vol: &IrradianceVolume, q: Quantity, seed: u64
         };
         for ch in 0..3 {
             let (g, c) = (f64::from(gpu[i][ch]), f64::from(cpu[i][ch]));
+            a.identical += usize::from(gpu[i][ch] == cpu[i][ch]);
             // Every query: error within 1e-5 of the term magnitude.
             assert!(
                 (g - c).abs() <= GPU_VS_CPU_REL * m[ch],
@@ -108,43 +148,66 @@ fn compare(lookup: &VolumeLookup, vol: &IrradianceVolume, q: Quantity, seed: u64
                 reference[ch]
             );
             // Plain relative error where the value is not a cancellation (|E| >= M / 4).
-            if c.abs() >= 0.25 * m[ch] {
-                well_conditioned += 1;
+            if c.abs() >= 0.25 * m[ch] && m[ch] > 0.0 {
+                a.well_conditioned += 1;
                 let rel = (g - c).abs() / c.abs();
                 assert!(rel <= GPU_VS_CPU_REL, "{q:?} query {i} ch {ch}: relative error {rel:e}");
-                worst = worst.max(rel);
+                a.worst_rel = a.worst_rel.max(rel);
             }
         }
     }
-    if q == Quantity::Irradiance {
-        // The synthetic volume has positive, well-conditioned irradiance everywhere, so the
-        // plain relative check covered every query.
-        assert_eq!(well_conditioned, 3 * QUERIES);
-    } else {
-        assert!(well_conditioned > QUERIES, "too few well-conditioned radiance queries: {well_conditioned}");
-    }
-    worst
+    a
 }
 
-#[test]
-fn gpu_lookup_matches_cpu_for_all_orders_and_placements() {
+fn compare_all(source: TestVolume) {
     let Some(ctx) = gpu_or_skip() else { return };
     for coeffs in [4, 9, 16] {
         for placed in [false, true] {
-            let vol = test_volume(coeffs, placed, 100 + coeffs as u64);
+            let vol = test_volume(source, coeffs, placed, 100 + coeffs as u64);
             let lookup = VolumeLookup::new(&ctx, &vol).unwrap();
             for q in [Quantity::Irradiance, Quantity::Radiance] {
-                let worst = compare(&lookup, &vol, q, 7 * coeffs as u64 + u64::from(placed));
-                println!("{coeffs} coeffs, placed {placed}, {q:?}: worst relative error {worst:.2e}");
+                let a = compare(&lookup, &vol, q, 7 * coeffs as u64 + u64::from(placed));
+                let n = 3 * QUERIES;
+                println!(
+                    "{source:?}, {coeffs} coeffs, placed {placed}, {q:?}: worst relative error {:.2e} \
+                     over {} of {n} well-conditioned values; {} of {n} bit-identical",
+                    a.worst_rel, a.well_conditioned, a.identical
+                );
+                // Guard against a vacuous plain-relative check: most irradiance values must
+                // be well-conditioned (the synthetic volume's are, everywhere); radiance of a
+                // noisy 16-sample bake cancels more often (measured: 43% well-conditioned
+                // for 16 coefficients), so it needs a quarter.
+                let need = if q == Quantity::Irradiance { n / 2 } else { n / 4 };
+                assert!(
+                    a.well_conditioned >= need,
+                    "only {} of {n} well-conditioned values",
+                    a.well_conditioned
+                );
+                if source == TestVolume::Synthetic && q == Quantity::Irradiance {
+                    assert_eq!(a.well_conditioned, n);
+                }
             }
         }
     }
+}
+
+/// Acceptance 2 on [`TEST_VOLUME`] (the baked city): 4, 9 and 16 coefficients, with and
+/// without a placement, irradiance and radiance.
+#[test]
+fn gpu_lookup_matches_cpu_for_all_orders_and_placements() {
+    compare_all(TEST_VOLUME);
+}
+
+/// The same comparison on the synthetic volume, where every value is well-conditioned.
+#[test]
+fn gpu_lookup_matches_cpu_on_synthetic_volume() {
+    compare_all(TestVolume::Synthetic);
 }
 
 #[test]
 fn resident_batches_rerun_and_match_single_shot() {
     let Some(ctx) = gpu_or_skip() else { return };
-    let vol = test_volume(9, false, 3);
+    let vol = test_volume(TEST_VOLUME, 9, false, 3);
     let lookup = VolumeLookup::new(&ctx, &vol).unwrap();
     let (points, dirs) = random_queries(vol.spec(), 1000, MARGIN, 9);
     let once = lookup.irradiance(&points, &dirs).unwrap();
@@ -162,7 +225,7 @@ fn resident_batches_rerun_and_match_single_shot() {
 #[test]
 fn nodes_reproduce_stored_radiance_and_edge_queries_clamp() {
     let Some(ctx) = gpu_or_skip() else { return };
-    let vol = test_volume(4, false, 21);
+    let vol = test_volume(TestVolume::Synthetic, 4, false, 21);
     let lookup = VolumeLookup::new(&ctx, &vol).unwrap();
     let spec = vol.spec().clone();
     // Every node, straight up: radiance = Σ_j c_ij Y_j(+z), where only j = 0, 2 are non-zero.
@@ -198,7 +261,7 @@ fn nodes_reproduce_stored_radiance_and_edge_queries_clamp() {
 #[test]
 fn bad_inputs_are_errors() {
     let Some(ctx) = gpu_or_skip() else { return };
-    let vol = test_volume(9, false, 1);
+    let vol = test_volume(TEST_VOLUME, 9, false, 1);
     let lookup = VolumeLookup::new(&ctx, &vol).unwrap();
     assert!(lookup.irradiance(&[], &[]).unwrap().is_empty());
     assert!(matches!(lookup.irradiance(&[[0.0; 3]; 2], &[[0.0, 0.0, 1.0]]), Err(GpuError::Invalid(_))));
@@ -225,7 +288,7 @@ fn validation_layer_reports_no_errors() {
     };
     assert!(ctx.validation_enabled());
     for coeffs in [4, 16] {
-        let vol = test_volume(coeffs, true, 5);
+        let vol = test_volume(TEST_VOLUME, coeffs, true, 5);
         let lookup = VolumeLookup::new(&ctx, &vol).unwrap();
         let (points, dirs) = random_queries(vol.spec(), 300, MARGIN, 2);
         let mut batch = lookup.batch(&points, &dirs).unwrap();
