@@ -220,6 +220,20 @@ mod tests {
         assert!((e.max_coeff_error - 0.5).abs() < ROUND_TRIP_TOL);
     }
 
+    /// Half-Life 2 has no lightmap coefficient: all three are range-compressed.
+    #[cfg(feature = "hl2")]
+    #[test]
+    fn hl2_range_compresses_everything() {
+        let enc = Encoding { quantize_8bit: false, ..Encoding::default() };
+        let (stored, stats) = enc.encode(&crate::Hl2, &[[-0.5, 0.0, 0.75]; 3]);
+        assert_eq!(stats, ClampStats::default());
+        for v in &stored {
+            assert!((v[0] - 1.0 / 6.0).abs() < ROUND_TRIP_TOL);
+            assert!((v[1] - 0.5).abs() < ROUND_TRIP_TOL);
+            assert!((v[2] - 1.0).abs() < ROUND_TRIP_TOL);
+        }
+    }
+
     #[test]
     fn eight_bit_error_is_bounded_by_half_a_step() {
         let b = ShBasis::new(3);

@@ -427,6 +427,19 @@ mod tests {
     }
 
     #[test]
+    fn svg_has_one_bar_and_tick_per_row() {
+        let r = run_bases(&[Box::new(ShBasis::new(2)), Box::new(ShBasis::new(3))], 20, 1);
+        let svg = r.svg();
+        assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+        // Background plus one bar per row.
+        assert_eq!(svg.matches("<rect").count(), 1 + r.rows.len());
+        assert_eq!(svg.matches("stroke=\"black\" stroke-width=\"2\"").count(), r.rows.len());
+        assert!(svg.contains("4 coefficients") && svg.contains("9 coefficients"));
+        let table = r.table();
+        assert!(table.contains("0.02748") && table.contains("%"));
+    }
+
+    #[test]
     fn json_shape() {
         let r = ImseReport {
             signals: 2,
