@@ -27,6 +27,7 @@
 
 use rayon::prelude::*;
 
+use lightvol_sh::coeffs::{Sh, ShRgb};
 use lightvol_sh::eval::{eval_basis, eval_into};
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::irradiance::cosine_lobe_factor;
@@ -283,6 +284,20 @@ impl IrradianceVolume {
             9 => out[..k].copy_from_slice(&interpolate::<27>(self.data(), base, &lp.offsets, &w)),
             _ => out[..k].copy_from_slice(&interpolate::<48>(self.data(), base, &lp.offsets, &w)),
         }
+    }
+
+    /// The interpolated coefficients at world point `p` as a lightvol-sh [`ShRgb`] (f32
+    /// path); errors if `N` is not the volume's coefficient count.
+    pub fn sh_at<const N: usize>(&self, p: [f32; 3]) -> Result<ShRgb<f32, N>, VolumeError> {
+        if N != self.coeffs() {
+            return Err(VolumeError::Mismatch(format!(
+                "{N} coefficients requested, volume has {}",
+                self.coeffs()
+            )));
+        }
+        let mut flat = [0.0f32; 48];
+        self.coeffs_at(p, &mut flat);
+        Ok(ShRgb(std::array::from_fn(|ch| Sh(std::array::from_fn(|j| flat[3 * j + ch])))))
     }
 
     /// Batched irradiance: `out[q] = E(points[q], normals[q])`, parallel over rayon's

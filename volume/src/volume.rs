@@ -9,6 +9,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use lightvol_sh::coeffs::{Sh, ShRgb};
+
 use crate::error::{VolumeError, check_finite};
 use crate::grid::GridSpec;
 use crate::lookup::LookupParams;
@@ -180,6 +182,20 @@ impl IrradianceVolume {
     pub fn coeff_rgb(&self, node: usize, j: usize) -> [f32; 3] {
         let s = self.node(node);
         [s[3 * j], s[3 * j + 1], s[3 * j + 2]]
+    }
+
+    /// The coefficients of `node` as a lightvol-sh [`ShRgb`]; errors if `N` is not the
+    /// volume's coefficient count.
+    pub fn node_sh<const N: usize>(&self, node: usize) -> Result<ShRgb<f32, N>, VolumeError> {
+        if N != self.coeffs || node >= self.spec.node_count() {
+            return Err(VolumeError::Mismatch(format!(
+                "node {node} as {N} coefficients (volume has {} nodes x {})",
+                self.spec.node_count(),
+                self.coeffs
+            )));
+        }
+        let s = self.node(node);
+        Ok(ShRgb(std::array::from_fn(|ch| Sh(std::array::from_fn(|j| s[3 * j + ch])))))
     }
 
     /// Overwrites one node's coefficients (`[coeff][rgb]`, 3·coeffs finite floats).

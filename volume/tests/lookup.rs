@@ -180,8 +180,10 @@ fn radiance_at_a_node_is_the_sh_expansion() {
     let spec = vol.spec().clone();
     let node = spec.node_index(3, 2, 1);
     let x = spec.node_position_world(3, 2, 1);
-    let sh: ShRgb<f64, 16> =
-        ShRgb(std::array::from_fn(|ch| Sh(std::array::from_fn(|c| f64::from(vol.coeff_rgb(node, c)[ch])))));
+    let sh: ShRgb<f64, 16> = vol.node_sh::<16>(node).unwrap().cast();
+    assert!(vol.node_sh::<9>(node).is_err());
+    // Interpolated SH at the node equals the node's SH (weight 1 there, exactly).
+    assert_eq!(vol.sh_at::<16>(x.map(|v| v as f32)).unwrap(), vol.node_sh::<16>(node).unwrap());
     let mut rng = SplitMix64::new(2);
     for _ in 0..50 {
         let d = sample_uniform_sphere([rng.next_f64(), rng.next_f64()]);
