@@ -169,7 +169,12 @@ fn roofline() {
     let f = fixture();
     let src = vec![1.0f32; STREAM_LEN];
     let mut dst = vec![0.0f32; STREAM_LEN];
-    let bw = (2 * 4 * STREAM_LEN) as f64 / time(5, || dst.copy_from_slice(black_box(&src)));
+    // black_box on the destination too: otherwise the copy is a dead store and vanishes.
+    let bw = (2 * 4 * STREAM_LEN) as f64
+        / time(5, || {
+            dst.copy_from_slice(black_box(&src));
+            black_box(&mut dst);
+        });
     let peak = PEAK_FLOPS as f64
         / time(11, || {
             black_box(peak_kernel(black_box(0.999), black_box(0.001)));
