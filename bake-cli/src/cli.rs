@@ -27,6 +27,9 @@ pub enum Command {
     Demo(crate::cmd_demo::DemoArgs),
     /// Merge shard bakes (`bake --shard K/N`) into one volume; refuses mismatched grids.
     Merge(crate::cmd_merge::MergeArgs),
+    /// Render a view shaded by a baked volume (or path-traced with --reference): the
+    /// "helicopter" view that shows leaking.
+    Render(crate::cmd_render::RenderArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
     /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).

@@ -7,6 +7,7 @@ pub mod cmd_demo;
 mod cmd_export;
 mod cmd_info;
 pub mod cmd_merge;
+pub mod cmd_render;
 pub mod imaging;
 pub mod metrics;
 pub mod setup;
@@ -57,6 +58,7 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::Demo(a) => cmd_demo::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
         cli::Command::Merge(a) => cmd_merge::run(&a),
+        cli::Command::Render(a) => cmd_render::run(&a),
         cli::Command::Export(a) => cmd_export::run(&a),
     }
 }

@@ -1,0 +1,196 @@
+//! `lightvol render`: a pinhole view in which every visible surface is shaded by the
+//! volume (irradiance at the hit point and normal, times albedo / π), or by path tracing
+//! with `--reference`. This is the "helicopter" view of Kontkanen & Laine 2006 Fig. 1: it
+//! shows leaking where a person can see it.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use lightvol_sampler::{DVec3, Tracer, Transport, TransportSettings, reference_irradiance};
+use lightvol_sh::lowdisc::hash2;
+use lightvol_volume::exr_io::read_exr;
+use rayon::prelude::*;
+
+use crate::imaging::{Rgb32, write_png_linear};
+use crate::setup::{SceneArgs, with_threads};
+
+/// `lightvol render`.
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// Scene and lights (must match the volume's bake).
+    #[command(flatten)]
+    pub scene: SceneArgs,
+    /// The baked volume to shade with (required unless --reference).
+    #[arg(long)]
+    pub volume: Option<PathBuf>,
+    /// Camera `EYE_X,EYE_Y,EYE_Z:TARGET_X,TARGET_Y,TARGET_Z[:FOV_DEG]` (default: a view from
+    /// above one corner of the scene bounds, looking at their centre).
+    #[arg(long, allow_hyphen_values = true)]
+    pub camera: Option<String>,
+    /// Image width.
+    #[arg(long, default_value_t = 480)]
+    pub width: u32,
+    /// Image height.
+    #[arg(long, default_value_t = 320)]
+    pub height: u32,
+    /// Shade by path tracing instead of the volume (the ground truth for the same view).
+    #[arg(long)]
+    pub reference: bool,
+    /// Path-traced irradiance samples per pixel with --reference.
+    #[arg(long, default_value_t = 64)]
+    pub reference_samples: u32,
+    /// Exposure multiplier (default: maps the mean pixel to 0.35).
+    #[arg(long)]
+    pub exposure: Option<f32>,
+    /// Seed of the reference's streams.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Worker threads.
+    #[arg(long)]
+    pub threads: Option<usize>,
+    /// Output PNG.
+    #[arg(short, long, default_value = "render.png")]
+    pub output: PathBuf,
+}
+
+/// A pinhole camera.
+#[derive(Clone, Copy, Debug)]
+pub struct Camera {
+    eye: DVec3,
+    forward: DVec3,
+    right: DVec3,
+    up: DVec3,
+    tan_half: f64,
+}
+
+impl Camera {
+    /// Looks from `eye` at `target` with vertical field of view `fov_deg`, +Z up.
+    pub fn look_at(eye: DVec3, target: DVec3, fov_deg: f64) -> anyhow::Result<Self> {
+        let forward = (target - eye).try_normalize().context("camera eye and target coincide")?;
+        let right = forward.cross(DVec3::Z).try_normalize().unwrap_or(DVec3::X);
+        let up = right.cross(forward);
+        if !(1.0..179.0).contains(&fov_deg) {
+            bail!("camera field of view must be in [1, 179] degrees, got {fov_deg}");
+        }
+        Ok(Self { eye, forward, right, up, tan_half: (fov_deg.to_radians() / 2.0).tan() })
+    }
+
+    /// The default view: above a corner of the bounds, looking at their centre.
+    pub fn overview(lo: DVec3, hi: DVec3) -> anyhow::Result<Self> {
+        let c = (lo + hi) * 0.5;
+        let ext = hi - lo;
+        let eye = DVec3::new(c.x - 0.55 * ext.x, c.y - 0.85 * ext.y, hi.z + 0.6 * ext.x.max(ext.y));
+        Self::look_at(eye, DVec3::new(c.x, c.y, lo.z + 0.15 * ext.z), 50.0)
+    }
+
+    /// Parses `EYE:TARGET[:FOV]`.
+    pub fn parse(s: &str) -> anyhow::Result<Self> {
+        let parts: Vec<&str> = s.split(':').collect();
+        if !(2..=3).contains(&parts.len()) {
+            bail!("--camera: expected EYE_X,EYE_Y,EYE_Z:TARGET_X,TARGET_Y,TARGET_Z[:FOV_DEG]");
+        }
+        let v = |t: &str| -> anyhow::Result<DVec3> {
+            let x: Vec<f64> = t
+                .split(',')
+                .map(|c| c.trim().parse::<f64>().with_context(|| format!("--camera: '{c}' is not a number")))
+                .collect::<anyhow::Result<_>>()?;
+            if x.len() != 3 || x.iter().any(|v| !v.is_finite()) {
+                bail!("--camera: '{t}' is not three finite numbers");
+            }
+            Ok(DVec3::new(x[0], x[1], x[2]))
+        };
+        let fov = match parts.get(2) {
+            Some(f) => f.trim().parse::<f64>().context("--camera: field of view is not a number")?,
+            None => 50.0,
+        };
+        Self::look_at(v(parts[0])?, v(parts[1])?, fov)
+    }
+
+    /// The unit ray direction through pixel `(x, y)` of a `w × h` image.
+    #[must_use]
+    pub fn ray(&self, x: u32, y: u32, w: u32, h: u32) -> DVec3 {
+        let aspect = f64::from(w) / f64::from(h);
+        let sx = (2.0 * (f64::from(x) + 0.5) / f64::from(w) - 1.0) * self.tan_half * aspect;
+        let sy = (1.0 - 2.0 * (f64::from(y) + 0.5) / f64::from(h)) * self.tan_half;
+        (self.forward + self.right * sx + self.up * sy).normalize()
+    }
+}
+
+/// Runs `lightvol render`.
+pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+    if args.width == 0 || args.height == 0 || u64::from(args.width) * u64::from(args.height) > 64 << 20 {
+        bail!("image size {}x{} must be positive and at most 64 Mpixels", args.width, args.height);
+    }
+    let loaded = args.scene.load()?;
+    let vol = match (&args.volume, args.reference) {
+        (Some(p), _) => Some(read_exr(p).with_context(|| format!("reading {}", p.display()))?),
+        (None, true) => None,
+        (None, false) => bail!("render needs --volume V.exr (or --reference for the path-traced view)"),
+    };
+    let cam = match &args.camera {
+        Some(c) => Camera::parse(c)?,
+        None => {
+            // Frame the volume (or the built-in's recommended grid), else the scene.
+            let grid = vol.as_ref().map(|v| v.spec().clone()).or_else(|| loaded.grid.clone());
+            let (lo, hi) = match grid {
+                Some(g) if g.placement().is_none() => {
+                    let (a, b) = g.bounds();
+                    (DVec3::from(a), DVec3::from(b))
+                }
+                _ => loaded.scene.bounds(),
+            };
+            Camera::overview(lo, hi)?
+        }
+    };
+    let (w, h) = (args.width, args.height);
+    // With --reference the volume (if given) only frames the view.
+    let shade_vol = if args.reference { None } else { vol.as_ref() };
+    let img = with_threads(args.threads, || -> Rgb32 {
+        let tracer = Tracer::new(&loaded.scene);
+        let transport = Transport::new(&loaded.scene, &tracer, TransportSettings::default());
+        let scene = &loaded.scene;
+        let pixels: Vec<[f32; 3]> = (0..w * h)
+            .into_par_iter()
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let d = cam.ray(x, y, w, h);
+                let Some(hit) = tracer.closest_hit(cam.eye, d, 0.0, f64::INFINITY) else {
+                    return scene.environment.radiance(d).map(|v| v as f32);
+                };
+                let p = cam.eye + d * hit.t;
+                // Shade the side the camera sees.
+                let n = if hit.normal.dot(d) > 0.0 { -hit.normal } else { hit.normal };
+                let albedo = scene.albedo(hit.triangle, hit.bary[0], hit.bary[1]);
+                let emission = scene.material_of(hit.triangle).emission;
+                let e: [f64; 3] = match shade_vol {
+                    Some(v) => v
+                        .irradiance(p.as_vec3().to_array(), n.as_vec3().to_array())
+                        .map(|c| f64::from(c).max(0.0)),
+                    None => {
+                        reference_irradiance(
+                            &transport,
+                            p,
+                            n,
+                            args.reference_samples,
+                            args.seed,
+                            hash2(0x7e2d, u64::from(i)),
+                        )
+                        .0
+                    }
+                };
+                core::array::from_fn(|c| (emission[c] + albedo[c] * e[c] / std::f64::consts::PI) as f32)
+            })
+            .collect();
+        Rgb32 { width: w as usize, height: h as usize, pixels }
+    })?;
+    let exposure = args.exposure.unwrap_or_else(|| {
+        let mean: f64 = img.pixels.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>()
+            / img.pixels.len() as f64;
+        if mean > 0.0 { (0.35 / mean) as f32 } else { 1.0 }
+    });
+    write_png_linear(&args.output, &img, exposure)?;
+    eprintln!("wrote {}", args.output.display());
+    Ok(ExitCode::SUCCESS)
+}
