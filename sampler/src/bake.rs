@@ -282,13 +282,13 @@ fn sample_terms(
 fn point_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, node: usize) -> UnitOut {
     let [i, j, k] = grid.node_coords(node);
     let x = DVec3::from_array(grid.node_position_world(i, j, k));
-    let h = Qmc::<5>::new(settings.seed, hash2(node as u64, 0x706f_696e_74));
+    let h = Qmc::<2>::new(settings.seed, hash2(node as u64, 0x706f_696e_74));
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     let mut weights = [0.0; 8];
     weights[0] = 1.0;
     for s in 0..u64::from(settings.samples) {
         let p = h.point(s);
-        let dir = DVec3::from_array(sample_uniform_sphere([p[3], p[4]]));
+        let dir = DVec3::from_array(sample_uniform_sphere(p));
         let mut rng = PathRng::new(settings.seed, hash2(node as u64, 0x706f_696e_74), s);
         out.stats.rays.sampling += 1;
         let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
@@ -307,13 +307,16 @@ fn cell_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, cell: 
     let h = Qmc::<5>::new(settings.seed, cell as u64);
     let mut out = UnitOut { nodes: grid.cell_corners(cell), ..Default::default() };
     let n = u64::from(settings.samples);
-    // Grid-space origin (for the weights) and world-space ray.
-    let candidate_at = |i: u64| -> (DVec3, DVec3, DVec3) {
-        let p = h.point(i);
-        let g = lo + (hi - lo) * DVec3::new(p[0], p[1], p[2]);
-        let w = DVec3::from_array(grid.to_world(g.to_array()));
-        (g, w, DVec3::from_array(sample_uniform_sphere([p[3], p[4]])))
-    };
+    // Grid-space origin (for the weights) and world-space ray, computed once per candidate.
+    let points: Vec<(DVec3, DVec3, DVec3)> = (0..n)
+        .map(|i| {
+            let p = h.point(i);
+            let g = lo + (hi - lo) * DVec3::new(p[0], p[1], p[2]);
+            let w = DVec3::from_array(grid.to_world(g.to_array()));
+            (g, w, DVec3::from_array(sample_uniform_sphere([p[3], p[4]])))
+        })
+        .collect();
+    let candidate_at = |i: u64| points[i as usize];
     let weights_of = |g: DVec3| -> [f64; 8] {
         let f = (g - lo) / (hi - lo);
         lightvol_volume::grid::corner_weights([f.x, f.y, f.z].map(|v| v.clamp(0.0, 1.0)))

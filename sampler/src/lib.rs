@@ -19,10 +19,12 @@ pub mod texture;
 pub mod transport;
 
 pub use bake::{BakeControl, BakeOutput, BakeSettings, Method, Progress, bake};
+pub use builtin::{BuiltinScene, builtin};
 pub use bvh::{BuildQuality, Hit, Tracer};
 pub use error::{BakeError, SceneError};
 pub use glam::{DVec2, DVec3};
 pub use lights::{Environment, PunctualLight, Sun};
+pub use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 pub use load_obj::{LoadOptions, load_obj, load_scene};
 pub use reference::{reference_irradiance, reference_irradiance_many};
 pub use scene::{LoadReport, Material, Scene, SceneBuilder, Triangle, UpAxis};
