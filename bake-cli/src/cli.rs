@@ -30,6 +30,8 @@ pub enum Command {
     /// Render a view shaded by a baked volume (or path-traced with --reference): the
     /// "helicopter" view that shows leaking.
     Render(crate::cmd_render::RenderArgs),
+    /// Reproduce the IMSE comparison of hemispherical bases (seed 003 Table 3.1, Fig. 3.1).
+    Imse(crate::cmd_imse::ImseArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
     /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).

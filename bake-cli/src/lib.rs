@@ -5,6 +5,7 @@ pub mod cmd_bake;
 pub mod cmd_compare;
 pub mod cmd_demo;
 mod cmd_export;
+pub mod cmd_imse;
 mod cmd_info;
 pub mod cmd_merge;
 pub mod cmd_render;
@@ -56,6 +57,7 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::Bake(a) => cmd_bake::run(&a),
         cli::Command::Compare(a) => cmd_compare::run(&a),
         cli::Command::Demo(a) => cmd_demo::run(&a),
+        cli::Command::Imse(a) => cmd_imse::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
         cli::Command::Merge(a) => cmd_merge::run(&a),
         cli::Command::Render(a) => cmd_render::run(&a),

@@ -1,5 +1,5 @@
 //! Issue 6 acceptance 3: the IMSE reproduction of seed 003 Table 3.1 at 10,000 signals.
-//! (Lives in the crate for now; the lead moves it to the workspace `tests/` crate.)
+//! Runs in the workspace `tests/` crate, with every basis feature enabled.
 
 use lightvol_hemibasis::imse::{self, ImseEvaluator, expected_imse, signal, table_bases};
 
