@@ -253,7 +253,8 @@ impl IrradianceVolume {
     }
 
     /// Radiance `L(x, ω) ≈ Σ_j L_j(x) Y_j(ω)` (Eq. 2 with the SH expansion) arriving at `p`
-    /// from the world-space unit direction `dir`: the scalar f32 path.
+    /// from the world-space unit direction `dir` (pointing from `p` toward the source, the
+    /// direction a baker's ray travels): the scalar f32 path.
     #[must_use]
     pub fn radiance(&self, p: [f32; 3], dir: [f32; 3]) -> [f32; 3] {
         self.eval_scalar(p, dir, false)

@@ -15,6 +15,10 @@ use crate::error::{VolumeError, check_finite};
 use crate::grid::GridSpec;
 use crate::lookup::LookupParams;
 
+/// The default SH coefficient count per colour channel: 3 bands, the nine coefficients that
+/// capture irradiance to a few percent (Ramamoorthi & Hanrahan 2001; seed 000 §3).
+pub const DEFAULT_COEFFS: usize = 9;
+
 /// The SH coefficient counts per colour channel this crate supports (2, 3 and 4 bands).
 pub const SUPPORTED_COEFFS: [usize; 3] = [4, 9, 16];
 
