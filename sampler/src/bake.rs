@@ -195,7 +195,7 @@ pub fn bake(
     let start = Instant::now();
     let mut stats = BakeStats::default();
     let chunk = settings.chunk.max(1);
-    let mut basis = vec![0.0; settings.coeffs];
+    let mut basis = [vec![0.0; settings.coeffs], vec![0.0; settings.coeffs]];
     let mut done = 0;
     for c0 in (lo..hi).step_by(chunk) {
         let c1 = (c0 + chunk).min(hi);
@@ -230,20 +230,23 @@ pub fn bake(
 /// Adds a unit's samples in order. A sample with two terms is added as two half-weight
 /// contributions with doubled radiance: `(b/2)·(2 r)` equals `b·r` exactly (powers of two),
 /// so the numerator receives `b (r₁ Y(ω₁) + r₂ Y(ω₂))` and the denominator exactly `b`.
-fn feed(acc: &mut Accumulator, out: &UnitOut, bands: usize, basis: &mut [f64]) {
+fn feed(acc: &mut Accumulator, out: &UnitOut, bands: usize, basis: &mut [Vec<f64>; 2]) {
     for s in &out.samples {
+        let n_terms = usize::from(s.n_terms);
+        // One basis evaluation per term, shared by the (up to 8) corners.
+        for (t, b) in s.terms[..n_terms].iter().zip(basis.iter_mut()) {
+            eval_into(bands, t.0.to_array(), b);
+        }
         for (c, &w) in s.weights.iter().enumerate() {
             if w <= 0.0 {
                 continue;
             }
             let node = out.nodes[c];
-            if s.n_terms == 1 {
-                eval_into(bands, s.terms[0].0.to_array(), basis);
-                acc.add(node, w, s.terms[0].1, basis);
+            if n_terms == 1 {
+                acc.add(node, w, s.terms[0].1, &basis[0]);
             } else {
-                for (dir, r) in &s.terms[..usize::from(s.n_terms)] {
-                    eval_into(bands, dir.to_array(), basis);
-                    acc.add(node, 0.5 * w, r.map(|v| 2.0 * v), basis);
+                for (t, b) in s.terms[..n_terms].iter().zip(basis.iter()) {
+                    acc.add(node, 0.5 * w, t.1.map(|v| 2.0 * v), b);
                 }
             }
         }
