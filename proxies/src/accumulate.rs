@@ -29,7 +29,7 @@ use lightvol_sh::zonal::Zh;
 use crate::light::LightField;
 use crate::operators::d_paper_fit;
 use crate::proxy::{SphereProxy, view_from};
-use crate::tables::{MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, Table, rotate_zh};
+use crate::tables::{MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, Table, rotate_zh, table_alpha};
 
 /// How the indirect radiance of one proxy is computed (seed 004 §5).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -163,32 +163,37 @@ pub fn proxy_indirect<const N: usize>(
             irr.dot_scalar(&d)
         }
         IndirectMethod::Exact => {
-            let r = to_canonical(dir);
-            let bands = N.isqrt();
-            let fwd = ShRotation::from_mat3(bands, r);
-            let back = ShRotation::from_mat3(bands, r.transpose());
             let m = tables.m_lookup(alpha);
             let w = clamp.map_or(1.0, |c| clamp_weight(c, alpha));
-            return ShRgb(core::array::from_fn(|c| {
-                let lc = fwd.apply(&irr.0[c]);
-                let mut out = Sh::<f64, N>::ZERO;
-                for a in 0..N {
-                    out.0[a] = (0..N).map(|b| m[a * N + b] * lc.0[b]).sum();
-                }
-                back.apply(&out) * (w * proxy.albedo[c] / PI)
-            }));
+            let out = apply_exact_operator(&m, dir, &irr);
+            return ShRgb(core::array::from_fn(|c| out.0[c] * (w * proxy.albedo[c] / PI)));
         }
     };
     ShRgb(core::array::from_fn(|c| vis * (proxy.albedo[c] / PI * kappa[c])))
 }
 
+/// `R⁻¹ M R L̃` (Eq. 17) for a canonical operator `m` (row-major `N × N`) and a proxy in
+/// direction `dir`: the exact radiance of a white proxy's disk, times π.
+#[must_use]
+pub fn apply_exact_operator<const N: usize>(m: &[f64], dir: [f64; 3], irr: &ShRgb<f64, N>) -> ShRgb<f64, N> {
+    let r = to_canonical(dir);
+    let bands = N.isqrt();
+    let fwd = ShRotation::from_mat3(bands, r);
+    let back = ShRotation::from_mat3(bands, r.transpose());
+    ShRgb(core::array::from_fn(|c| {
+        let lc = fwd.apply(&irr.0[c]);
+        let mut out = Sh::<f64, N>::ZERO;
+        for a in 0..N {
+            out.0[a] = (0..N).map(|b| m[a * N + b] * lc.0[b]).sum();
+        }
+        back.apply(&out)
+    }))
+}
+
 /// The clamp weight interpolated between table entries (what the clamped tables apply).
 fn clamp_weight(c: &SmoothClamp, alpha: f64) -> f64 {
-    let n = (crate::tables::TABLE_ENTRIES - 1) as f64;
-    let x = alpha.clamp(0.0, 1.0) * n;
-    let i = (x.floor()).min(n - 1.0);
-    let t = x - i;
-    (1.0 - t) * c.weight(i / n) + t * c.weight((i + 1.0) / n)
+    let (i, t) = crate::tables::locate(alpha);
+    (1.0 - t) * c.weight(table_alpha(i)) + t * c.weight(table_alpha(i + 1))
 }
 
 /// Shades one receiver (the f64 reference of the pipeline). `N` is 9 or 16.

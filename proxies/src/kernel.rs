@@ -177,7 +177,8 @@ impl<const N: usize> Kernel<N> {
             let y = eval_basis::<f32, N>(dir);
             let x = alpha * (TABLE_ENTRIES - 1) as f32;
             let i = (x as usize).min(TABLE_ENTRIES - 2);
-            let t = x - i as f32;
+            // Linear in α² (see `tables::locate`): t = (x² - i²) / (2i + 1).
+            let t = (x * x - (i * i) as f32) / (2 * i + 1) as f32;
             let lerp = |tab: &[[f32; MAX_BANDS]]| -> [f32; MAX_BANDS] {
                 core::array::from_fn(|l| tab[i][l] + t * (tab[i + 1][l] - tab[i][l]))
             };

@@ -17,9 +17,13 @@
 
 use lightvol_sh::coeffs::{Sh, ShRgb};
 
-use crate::accumulate::{IndirectMethod, cosine_lobe, delta, proxy_indirect, single_blocker_exact};
+use std::f64::consts::PI;
+
+use lightvol_sh::irradiance::radiance_to_irradiance;
+
+use crate::accumulate::{apply_exact_operator, cosine_lobe, delta, single_blocker_exact};
+use crate::operators::m_exact;
 use crate::proxy::SphereProxy;
-use crate::tables::ProxyTables;
 
 /// Polar-angle step of the blocker placements (degrees).
 pub const BETA_STEP_DEG: f64 = 2.5;
@@ -79,29 +83,21 @@ pub fn shadow_difference<const N: usize>(alpha: f64) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Worst indirect shading of a white proxy with `sin θ = alpha` (indirect configuration).
+/// Worst indirect shading of a white proxy with `sin θ = alpha` (indirect configuration),
+/// with the exact operator `M(α)` computed at `alpha` (not interpolated from the table).
 #[must_use]
 pub fn indirect_difference<const N: usize>(alpha: f64) -> f64 {
-    let tables = ProxyTables::shared::<N>();
     let z = [0.0, 0.0, 1.0];
     let h = cosine_lobe::<N>(z);
-    let proxy = SphereProxy::new([0.0; 3], 1.0, [1.0; 3]);
+    let m = m_exact::<N>(alpha);
     let mut worst = 0.0f64;
     for lp in (0..=12).map(|k| 15.0 * f64::from(k)) {
         for la in (0..=6).map(|k| 30.0 * f64::from(k)) {
-            let l = normalized_delta::<N>(dir_at(lp, la));
-            let light = ShRgb([l, l, l]);
+            let l = radiance_to_irradiance(&normalized_delta::<N>(dir_at(lp, la)));
+            let irr = ShRgb([l, l, l]);
             for b in betas() {
-                let i = proxy_indirect(
-                    tables,
-                    IndirectMethod::Exact,
-                    &proxy,
-                    dir_at(b, 0.0),
-                    alpha,
-                    &light,
-                    None,
-                );
-                worst = worst.max(i.0[0].dot(&h).abs());
+                let i = apply_exact_operator(&m, dir_at(b, 0.0), &irr);
+                worst = worst.max(i.0[0].dot(&h).abs() / PI);
             }
         }
     }
