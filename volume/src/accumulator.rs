@@ -32,7 +32,7 @@ use crate::grid::GridSpec;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 
 /// Per-node f64 sums of Kontkanen & Laine 2006 Eq. 6 (see the module docs).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct Accumulator {
     spec: GridSpec,
     coeffs: usize,
@@ -40,6 +40,19 @@ pub struct Accumulator {
     denominator: Vec<f64>,
     outside: Vec<f64>,
     contributions: u64,
+}
+
+/// A summary, not the sums themselves.
+impl std::fmt::Debug for Accumulator {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let empty = self.denominator.iter().filter(|&&d| d <= 0.0).count();
+        f.debug_struct("Accumulator")
+            .field("spec", &self.spec)
+            .field("coeffs", &self.coeffs)
+            .field("contributions", &self.contributions)
+            .field("nodes_without_weight", &empty)
+            .finish_non_exhaustive()
+    }
 }
 
 impl Accumulator {
@@ -212,34 +225,37 @@ impl Accumulator {
         let k = self.coeffs * 3;
         let mut values = vec![0.0f64; n * k];
         let mut weights = vec![0.0f64; n];
+        // Non-finite sums (a NaN radiance or weight from a broken scene) must not poison the
+        // volume: they are counted and zeroed *before* the fill, so they cannot spread.
+        let mut non_finite = 0usize;
         for node in 0..n {
             let d = self.denominator[node];
-            if d > 0.0 && d.is_finite() {
+            if !d.is_finite() {
+                non_finite += 1;
+                continue;
+            }
+            if d > 0.0 {
                 for (out, num) in values[node * k..(node + 1) * k].iter_mut().zip(&self.numerator[node * k..])
                 {
-                    *out = num / d;
+                    let v = num / d;
+                    if v.is_finite() && v.abs() <= f64::from(f32::MAX) {
+                        *out = v;
+                    } else {
+                        non_finite += 1;
+                    }
                 }
-                let total = d + self.outside[node];
-                weights[node] = (d / total).clamp(0.0, 1.0);
+                let w = d / (d + self.outside[node]);
+                weights[node] = if w.is_finite() {
+                    w.clamp(0.0, 1.0)
+                } else {
+                    non_finite += 1;
+                    1.0
+                };
             }
         }
         let report = fill_empty_nodes(&self.spec, k, &mut values, &weights);
-        // Non-finite sums (a NaN radiance from a broken scene) must not poison the volume:
-        // they are counted and zeroed.
-        let mut non_finite = 0usize;
-        let data: Vec<f32> = values
-            .iter()
-            .map(|&v| {
-                let f = v as f32;
-                if f.is_finite() {
-                    f
-                } else {
-                    non_finite += 1;
-                    0.0
-                }
-            })
-            .collect();
         let report = FillReport { non_finite_zeroed: non_finite, ..report };
+        let data: Vec<f32> = values.iter().map(|&v| v as f32).collect();
         let weights: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
         let volume = IrradianceVolume::new(self.spec.clone(), self.coeffs, data, weights)
             .expect("finalize builds consistent, finite parts")
@@ -333,6 +349,24 @@ mod tests {
         // Every other node was filled from node 0, the only source.
         assert_eq!(vol.coeff_rgb(5, 1), [1.0, 2.0, 3.0]);
         assert_eq!(vol.weights()[5], 0.0);
+    }
+
+    #[test]
+    fn non_finite_samples_are_zeroed_and_counted_not_spread() {
+        let mut acc = Accumulator::new(spec(), 4).unwrap();
+        let y = [1.0, 0.0, 0.0, 0.0];
+        acc.add(0, 1.0, [f64::NAN, 1.0, 2.0], &y); // a NaN red radiance at node 0
+        acc.add(1, f64::INFINITY, [1.0, 1.0, 1.0], &y); // non-finite weight at node 1
+        acc.add(2, 1.0, [3.0, 3.0, 3.0], &y);
+        acc.add_outside(2, f64::NAN);
+        let (vol, report) = acc.finalize();
+        // Node 0: the red channel of all 4 coefficients (NaN · 0 is NaN); node 1: its
+        // denominator; node 2: its weight.
+        assert_eq!(report.non_finite_zeroed, 4 + 1 + 1);
+        assert!(vol.data().iter().all(|v| v.is_finite()));
+        assert_eq!(vol.coeff_rgb(0, 0), [0.0, 1.0, 2.0]);
+        assert_eq!(vol.weights()[1], 0.0); // treated as empty, then filled
+        assert_eq!(vol.weights()[2], 1.0);
     }
 
     #[test]

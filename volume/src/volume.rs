@@ -68,7 +68,7 @@ impl Default for BakeMetadata {
 /// one node are contiguous, which makes the 8 fetches of a trilinear lookup 8 short
 /// contiguous reads). Coefficient `j` follows lightvol-sh: real orthonormal SH, flat index
 /// `l(l+1)+m`, no Condon-Shortley phase, +z polar axis, world-space directions.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Clone, PartialEq)]
 pub struct IrradianceVolume {
     spec: GridSpec,
     coeffs: usize,
@@ -76,6 +76,20 @@ pub struct IrradianceVolume {
     weights: Vec<f32>,
     meta: BakeMetadata,
     lut: LookupParams,
+}
+
+/// A summary, not the millions of coefficients a real volume holds.
+impl std::fmt::Debug for IrradianceVolume {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let filled = self.weights.iter().filter(|&&w| w == 0.0).count();
+        f.debug_struct("IrradianceVolume")
+            .field("spec", &self.spec)
+            .field("coeffs", &self.coeffs)
+            .field("data", &format_args!("[{} f32]", self.data.len()))
+            .field("weights", &format_args!("[{} f32, {filled} zero]", self.weights.len()))
+            .field("meta", &self.meta)
+            .finish()
+    }
 }
 
 impl IrradianceVolume {
