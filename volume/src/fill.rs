@@ -34,8 +34,9 @@ pub struct FillReport {
     pub unreachable: usize,
     /// Dilation passes run (the largest neighbour-hop distance of a filled node).
     pub passes: u32,
-    /// Coefficients that were not finite after division (e.g. a NaN radiance sample) and
-    /// were set to zero.
+    /// Non-finite values met by `finalize` and set to zero before the fill: coefficients
+    /// (e.g. from a NaN radiance sample) plus non-finite denominators (node then treated
+    /// as empty) and non-finite weights (weight then 1).
     pub non_finite_zeroed: usize,
 }
 
