@@ -2,17 +2,26 @@
 //! Rust: no C++ toolchain, no checked-in binaries).
 //!
 //! A shader may be built in several *variants*: the build prepends a few `const`
-//! declarations to the source (e.g. `const COEFFS: u32 = 9u;`), so loops over coefficients
-//! have compile-time bounds and private arrays have fixed sizes. Each variant is validated
+//! declarations (e.g. `const COEFFS: u32 = 9u;`) and shared helper files (`sh.wgsl`) to the
+//! kernel's source, so loops over coefficients have compile-time bounds and private arrays
+//! have fixed sizes. Each variant is validated
 //! by naga and written to `OUT_DIR/<name>.spv`; `src/shaders.rs` includes them.
 
 use std::path::{Path, PathBuf};
 
-/// `(output name, shader file, prepended WGSL constants)`.
-const VARIANTS: &[(&str, &str, &str)] = &[
-    ("lookup_4", "lookup.wgsl", "const COEFFS: u32 = 4u;\nconst BANDS: u32 = 2u;\n"),
-    ("lookup_9", "lookup.wgsl", "const COEFFS: u32 = 9u;\nconst BANDS: u32 = 3u;\n"),
-    ("lookup_16", "lookup.wgsl", "const COEFFS: u32 = 16u;\nconst BANDS: u32 = 4u;\n"),
+const C4: &str = "const COEFFS: u32 = 4u;\nconst BANDS: u32 = 2u;\n";
+const C9: &str = "const COEFFS: u32 = 9u;\nconst BANDS: u32 = 3u;\n";
+const C16: &str = "const COEFFS: u32 = 16u;\nconst BANDS: u32 = 4u;\n";
+
+/// `(output name, shader files concatenated in order, prepended WGSL constants)`.
+const VARIANTS: &[(&str, &[&str], &str)] = &[
+    ("lookup_4", &["sh.wgsl", "lookup.wgsl"], C4),
+    ("lookup_9", &["sh.wgsl", "lookup.wgsl"], C9),
+    ("lookup_16", &["sh.wgsl", "lookup.wgsl"], C16),
+    ("accumulate_9", &["sh.wgsl", "accumulate.wgsl"], C9),
+    ("accumulate_16", &["sh.wgsl", "accumulate.wgsl"], C16),
+    ("exponentiate_9", &["exponentiate.wgsl"], C9),
+    ("exponentiate_16", &["exponentiate.wgsl"], C16),
 ];
 
 fn main() {
@@ -20,12 +29,16 @@ fn main() {
         PathBuf::from(std::env::var_os("CARGO_MANIFEST_DIR").expect("cargo sets CARGO_MANIFEST_DIR"));
     let out_dir = PathBuf::from(std::env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
     println!("cargo::rerun-if-changed=build.rs");
-    for (name, file, prelude) in VARIANTS {
-        let path = manifest.join("shaders").join(file);
-        println!("cargo::rerun-if-changed={}", path.display());
-        let body = std::fs::read_to_string(&path)
-            .unwrap_or_else(|e| panic!("cannot read shader {}: {e}", path.display()));
-        let source = format!("// variant {name}\n{prelude}{body}");
+    for (name, files, prelude) in VARIANTS {
+        let mut source = format!("// variant {name}\n{prelude}");
+        for file in *files {
+            let path = manifest.join("shaders").join(file);
+            println!("cargo::rerun-if-changed={}", path.display());
+            let body = std::fs::read_to_string(&path)
+                .unwrap_or_else(|e| panic!("cannot read shader {}: {e}", path.display()));
+            source.push_str(&format!("// ---- {file}\n{body}"));
+        }
+        let path = manifest.join("shaders").join(files[files.len() - 1]);
         let words = compile(&source, &path);
         let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
         let out = out_dir.join(format!("{name}.spv"));

@@ -13,7 +13,8 @@
 // a*b+c into an FMA, so agreement is to f32 rounding, not bit-exact.
 //
 // COEFFS (4, 9 or 16) and BANDS (2, 3 or 4) are prepended by build.rs, one SPIR-V module
-// per value. The buffer layouts are documented in src/lookup.rs and README.md.
+// per value, together with shaders/sh.wgsl (`sh_basis`, `flat4`, `is_nan`). The buffer
+// layouts are documented in src/lookup.rs and README.md.
 
 const K: u32 = 3u * COEFFS;
 
@@ -53,13 +54,6 @@ struct AxisPos {
     frac: f32,
 }
 
-// NaN test on the bits: Vulkan lets drivers assume floats are never NaN (no
-// SignedZeroInfNanPreserve), so `x != x` or `!(x >= 0)` may be folded away; integer
-// operations may not.
-fn is_nan(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7fffffffu) > 0x7f800000u;
-}
-
 fn locate_axis(x: f32, lo: f32, scale: f32, cells: f32, max_cell: u32) -> AxisPos {
     var u = (x - lo) * scale;
     // Below the box, and NaN, map to 0 (the CPU path's `max(0.0)` drops NaN the same way).
@@ -69,46 +63,6 @@ fn locate_axis(x: f32, lo: f32, scale: f32, cells: f32, max_cell: u32) -> AxisPo
     u = min(u, cells);
     let i = min(u32(u), max_cell);
     return AxisPos(i, u - f32(i));
-}
-
-fn flat4(a: array<vec4<f32>, 4>, j: u32) -> f32 {
-    return a[j / 4u][j % 4u];
-}
-
-// Real orthonormal SH (no Condon-Shortley phase, +z polar axis) at unit vector n, flat
-// index l (l + 1) + m: lightvol-sh's normalised recurrence.
-fn sh_basis(n: vec3<f32>) -> array<f32, COEFFS> {
-    var y: array<f32, COEFFS>;
-    var c = 1.0;
-    var s = 0.0;
-    for (var m = 0u; m < BANDS; m++) {
-        if m > 0u {
-            // Re and Im of (x + i y)^m.
-            let cn = n.x * c - n.y * s;
-            let sn = n.x * s + n.y * c;
-            c = cn;
-            s = sn;
-        }
-        var q_prev2 = 0.0;
-        var q_prev = params.sh_diag[m];
-        for (var l = m; l < BANDS; l++) {
-            var q = q_prev;
-            if l > m {
-                let idx = l * (l + 1u) + m;
-                q = flat4(params.sh_a, idx) * n.z * q_prev + flat4(params.sh_b, idx) * q_prev2;
-                q_prev2 = q_prev;
-                q_prev = q;
-            }
-            let base = l * (l + 1u);
-            if m == 0u {
-                y[base] = q;
-            } else {
-                y[base + m] = q * c;
-                y[base - m] = q * s;
-            }
-        }
-    }
-    return y;
 }
 
 @compute @workgroup_size(64)
@@ -165,7 +119,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     }
 
     // Eq. 3: sum_j f_j Y_j(n) L_j(x), j ascending.
-    let y = sh_basis(n);
+    let y = sh_basis(n, params.sh_a, params.sh_b, params.sh_diag);
     var o = vec3<f32>(0.0, 0.0, 0.0);
     for (var j = 0u; j < COEFFS; j++) {
         let t = flat4(params.factor, j) * y[j];

@@ -10,6 +10,7 @@ pub mod error;
 pub mod info;
 pub mod lookup;
 pub mod pipeline;
+pub mod proxy;
 pub mod shaders;
 pub mod synthetic;
 pub mod testing;
@@ -20,4 +21,20 @@ pub use error::GpuError;
 pub use info::{DEVICE_ENV, DeviceInfo, DeviceKind, gpu_info, select_device};
 pub use lookup::{LookupBatch, Quantity, VolumeLookup};
 pub use pipeline::{ComputePipeline, DispatchStats};
+pub use proxy::{ProxyFrame, ProxyShading};
 pub use testing::{REQUIRE_GPU_ENV, gpu_or_skip};
+
+#[cfg(test)]
+mod tests {
+    /// The handles users keep in their own structs may cross threads.
+    #[test]
+    fn handles_are_send_and_sync() {
+        fn check<T: Send + Sync>() {}
+        check::<crate::GpuContext>();
+        check::<crate::GpuBuffer>();
+        check::<crate::ComputePipeline>();
+        check::<crate::VolumeLookup>();
+        check::<crate::LookupBatch>();
+        check::<crate::ProxyShading<16>>();
+    }
+}

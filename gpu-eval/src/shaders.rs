@@ -31,13 +31,19 @@ macro_rules! shader {
 /// The volume-lookup kernel for 4, 9 and 16 coefficients (`shaders/lookup.wgsl`).
 pub const LOOKUP: [Shader; 3] = [shader!("lookup_4"), shader!("lookup_9"), shader!("lookup_16")];
 
+/// The proxy-accumulation kernel for 9 and 16 shadow coefficients (`shaders/accumulate.wgsl`).
+pub const ACCUMULATE: [Shader; 2] = [shader!("accumulate_9"), shader!("accumulate_16")];
+
+/// The proxy exponentiation kernel for 9 and 16 coefficients (`shaders/exponentiate.wgsl`).
+pub const EXPONENTIATE: [Shader; 2] = [shader!("exponentiate_9"), shader!("exponentiate_16")];
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn embedded_modules_are_spirv() {
-        for s in LOOKUP {
+        for s in LOOKUP.into_iter().chain(ACCUMULATE).chain(EXPONENTIATE) {
             let w = s.words().unwrap();
             assert_eq!(w[0], 0x0723_0203, "{}: SPIR-V magic", s.name);
             // Version word: SPIR-V 1.0 as requested in build.rs.
