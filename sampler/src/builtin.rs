@@ -64,6 +64,25 @@ fn ground(b: &mut SceneBuilder, half: f64, albedo: [f64; 3]) -> u32 {
     m
 }
 
+impl BuiltinScene {
+    /// A `res[0] × res[1]` lattice of points (cell centres) over the grid's horizontal
+    /// extent at height `z`, row-major with x fastest: an evaluation plate (Kontkanen &
+    /// Laine 2006 Fig. 6). Mask it with [`classify_points`](crate::domain::classify_points).
+    #[must_use]
+    pub fn plate(&self, z: f64, res: [u32; 2]) -> Vec<DVec3> {
+        let (lo, hi) = self.grid.bounds();
+        let mut out = Vec::with_capacity(res[0] as usize * res[1] as usize);
+        for j in 0..res[1] {
+            for i in 0..res[0] {
+                let fx = (f64::from(i) + 0.5) / f64::from(res[0]);
+                let fy = (f64::from(j) + 0.5) / f64::from(res[1]);
+                out.push(DVec3::new(lo[0] + fx * (hi[0] - lo[0]), lo[1] + fy * (hi[1] - lo[1]), z));
+            }
+        }
+        out
+    }
+}
+
 /// The footprints and heights of the city's buildings: `(min, max)` boxes.
 #[must_use]
 pub fn city_buildings() -> Vec<(DVec3, DVec3)> {
@@ -246,5 +265,68 @@ pub fn maze() -> BuiltinScene {
         grid: grid([-10.0, -10.0, -0.5], [10.0, 10.0, 3.5], [11, 11, 3]),
         plate_heights: vec![1.0],
         description: "thick maze walls on a ground plane (Kontkanen & Laine 2006 Fig. 2, left)",
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bake::{BakeControl, BakeSettings, bake};
+    use crate::bvh::Tracer;
+    use crate::diagnostics::winding_report;
+    use crate::domain::{classify_point, classify_points};
+    use crate::transport::{Transport, TransportSettings};
+
+    /// Every built-in scene is consistently wound (closed solids), bakes with `doi`
+    /// finding back faces, and its plates contain both inside and outside points.
+    #[test]
+    fn builtins_are_sound() {
+        for name in BUILTIN_NAMES {
+            let b = builtin(name).unwrap();
+            assert_eq!(b.scene.report.degenerate_skipped, 0, "{name}");
+            assert_eq!(winding_report(&b.scene, 1e-6).inconsistent_edges, 0, "{name}");
+            let tracer = Tracer::new(&b.scene);
+            let t = Transport::new(&b.scene, &tracer, TransportSettings::default());
+            let s = BakeSettings { samples: 8, ..Default::default() };
+            let (_, stats) = bake(&t, &b.grid, &s, &BakeControl::default()).unwrap().finish();
+            assert!(stats.cells_with_back_faces > 0 && stats.samples_kept > 0, "{name}: {stats}");
+            let plate = b.plate(b.plate_heights[0], [24, 24]);
+            let mask = classify_points(&tracer, &plate, 64, 9);
+            let inside = mask.iter().filter(|&&m| m).count();
+            assert!(inside > 0 && inside < plate.len(), "{name}: {inside}/{}", plate.len());
+        }
+    }
+
+    /// Interior: the room is in the domain, the thick walls, the bed bars and the table top
+    /// are not; outside the window is open space.
+    #[test]
+    fn interior_domain() {
+        let b = interior();
+        let tr = Tracer::new(&b.scene);
+        let inside = |p: DVec3| classify_point(&tr, p, 256, 3).inside;
+        assert!(inside(DVec3::new(3.0, 2.5, 1.5)));
+        assert!(!inside(DVec3::new(-0.15, 2.5, 1.5)), "inside the -X wall");
+        assert!(!inside(DVec3::new(3.0, 2.5, 3.15)), "inside the ceiling slab");
+        assert!(!inside(DVec3::new(0.4 + 0.1 + 0.025, 1.2, 0.475)), "inside a bed bar");
+        assert!(!inside(DVec3::new(4.4, 3.0, 0.745)), "inside the table top");
+        assert!(inside(DVec3::new(3.0, 6.0, 1.5)), "outside, in front of the window");
+    }
+
+    /// City and maze: streets are inside, buildings and walls outside, underground outside.
+    #[test]
+    fn city_and_maze_domain() {
+        let c = city();
+        let tr = Tracer::new(&c.scene);
+        for (lo, hi) in city_buildings() {
+            let mid = (lo + hi) / 2.0;
+            assert!(!classify_point(&tr, mid, 128, 1).inside);
+            assert!(classify_point(&tr, DVec3::new(hi.x + 0.5, mid.y, 1.0), 128, 2).inside);
+        }
+        assert!(!classify_point(&tr, DVec3::new(0.0, 0.0, -0.5), 64, 3).inside);
+        let m = maze();
+        let tr = Tracer::new(&m.scene);
+        for (lo, hi) in maze_walls() {
+            assert!(!classify_point(&tr, (lo + hi) / 2.0, 128, 4).inside);
+        }
     }
 }

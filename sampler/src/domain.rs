@@ -48,6 +48,18 @@ pub fn classify_point(tracer: &Tracer, x: DVec3, dirs: u32, seed: u64) -> PointC
     PointClass { inside: true, witness: None, rays: u64::from(dirs) }
 }
 
+/// Classifies many points in parallel (point `i` uses direction stream `seed + i`), e.g.
+/// to mask evaluation plates: `true` = inside the domain of interest.
+#[must_use]
+pub fn classify_points(tracer: &Tracer, points: &[DVec3], dirs: u32, seed: u64) -> Vec<bool> {
+    use rayon::prelude::*;
+    points
+        .par_iter()
+        .enumerate()
+        .map(|(i, &x)| classify_point(tracer, x, dirs, seed.wrapping_add(i as u64)).inside)
+        .collect()
+}
+
 /// A sampling ray of Algorithm 2 with its first hit (reused for lighting).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Candidate {
