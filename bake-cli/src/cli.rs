@@ -17,6 +17,8 @@ pub struct Cli {
 /// The verbs.
 #[derive(Debug, Subcommand)]
 pub enum Command {
+    /// Measure ray, lookup and bake throughput (JSON).
+    Bench(crate::cmd_bench::BenchArgs),
     /// Bake an irradiance volume from a glTF/OBJ scene or a built-in scene.
     Bake(crate::cmd_bake::BakeArgs),
     /// Bake every method at equal sample budget and measure leakage on a plate against a
@@ -25,6 +27,9 @@ pub enum Command {
     /// The main job: compare the methods on the built-in city, interior and maze scenes,
     /// sweep the grid resolution, and write an index.html with every panel and metric.
     Demo(crate::cmd_demo::DemoArgs),
+    /// Geometry diagnostics: reversed polygons and inconsistent winding (exit status 2 when
+    /// suspects are found).
+    Lint(crate::cmd_lint::LintArgs),
     /// Merge shard bakes (`bake --shard K/N`) into one volume; refuses mismatched grids.
     Merge(crate::cmd_merge::MergeArgs),
     /// Render a view shaded by a baked volume (or path-traced with --reference): the

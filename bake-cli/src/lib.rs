@@ -2,11 +2,13 @@
 
 pub mod cli;
 pub mod cmd_bake;
+pub mod cmd_bench;
 pub mod cmd_compare;
 pub mod cmd_demo;
 mod cmd_export;
 pub mod cmd_imse;
 mod cmd_info;
+pub mod cmd_lint;
 pub mod cmd_merge;
 pub mod cmd_render;
 pub mod imaging;
@@ -55,10 +57,12 @@ where
 pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
     match args.command {
         cli::Command::Bake(a) => cmd_bake::run(&a),
+        cli::Command::Bench(a) => cmd_bench::run(&a),
         cli::Command::Compare(a) => cmd_compare::run(&a),
         cli::Command::Demo(a) => cmd_demo::run(&a),
         cli::Command::Imse(a) => cmd_imse::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
+        cli::Command::Lint(a) => cmd_lint::run(&a),
         cli::Command::Merge(a) => cmd_merge::run(&a),
         cli::Command::Render(a) => cmd_render::run(&a),
         cli::Command::Export(a) => cmd_export::run(&a),
