@@ -80,6 +80,13 @@ pub struct Incident {
     pub indirect: Rgb9,
 }
 
+/// Per-light data of the exponentiation pass (see [`Kernel::light_matrix`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightMatrix<const N: usize> {
+    m: [[[f32; N]; 9]; 3],
+    l9: Rgb9,
+}
+
 /// The f32 tables and product schedules for `N` = 9 or 16 coefficients.
 #[derive(Clone, Debug)]
 pub struct Kernel<const N: usize> {
@@ -91,7 +98,11 @@ pub struct Kernel<const N: usize> {
     alpha_indirect: f32,
     indirect: bool,
     ol: &'static OlTable<N>,
-    square: Vec<(u16, u16, u16, f32)>,
+    /// Squaring schedule grouped by output: `square_start[k]..square_start[k+1]` index
+    /// `square_ij` (packed `i`, `j`) and `square_v` (with the factor 2 for `i < j`).
+    square_start: Vec<usize>,
+    square_ij: Vec<[u8; 2]>,
+    square_v: Vec<f32>,
     prod9: Vec<(u16, u16, u16, f32)>,
 }
 
@@ -125,7 +136,9 @@ impl<const N: usize> Kernel<N> {
             alpha_indirect: (1.0 / eta_indirect) as f32,
             indirect: indirect != KernelIndirect::None,
             ol: shared_ol_table::<N>(),
-            square: Vec::new(),
+            square_start: vec![0; N + 1],
+            square_ij: Vec::new(),
+            square_v: Vec::new(),
             prod9: Vec::new(),
         };
         for i in 0..TABLE_ENTRIES {
@@ -145,13 +158,19 @@ impl<const N: usize> Kernel<N> {
         }
         let bands = N.isqrt();
         for e in GauntTable::cached(bands).entries() {
+            // Entries come sorted by (k, i, j).
             if e.i <= e.j {
                 let v = if e.i == e.j { e.value } else { 2.0 * e.value };
-                k.square.push((e.i, e.j, e.k, v as f32));
+                k.square_ij.push([e.i as u8, e.j as u8]);
+                k.square_v.push(v as f32);
+                k.square_start[e.k as usize + 1] = k.square_ij.len();
             }
             if e.k < 9 {
                 k.prod9.push((e.i, e.j, e.k, e.value as f32));
             }
+        }
+        for kk in 1..=N {
+            k.square_start[kk] = k.square_start[kk].max(k.square_start[kk - 1]);
         }
         k
     }
@@ -165,8 +184,17 @@ impl<const N: usize> Kernel<N> {
         list: &[u32],
         acc: &mut Accum<N>,
     ) {
+        let alpha_min =
+            if self.indirect { self.alpha_shadow.min(self.alpha_indirect) } else { self.alpha_shadow };
         for &pi in list {
             let pr = &proxies[pi as usize];
+            // Cheap rejection outside the sphere of influence: the replacement sphere lies
+            // inside the original, so its α is no larger than the original's r / d.
+            let v = [pr.center[0] - p[0], pr.center[1] - p[1], pr.center[2] - p[2]];
+            let d2 = v[0] * v[0] + v[1] * v[1] + v[2] * v[2];
+            if d2 * alpha_min * alpha_min >= pr.radius * pr.radius {
+                continue;
+            }
             let Some((dir, alpha)) = view_f32(pr.center, pr.radius, p, n) else { continue };
             let shadow = alpha > self.alpha_shadow;
             let ind = self.indirect && alpha > self.alpha_indirect;
@@ -192,13 +220,16 @@ impl<const N: usize> Kernel<N> {
                 let v = lerp(&self.vis);
                 let d = lerp(&self.d);
                 acc.omega += self.omega[i] + t * (self.omega[i + 1] - self.omega[i]);
+                let dy: [f32; N] = core::array::from_fn(|j| d[band(j)] * y[j]);
+                let vy: [f32; 9] = core::array::from_fn(|j| v[band(j)] * y[j]);
                 for c in 0..3 {
+                    let e = &pr.exit[c];
                     let mut kappa = 0.0;
                     for j in 0..N {
-                        kappa += d[band(j)] * y[j] * pr.exit[c][j];
+                        kappa += dy[j] * e[j];
                     }
                     for j in 0..9 {
-                        acc.indirect[9 * c + j] += kappa * v[band(j)] * y[j];
+                        acc.indirect[9 * c + j] += kappa * vy[j];
                     }
                 }
             }
@@ -208,22 +239,42 @@ impl<const N: usize> Kernel<N> {
     /// The exponentiation pass: `O_p = exp(f)` by HYB, `O_p * L` and `ξ_p Ĩ_p` (Eq. 9, 12).
     #[must_use]
     pub fn finish(&self, acc: &Accum<N>, light: &[[f32; N]; 3]) -> Incident {
-        let mut out = Incident { shadowed: [0.0; 27], indirect: [0.0; 27] };
-        if acc.count == 0 {
+        self.finish_with(acc, &self.light_matrix(light))
+    }
+
+    /// The SH product matrices of the light restricted to output bands 0-2,
+    /// `(M_L)_{ki} = Σ_j G_ijk L_j`, so that `(O * L)_k = Σ_i (M_L)_{ki} O_i`. For a uniform
+    /// light they are computed once per frame.
+    #[must_use]
+    pub fn light_matrix(&self, light: &[[f32; N]; 3]) -> LightMatrix<N> {
+        let mut m = LightMatrix { m: [[[0.0; N]; 9]; 3], l9: [0.0; 27] };
+        for &(i, j, k, v) in &self.prod9 {
             for c in 0..3 {
-                out.shadowed[9 * c..9 * c + 9].copy_from_slice(&light[c][..9]);
+                m.m[c][k as usize][i as usize] += v * light[c][j as usize];
             }
+        }
+        for c in 0..3 {
+            m.l9[9 * c..9 * c + 9].copy_from_slice(&light[c][..9]);
+        }
+        m
+    }
+
+    /// [`Self::finish`] with precomputed light matrices.
+    #[must_use]
+    pub fn finish_with(&self, acc: &Accum<N>, light: &LightMatrix<N>) -> Incident {
+        let mut out = Incident { shadowed: light.l9, indirect: [0.0; 27] };
+        if acc.count == 0 {
             return out;
         }
         let o = self.exp_hyb(&acc.log_vis);
-        // Product matrix of O restricted to output bands 0-2: (M_O)_{kj} = Σ_i G_ijk O_i.
-        let mut m = [[0.0f32; N]; 9];
-        for &(i, j, k, v) in &self.prod9 {
-            m[k as usize][j as usize] += v * o[i as usize];
-        }
         for c in 0..3 {
             for k in 0..9 {
-                out.shadowed[9 * c + k] = (0..N).map(|j| m[k][j] * light[c][j]).sum();
+                let row = &light.m[c][k];
+                let mut s = 0.0;
+                for i in 0..N {
+                    s += row[i] * o[i];
+                }
+                out.shadowed[9 * c + k] = s;
             }
         }
         if acc.omega > 0.0 {
@@ -252,8 +303,13 @@ impl<const N: usize> Kernel<N> {
         g[0] = (a * SQRT_4PI) as f32;
         for _ in 0..k {
             let mut h = [0.0f32; N];
-            for &(i, j, kk, v) in &self.square {
-                h[kk as usize] += v * g[i as usize] * g[j as usize];
+            for (kk, hk) in h.iter_mut().enumerate() {
+                let (a, b) = (self.square_start[kk], self.square_start[kk + 1]);
+                let mut s = 0.0f32;
+                for (ij, v) in self.square_ij[a..b].iter().zip(&self.square_v[a..b]) {
+                    s += v * g[ij[0] as usize] * g[ij[1] as usize];
+                }
+                *hk = s;
             }
             g = h;
         }

@@ -26,6 +26,12 @@ use lightvol_volume::volume::IrradianceVolume;
 pub trait LightField<const N: usize>: Sync {
     /// The radiance SH `L` at world point `p`.
     fn radiance_at(&self, p: [f64; 3]) -> ShRgb<f64, N>;
+
+    /// `Some(L)` when `L` is the same everywhere (lets the pipeline precompute per-frame
+    /// products); `None` by default.
+    fn uniform(&self) -> Option<ShRgb<f64, N>> {
+        None
+    }
 }
 
 /// A distant environment: the same `L` everywhere (seed 004 §3).
@@ -36,6 +42,10 @@ impl<const N: usize> LightField<N> for DistantLight<N> {
     #[inline]
     fn radiance_at(&self, _p: [f64; 3]) -> ShRgb<f64, N> {
         self.0
+    }
+
+    fn uniform(&self) -> Option<ShRgb<f64, N>> {
+        Some(self.0)
     }
 }
 

@@ -124,13 +124,19 @@ pub fn exponentiate_pass<const N: usize>(
     light: &impl LightField<N>,
 ) -> Vec<Incident> {
     let empty = Incident { shadowed: [0.0; 27], indirect: [0.0; 27] };
+    let uniform =
+        light.uniform().map(|l| kernel.light_matrix(&core::array::from_fn(|c| l.0[c].0.map(|v| v as f32))));
     (0..accum.len())
         .into_par_iter()
+        .with_min_len(256)
         .map(|i| {
             if !buffer.valid(i) {
                 return empty;
             }
-            kernel.finish(&accum[i], &light_f32(light, buffer.position[i]))
+            match &uniform {
+                Some(m) => kernel.finish_with(&accum[i], m),
+                None => kernel.finish(&accum[i], &light_f32(light, buffer.position[i])),
+            }
         })
         .collect()
 }
