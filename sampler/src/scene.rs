@@ -149,7 +149,7 @@ impl UpAxis {
 }
 
 /// The scene: geometry, materials, textures and lights. Build one with [`SceneBuilder`],
-/// a loader ([`load_scene`](crate::load_scene)) or a built-in ([`builtin`](crate::builtin)).
+/// a loader ([`load_scene`](crate::load_scene)) or a built-in ([`builtin`](mod@crate::builtin)).
 #[derive(Clone, Debug)]
 pub struct Scene {
     /// A label (file name or built-in name).
