@@ -22,6 +22,7 @@ const VARIANTS: &[(&str, &[&str], &str)] = &[
     ("accumulate_16", &["sh.wgsl", "accumulate.wgsl"], C16),
     ("exponentiate_9", &["exponentiate.wgsl"], C9),
     ("exponentiate_16", &["exponentiate.wgsl"], C16),
+    ("upsample", &["upsample.wgsl"], ""),
 ];
 
 fn main() {

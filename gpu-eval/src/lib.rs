@@ -21,7 +21,7 @@ pub use error::GpuError;
 pub use info::{DEVICE_ENV, DeviceInfo, DeviceKind, gpu_info, select_device};
 pub use lookup::{LookupBatch, Quantity, VolumeLookup};
 pub use pipeline::{ComputePipeline, DispatchStats};
-pub use proxy::{ProxyFrame, ProxyShading};
+pub use proxy::{ProxyFrame, ProxyShading, UpsampleTarget};
 pub use testing::{REQUIRE_GPU_ENV, gpu_or_skip};
 
 #[cfg(test)]

@@ -9,7 +9,10 @@
 //!   [`lightvol_proxies::pipeline::exponentiate_pass`], reading 2a's output on the device
 //!   and writing the receiver's [`Incident`] radiance (shadowed light and indirect light).
 //!
-//! Bilateral upsampling to display resolution is not ported yet (see the crate README).
+//! - **2c, bilateral upsampling** (`shaders/upsample.wgsl`, §4.2 Eq. 11): the twin of
+//!   [`lightvol_proxies::upsample::bilateral_upsample`] applied to `O * L + I`, reading
+//!   2b's output on the device; display pixels with no matching coarse receiver are
+//!   flagged and computed on the host by the caller's fallback, as on the CPU.
 //!
 //! # Buffer layout of 2a
 //! All bindings are storage buffers of 4-byte elements in `@group(0)`:
@@ -34,12 +37,17 @@
 //! | 5 | OL coefficients `(a·sqrt(4π), b)` on a uniform grid of norms over `[0, HYB threshold]` |
 //! | 6 | output, 54 f32 per receiver: shadowed `O * L` `[rgb][9]`, indirect `ξ Ĩ` `[rgb][9]` |
 //!
+//! # Buffer layout of 2c
+//! Parameters (coarse and display sizes, size ratios, `DEPTH_EPS_REL`, `WEIGHT_FLOOR`),
+//! coarse geometry (normal xyz, eye depth per receiver), 2b's output, display geometry
+//! (same form), and the output: 27 values and a fallback flag per display pixel.
+//!
 //! The tables are built here from [`ProxyTables`] the way `Kernel::new` builds its own
 //! (`Kernel` keeps them private): each ZH entry scaled by `sqrt(4π/(2l+1))` (Eq. 8) and the
 //! smooth-clamp weight of its `α` ([`SmoothClamp`]).
 
 use lightvol_proxies::accumulate::shared_ol_table;
-use lightvol_proxies::kernel::{Accum, Incident, KernelIndirect, PreparedProxy, light_f32};
+use lightvol_proxies::kernel::{Accum, Incident, KernelIndirect, PreparedProxy, Rgb9, light_f32};
 use lightvol_proxies::light::LightField;
 use lightvol_proxies::operators::d_paper_fit;
 use lightvol_proxies::pipeline::TileBins;
@@ -47,6 +55,7 @@ use lightvol_proxies::scene::ReceiverBuffer;
 use lightvol_proxies::tables::{
     MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, TABLE_ENTRIES, Table, table_alpha,
 };
+use lightvol_proxies::upsample::{DEPTH_EPS_REL, WEIGHT_FLOOR};
 use lightvol_sh::gaunt::GauntTable;
 use lightvol_sh::shexp::HYB_NORM_THRESHOLD;
 use lightvol_sh::zonal::zh_scale;
@@ -153,6 +162,7 @@ pub struct ProxyShading<const N: usize> {
     ctx: GpuContext,
     pipeline: ComputePipeline,
     exp_pipeline: ComputePipeline,
+    up_pipeline: ComputePipeline,
     tables: GpuBuffer,
     schedule: GpuBuffer,
     ol: GpuBuffer,
@@ -175,7 +185,24 @@ pub struct ProxyFrame {
     light: GpuBuffer,
     out: GpuBuffer,
     incident: GpuBuffer,
+    geometry: GpuBuffer,
+    size: (usize, usize),
     len: usize,
+}
+
+/// A display-resolution target for the upsampling pass (see [`ProxyShading::target`]).
+#[derive(Debug)]
+pub struct UpsampleTarget {
+    geometry: GpuBuffer,
+    out: GpuBuffer,
+    size: (usize, usize),
+}
+
+/// Normal xyz and eye depth per pixel: the geometry buffers of 2c.
+fn geometry_words(b: &ReceiverBuffer) -> Vec<f32> {
+    (0..b.width * b.height)
+        .flat_map(|i| [b.normal[i][0], b.normal[i][1], b.normal[i][2], b.depth[i]])
+        .collect()
 }
 
 impl<const N: usize> ProxyShading<N> {
@@ -197,12 +224,15 @@ impl<const N: usize> ProxyShading<N> {
         let tables = ctx.upload(&kernel_tables::<N>(eta_shadow, eta_indirect, indirect))?;
         let pipeline = ComputePipeline::new(ctx, acc.name, &acc.words()?, 6)?;
         let exp_pipeline = ComputePipeline::new(ctx, exp.name, &exp.words()?, 7)?;
+        let up = shaders::UPSAMPLE;
+        let up_pipeline = ComputePipeline::new(ctx, up.name, &up.words()?, 5)?;
         let (sched, ns, np) = gaunt_schedules::<N>();
         let (ol, ol_step) = ol_samples::<N>();
         Ok(Self {
             ctx: ctx.clone(),
             pipeline,
             exp_pipeline,
+            up_pipeline,
             tables,
             schedule: ctx.upload(&sched)?,
             ol: ctx.upload(&ol)?,
@@ -304,6 +334,8 @@ impl<const N: usize> ProxyShading<N> {
             light: self.ctx.upload(&lights)?,
             out: self.ctx.zeroed_buffer((4 * len * (N + 29)) as u64)?,
             incident: self.ctx.zeroed_buffer((4 * len * 54) as u64)?,
+            geometry: self.ctx.upload(&geometry_words(buffer))?,
+            size: (w, h),
             len,
         })
     }
@@ -324,6 +356,73 @@ impl<const N: usize> ProxyShading<N> {
             groups_for(frame.len as u64, max_x),
             repeats,
         )
+    }
+
+    /// Uploads a display-resolution receiver buffer as an upsampling target.
+    pub fn target(&self, fine: &ReceiverBuffer) -> Result<UpsampleTarget, GpuError> {
+        let n = fine.width * fine.height;
+        if fine.normal.len() != n || fine.depth.len() != n || n == 0 {
+            return Err(GpuError::Invalid("display buffer arrays do not match width x height".into()));
+        }
+        if u32::try_from(28 * n).is_err() {
+            return Err(GpuError::Limit("display buffer exceeds the shader's 32-bit indexing".into()));
+        }
+        Ok(UpsampleTarget {
+            geometry: self.ctx.upload(&geometry_words(fine))?,
+            out: self.ctx.zeroed_buffer((4 * 28 * n) as u64)?,
+            size: (fine.width, fine.height),
+        })
+    }
+
+    /// Runs the upsampling pass (2c) from a frame whose incident radiance 2b wrote.
+    pub fn run_upsample(
+        &self,
+        frame: &ProxyFrame,
+        target: &UpsampleTarget,
+        repeats: u32,
+    ) -> Result<DispatchStats, GpuError> {
+        let ((cw, ch), (fw, fh)) = (frame.size, target.size);
+        if cw == 0 || ch == 0 {
+            return Err(GpuError::Invalid("empty receiver buffer".into()));
+        }
+        let mut words = [0u32; 12];
+        words[..4].copy_from_slice(&[cw as u32, ch as u32, fw as u32, fh as u32]);
+        words[4] = (cw as f32 / fw as f32).to_bits();
+        words[5] = (ch as f32 / fh as f32).to_bits();
+        words[6] = DEPTH_EPS_REL.to_bits();
+        words[7] = WEIGHT_FLOOR.to_bits();
+        words[8] = f32::MIN_POSITIVE.to_bits();
+        let params = self.ctx.upload(&words)?;
+        let max_x = self.ctx.shared.limits.max_compute_work_group_count[0];
+        self.up_pipeline.dispatch(
+            &[&params, &frame.geometry, &frame.incident, &target.geometry, &target.out],
+            groups_for((fw * fh) as u64, max_x),
+            repeats,
+        )
+    }
+
+    /// Reads the upsampled `O * L + I` back, computing flagged pixels with `fallback`
+    /// (as `bilateral_upsample` does); returns the values and the number of fallbacks.
+    pub fn read_upsampled(
+        &self,
+        target: &UpsampleTarget,
+        fallback: impl Fn(usize) -> Rgb9,
+    ) -> Result<(Vec<Rgb9>, usize), GpuError> {
+        let flat: Vec<f32> = target.out.read(0, 28 * target.size.0 * target.size.1)?;
+        let mut fallbacks = 0;
+        let values = flat
+            .chunks_exact(28)
+            .enumerate()
+            .map(|(i, c)| {
+                if c[27] != 0.0 {
+                    fallbacks += 1;
+                    fallback(i)
+                } else {
+                    std::array::from_fn(|k| c[k])
+                }
+            })
+            .collect();
+        Ok((values, fallbacks))
     }
 
     /// Reads a frame's incident radiance back (after [`Self::run_exponentiate`]).

@@ -37,13 +37,16 @@ pub const ACCUMULATE: [Shader; 2] = [shader!("accumulate_9"), shader!("accumulat
 /// The proxy exponentiation kernel for 9 and 16 coefficients (`shaders/exponentiate.wgsl`).
 pub const EXPONENTIATE: [Shader; 2] = [shader!("exponentiate_9"), shader!("exponentiate_16")];
 
+/// The bilateral upsampling kernel (`shaders/upsample.wgsl`).
+pub const UPSAMPLE: Shader = shader!("upsample");
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn embedded_modules_are_spirv() {
-        for s in LOOKUP.into_iter().chain(ACCUMULATE).chain(EXPONENTIATE) {
+        for s in LOOKUP.into_iter().chain(ACCUMULATE).chain(EXPONENTIATE).chain([UPSAMPLE]) {
             let w = s.words().unwrap();
             assert_eq!(w[0], 0x0723_0203, "{}: SPIR-V magic", s.name);
             // Version word: SPIR-V 1.0 as requested in build.rs.

@@ -1,13 +1,16 @@
 //! GPU proxy shading against lightvol-proxies' CPU passes on the default proxies scene
 //! (issue 8, acceptance 3, at receiver-buffer resolution): accumulation (kernel 2a) and
-//! exponentiation (kernel 2b). Bilateral upsampling is not ported yet.
+//! exponentiation (kernel 2b), then bilateral upsampling to display resolution (kernel 2c).
 
 use lightvol_gpu::{ContextOptions, GpuError, ProxyShading, gpu_or_skip};
 use lightvol_proxies::compare::CompareConfig;
 use lightvol_proxies::kernel::{Accum, Kernel, KernelIndirect, prepare};
 use lightvol_proxies::light::DistantLight;
-use lightvol_proxies::pipeline::{accumulate_pass, bin_proxies, exponentiate_pass, shade_rgb9, total};
+use lightvol_proxies::pipeline::{
+    accumulate_pass, bin_proxies, exponentiate_pass, shade_from_scratch, shade_rgb9, total,
+};
 use lightvol_proxies::scene::{ReceiverBuffer, Scene};
+use lightvol_proxies::upsample::{Geometry, bilateral_upsample};
 
 /// Display size of the test frame; the receiver buffer is half of it per axis (the
 /// paper's factor 2), 80×60 receivers: small for lavapipe, large enough for ~900
@@ -59,7 +62,11 @@ fn check<const N: usize>(ctx: &lightvol_gpu::GpuContext) {
     let cpu_inc = exponentiate_pass(&kernel, &coarse, &cpu, &light);
     let gpu_pass =
         ProxyShading::<N>::new(ctx, cfg.eta_shadow, cfg.eta_indirect, KernelIndirect::Averaged).unwrap();
-    let (gpu, gpu_inc) = gpu_pass.shade(&coarse, &bins, &prepared, &light).unwrap();
+    let frame = gpu_pass.frame(&coarse, &bins, &prepared, &light).unwrap();
+    gpu_pass.run(&frame, 1).unwrap();
+    gpu_pass.run_exponentiate(&frame, 1).unwrap();
+    let gpu = gpu_pass.read(&frame).unwrap();
+    let gpu_inc = gpu_pass.read_incident(&frame).unwrap();
     assert_eq!(gpu.len(), cpu.len());
 
     let (mut touched, mut identical, mut count_flips) = (0, 0, 0);
@@ -108,6 +115,37 @@ fn check<const N: usize>(ctx: &lightvol_gpu::GpuContext) {
         "N = {N}: {} receivers, {touched} touched by proxies, {identical} bit-identical, {count_flips} count flips; \
          incident worst {worst_inc:.2e} of norm, shading worst relative {worst_shade:.2e}",
         cpu.len()
+    );
+    // Kernel 2c: bilateral upsampling of O * L + I to the display, fallbacks on the host.
+    let fine = ReceiverBuffer::render(&scene, cfg.width, cfg.height);
+    let fallback = |i: usize| total(&shade_from_scratch(&kernel, &fine, i, &prepared, &light));
+    let geom = |b: &ReceiverBuffer| (b.normal.clone(), b.depth.clone());
+    let ((cn, cd), (fnn, fd)) = (geom(&coarse), geom(&fine));
+    let total_in: Vec<_> = cpu_inc.iter().map(total).collect();
+    let cpu_up = bilateral_upsample(
+        Geometry { width: coarse.width, height: coarse.height, normal: &cn, depth: &cd },
+        &total_in,
+        Geometry { width: fine.width, height: fine.height, normal: &fnn, depth: &fd },
+        fallback,
+    );
+    let target = gpu_pass.target(&fine).unwrap();
+    gpu_pass.run_upsample(&frame, &target, 1).unwrap();
+    let (gpu_up, gpu_fallbacks) = gpu_pass.read_upsampled(&target, fallback).unwrap();
+    let mut worst_up = 0.0f32;
+    for (i, (g, c)) in gpu_up.iter().zip(&cpu_up.values).enumerate() {
+        let norm: f32 = c.iter().map(|v| v.abs()).sum();
+        let d = g.iter().zip(c).map(|(a, b)| (a - b).abs()).fold(0.0f32, f32::max);
+        assert!(
+            d <= INCIDENT_REL * norm + ACCUM_ABS,
+            "display pixel {i}: upsampled value differs by {d:e} (norm {norm})"
+        );
+        worst_up = worst_up.max(d / norm.max(f32::MIN_POSITIVE));
+    }
+    // A pixel sits at the fallback threshold only by coincidence; both sides must agree.
+    assert_eq!(gpu_fallbacks, cpu_up.fallbacks);
+    println!(
+        "N = {N}: upsampled {}x{} display pixels, {gpu_fallbacks} fallbacks, worst {worst_up:.2e} of norm",
+        fine.width, fine.height
     );
     // The frame must exercise the kernel: a good share of receivers see proxies.
     assert!(touched > cpu.len() / 20, "only {touched} receivers touched");
