@@ -196,9 +196,9 @@ pub fn locate(alpha: f64) -> (usize, f64) {
 }
 
 /// Smooth clamping of a proxy's sphere of influence (seed 004 §4.1): table entries are
-/// re-weighted by `w(α_i)`, 0 for `α_i <= 1/η` and rising smoothly (`3x² - 2x³`) to 1 over the
-/// next four entries, so a proxy's contribution fades to 0 continuously at the boundary
-/// `|p - c| = η r` of its sphere of influence.
+/// re-weighted by `w(α_i)` ([`SmoothClamp::weight`]), 0 at and below `1/η` and rising
+/// smoothly to 1 over the next four entries, so a proxy's contribution fades to 0
+/// continuously and is exactly 0 outside its sphere of influence `|p - c| >= η r`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SmoothClamp {
     /// Radius expansion factor `η`.
@@ -216,11 +216,14 @@ impl SmoothClamp {
         Self { eta }
     }
 
-    /// Weight of a table entry at `alpha`.
+    /// Weight of a table entry at `alpha` (meant for entry positions `α_i`): 0 up to and
+    /// including the first entry at or above `1/η` (so interpolated lookups are exactly 0 for
+    /// every `α <= 1/η`), then `3x² - 2x³` over the next [`CLAMP_ENTRIES`] entries.
     #[must_use]
     pub fn weight(&self, alpha: f64) -> f64 {
-        let h = 1.0 / (TABLE_ENTRIES - 1) as f64;
-        let x = ((alpha - 1.0 / self.eta) / (CLAMP_ENTRIES * h)).clamp(0.0, 1.0);
+        let n = (TABLE_ENTRIES - 1) as f64;
+        let first = (n / self.eta).ceil();
+        let x = ((alpha * n - first) / CLAMP_ENTRIES).clamp(0.0, 1.0);
         x * x * (3.0 - 2.0 * x)
     }
 
@@ -274,10 +277,11 @@ mod tests {
     #[test]
     fn clamp_weight_shape() {
         let c = SmoothClamp::new(10.0);
-        assert_eq!(c.weight(0.1), 0.0);
+        let first = ((TABLE_ENTRIES - 1) as f64 / 10.0).ceil() as usize;
+        assert!(table_alpha(first) >= 0.1 && table_alpha(first - 1) < 0.1);
         assert_eq!(c.weight(0.05), 0.0);
-        assert_eq!(c.weight(0.1 + 4.0 / (TABLE_ENTRIES - 1) as f64), 1.0);
-        let mid = c.weight(0.1 + 2.0 / (TABLE_ENTRIES - 1) as f64);
-        assert!((mid - 0.5).abs() < 1e-12);
+        assert_eq!(c.weight(table_alpha(first)), 0.0);
+        assert!((c.weight(table_alpha(first + 2)) - 0.5).abs() < 1e-12);
+        assert_eq!(c.weight(table_alpha(first + 4)), 1.0);
     }
 }

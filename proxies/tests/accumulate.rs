@@ -136,3 +136,52 @@ fn indirect_methods_rank() {
     assert!((av - ex).abs() < (ps - ex).abs());
     assert!((fit - av).abs() < 2e-3 * av.abs());
 }
+
+/// Smooth clamping (§4.1): with η, a proxy's contribution fades continuously to exactly 0 at
+/// the boundary `d = η r` of its sphere of influence.
+#[test]
+fn smooth_clamp_fades_to_zero_at_the_boundary() {
+    use lightvol_proxies::tables::SmoothClamp;
+    let l = light::<16>();
+    let eta = 15.0;
+    let o = ShadeOptions {
+        indirect: IndirectMethod::Averaged,
+        exp: ExpMethod::Reference,
+        shadow_clamp: Some(SmoothClamp::new(eta)),
+        indirect_clamp: Some(SmoothClamp::new(eta)),
+    };
+    let r = 0.1;
+    let at = |d: f64| {
+        let s = shade_receiver::<16>(
+            [0.0; 3],
+            [0.0, 0.0, 1.0],
+            &[SphereProxy::new([0.0, 0.0, d], r, [0.8; 3])],
+            &l,
+            &o,
+        );
+        (s.total()[0] - s.unshadowed[0]) / s.unshadowed[0]
+    };
+    // Outside: nothing (up to exp(0) rounding).
+    assert!(at(eta * r * 1.0001).abs() < 1e-12);
+    // Just inside: vanishingly small, continuous.
+    assert!(at(eta * r * 0.9999).abs() < 1e-8);
+    // Well inside (past the 4-entry ramp): the unclamped value.
+    let free = ShadeOptions { shadow_clamp: None, indirect_clamp: None, ..o };
+    let d = 0.5 * eta * r;
+    let s = shade_receiver::<16>(
+        [0.0; 3],
+        [0.0, 0.0, 1.0],
+        &[SphereProxy::new([0.0, 0.0, d], r, [0.8; 3])],
+        &l,
+        &free,
+    );
+    assert!((at(d) - (s.total()[0] - s.unshadowed[0]) / s.unshadowed[0]).abs() < 1e-12);
+    // Monotone fade across the ramp.
+    let mut prev = at(eta * r * 0.999).abs();
+    for k in 1..20 {
+        let d = eta * r / (1.0 + 0.004 * f64::from(k));
+        let v = at(d).abs();
+        assert!(v >= prev - 1e-12, "fade not monotone at d = {d}");
+        prev = v;
+    }
+}
