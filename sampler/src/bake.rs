@@ -285,14 +285,14 @@ fn sample_terms(
 fn point_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, node: usize) -> UnitOut {
     let [i, j, k] = grid.node_coords(node);
     let x = DVec3::from_array(grid.node_position_world(i, j, k));
-    let h = Qmc::<2>::new(settings.seed, hash2(node as u64, 0x706f_696e_74));
+    let h = Qmc::<2>::new(settings.seed, hash2(node as u64, 0x0070_6f69_6e74));
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     let mut weights = [0.0; 8];
     weights[0] = 1.0;
     for s in 0..u64::from(settings.samples) {
         let p = h.point(s);
         let dir = DVec3::from_array(sample_uniform_sphere(p));
-        let mut rng = PathRng::new(settings.seed, hash2(node as u64, 0x706f_696e_74), s);
+        let mut rng = PathRng::new(settings.seed, hash2(node as u64, 0x0070_6f69_6e74), s);
         out.stats.rays.sampling += 1;
         let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
         let (terms, n_terms) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats);

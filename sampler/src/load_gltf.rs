@@ -353,4 +353,58 @@ mod tests {
             Err(SceneError::NotFound(_))
         ));
     }
+
+    /// baseColorTexture (a PNG in a data URI) is decoded, linearised and sampled at the
+    /// hit's TEXCOORD_0; a missing image file only warns and keeps the factor.
+    #[test]
+    fn base_color_texture_and_missing_image() {
+        let mut png = Vec::new();
+        let img = image::RgbImage::from_fn(2, 1, |x, _| {
+            if x == 0 { image::Rgb([255, 255, 255]) } else { image::Rgb([188, 188, 188]) }
+        });
+        image::DynamicImage::ImageRgb8(img)
+            .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+            .unwrap();
+        let mut bytes = Vec::new();
+        for v in [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]] {
+            for c in v {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        // UVs: vertex 0 on texel 0's centre, vertices 1 and 2 on texel 1's centre.
+        for uv in [[0.25f32, 0.5], [0.75, 0.5], [0.75, 0.5]] {
+            for c in uv {
+                bytes.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        let text = |uri: &str| {
+            format!(
+                r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}], "nodes": [{{"mesh": 0}}],
+  "meshes": [{{"primitives": [{{"attributes": {{"POSITION": 0, "TEXCOORD_0": 1}}, "material": 0}}]}}],
+  "materials": [{{"pbrMetallicRoughness": {{"baseColorFactor": [0.5, 0.5, 0.5, 1], "baseColorTexture": {{"index": 0}}}}}}],
+  "textures": [{{"source": 0}}], "images": [{{"uri": "{uri}"}}],
+  "accessors": [
+    {{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]}},
+    {{"bufferView": 1, "componentType": 5126, "count": 3, "type": "VEC2"}}],
+  "bufferViews": [{{"buffer": 0, "byteLength": 36}}, {{"buffer": 0, "byteOffset": 36, "byteLength": 24}}],
+  "buffers": [{{"byteLength": 60, "uri": "data:application/octet-stream;base64,{}"}}]}}"#,
+                base64_encode(&bytes)
+            )
+        };
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("tex.gltf");
+        std::fs::write(&p, text(&format!("data:image/png;base64,{}", base64_encode(&png)))).unwrap();
+        let s = load_gltf(&p, &LoadOptions { up: UpAxis::Z, ..Default::default() }).unwrap();
+        assert!(s.report.warnings.is_empty(), "{:?}", s.report.warnings);
+        assert_eq!(s.textures.len(), 1);
+        // White texel × 0.5 at vertex 0; sRGB 188 → linear 0.5029 × 0.5 at vertex 1.
+        assert!((s.albedo(0, 0.0, 0.0)[0] - 0.5).abs() < 1e-6);
+        let lin = srgb_to_linear(188.0 / 255.0);
+        assert!((s.albedo(0, 1.0, 0.0)[1] - 0.5 * lin).abs() < 1e-6);
+        std::fs::write(&p, text("missing.png")).unwrap();
+        let s = load_gltf(&p, &LoadOptions::default()).unwrap();
+        assert_eq!(s.materials[0].albedo_texture, None);
+        assert_eq!(s.albedo(0, 0.3, 0.3), [0.5; 3]);
+        assert!(s.report.warnings.iter().any(|w| w.contains("texture")));
+    }
 }
