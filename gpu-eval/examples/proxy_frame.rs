@@ -6,6 +6,8 @@
 //! cargo run --release -p lightvol-gpu --example proxy_frame -- [--size S] [--proxies P] [--repeats K]
 //! ```
 //!
+//! The upsampling pass is timed to a `2S × 2S` display.
+//!
 //! The default proxies scene rendered into an `S × S` receiver buffer, with `P` proxies (two
 //! copies of the 18-sphere character, truncated). GPU times are timestamps around `K`
 //! back-to-back dispatches of each pass (upload, binning and readback excluded); binning
@@ -77,6 +79,11 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     gpu.run_exponentiate(&frame, 1)?;
     let acc = gpu.run(&frame, repeats)?;
     let exp = gpu.run_exponentiate(&frame, repeats)?;
+    // Upsampling to a display of twice the receiver resolution per axis (the paper's factor 2).
+    let display = ReceiverBuffer::render(&scene, 2 * size, 2 * size);
+    let target = gpu.target(&display)?;
+    gpu.run_upsample(&frame, &target, 1)?;
+    let up = gpu.run_upsample(&frame, &target, repeats)?;
 
     let kernel = Kernel::<N>::new(cfg.eta_shadow, cfg.eta_indirect, KernelIndirect::Averaged);
     let t = Instant::now();
@@ -116,9 +123,12 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
         cfg.tile
     );
     println!(
-        "gpu: accumulate {}, exponentiate {}; host binning {:.3} ms",
+        "gpu: accumulate {}, exponentiate {}, upsample to {}x{} {}; host binning {:.3} ms",
         ms(acc.gpu_seconds, repeats),
         ms(exp.gpu_seconds, repeats),
+        2 * size,
+        2 * size,
+        ms(up.gpu_seconds, repeats),
         bin_s * 1e3
     );
     println!(
