@@ -186,3 +186,71 @@ fn proxy_shading_is_validation_clean() {
     check::<16>(&ctx);
     assert_eq!(ctx.validation_errors(), 0, "validation errors: {:#?}", ctx.validation_messages());
 }
+
+/// Kernel 2c's fallback flag: display pixels on another surface than every coarse tap
+/// (normal turned 90°) and pixels without a receiver are treated as on the CPU.
+#[test]
+fn upsampling_fallbacks_match_cpu() {
+    let Some(ctx) = gpu_or_skip() else { return };
+    let plane = |w: usize, h: usize, turned: &dyn Fn(usize, usize) -> bool| {
+        let mut b = ReceiverBuffer {
+            width: w,
+            height: h,
+            position: vec![[0.0; 3]; w * h],
+            normal: vec![[0.0, 0.0, 1.0]; w * h],
+            depth: vec![2.0; w * h],
+            albedo: vec![[0.5; 3]; w * h],
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                b.position[i] = [x as f32 / w as f32, y as f32 / h as f32, 0.0];
+                b.depth[i] = 2.0 + 0.1 * x as f32 / w as f32;
+                if turned(x, y) {
+                    b.normal[i] = [1.0, 0.0, 0.0];
+                }
+            }
+        }
+        b
+    };
+    let coarse = plane(4, 4, &|_, _| false);
+    let mut fine = plane(8, 8, &|x, _| x >= 6);
+    fine.depth[9] = f32::INFINITY; // no receiver
+    let scene = Scene::default_scene();
+    let light = DistantLight(scene.light.sh::<9>());
+    let bins = bin_proxies(&scene.camera.frame(), 4, 4, &[], 2.0, 4);
+    let pass = ProxyShading::<9>::new(&ctx, 8.0, 4.0, KernelIndirect::Averaged).unwrap();
+    let frame = pass.frame(&coarse, &bins, &[], &light).unwrap();
+    pass.run(&frame, 1).unwrap();
+    pass.run_exponentiate(&frame, 1).unwrap();
+    let inc = pass.read_incident(&frame).unwrap();
+    let target = pass.target(&fine).unwrap();
+    pass.run_upsample(&frame, &target, 1).unwrap();
+    let marker = |i: usize| -> [f32; 27] { std::array::from_fn(|k| 1000.0 + (27 * i + k) as f32) };
+    let (gpu, gpu_fallbacks) = pass.read_upsampled(&target, marker).unwrap();
+
+    let kernel = Kernel::<9>::new(8.0, 4.0, KernelIndirect::Averaged);
+    let cpu_inc = exponentiate_pass(&kernel, &coarse, &accumulate_pass(&kernel, &coarse, &bins, &[]), &light);
+    let total_in: Vec<_> = cpu_inc.iter().map(total).collect();
+    assert_eq!(
+        total_in,
+        inc.iter().map(total).collect::<Vec<_>>(),
+        "no proxies: both pass the light through"
+    );
+    let cpu = bilateral_upsample(
+        Geometry { width: 4, height: 4, normal: &coarse.normal, depth: &coarse.depth },
+        &total_in,
+        Geometry { width: 8, height: 8, normal: &fine.normal, depth: &fine.depth },
+        marker,
+    );
+    // Columns 6 and 7 are turned away from every tap: 16 fallbacks; pixel 9 has no receiver.
+    assert_eq!(cpu.fallbacks, 16);
+    assert_eq!(gpu_fallbacks, cpu.fallbacks);
+    assert_eq!(gpu[9], [0.0; 27]);
+    for (i, (g, c)) in gpu.iter().zip(&cpu.values).enumerate() {
+        let norm: f32 = c.iter().map(|v| v.abs()).sum();
+        for k in 0..27 {
+            assert!((g[k] - c[k]).abs() <= INCIDENT_REL * norm + ACCUM_ABS, "pixel {i}: {g:?} vs {c:?}");
+        }
+    }
+}
