@@ -31,8 +31,8 @@ pub struct GpuBuffer {
 // completion before returning); Vulkan handles themselves are plain identifiers usable
 // from any thread.
 unsafe impl Send for GpuBuffer {}
-// SAFETY: see `Send`; shared references only read the mapping, and only when no
-// submission is in flight (submissions are synchronous and serialised).
+// SAFETY: see `Send`; shared references only read the mapping, and do so holding the
+// device's dispatch lock, so never while a dispatch (which may write the buffer) runs.
 unsafe impl Sync for GpuBuffer {}
 
 impl std::fmt::Debug for GpuBuffer {
@@ -174,9 +174,14 @@ impl GpuBuffer {
             return Ok(out);
         }
         if let Some(p) = self.mapped {
+            // Another thread may hold `&self` in a dispatch; the dispatch lock waits for it.
+            let _no_dispatch =
+                self.shared.dispatch_lock.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
             // SAFETY: the range lies inside the mapping (checked); no device work is in
-            // flight, and the memory is coherent, so it holds the device's writes; `out`
-            // has exactly `len` bytes and every bit pattern is a valid `T` (`Pod`).
+            // flight (dispatches hold the lock taken above until their fence signals;
+            // staging copies into this buffer need `&mut self`), and the memory is
+            // coherent, so it holds the device's writes; `out` has exactly `len` bytes and
+            // every bit pattern is a valid `T` (`Pod`).
             unsafe {
                 std::ptr::copy_nonoverlapping(
                     p.as_ptr().add(offset as usize),
