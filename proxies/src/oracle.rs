@@ -12,6 +12,12 @@
 //!   a grid, a white (albedo 1) proxy at every polar angle from the normal, its exact
 //!   indirect light (Eq. 17) dotted with `H`; `η` as above.
 //!
+//! - **Shadows for a given light** ([`shadow_eta_for_light`]): the paper's specialisation to
+//!   the actual lighting. The worst difference over receiver normals (a Fibonacci set of
+//!   [`LIGHT_NORMALS`]) and blocker directions above each normal, relative to the largest
+//!   unshadowed shading, for the light's luminance (channel mean). Smooth lights allow much
+//!   smaller η than the delta light.
+//!
 //! The search scans `α` upwards in steps of [`ALPHA_SCAN_STEP`] to the first violation and
 //! bisects to [`ALPHA_BISECT_TOL`].
 
@@ -24,6 +30,8 @@ use lightvol_sh::irradiance::radiance_to_irradiance;
 use crate::accumulate::{apply_exact_operator, cosine_lobe, delta, single_blocker_exact};
 use crate::operators::m_exact;
 use crate::proxy::SphereProxy;
+use crate::tables::rotate_zh;
+use lightvol_sh::gaunt::product;
 
 /// Polar-angle step of the blocker placements (degrees).
 pub const BETA_STEP_DEG: f64 = 2.5;
@@ -134,6 +142,55 @@ pub fn shadow_eta<const N: usize>(tolerance: f64) -> EtaDerivation {
 #[must_use]
 pub fn indirect_eta<const N: usize>(tolerance: f64) -> EtaDerivation {
     EtaDerivation::from_alpha(tolerance, N.isqrt(), search(indirect_difference::<N>, tolerance))
+}
+
+/// Receiver normals of [`shadow_eta_for_light`].
+pub const LIGHT_NORMALS: usize = 256;
+
+fn fibonacci(n: usize) -> Vec<[f64; 3]> {
+    let golden = PI * (3.0 - 5f64.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let phi = golden * i as f64;
+            [r * phi.cos(), r * phi.sin(), z]
+        })
+        .collect()
+}
+
+/// Worst shadow difference of a blocker with `sin θ = alpha` under `light` (luminance),
+/// relative to the largest unshadowed shading. Uses `H · (V * L) = V · (H * L)`.
+#[must_use]
+pub fn shadow_difference_for_light<const N: usize>(light: &ShRgb<f64, N>, alpha: f64) -> f64 {
+    let lum = (light.0[0] + light.0[1] + light.0[2]) * (1.0 / 3.0);
+    let normals = fibonacci(LIGHT_NORMALS);
+    let peak = normals.iter().map(|&n| lum.dot(&cosine_lobe::<N>(n))).fold(0.0, f64::max);
+    let cap = lightvol_sh::zonal::Zh::<f64, 4>::cap(alpha.asin()).0;
+    let mut worst = 0.0f64;
+    for &n in &normals {
+        let t = product(&cosine_lobe::<N>(n), &lum);
+        let f = lightvol_sh::sampling::Frame::from_normal(n);
+        for b in betas() {
+            for az in (0..8).map(|k| 45.0 * f64::from(k)) {
+                let d = f.to_world(dir_at(b, az));
+                let v: Sh<f64, N> = rotate_zh(&cap, d);
+                worst = worst.max(v.dot(&t).abs());
+            }
+        }
+    }
+    worst / peak
+}
+
+/// `η` for shadows under a specific light (seed 004 §4.1, "specialized to the actual lighting
+/// environment").
+#[must_use]
+pub fn shadow_eta_for_light<const N: usize>(light: &ShRgb<f64, N>, tolerance: f64) -> EtaDerivation {
+    EtaDerivation::from_alpha(
+        tolerance,
+        N.isqrt(),
+        search(|a| shadow_difference_for_light(light, a), tolerance),
+    )
 }
 
 /// The sphere of influence of a proxy: receivers closer than `η r` to its centre.

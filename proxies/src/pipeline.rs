@@ -19,7 +19,7 @@ use crate::kernel::{Accum, Incident, Kernel, PreparedProxy, Rgb9, light_f32};
 use crate::light::LightField;
 use crate::proxy::SphereProxy;
 use crate::scene::{CameraFrame, ReceiverBuffer};
-use crate::upsample::{Geometry, Upsampled, bilateral_upsample};
+use crate::upsample::{Geometry, bilateral_upsample_map};
 
 /// Proxies binned into square screen tiles.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -161,27 +161,14 @@ pub fn shade_display(
     fine: &ReceiverBuffer,
     exact: impl Fn(usize) -> Rgb9 + Sync,
 ) -> (Vec<[f32; 3]>, usize) {
-    let g = |b: &ReceiverBuffer| -> (Vec<[f32; 3]>, Vec<f32>) { (b.normal.clone(), b.depth.clone()) };
-    let (cn, cd) = g(coarse);
-    let (fnn, fd) = g(fine);
-    let up: Upsampled<27> = bilateral_upsample(
-        Geometry { width: coarse.width, height: coarse.height, normal: &cn, depth: &cd },
+    bilateral_upsample_map(
+        Geometry { width: coarse.width, height: coarse.height, normal: &coarse.normal, depth: &coarse.depth },
         incident,
-        Geometry { width: fine.width, height: fine.height, normal: &fnn, depth: &fd },
+        Geometry { width: fine.width, height: fine.height, normal: &fine.normal, depth: &fine.depth },
         exact,
-    );
-    let shaded =
-        (0..fine.width * fine.height)
-            .into_par_iter()
-            .map(|i| {
-                if fine.valid(i) {
-                    shade_rgb9(&up.values[i], fine.normal[i], fine.albedo[i])
-                } else {
-                    [0.0; 3]
-                }
-            })
-            .collect();
-    (shaded, up.fallbacks)
+        |i, l| shade_rgb9(l, fine.normal[i], fine.albedo[i]),
+        [0.0; 3],
+    )
 }
 
 /// Total incident radiance `O_p * L + I_p` of a receiver.

@@ -54,9 +54,25 @@ pub fn bilateral_upsample<const K: usize>(
     fine: Geometry<'_>,
     fallback: impl Fn(usize) -> [f32; K] + Sync,
 ) -> Upsampled<K> {
+    let (values, fallbacks) = bilateral_upsample_map(coarse, values, fine, fallback, |_, v| *v, [0.0; K]);
+    Upsampled { values, fallbacks }
+}
+
+/// [`bilateral_upsample`] followed by `map(pixel, value)` in the same pass (e.g. shading),
+/// without storing the upsampled values; pixels without a receiver get `empty`. Returns the
+/// mapped values and the fallback count.
+#[must_use]
+pub fn bilateral_upsample_map<const K: usize, R: Copy + Send + Sync>(
+    coarse: Geometry<'_>,
+    values: &[[f32; K]],
+    fine: Geometry<'_>,
+    fallback: impl Fn(usize) -> [f32; K] + Sync,
+    map: impl Fn(usize, &[f32; K]) -> R + Sync,
+    empty: R,
+) -> (Vec<R>, usize) {
     let sx = coarse.width as f32 / fine.width as f32;
     let sy = coarse.height as f32 / fine.height as f32;
-    let mut out = vec![[0.0f32; K]; fine.width * fine.height];
+    let mut out = vec![empty; fine.width * fine.height];
     let fallbacks: usize = out
         .par_chunks_mut(fine.width)
         .enumerate()
@@ -103,16 +119,17 @@ pub fn bilateral_upsample<const K: usize>(
                 // Compare against the bilinear weight mass actually available, so a pixel whose
                 // taps all match is never sent to the fallback because of small bilinear weights.
                 if wsum <= WEIGHT_FLOOR * bsum.max(f32::MIN_POSITIVE) || wsum == 0.0 {
-                    *o = fallback(i);
+                    *o = map(i, &fallback(i));
                     count += 1;
                 } else {
-                    *o = acc.map(|v| v / wsum);
+                    let inv = 1.0 / wsum;
+                    *o = map(i, &acc.map(|v| v * inv));
                 }
             }
             count
         })
         .sum();
-    Upsampled { values: out, fallbacks }
+    (out, fallbacks)
 }
 
 /// Plain bilinear upsampling (no depth or normal weights), for comparisons.

@@ -4,7 +4,8 @@
 //! - shadows, order 4: η = 28.14 (θ = 2.04°). The paper's η = 15 (3.8°) gives a shading
 //!   difference of 0.0137 ≈ 3.5/256, not 1/256;
 //! - shadows, order 3: η = 20.08 (θ = 2.85°);
-//! - indirect, order 3: η = 13.37 (θ = 4.29°). The paper's η = 10 gives 0.0071 ≈ 1.8/256.
+//! - indirect, order 3: η = 13.37 (θ = 4.29°). The paper's η = 10 gives 0.0071 ≈ 1.8/256;
+//! - shadows, order 4, specialised to the default scene's sky/sun light: η = 19.18.
 
 use lightvol_proxies::oracle::{indirect_difference, indirect_eta, shadow_difference, shadow_eta};
 
@@ -41,4 +42,18 @@ fn indirect_eta_order3() {
     assert!((d.eta - 13.37).abs() < ETA_REPORT, "{d:?}");
     let at10 = indirect_difference::<9>(0.1);
     assert!((at10 - 0.00712).abs() < 1e-4, "{at10}");
+}
+
+/// Specialised to the default scene's sky/sun light, shadows need a much smaller η than the
+/// delta-light worst case: measured η = 19.18 (θ = 2.99°) at order 4.
+#[test]
+fn shadow_eta_for_the_default_light() {
+    use lightvol_proxies::oracle::{shadow_difference_for_light, shadow_eta_for_light};
+    let l = lightvol_proxies::scene::Scene::default_scene().light.sh::<16>();
+    let d = shadow_eta_for_light::<16>(&l, TOL);
+    println!("{d:?}");
+    assert!(shadow_difference_for_light(&l, d.alpha) <= TOL);
+    assert!(shadow_difference_for_light(&l, d.alpha * 1.01) > TOL);
+    assert!((d.eta - 19.18).abs() < ETA_REPORT, "{d:?}");
+    assert!(d.eta < 0.75 * shadow_eta::<16>(TOL).eta);
 }
