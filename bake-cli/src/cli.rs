@@ -35,6 +35,8 @@ pub enum Command {
     /// Render a view shaded by a baked volume (or path-traced with --reference): the
     /// "helicopter" view that shows leaking.
     Render(crate::cmd_render::RenderArgs),
+    /// List the Vulkan devices the GPU evaluator can use, and the one it selects.
+    GpuInfo(crate::cmd_gpu::GpuInfoArgs),
     /// Reproduce the IMSE comparison of hemispherical bases (seed 003 Table 3.1, Fig. 3.1).
     Imse(crate::cmd_imse::ImseArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.

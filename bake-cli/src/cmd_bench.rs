@@ -31,7 +31,8 @@ pub struct BenchArgs {
     /// Samples per cell/node for the doi vs point bakes.
     #[arg(long, default_value_t = 64)]
     pub samples: u32,
-    /// Also measure the Vulkan evaluator (needs a Vulkan device).
+    /// Also measure the Vulkan evaluator (volume lookups and proxy frame passes; needs a
+    /// Vulkan device, see `lightvol gpu-info`).
     #[arg(long)]
     pub gpu: bool,
 }
@@ -86,9 +87,6 @@ fn lookups_per_second(
 
 /// Runs `lightvol bench`.
 pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
-    if args.gpu {
-        anyhow::bail!("--gpu: the Vulkan evaluator is not wired into the CLI yet");
-    }
     let b = builtin(&args.scene).with_context(|| format!("unknown built-in scene '{}'", args.scene))?;
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
     let (one, all) = (pool(1)?, pool(cores)?);
@@ -123,6 +121,11 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
         (0..n).map(|_| [rng.next_f64() as f32, rng.next_f64() as f32, rng.next_f64() as f32]).collect();
     let normals: Vec<[f32; 3]> =
         (0..n).map(|_| sample_uniform_sphere([rng.next_f64(), rng.next_f64()]).map(|v| v as f32)).collect();
+    let gpu = if args.gpu {
+        Some(crate::cmd_gpu::bench_section(&vol, &coherent, &random, &normals)?)
+    } else {
+        None
+    };
     let lookups = json!({
         "volume": "64^3 nodes, 9 RGB coefficients",
         "scalar_coherent": lookups_per_second(&vol, &coherent, &normals, false, &one)?,
@@ -143,7 +146,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     let (point_rays, point_s) = bake(Method::Point)?;
     let (doi_rays, doi_s) = bake(Method::Doi)?;
 
-    let report = json!({
+    let mut report = json!({
         "scene": args.scene,
         "triangles": b.scene.triangles.len(),
         "threads": cores,
@@ -158,6 +161,9 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             "doi_over_point_seconds": doi_s / point_s,
         },
     });
+    if let Some(g) = gpu {
+        report["gpu"] = g;
+    }
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(ExitCode::SUCCESS)
 }

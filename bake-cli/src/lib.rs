@@ -6,6 +6,7 @@ pub mod cmd_bench;
 pub mod cmd_compare;
 pub mod cmd_demo;
 mod cmd_export;
+pub mod cmd_gpu;
 pub mod cmd_imse;
 mod cmd_info;
 pub mod cmd_lint;
@@ -60,6 +61,7 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::Bench(a) => cmd_bench::run(&a),
         cli::Command::Compare(a) => cmd_compare::run(&a),
         cli::Command::Demo(a) => cmd_demo::run(&a),
+        cli::Command::GpuInfo(a) => cmd_gpu::run_info(&a),
         cli::Command::Imse(a) => cmd_imse::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
         cli::Command::Lint(a) => cmd_lint::run(&a),
