@@ -5,7 +5,7 @@
 use std::sync::OnceLock;
 
 use divan::{Bencher, counter::ItemsCount};
-use lightvol_sampler::{DVec2, DVec3, Material, Scene, SceneBuilder, Tracer};
+use lightvol_sampler::{BuildQuality, DVec2, DVec3, Material, Scene, SceneBuilder, Tracer};
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use rayon::prelude::*;
@@ -86,5 +86,20 @@ fn occluded(bencher: Bencher<'_, '_>, threads: usize) {
                 .map(|c| c.iter().filter(|(o, d)| tracer.occluded(*o, *d, 0.0, 50.0)).count())
                 .sum::<usize>()
         })
+    });
+}
+
+/// BVH build presets compared on one thread (build time is not measured here).
+#[divan::bench(args = ["fast", "medium", "slow"], sample_count = 3, sample_size = 1)]
+fn closest_hit_by_build(bencher: Bencher<'_, '_>, quality: &str) {
+    let (scene, _, rays) = scene();
+    let q = match quality {
+        "fast" => BuildQuality::Fast,
+        "slow" => BuildQuality::Slow,
+        _ => BuildQuality::Medium,
+    };
+    let tracer = Tracer::with_quality(scene, q);
+    bencher.counter(ItemsCount::new(RAYS)).bench(|| {
+        rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, 0.0, f64::INFINITY).is_some()).count()
     });
 }
