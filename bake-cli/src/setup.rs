@@ -289,7 +289,7 @@ impl GridArgs {
             && let Some(g) = &scene.grid
             && let Some(p) = g.placement()
         {
-            spec = spec.with_placement(p.clone());
+            spec = spec.with_placement(*p);
         }
         Ok(spec)
     }
