@@ -36,6 +36,17 @@ pub struct Geometry<'a> {
     pub depth: &'a [f32],
 }
 
+/// `c^32` by five squarings (`powi` is an out-of-line call).
+#[inline(always)]
+fn pow32(c: f32) -> f32 {
+    const { assert!(NORMAL_POWER == 32) };
+    let c2 = c * c;
+    let c4 = c2 * c2;
+    let c8 = c4 * c4;
+    let c16 = c8 * c8;
+    c16 * c16
+}
+
 /// Result of an upsampling.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Upsampled<const K: usize> {
@@ -88,7 +99,8 @@ pub fn bilateral_upsample_map<const K: usize, R: Copy + Send + Sync>(
                 // Position in coarse pixel-centre coordinates.
                 let cx = ((x as f32 + 0.5) * sx - 0.5).clamp(0.0, (coarse.width - 1) as f32);
                 let cy = ((y as f32 + 0.5) * sy - 0.5).clamp(0.0, (coarse.height - 1) as f32);
-                let (x0, y0) = (cx.floor() as usize, cy.floor() as usize);
+                // cx, cy >= 0 after the clamp, so truncation is floor (and avoids an out-of-line floorf).
+                let (x0, y0) = (cx as usize, cy as usize);
                 let (x1, y1) = ((x0 + 1).min(coarse.width - 1), (y0 + 1).min(coarse.height - 1));
                 let (fx, fy) = (cx - x0 as f32, cy - y0 as f32);
                 let eps = DEPTH_EPS_REL * zp;
@@ -109,7 +121,7 @@ pub fn bilateral_upsample_map<const K: usize, R: Copy + Send + Sync>(
                     }
                     let ni = coarse.normal[j];
                     let c = (np[0] * ni[0] + np[1] * ni[1] + np[2] * ni[2]).max(0.0);
-                    let w = wb * c.powi(NORMAL_POWER) * eps / (eps + (zp - zi).abs());
+                    let w = wb * pow32(c) * eps / (eps + (zp - zi).abs());
                     bsum += wb;
                     wsum += w;
                     for k in 0..K {
