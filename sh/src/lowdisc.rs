@@ -100,18 +100,26 @@ pub fn radical_inverse(base: u64, mut a: u64) -> f64 {
 /// Largest f64 below 1.
 pub const ONE_MINUS_EPSILON: f64 = 1.0 - f64::EPSILON / 2.0;
 
-/// Owen-scrambled radical inverse (pbrt-v4): each digit is permuted by a permutation that
-/// depends on the hash and on all more significant digits, continued until f64 precision is
-/// exhausted so that leading zero digits are scrambled too.
+/// Owen-scrambled radical inverse: each digit is permuted by a permutation that depends on
+/// the hash and on the whole prefix of more significant digits, continued until f64
+/// precision is exhausted so that leading zero digits are scrambled too.
+///
+/// The prefix is identified by its value *and its length*. pbrt-v4's version hashes the
+/// value alone, so the prefixes "0", "00", "000", … share one permutation: whenever the
+/// first zero digit maps to 0 (probability 1/base) every later one does too, and point 0
+/// lands exactly on 0. Hashing the length as well gives every tree node its own
+/// permutation, as nested uniform scrambling requires.
 #[must_use]
 pub fn owen_scrambled_radical_inverse(base: u64, mut a: u64, hash: u32) -> f64 {
     let inv = 1.0 / base as f64;
     let mut inv_n = 1.0;
     let mut reversed = 0u64;
+    let mut depth = 0u64;
     while 1.0 - (base - 1) as f64 * inv_n < 1.0 {
         let next = a / base;
         let digit = (a - next * base) as u32;
-        let digit_hash = mix_bits(u64::from(hash) ^ reversed) as u32;
+        let digit_hash = hash2(u64::from(hash) | (depth << 32), reversed) as u32;
+        depth += 1;
         let digit = permutation_element(digit, base as u32, digit_hash);
         reversed = reversed * base + u64::from(digit);
         inv_n *= inv;
@@ -258,6 +266,27 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Point 0 of a scrambled stream is uniform over [0, 1): it must not sit exactly on 0
+    /// (pbrt-v4's prefix hash puts it there with probability 1/base).
+    #[test]
+    fn first_point_is_not_pinned_to_zero() {
+        let mut zeros = 0;
+        let mut mean = 0.0;
+        let n = 4000;
+        for seed in 0..n {
+            let h = Halton::new(seed, 3);
+            for d in 0..3 {
+                let v = h.sample(0, d);
+                zeros += usize::from(v == 0.0);
+                mean += v;
+            }
+        }
+        assert_eq!(zeros, 0);
+        mean /= f64::from(3 * n as u32);
+        // Mean of 12000 uniforms: standard error 0.0026; allow 5 sigma.
+        assert!((mean - 0.5).abs() < 0.013, "mean of point 0 = {mean}");
     }
 
     #[test]
