@@ -44,7 +44,7 @@ fn parse() -> anyhow::Result<Args> {
             s => a.scene = (s != "default").then(|| PathBuf::from(s)),
         }
     }
-    if a.size[0] < 8 || a.size[1] < 8 || a.size[0] % 2 != 0 || a.size[1] % 2 != 0 {
+    if a.size[0] < 8 || a.size[1] < 8 || !a.size[0].is_multiple_of(2) || !a.size[1].is_multiple_of(2) {
         bail!("--size needs even dimensions of at least 8");
     }
     if a.order != 3 && a.order != 4 {

@@ -291,7 +291,8 @@ impl Scene {
     pub fn validate(&self) -> Result<(), ProxyError> {
         let bad = |m: String| Err(ProxyError::Scene(m));
         for (i, p) in self.proxies.iter().enumerate() {
-            if !(p.radius > 0.0 && p.radius.is_finite()) || !p.center.iter().all(|v| v.is_finite()) {
+            let ok = p.radius > 0.0 && p.radius.is_finite() && p.center.iter().all(|v| v.is_finite());
+            if !ok {
                 return bad(format!("proxy {i}: radius must be positive and the centre finite"));
             }
             if !p.albedo.iter().all(|a| (0.0..=1.0).contains(a)) {
