@@ -1,4 +1,4 @@
-//! `lightvol proxies [SCENE] [-o DIR] [--size W H] [--samples N] [--order 3|4]`
+//! `lightvol proxies [SCENE] [--volume V.exr] [-o DIR] [--size W H] [--samples N] [--order 3|4]`
 //!
 //! Renders a receiver scene (the built-in default: ground, two walls, a sphere-set
 //! character under a sky/sun light; or a JSON scene file, the serde form of
@@ -6,15 +6,21 @@
 //! indirect light, and path-traced with the spheres as real geometry. Writes `none.png`,
 //! `shadows.png`, `shadows_indirect.png`, `reference.png` and `report.json` (relative RMSE
 //! of each variant against the reference on the receivers) to DIR (default `proxies-out`).
+//!
+//! With `--volume` (EXR, KTX2 or DDS from lightvol-volume) the light is the volume's local
+//! radiance SH instead of the scene's sky/sun; there is no path-traced reference for a baked
+//! light, so `reference.png` is not written and the `rel_rmse` fields are `null`.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
-use lightvol_proxies::compare::{CompareConfig, Comparison, compare};
+use lightvol_proxies::compare::{CompareConfig, compare, render_variants};
+use lightvol_proxies::light::VolumeLight;
 use lightvol_proxies::scene::Scene;
 
 struct Args {
     scene: Option<PathBuf>,
+    volume: Option<PathBuf>,
     out: PathBuf,
     size: [usize; 2],
     samples: u32,
@@ -22,13 +28,20 @@ struct Args {
 }
 
 fn parse() -> anyhow::Result<Args> {
-    let mut a =
-        Args { scene: None, out: PathBuf::from("proxies-out"), size: [320, 240], samples: 256, order: 4 };
+    let mut a = Args {
+        scene: None,
+        volume: None,
+        out: PathBuf::from("proxies-out"),
+        size: [320, 240],
+        samples: 256,
+        order: 4,
+    };
     let mut it = std::env::args().skip(1);
     while let Some(x) = it.next() {
         let mut next = |what: &str| it.next().with_context(|| format!("{x} needs {what}"));
         match x.as_str() {
             "-o" | "--out" => a.out = PathBuf::from(next("a directory")?),
+            "--volume" => a.volume = Some(PathBuf::from(next("a volume file")?)),
             "--size" => {
                 a.size = [next("a width")?.parse()?, next("a height")?.parse()?];
             }
@@ -67,8 +80,8 @@ fn srgb(x: f32) -> u8 {
     (y * 255.0 + 0.5) as u8
 }
 
-fn save_png(path: &Path, c: &Comparison, img: &[[f32; 3]], exposure: f32) -> anyhow::Result<()> {
-    let [w, h] = c.size;
+fn save_png(path: &Path, size: [usize; 2], img: &[[f32; 3]], exposure: f32) -> anyhow::Result<()> {
+    let [w, h] = size;
     let mut bytes = Vec::with_capacity(w * h * 3);
     for px in img {
         bytes.extend(px.map(|v| srgb(v * exposure)));
@@ -94,6 +107,9 @@ fn main() -> anyhow::Result<()> {
         CompareConfig::derived::<9>(args.size[0], args.size[1], tolerance)
     };
     cfg.samples = args.samples;
+    if let Some(v) = &args.volume {
+        return baked(&args, &scene, &cfg, v);
+    }
     eprintln!(
         "rendering {}x{} (receivers at 1/{}), eta shadow {:.2}, indirect {:.2}",
         cfg.width, cfg.height, cfg.factor, cfg.eta_shadow, cfg.eta_indirect
@@ -112,7 +128,7 @@ fn main() -> anyhow::Result<()> {
         ("shadows_indirect", &c.shadows_indirect),
         ("reference", &c.reference),
     ] {
-        save_png(&args.out.join(format!("{name}.png")), &c, img, exposure)?;
+        save_png(&args.out.join(format!("{name}.png")), c.size, img, exposure)?;
     }
     let report = serde_json::json!({
         "variants": {
@@ -131,6 +147,46 @@ fn main() -> anyhow::Result<()> {
     });
     let path = args.out.join("report.json");
     write_atomic(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_string_pretty(&report)? + "\n")?))?;
+    println!("{}", serde_json::to_string_pretty(&report)?);
+    Ok(())
+}
+
+/// The three variants under a baked volume's light (no reference).
+fn baked(args: &Args, scene: &Scene, cfg: &CompareConfig, path: &Path) -> anyhow::Result<()> {
+    let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
+    let vol = match ext.as_str() {
+        "exr" => lightvol_volume::exr_io::read_exr(path),
+        "ktx2" => lightvol_volume::ktx2_io::read_ktx2(path),
+        "dds" => lightvol_volume::dds_io::read_dds(path),
+        _ => bail!("--volume: unknown extension {ext:?} (want exr, ktx2 or dds)"),
+    }
+    .with_context(|| format!("reading {}", path.display()))?;
+    let light = VolumeLight(&vol);
+    let v = if args.order == 4 {
+        render_variants::<16>(scene, cfg, &light)
+    } else {
+        render_variants::<9>(scene, cfg, &light)
+    };
+    let mut vals: Vec<f32> = v.none.iter().map(|p| p[0].max(p[1]).max(p[2])).collect();
+    vals.sort_by(f32::total_cmp);
+    let exposure = 0.9 / vals.get(vals.len() * 99 / 100).copied().unwrap_or(1.0).max(1e-6);
+    for (name, img) in [("none", &v.none), ("shadows", &v.shadows), ("shadows_indirect", &v.shadows_indirect)]
+    {
+        save_png(&args.out.join(format!("{name}.png")), v.size, &v.draw(img.clone()), exposure)?;
+    }
+    let report = serde_json::json!({
+        "variants": {"none": {"rel_rmse": null}, "shadows": {"rel_rmse": null}, "shadows_indirect": {"rel_rmse": null}},
+        "proxies": scene.proxies.len(),
+        "receivers": v.receivers,
+        "display": v.size,
+        "order": args.order,
+        "volume": path.display().to_string(),
+        "eta": {"shadow": cfg.eta_shadow, "indirect": cfg.eta_indirect},
+        "reference": null,
+        "upsampling_fallbacks": v.fallbacks,
+    });
+    let out = args.out.join("report.json");
+    write_atomic(&out, |tmp| Ok(std::fs::write(tmp, serde_json::to_string_pretty(&report)? + "\n")?))?;
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
 }

@@ -103,34 +103,58 @@ pub fn rel_rmse(x: &[[f32; 3]], r: &[[f32; 3]], mask: &[bool]) -> f64 {
     (num / den.max(f64::MIN_POSITIVE)).sqrt()
 }
 
-/// Runs the comparison with `N` (9 or 16) coefficients for shadows.
+/// The three pipeline variants of a scene under any light (e.g. a baked volume), at display
+/// resolution, with the character's spheres drawn over them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Variants {
+    /// Display size.
+    pub size: [usize; 2],
+    /// Receiver-buffer size.
+    pub receivers: [usize; 2],
+    /// Without proxies.
+    pub none: Vec<[f32; 3]>,
+    /// With shadows.
+    pub shadows: Vec<[f32; 3]>,
+    /// With shadows and indirect light.
+    pub shadows_indirect: Vec<[f32; 3]>,
+    /// Per pixel, the shading of a character sphere in front of the receivers (if any).
+    pub overlay: Vec<Option<[f32; 3]>>,
+    /// The display receiver buffer.
+    pub fine: ReceiverBuffer,
+    /// Display pixels shaded by the upsampling fallback (total over the three variants).
+    pub fallbacks: usize,
+}
+
+/// Renders the three variants with the pipeline under `light` (`N` = 9 or 16 coefficients
+/// for shadows). The images do not yet have the character drawn in (see [`Variants::overlay`]).
 #[must_use]
-pub fn compare<const N: usize>(scene: &Scene, cfg: &CompareConfig) -> Comparison {
+pub fn render_variants<const N: usize>(
+    scene: &Scene,
+    cfg: &CompareConfig,
+    light: &impl LightField<N>,
+) -> Variants {
     let fine = ReceiverBuffer::render(scene, cfg.width, cfg.height);
     let coarse = ReceiverBuffer::render(scene, cfg.width / cfg.factor, cfg.height / cfg.factor);
-    let light = DistantLight(scene.light.sh::<N>());
     let kernel = Kernel::<N>::new(cfg.eta_shadow, cfg.eta_indirect, KernelIndirect::Averaged);
-    let prepared = prepare(&scene.proxies, &light);
+    let prepared = prepare(&scene.proxies, light);
     let cam = scene.camera.frame();
     let eta = cfg.eta_shadow.max(cfg.eta_indirect);
     let bins = bin_proxies(&cam, coarse.width, coarse.height, &scene.proxies, eta, cfg.tile);
     let acc = accumulate_pass(&kernel, &coarse, &bins, &prepared);
-    let inc = exponentiate_pass(&kernel, &coarse, &acc, &light);
+    let inc = exponentiate_pass(&kernel, &coarse, &acc, light);
 
     let unshadowed = |b: &ReceiverBuffer, i: usize| -> Rgb9 {
-        let l = light_f32(&light, b.position[i]);
+        let l = light_f32(light, b.position[i]);
         core::array::from_fn(|j| l[j / 9][j % 9])
     };
     let none_in: Vec<Rgb9> = (0..inc.len()).map(|i| unshadowed(&coarse, i)).collect();
     let shadow_in: Vec<Rgb9> = inc.iter().map(|x| x.shadowed).collect();
     let total_in: Vec<Rgb9> = inc.iter().map(total).collect();
-    let scratch = |i: usize| shade_from_scratch(&kernel, &fine, i, &prepared, &light);
+    let scratch = |i: usize| shade_from_scratch(&kernel, &fine, i, &prepared, light);
     let (none, f0) = shade_display(&coarse, &none_in, &fine, |i| unshadowed(&fine, i));
     let (shadows, f1) = shade_display(&coarse, &shadow_in, &fine, |i| scratch(i).shadowed);
     let (shadows_indirect, f2) = shade_display(&coarse, &total_in, &fine, |i| total(&scratch(i)));
 
-    let pt =
-        PathTracer { spheres: &scene.proxies, light: &scene.light, samples: cfg.samples, seed: cfg.seed };
     // The character itself, drawn as spheres with their unshadowed diffuse shading; receivers
     // behind it are not compared.
     let overlay: Vec<Option<[f32; 3]>> = (0..fine.width * fine.height)
@@ -147,6 +171,40 @@ pub fn compare<const N: usize>(scene: &Scene, cfg: &CompareConfig) -> Comparison
             Some(core::array::from_fn(|c| (e[c] * s.albedo[c] / std::f64::consts::PI) as f32))
         })
         .collect();
+    Variants {
+        size: [fine.width, fine.height],
+        receivers: [coarse.width, coarse.height],
+        none,
+        shadows,
+        shadows_indirect,
+        overlay,
+        fine,
+        fallbacks: f0 + f1 + f2,
+    }
+}
+
+impl Variants {
+    /// Draws the character's spheres over an image.
+    #[must_use]
+    pub fn draw(&self, mut img: Vec<[f32; 3]>) -> Vec<[f32; 3]> {
+        for (p, o) in img.iter_mut().zip(&self.overlay) {
+            if let Some(o) = o {
+                *p = *o;
+            }
+        }
+        img
+    }
+}
+
+/// Runs the comparison with `N` (9 or 16) coefficients for shadows: the variants under the
+/// scene's sky/sun light and the path-traced reference.
+#[must_use]
+pub fn compare<const N: usize>(scene: &Scene, cfg: &CompareConfig) -> Comparison {
+    let light = DistantLight(scene.light.sh::<N>());
+    let v = render_variants(scene, cfg, &light);
+    let (fine, overlay) = (&v.fine, &v.overlay);
+    let pt =
+        PathTracer { spheres: &scene.proxies, light: &scene.light, samples: cfg.samples, seed: cfg.seed };
     let mask: Vec<bool> = (0..fine.width * fine.height)
         .map(|i| {
             fine.valid(i)
@@ -164,30 +222,26 @@ pub fn compare<const N: usize>(scene: &Scene, cfg: &CompareConfig) -> Comparison
             core::array::from_fn(|c| (e[c] / std::f64::consts::PI) as f32 * fine.albedo[i][c])
         })
         .collect();
-    let draw = |mut img: Vec<[f32; 3]>| -> Vec<[f32; 3]> {
-        for (p, o) in img.iter_mut().zip(&overlay) {
-            if let Some(o) = o {
-                *p = *o;
-            }
-        }
-        img
-    };
-    let (none, shadows, shadows_indirect, reference) =
-        (draw(none), draw(shadows), draw(shadows_indirect), draw(reference));
+    let (none, shadows, shadows_indirect, reference) = (
+        v.draw(v.none.clone()),
+        v.draw(v.shadows.clone()),
+        v.draw(v.shadows_indirect.clone()),
+        v.draw(reference),
+    );
     let errors = Errors {
         none: rel_rmse(&none, &reference, &mask),
         shadows: rel_rmse(&shadows, &reference, &mask),
         shadows_indirect: rel_rmse(&shadows_indirect, &reference, &mask),
     };
     Comparison {
-        size: [fine.width, fine.height],
-        receivers: [coarse.width, coarse.height],
+        size: v.size,
+        receivers: v.receivers,
         none,
         shadows,
         shadows_indirect,
         reference,
         mask,
         errors,
-        fallbacks: f0 + f1 + f2,
+        fallbacks: v.fallbacks,
     }
 }

@@ -38,3 +38,29 @@ fn volume_light_matches_distant_light() {
         assert!((a.total()[c] - b.total()[c]).abs() < 1e-5 * b.total()[c]);
     }
 }
+
+/// The pipeline under a uniform baked volume renders like under the distant light it holds.
+#[test]
+fn pipeline_with_volume_light() {
+    use lightvol_proxies::compare::{CompareConfig, render_variants};
+    use lightvol_proxies::scene::Scene;
+    let scene = Scene::default_scene();
+    let l = scene.light.sh::<9>();
+    let spec = GridSpec::new([-4.0, -4.0, -1.0], [4.0, 4.0, 4.0], [2, 2, 2]).unwrap();
+    let vol = IrradianceVolume::from_fn(spec, 9, |_| {
+        (0..9).map(|j| [l.0[0].0[j], l.0[1].0[j], l.0[2].0[j]]).collect()
+    })
+    .unwrap();
+    let mut cfg = CompareConfig::derived::<9>(48, 36, 1.0 / 256.0);
+    cfg.tile = 8;
+    let a = render_variants::<9>(&scene, &cfg, &VolumeLight(&vol));
+    let b = render_variants::<9>(&scene, &cfg, &DistantLight(l));
+    let worst = a
+        .shadows_indirect
+        .iter()
+        .zip(&b.shadows_indirect)
+        .flat_map(|(x, y)| (0..3).map(move |c| (x[c] - y[c]).abs() / y[c].abs().max(1e-3)))
+        .fold(0.0f32, f32::max);
+    // f32 storage of the volume and f32 trilinear weights.
+    assert!(worst < 1e-4, "{worst}");
+}
