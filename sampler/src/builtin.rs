@@ -176,7 +176,11 @@ pub fn interior() -> BuiltinScene {
     b.sun = Some(Sun::from_angles(30.0, 100.0, [4.0, 3.8, 3.4], 1f64.to_radians()));
     BuiltinScene {
         scene: b.build().expect("non-empty"),
-        grid: grid([-0.3, -0.3, -0.3], [6.3, 5.3, 3.3], [12, 10, 7]),
+        // The outer node layers sit *inside* the 0.3 m walls, floor and ceiling (at 0.15 m
+        // depth), as grid nodes do in real rooms: point sampling then reads darkness from
+        // inside the solids (Kontkanen & Laine 2006 Fig. 6c), which domain-of-interest
+        // sampling avoids. A few nodes of the +Y layer fall in the window opening.
+        grid: grid([-0.15, -0.15, -0.15], [6.15, 5.15, 3.15], [12, 10, 7]),
         plate_heights: vec![0.6, 1.2],
         description: "closed room, thick walls, window, bed of thin bars, table; sun and sky (Fig. 6c)",
     }
