@@ -20,6 +20,9 @@ use crate::operators::d_paper_fit;
 use crate::proxy::SphereProxy;
 use crate::tables::{MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, TABLE_ENTRIES, Table, table_alpha};
 
+/// A ZH table entry in f32 (up to 4 bands).
+pub type Zh4f = [f32; MAX_BANDS];
+
 /// RGB × 9 coefficients: incident radiance as the diffuse shader sees it.
 pub type Rgb9 = [f32; 27];
 
@@ -173,6 +176,14 @@ impl<const N: usize> Kernel<N> {
             k.square_start[kk] = k.square_start[kk].max(k.square_start[kk - 1]);
         }
         k
+    }
+
+    /// The kernel's f32 tables per entry: `O^log` and `V` scaled by `sqrt(4π/(2l+1))` and
+    /// smooth-clamped, `ω` (clamped), and the scaled `D` — for ports of this kernel (the GPU
+    /// evaluator) that must use exactly the same numbers.
+    #[must_use]
+    pub fn tables(&self) -> (&[Zh4f], &[Zh4f], &[f32], &[Zh4f]) {
+        (&self.olog, &self.vis, &self.omega, &self.d)
     }
 
     /// Adds the proxies `list` (indices into `proxies`) seen from receiver `p`, normal `n`.

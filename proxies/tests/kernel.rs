@@ -74,3 +74,22 @@ fn passes_are_identical_across_thread_counts() {
     let shadowed = a.iter().enumerate().filter(|(i, x)| buf.valid(*i) && x.shadowed[0] < 0.95 * l0).count();
     assert!(shadowed > 10, "{shadowed}");
 }
+
+/// The exposed tables are the ones the kernel uses: zero below 1/η, the scaled table above.
+#[test]
+fn exposed_tables() {
+    use lightvol_proxies::tables::{ProxyTables, TABLE_ENTRIES, Table, table_alpha};
+    let k = Kernel::<16>::new(20.0, 10.0, KernelIndirect::Averaged);
+    let (olog, vis, omega, d) = k.tables();
+    assert!(olog.len() == TABLE_ENTRIES && vis.len() == TABLE_ENTRIES && omega.len() == TABLE_ENTRIES);
+    let t = ProxyTables::shared::<16>();
+    let i = TABLE_ENTRIES - 1;
+    let scale1 = (4.0 * std::f64::consts::PI / 3.0).sqrt();
+    assert!((f64::from(olog[i][1]) - t.entry(Table::LogVisibility, i)[1] * scale1).abs() < 1e-5);
+    assert!((f64::from(d[i][1]) - t.entry(Table::Averaged, i)[1] * scale1).abs() < 1e-6);
+    let below = (0..TABLE_ENTRIES).filter(|&i| table_alpha(i) < 0.05).collect::<Vec<_>>();
+    assert!(below.iter().all(|&i| olog[i] == [0.0; 4]));
+    assert!(
+        (0..TABLE_ENTRIES).filter(|&i| table_alpha(i) < 0.1).all(|i| vis[i] == [0.0; 4] && omega[i] == 0.0)
+    );
+}
