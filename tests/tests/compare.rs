@@ -81,6 +81,32 @@ fn city_doi_beats_point_sampling() {
     }
 }
 
+/// Acceptance 2, interior (Fig. 6c): the recommended grid has node layers inside the
+/// walls, floor and ceiling. doi removes most of point sampling's near-surface darkness.
+///
+/// What does NOT hold, and is therefore not asserted: the issue also asks for
+/// `rel_rmse(doi) < rel_rmse(point)` here. Measured at these settings, doi's relative RMSE
+/// is about 1.2 against point's 1.0: the plate is crossed by the sun shaft from the window,
+/// which dominates the RMSE, and Eq. 5's prefilter (support of two cells) blurs that shaft
+/// and the window's light falloff more than point sampling's plain interpolation does. The
+/// paper itself only claims the interior looks better, not that it has lower error.
+#[test]
+fn interior_doi_cuts_near_surface_darkness() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    run(&[
+        "compare", "builtin:interior", "--samples", "128", "--plate-res", "40", "--reference-samples", "512",
+        "--methods", "point,doi", "--quiet", "-o", out,
+    ]);
+    let r = report(dir.path());
+    println!("{}", summary(&r));
+    let (dark_doi, dark_point) = (metric(&r, "doi", "too_dark_near"), metric(&r, "point", "too_dark_near"));
+    assert!(dark_point > 0.3, "point sampling must show the dark leak ({dark_point})");
+    assert!(dark_doi <= 0.5 * dark_point, "too_dark_near doi {dark_doi} vs point {dark_point}");
+    assert!(metric(&r, "doi", "too_dark") < metric(&r, "point", "too_dark"));
+    assert!(metric(&r, "doi", "bias").abs() < metric(&r, "point", "bias").abs() + 0.05);
+}
+
 /// Acceptance 2, Cornell box (real data): nodes inside the two blocks and behind the
 /// single-sided walls must not darken the valid space around the blocks.
 #[test]
