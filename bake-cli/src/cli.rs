@@ -32,6 +32,9 @@ pub enum Command {
     Lint(crate::cmd_lint::LintArgs),
     /// Merge shard bakes (`bake --shard K/N`) into one volume; refuses mismatched grids.
     Merge(crate::cmd_merge::MergeArgs),
+    /// Soft shadows and bounce light from a sphere-proxy character, compared with a
+    /// path-traced reference (Sloan et al. 2007).
+    Proxies(crate::cmd_proxies::ProxiesArgs),
     /// Render a view shaded by a baked volume (or path-traced with --reference): the
     /// "helicopter" view that shows leaking.
     Render(crate::cmd_render::RenderArgs),

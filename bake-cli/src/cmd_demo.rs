@@ -54,6 +54,7 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
             sky: None,
             ground: None,
             sun: None,
+            no_sun: false,
             env: None,
         },
         grid: GridArgs { bounds: None, res: None, spacing: None, order: 3, max_memory_mib: None },

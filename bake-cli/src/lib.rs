@@ -11,6 +11,7 @@ pub mod cmd_imse;
 mod cmd_info;
 pub mod cmd_lint;
 pub mod cmd_merge;
+pub mod cmd_proxies;
 pub mod cmd_render;
 pub mod imaging;
 pub mod metrics;
@@ -66,6 +67,7 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::Info(a) => cmd_info::run(&a),
         cli::Command::Lint(a) => cmd_lint::run(&a),
         cli::Command::Merge(a) => cmd_merge::run(&a),
+        cli::Command::Proxies(a) => cmd_proxies::run(&a),
         cli::Command::Render(a) => cmd_render::run(&a),
         cli::Command::Export(a) => cmd_export::run(&a),
     }

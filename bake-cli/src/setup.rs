@@ -32,6 +32,10 @@ pub struct SceneArgs {
     /// radius in degrees (0 = directional light).
     #[arg(long, value_name = "DX,DY,DZ:INTENSITY[:ANGLE_DEG]", allow_hyphen_values = true)]
     pub sun: Option<String>,
+    /// Remove the scene's sun (e.g. to bake sky and bounce light only and add the sun at run
+    /// time, as many engines do).
+    #[arg(long, conflicts_with = "sun")]
+    pub no_sun: bool,
     /// A latitude-longitude EXR environment map (replaces the scene's environment).
     #[arg(long, value_name = "FILE.exr")]
     pub env: Option<PathBuf>,
@@ -187,6 +191,9 @@ impl SceneArgs {
         }
         if let Some(sun) = &self.sun {
             s.sun = Some(parse_sun(sun)?);
+        }
+        if self.no_sun {
+            s.sun = None;
         }
         let has_emitter = s.materials.iter().any(|m| m.is_emissive());
         if matches!(s.environment, Environment::Black)
