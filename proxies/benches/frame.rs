@@ -1,6 +1,8 @@
 //! Frame time of the CPU image-space pipeline: 256 × 256 receivers (display 512 × 512) on
 //! the default scene with 8, 32 and 128 proxies, split into accumulation (binning included),
-//! exponentiation and upsampling (bilateral upsampling and display shading). η derived for
+//! exponentiation and upsampling (bilateral upsampling and display shading). `frame` runs the
+//! fused accumulation-and-exponentiation pass into reused buffers (what a renderer does);
+//! `frame_separate_passes` chains the separate passes, each allocating its output. η derived for
 //! 1/256 at order 4 (shadows) and order 3 (indirect).
 
 use std::sync::OnceLock;
@@ -9,7 +11,10 @@ use lightvol_proxies::compare::CompareConfig;
 use lightvol_proxies::kernel::{Accum, Incident, Kernel, KernelIndirect, PreparedProxy, prepare};
 use lightvol_proxies::light::DistantLight;
 use lightvol_proxies::oracle::shadow_eta_for_light;
-use lightvol_proxies::pipeline::{accumulate_pass, bin_proxies, exponentiate_pass, shade_display, total};
+use lightvol_proxies::pipeline::{
+    accumulate_pass, bin_proxies, exponentiate_pass, incident_pass_into, shade_display, shade_display_into,
+    total,
+};
 use lightvol_proxies::proxy::SphereProxy;
 use lightvol_proxies::scene::{ReceiverBuffer, Scene, character};
 use lightvol_sh::lowdisc::SplitMix64;
@@ -97,8 +102,27 @@ fn upsampling(bencher: divan::Bencher<'_, '_>, n: usize) {
     bencher.bench(|| shade_display(&s.coarse, &tot, &s.fine, |_| [0.0; 27]));
 }
 
+/// The whole frame as a renderer runs it: binning, the fused accumulation and
+/// exponentiation pass, and upsampling with display shading, into buffers reused from frame
+/// to frame.
 #[divan::bench(args = COUNTS)]
 fn frame(bencher: divan::Bencher<'_, '_>, n: usize) {
+    let s = setup();
+    let p = proxies(n);
+    let mut incident = vec![[0.0f32; 27]; 256 * 256];
+    let mut shaded = vec![[0.0f32; 3]; 512 * 512];
+    bencher.bench_local(|| {
+        let prepared = prepare(&p, &s.light);
+        let bins = bin_proxies(&s.scene.camera.frame(), 256, 256, &p, s.eta, 16);
+        incident_pass_into(&s.kernel, &s.coarse, &bins, &prepared, &s.light, &mut incident);
+        shade_display_into(&s.coarse, &incident, &s.fine, |_| [0.0; 27], &mut shaded)
+    });
+}
+
+/// The frame through the separate passes, each returning a new vector (accumulators and
+/// per-receiver results stored between the passes).
+#[divan::bench(args = COUNTS)]
+fn frame_separate_passes(bencher: divan::Bencher<'_, '_>, n: usize) {
     let s = setup();
     let p = proxies(n);
     bencher.bench(|| {
@@ -115,12 +139,12 @@ fn frame(bencher: divan::Bencher<'_, '_>, n: usize) {
 fn frame_light_eta(bencher: divan::Bencher<'_, '_>, n: usize) {
     let s = setup();
     let p = proxies(n);
-    bencher.bench(|| {
+    let mut incident = vec![[0.0f32; 27]; 256 * 256];
+    let mut shaded = vec![[0.0f32; 3]; 512 * 512];
+    bencher.bench_local(|| {
         let prepared = prepare(&p, &s.light);
         let bins = bin_proxies(&s.scene.camera.frame(), 256, 256, &p, s.eta_light, 16);
-        let acc = accumulate_pass(&s.kernel_light, &s.coarse, &bins, &prepared);
-        let inc = exponentiate_pass(&s.kernel_light, &s.coarse, &acc, &s.light);
-        let tot: Vec<_> = inc.iter().map(total).collect();
-        shade_display(&s.coarse, &tot, &s.fine, |_| [0.0; 27])
+        incident_pass_into(&s.kernel_light, &s.coarse, &bins, &prepared, &s.light, &mut incident);
+        shade_display_into(&s.coarse, &incident, &s.fine, |_| [0.0; 27], &mut shaded)
     });
 }

@@ -86,27 +86,28 @@ pub struct Incident {
 /// Per-light data of the exponentiation pass (see [`Kernel::light_matrix`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightMatrix<const N: usize> {
-    m: [[[f32; N]; 9]; 3],
-    l9: Rgb9,
+    pub(crate) m: [[[f32; N]; 9]; 3],
+    pub(crate) l9: Rgb9,
 }
 
 /// The f32 tables and product schedules for `N` = 9 or 16 coefficients.
 #[derive(Clone, Debug)]
 pub struct Kernel<const N: usize> {
-    olog: Vec<[f32; MAX_BANDS]>,
-    vis: Vec<[f32; MAX_BANDS]>,
-    omega: Vec<f32>,
-    d: Vec<[f32; MAX_BANDS]>,
-    alpha_shadow: f32,
-    alpha_indirect: f32,
-    indirect: bool,
-    ol: &'static OlTable<N>,
+    pub(crate) olog: Vec<[f32; MAX_BANDS]>,
+    pub(crate) vis: Vec<[f32; MAX_BANDS]>,
+    pub(crate) omega: Vec<f32>,
+    pub(crate) d: Vec<[f32; MAX_BANDS]>,
+    pub(crate) alpha_shadow: f32,
+    pub(crate) alpha_indirect: f32,
+    pub(crate) indirect: bool,
+    pub(crate) ol: &'static OlTable<N>,
     /// Squaring schedule grouped by output: `square_start[k]..square_start[k+1]` index
     /// `square_ij` (packed `i`, `j`) and `square_v` (with the factor 2 for `i < j`).
-    square_start: Vec<usize>,
-    square_ij: Vec<[u8; 2]>,
-    square_v: Vec<f32>,
-    prod9: Vec<(u16, u16, u16, f32)>,
+    pub(crate) square_start: Vec<usize>,
+    pub(crate) square_ij: Vec<[u8; 2]>,
+    pub(crate) square_v: Vec<f32>,
+    pub(crate) prod9: Vec<(u16, u16, u16, f32)>,
+    pub(crate) basis: crate::batch::BasisRecurrence,
 }
 
 /// Which `D` the kernel uses for the averaged indirect light (Eq. 15).
@@ -143,6 +144,7 @@ impl<const N: usize> Kernel<N> {
             square_ij: Vec::new(),
             square_v: Vec::new(),
             prod9: Vec::new(),
+            basis: crate::batch::BasisRecurrence::new(),
         };
         for i in 0..TABLE_ENTRIES {
             let a = table_alpha(i);
@@ -331,7 +333,7 @@ impl<const N: usize> Kernel<N> {
 
 /// Band `l` of flat index `j < 16`.
 #[inline(always)]
-fn band(j: usize) -> usize {
+pub(crate) const fn band(j: usize) -> usize {
     match j {
         0 => 0,
         1..=3 => 1,

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod accumulate;
+pub mod batch;
 pub mod compare;
 pub mod error;
 pub mod fit;

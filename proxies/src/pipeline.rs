@@ -15,11 +15,12 @@
 
 use rayon::prelude::*;
 
+use crate::batch::{LANES, ReceiverBatch};
 use crate::kernel::{Accum, Incident, Kernel, PreparedProxy, Rgb9, light_f32};
 use crate::light::LightField;
 use crate::proxy::SphereProxy;
 use crate::scene::{CameraFrame, ReceiverBuffer};
-use crate::upsample::{Geometry, bilateral_upsample_map};
+use crate::upsample::{Geometry, bilateral_upsample_map, bilateral_upsample_map_into};
 
 /// Proxies binned into square screen tiles.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -90,8 +91,9 @@ pub fn bin_proxies(
     TileBins { tile, tiles_x, tiles_y, lists }
 }
 
-/// The accumulation pass: every receiver sums the proxies of its tile (parallel over tile
-/// rows).
+/// The accumulation pass: every receiver sums the proxies of its tile, in batches of
+/// [`LANES`] receivers of one tile row segment ([`Kernel::accumulate_batch`], bit-identical
+/// to [`Kernel::accumulate`] per receiver); parallel over pixel rows.
 #[must_use]
 pub fn accumulate_pass<const N: usize>(
     kernel: &Kernel<N>,
@@ -101,21 +103,30 @@ pub fn accumulate_pass<const N: usize>(
 ) -> Vec<Accum<N>> {
     let w = buffer.width;
     let mut out = vec![Accum::<N>::default(); w * buffer.height];
-    out.par_chunks_mut(w * bins.tile).enumerate().for_each(|(ty, rows)| {
-        for (k, acc) in rows.iter_mut().enumerate() {
-            let (x, y) = (k % w, ty * bins.tile + k / w);
-            let i = y * w + x;
-            if !buffer.valid(i) {
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let ty = y / bins.tile;
+        for (tx, tile_row) in row.chunks_mut(bins.tile).enumerate() {
+            let list = &bins.lists[ty * bins.tiles_x + tx];
+            if list.is_empty() {
                 continue;
             }
-            let list = &bins.lists[ty * bins.tiles_x + x / bins.tile];
-            kernel.accumulate(buffer.position[i], buffer.normal[i], proxies, list, acc);
+            let x0 = tx * bins.tile;
+            for (b, accs) in tile_row.chunks_mut(LANES).enumerate() {
+                let i0 = y * w + x0 + b * LANES;
+                let i1 = i0 + accs.len();
+                let batch = ReceiverBatch::gather(&buffer.position[i0..i1], &buffer.normal[i0..i1], |k| {
+                    buffer.valid(i0 + k)
+                });
+                kernel.accumulate_batch(&batch, proxies, list, accs);
+            }
         }
     });
     out
 }
 
-/// The exponentiation pass: `O_p`, `O_p * L(p)` and `ξ_p Ĩ_p` per receiver.
+/// The exponentiation pass: `O_p`, `O_p * L(p)` and `ξ_p Ĩ_p` per receiver. With a uniform
+/// light, in batches of [`LANES`] receivers ([`Kernel::finish_batch`], bit-identical to
+/// [`Kernel::finish_with`]); otherwise one receiver at a time with its own light.
 #[must_use]
 pub fn exponentiate_pass<const N: usize>(
     kernel: &Kernel<N>,
@@ -124,22 +135,97 @@ pub fn exponentiate_pass<const N: usize>(
     light: &impl LightField<N>,
 ) -> Vec<Incident> {
     let empty = Incident { shadowed: [0.0; 27], indirect: [0.0; 27] };
+    let mut out = vec![empty; accum.len()];
+    match light.uniform() {
+        Some(l) => {
+            let m = kernel.light_matrix(&core::array::from_fn(|c| l.0[c].0.map(|v| v as f32)));
+            out.par_chunks_mut(EXP_CHUNK).zip(accum.par_chunks(EXP_CHUNK)).enumerate().for_each(
+                |(c, (out, acc))| {
+                    for (b, (o, a)) in out.chunks_mut(LANES).zip(acc.chunks(LANES)).enumerate() {
+                        kernel.finish_batch(a, &m, o);
+                        let i0 = c * EXP_CHUNK + b * LANES;
+                        for (k, o) in o.iter_mut().enumerate() {
+                            if !buffer.valid(i0 + k) {
+                                *o = empty;
+                            }
+                        }
+                    }
+                },
+            );
+        }
+        None => {
+            out.par_chunks_mut(EXP_CHUNK).enumerate().for_each(|(c, out)| {
+                for (k, o) in out.iter_mut().enumerate() {
+                    let i = c * EXP_CHUNK + k;
+                    if buffer.valid(i) {
+                        *o = kernel.finish(&accum[i], &light_f32(light, buffer.position[i]));
+                    }
+                }
+            });
+        }
+    }
+    out
+}
+
+/// Accumulation and exponentiation fused ([`Kernel::incident_batch`]): the total incident
+/// radiance `L_p = O_p * L + ξ_p Ĩ_p` per receiver (0 where there is no receiver), written to
+/// `out` (one per receiver), without storing the accumulators. Bit-identical to
+/// [`accumulate_pass`], [`exponentiate_pass`] and [`total`]; parallel over pixel rows.
+///
+/// # Panics
+/// If `out.len()` is not the number of receivers.
+pub fn incident_pass_into<const N: usize>(
+    kernel: &Kernel<N>,
+    buffer: &ReceiverBuffer,
+    bins: &TileBins,
+    proxies: &[PreparedProxy<N>],
+    light: &impl LightField<N>,
+    out: &mut [Rgb9],
+) {
+    let w = buffer.width;
+    assert_eq!(out.len(), w * buffer.height, "one output per receiver");
     let uniform =
         light.uniform().map(|l| kernel.light_matrix(&core::array::from_fn(|c| l.0[c].0.map(|v| v as f32))));
-    (0..accum.len())
-        .into_par_iter()
-        .with_min_len(256)
-        .map(|i| {
-            if !buffer.valid(i) {
-                return empty;
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let ty = y / bins.tile;
+        for (tx, tile_row) in row.chunks_mut(bins.tile).enumerate() {
+            let list = &bins.lists[ty * bins.tiles_x + tx];
+            let x0 = tx * bins.tile;
+            for (b, o) in tile_row.chunks_mut(LANES).enumerate() {
+                let i0 = y * w + x0 + b * LANES;
+                let i1 = i0 + o.len();
+                let batch = ReceiverBatch::gather(&buffer.position[i0..i1], &buffer.normal[i0..i1], |k| {
+                    buffer.valid(i0 + k)
+                });
+                kernel.incident_batch(
+                    &batch,
+                    proxies,
+                    list,
+                    uniform.as_ref(),
+                    |k| light_f32(light, buffer.position[i0 + k]),
+                    o,
+                );
             }
-            match &uniform {
-                Some(m) => kernel.finish_with(&accum[i], m),
-                None => kernel.finish(&accum[i], &light_f32(light, buffer.position[i])),
-            }
-        })
-        .collect()
+        }
+    });
 }
+
+/// [`incident_pass_into`] into a new vector.
+#[must_use]
+pub fn incident_pass<const N: usize>(
+    kernel: &Kernel<N>,
+    buffer: &ReceiverBuffer,
+    bins: &TileBins,
+    proxies: &[PreparedProxy<N>],
+    light: &impl LightField<N>,
+) -> Vec<Rgb9> {
+    let mut out = vec![[0.0; 27]; buffer.width * buffer.height];
+    incident_pass_into(kernel, buffer, bins, proxies, light, &mut out);
+    out
+}
+
+/// Receivers per parallel work item of [`exponentiate_pass`].
+const EXP_CHUNK: usize = 256;
 
 /// Diffuse shading `ψ = H(N) · L_p` (Eq. 10) of 9-coefficient RGB radiance, times
 /// `albedo / π`: the receiver's outgoing radiance.
@@ -168,6 +254,28 @@ pub fn shade_display(
         exact,
         |i, l| shade_rgb9(l, fine.normal[i], fine.albedo[i]),
         [0.0; 3],
+    )
+}
+
+/// [`shade_display`] into `out` (one per display pixel); returns the fallback count.
+///
+/// # Panics
+/// If `out.len()` is not the number of display pixels.
+pub fn shade_display_into(
+    coarse: &ReceiverBuffer,
+    incident: &[Rgb9],
+    fine: &ReceiverBuffer,
+    exact: impl Fn(usize) -> Rgb9 + Sync,
+    out: &mut [[f32; 3]],
+) -> usize {
+    bilateral_upsample_map_into(
+        Geometry { width: coarse.width, height: coarse.height, normal: &coarse.normal, depth: &coarse.depth },
+        incident,
+        Geometry { width: fine.width, height: fine.height, normal: &fine.normal, depth: &fine.depth },
+        exact,
+        |i, l| shade_rgb9(l, fine.normal[i], fine.albedo[i]),
+        [0.0; 3],
+        out,
     )
 }
 

@@ -81,11 +81,29 @@ pub fn bilateral_upsample_map<const K: usize, R: Copy + Send + Sync>(
     map: impl Fn(usize, &[f32; K]) -> R + Sync,
     empty: R,
 ) -> (Vec<R>, usize) {
+    let mut out = vec![empty; fine.width * fine.height];
+    let fallbacks = bilateral_upsample_map_into(coarse, values, fine, fallback, map, empty, &mut out);
+    (out, fallbacks)
+}
+
+/// [`bilateral_upsample_map`] into `out` (one per display pixel, e.g. a buffer reused from
+/// frame to frame); returns the fallback count.
+///
+/// # Panics
+/// If `out.len()` is not the number of display pixels.
+pub fn bilateral_upsample_map_into<const K: usize, R: Copy + Send + Sync>(
+    coarse: Geometry<'_>,
+    values: &[[f32; K]],
+    fine: Geometry<'_>,
+    fallback: impl Fn(usize) -> [f32; K] + Sync,
+    map: impl Fn(usize, &[f32; K]) -> R + Sync,
+    empty: R,
+    out: &mut [R],
+) -> usize {
+    assert_eq!(out.len(), fine.width * fine.height, "one output per display pixel");
     let sx = coarse.width as f32 / fine.width as f32;
     let sy = coarse.height as f32 / fine.height as f32;
-    let mut out = vec![empty; fine.width * fine.height];
-    let fallbacks: usize = out
-        .par_chunks_mut(fine.width)
+    out.par_chunks_mut(fine.width)
         .enumerate()
         .map(|(y, row)| {
             let mut count = 0;
@@ -93,6 +111,7 @@ pub fn bilateral_upsample_map<const K: usize, R: Copy + Send + Sync>(
                 let i = y * fine.width + x;
                 let zp = fine.depth[i];
                 if !zp.is_finite() {
+                    *o = empty;
                     continue;
                 }
                 let np = fine.normal[i];
@@ -140,8 +159,7 @@ pub fn bilateral_upsample_map<const K: usize, R: Copy + Send + Sync>(
             }
             count
         })
-        .sum();
-    (out, fallbacks)
+        .sum()
 }
 
 /// Plain bilinear upsampling (no depth or normal weights), for comparisons.
