@@ -148,16 +148,17 @@ impl BakeOutput {
 /// One sample's contribution: trilinear weights of its origin for the unit's 8 nodes, and
 /// up to two directional terms `(direction, radiance / pdf)`.
 #[derive(Clone, Copy, Debug)]
-struct SampleOut {
-    weights: [f64; 8],
-    terms: [(DVec3, [f64; 3]); 2],
-    n_terms: u8,
+pub(crate) struct SampleOut {
+    pub(crate) weights: [f64; 8],
+    pub(crate) terms: [(DVec3, [f64; 3]); 2],
+    pub(crate) n_terms: u8,
 }
 
+/// One unit's (cell's or node's) samples and counters.
 #[derive(Debug, Default)]
-struct UnitOut {
-    nodes: [usize; 8],
-    samples: Vec<SampleOut>,
+pub(crate) struct UnitOut {
+    pub(crate) nodes: [usize; 8],
+    pub(crate) samples: Vec<SampleOut>,
     rejected: Vec<[f64; 8]>,
     stats: BakeStats,
 }
@@ -175,6 +176,19 @@ pub fn bake(
     grid: &GridSpec,
     settings: &BakeSettings,
     control: &BakeControl<'_>,
+) -> Result<BakeOutput, BakeError> {
+    bake_with_sink(transport, grid, settings, control, |_| {})
+}
+
+/// [`bake`], also handing every unit's kept samples to `sink`, on the calling thread, in
+/// unit order (so whatever `sink` accumulates is as deterministic as the bake; the
+/// gradient estimator of [`crate::gradients`] uses it).
+pub(crate) fn bake_with_sink(
+    transport: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    control: &BakeControl<'_>,
+    mut sink: impl FnMut(&UnitOut),
 ) -> Result<BakeOutput, BakeError> {
     let (k, n) = settings.shard;
     if n == 0 || k >= n {
@@ -216,6 +230,7 @@ pub fn bake(
         }
         for out in outs.into_iter().flatten() {
             feed(&mut acc, &out, bands, &mut basis);
+            sink(&out);
             stats.add_counts(&out.stats);
         }
         done += c1 - c0;
@@ -261,7 +276,7 @@ fn feed(acc: &mut Accumulator, out: &UnitOut, bands: usize, basis: &mut [Vec<f64
 }
 
 /// The light terms of one probe sample at `x` along `dir` with first hit `hit`.
-fn sample_terms(
+pub(crate) fn sample_terms(
     t: &Transport<'_>,
     settings: &BakeSettings,
     x: DVec3,
