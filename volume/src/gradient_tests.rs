@@ -277,3 +277,48 @@ fn memory_accounting_matches_seed_002() {
     assert!((mib(sample_bytes(4913, 6, true)) - 8.2).abs() > 0.05);
     assert!((sample_bytes(4913, 6, true) as f64 / 1e6 - 8.2).abs() > 0.05);
 }
+
+/// Hermite is C¹ across cell faces (documented): one-sided difference quotients of the
+/// normal derivative agree on both sides of every interior face, while gradient-aided
+/// trilinear's derivative jumps there.
+#[test]
+fn hermite_is_c1_across_faces() {
+    /// Difference-quotient step (grid units): its truncation error is δ·|f''| ≲ 1e-5 · 100.
+    const STEP: f64 = 1e-5;
+    /// Allowed mismatch of the two one-sided quotients: their truncation errors, 1.5·δ·|f''|
+    /// each with |f''| ≲ 100 (values ±5, gradients ±3, cells ≥ 0.5), total ≲ 3e-3; the f64
+    /// evaluation noise, 1e-15 / δ, is negligible (the interpolant is exact in the f32 data).
+    const DERIV_TOL: f64 = 1e-2;
+    let spec = spec();
+    let (vol, grad) = random_field(spec.clone(), 4, 12);
+    let (lo, _) = spec.bounds();
+    let size = spec.cell_size();
+    let res = spec.res();
+    let mut r = SplitMix64::new(5);
+    let (mut hermite_jump, mut trilinear_jump) = (0.0f64, 0.0f64);
+    for axis in 0..3 {
+        for face in 1..res[axis] - 1 {
+            let mut g: [f64; 3] =
+                std::array::from_fn(|a| lo[a] + r.range(0.05, 0.95) * size[a] * f64::from(res[a] - 1));
+            g[axis] = lo[axis] + f64::from(face) * size[axis];
+            let at = |m: GradientLookup, off: f64| {
+                let mut p = g;
+                p[axis] += off;
+                coeffs_at(&vol, &grad, m, p).unwrap()
+            };
+            for (m, jump) in [
+                (GradientLookup::Hermite, &mut hermite_jump),
+                (GradientLookup::GradientTrilinear, &mut trilinear_jump),
+            ] {
+                let (l2, l1, r1, r2) = (at(m, -2.0 * STEP), at(m, -STEP), at(m, STEP), at(m, 2.0 * STEP));
+                for c in 0..l1.len() {
+                    let dl = (l1[c] - l2[c]) / STEP;
+                    let dr = (r2[c] - r1[c]) / STEP;
+                    *jump = jump.max((dl - dr).abs());
+                }
+            }
+        }
+    }
+    assert!(hermite_jump < DERIV_TOL, "{hermite_jump}");
+    assert!(trilinear_jump > 0.1, "{trilinear_jump}");
+}
