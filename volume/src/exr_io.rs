@@ -17,6 +17,16 @@
 //!
 //! Samples are f32 (bit-exact round trip) or f16 ([`ExrSample`]); compression is lossless.
 //!
+//! ## Optional gradient parts (seed 002 SH gradients)
+//! [`write_exr_with_gradients`] adds, after the `weight` part, one part per coefficient
+//! named `grad00`, `grad01`, … with nine f32 channels `R.x R.y R.z G.x … B.z` (the world
+//! gradient of that coefficient, [`VolumeGradients`] layout), in the same slice layout, and
+//! the image attribute `lightvol.gradients` (i32, 1). Files without gradients are written
+//! as before (same parts and attributes), and every reader here reads both kinds ([`read_exr`] ignores
+//! the gradient parts). Readers older than this extension reject files that carry
+//! gradients (they check the part count). The checksum covers the volume, not the
+//! gradients (stored f32, lossless).
+//!
 //! ## Reading
 //! The reader first parses only the headers and checks the attributes, part names, channel
 //! lists, sample types and data-window sizes against the declared dimensions; only then
@@ -38,6 +48,7 @@ use lightvol_sh::index::sh_lm;
 use crate::checksum::{through_f16, to_hex, verify, volume_checksum};
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError, check_finite};
+use crate::gradient::VolumeGradients;
 use crate::grid::{GridSpec, Placement};
 use crate::io_util::{guard, read_bounded, write_atomic};
 use crate::sidecar::{FORMAT_VERSION, QUANTITY, SH_CONVENTION};
@@ -86,8 +97,41 @@ fn layer_name(j: usize) -> String {
     format!("sh{j:02}")
 }
 
+fn grad_layer_name(j: usize) -> String {
+    format!("grad{j:02}")
+}
+
+/// Channel names of a gradient part, in the exr crate's sorted order, with their
+/// `[rgb][xyz]` offset.
+const GRAD_CHANNELS: [(&str, usize); 9] = [
+    ("B.x", 6),
+    ("B.y", 7),
+    ("B.z", 8),
+    ("G.x", 3),
+    ("G.y", 4),
+    ("G.z", 5),
+    ("R.x", 0),
+    ("R.y", 1),
+    ("R.z", 2),
+];
+
 /// Serialises `vol` as a multi-part EXR file in memory.
 pub fn exr_to_bytes(vol: &IrradianceVolume, options: &ExrOptions) -> Result<Vec<u8>, VolumeError> {
+    exr_to_bytes_with_gradients(vol, None, options)
+}
+
+/// [`exr_to_bytes`] plus, when given, the gradient parts (module docs); errors if the
+/// gradients do not belong to `vol`.
+pub fn exr_to_bytes_with_gradients(
+    vol: &IrradianceVolume,
+    grad: Option<&VolumeGradients>,
+    options: &ExrOptions,
+) -> Result<Vec<u8>, VolumeError> {
+    if let Some(g) = grad
+        && (g.nodes() != vol.spec().node_count() || g.coeffs() != vol.coeffs())
+    {
+        return Err(VolumeError::Mismatch("gradients do not belong to the volume".into()));
+    }
     let spec = vol.spec();
     let [nx, ny, nz] = spec.res();
     let size = Vec2(nx as usize, ny as usize * nz as usize);
@@ -138,6 +182,24 @@ pub fn exr_to_bytes(vol: &IrradianceVolume, options: &ExrOptions) -> Result<Vec<
         FlatSamples::F32(vol.weights().to_vec()),
     )]));
     layers.push(Layer::new(size, LayerAttributes::named(text("weight")?), encoding, weights));
+    if let Some(g) = grad {
+        for j in 0..coeffs {
+            let channels = GRAD_CHANNELS
+                .iter()
+                .map(|&(name, o)| {
+                    let vals = (0..n).map(|node| g.data()[(node * coeffs + j) * 9 + o]).collect();
+                    AnyChannel::new(name, FlatSamples::F32(vals))
+                })
+                .collect::<Vec<_>>();
+            let channels = AnyChannels::sort(SmallVec::from_vec(channels));
+            layers.push(Layer::new(
+                size,
+                LayerAttributes::named(text(&grad_layer_name(j))?),
+                encoding,
+                channels,
+            ));
+        }
+    }
 
     let mut ia = ImageAttributes::new(IntegerBounds::from_dimensions(size));
     let meta = vol.metadata();
@@ -159,6 +221,9 @@ pub fn exr_to_bytes(vol: &IrradianceVolume, options: &ExrOptions) -> Result<Vec<
         put("lightvol.to_world", AttributeValue::Text(text(&json(&p.to_world_matrix()))?))?;
     }
     put("lightvol.sh_coeffs", AttributeValue::I32(coeffs as i32))?;
+    if grad.is_some() {
+        put("lightvol.gradients", AttributeValue::I32(1))?;
+    }
     put("lightvol.sh_bands", AttributeValue::I32(vol.bands() as i32))?;
     put("lightvol.convention", AttributeValue::Text(text(SH_CONVENTION)?))?;
     put("lightvol.quantity", AttributeValue::Text(text(QUANTITY)?))?;
@@ -199,9 +264,27 @@ pub fn write_exr(path: &Path, vol: &IrradianceVolume, options: &ExrOptions) -> R
     write_atomic(path, &exr_to_bytes(vol, options)?)
 }
 
-/// Reads a volume written by [`write_exr`].
+/// Reads a volume written by [`write_exr`] (or [`write_exr_with_gradients`], ignoring the
+/// gradients).
 pub fn read_exr(path: &Path) -> Result<IrradianceVolume, VolumeError> {
     exr_from_bytes(&read_bounded(path)?)
+}
+
+/// Writes `vol` and its gradients (module docs; temporary file and rename).
+pub fn write_exr_with_gradients(
+    path: &Path,
+    vol: &IrradianceVolume,
+    grad: &VolumeGradients,
+    options: &ExrOptions,
+) -> Result<(), VolumeError> {
+    write_atomic(path, &exr_to_bytes_with_gradients(vol, Some(grad), options)?)
+}
+
+/// Reads a volume and, if the file has them, its gradients.
+pub fn read_exr_with_gradients(
+    path: &Path,
+) -> Result<(IrradianceVolume, Option<VolumeGradients>), VolumeError> {
+    exr_from_bytes_with_gradients(&read_bounded(path)?)
 }
 
 /// Typed access to the `lightvol.*` attributes.
@@ -248,6 +331,7 @@ struct Declared {
     sample: SampleType,
     meta: BakeMetadata,
     checksum: String,
+    gradients: bool,
 }
 
 fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeError> {
@@ -302,15 +386,27 @@ fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeErr
         units: a.text("lightvol.units")?,
     };
     let checksum = a.text("lightvol.checksum")?;
-    Ok(Declared { spec, coeffs, sample, meta, checksum })
+    let gradients = match a.opt("lightvol.gradients") {
+        None => false,
+        Some(AttributeValue::I32(1)) => true,
+        Some(_) => return Err(VolumeError::malformed(F, "lightvol.gradients is not the i32 1")),
+    };
+    Ok(Declared { spec, coeffs, sample, meta, checksum, gradients })
 }
 
 /// Parses a multi-part EXR volume from memory (see the module docs for what is checked).
 pub fn exr_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
+    Ok(exr_from_bytes_with_gradients(bytes)?.0)
+}
+
+/// Parses a volume and its optional gradient parts from memory.
+pub fn exr_from_bytes_with_gradients(
+    bytes: &[u8],
+) -> Result<(IrradianceVolume, Option<VolumeGradients>), VolumeError> {
     guard(F, || exr_from_bytes_inner(bytes))
 }
 
-fn exr_from_bytes_inner(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
+fn exr_from_bytes_inner(bytes: &[u8]) -> Result<(IrradianceVolume, Option<VolumeGradients>), VolumeError> {
     let e = |err: exr::error::Error| VolumeError::malformed(F, err.to_string());
     // 1. Headers only.
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), true).map_err(e)?;
@@ -322,17 +418,20 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
     let d = declared(&attrs)?;
     let [nx, ny, nz] = d.spec.res().map(|v| v as usize);
     let size = Vec2(nx, ny * nz);
-    if meta.headers.len() != d.coeffs + 1 {
-        return Err(VolumeError::malformed(
-            F,
-            format!("{} parts, expected {}", meta.headers.len(), d.coeffs + 1),
-        ));
+    let parts = if d.gradients { 2 * d.coeffs + 1 } else { d.coeffs + 1 };
+    if meta.headers.len() != parts {
+        return Err(VolumeError::malformed(F, format!("{} parts, expected {parts}", meta.headers.len())));
     }
-    let mut seen = vec![false; d.coeffs + 1];
+    let mut seen = vec![false; parts];
+    let grad_want: Vec<(&str, SampleType)> =
+        GRAD_CHANNELS.iter().map(|&(c, _)| (c, SampleType::F32)).collect();
     for h in &meta.headers {
         let name = h.own_attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default();
+        let grad_slot = (0..d.coeffs).find(|&j| d.gradients && grad_layer_name(j) == name);
         let (slot, want): (usize, &[(&str, SampleType)]) = if name == "weight" {
             (d.coeffs, &[("Y", SampleType::F32)])
+        } else if let Some(j) = grad_slot {
+            (d.coeffs + 1 + j, &grad_want)
         } else {
             let j = (0..d.coeffs)
                 .find(|&j| layer_name(j) == name)
@@ -374,6 +473,7 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
     let k = d.coeffs * 3;
     let mut data = vec![0.0f32; n * k];
     let mut weights = vec![0.0f32; n];
+    let mut gdata = vec![0.0f32; if d.gradients { n * k * 3 } else { 0 }];
     for layer in &image.layer_data {
         let name = layer.attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default();
         for ch in &layer.channel_data.list {
@@ -383,6 +483,18 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
             }
             if name == "weight" {
                 weights = vals;
+                continue;
+            }
+            if let Some(j) = (0..d.coeffs).find(|&j| d.gradients && grad_layer_name(j) == name) {
+                let cname = ch.name.to_string();
+                let o = GRAD_CHANNELS
+                    .iter()
+                    .find(|(c, _)| *c == cname)
+                    .map(|&(_, o)| o)
+                    .ok_or_else(|| VolumeError::malformed(F, format!("channel {cname:?}")))?;
+                for (node, v) in vals.into_iter().enumerate() {
+                    gdata[(node * d.coeffs + j) * 9 + o] = v;
+                }
                 continue;
             }
             let j = (0..d.coeffs)
@@ -402,5 +514,6 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
     check_finite("EXR weights", &weights)?;
     let vol = IrradianceVolume::new(d.spec, d.coeffs, data, weights)?.with_metadata(d.meta);
     verify(F, Some(&d.checksum), &vol)?;
-    Ok(vol)
+    let grad = if d.gradients { Some(VolumeGradients::new(&vol, gdata)?) } else { None };
+    Ok((vol, grad))
 }
