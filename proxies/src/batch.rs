@@ -22,7 +22,7 @@ use crate::tables::{MAX_BANDS, SQRT_4PI, TABLE_ENTRIES};
 
 /// Receivers per batch: two SSE registers of f32 per value, enough independent work to hide
 /// latencies, small enough that a batch's accumulators (`(N + 29) × 8` f32) stay in L1.
-pub const LANES: usize = 4;
+pub const LANES: usize = 8;
 
 /// One f32 per lane.
 pub type Lanes = [f32; LANES];
@@ -110,12 +110,12 @@ struct IncidentLanes {
     indirect: [Lanes; 27],
 }
 
-/// `v` where `m`, else 0 (per lane and band).
+/// `v` times a 0/1 weight per lane (`v` finite): `v` or ±0.
 #[inline(always)]
-fn masked(mut v: [Lanes; MAX_BANDS], m: &Mask) -> [Lanes; MAX_BANDS] {
+fn masked(mut v: [Lanes; MAX_BANDS], w: &Lanes) -> [Lanes; MAX_BANDS] {
     for b in &mut v {
         for l in 0..LANES {
-            b[l] = if m[l] { b[l] } else { 0.0 };
+            b[l] *= w[l];
         }
     }
     v
@@ -266,8 +266,9 @@ impl<const N: usize> Kernel<N> {
     ) -> AccumLanes<N> {
         let mut acc = AccumLanes::<N>::default();
         if any(&batch.valid) {
+            let valid = batch.valid.map(u32::from);
             for &pi in list {
-                self.accumulate_lanes(batch, &proxies[pi as usize], &mut acc);
+                self.accumulate_lanes(batch, &valid, &proxies[pi as usize], &mut acc);
             }
         }
         acc
@@ -315,7 +316,13 @@ impl<const N: usize> Kernel<N> {
 
     /// One proxy's contribution to a batch (the body of [`Kernel::accumulate`], per lane).
     #[inline(always)]
-    fn accumulate_lanes(&self, batch: &ReceiverBatch, pr: &PreparedProxy<N>, acc: &mut AccumLanes<N>) {
+    fn accumulate_lanes(
+        &self,
+        batch: &ReceiverBatch,
+        valid: &[u32; LANES],
+        pr: &PreparedProxy<N>,
+        acc: &mut AccumLanes<N>,
+    ) {
         let alpha_min =
             if self.indirect { self.alpha_shadow.min(self.alpha_indirect) } else { self.alpha_shadow };
         let [px, py, pz] = &batch.position;
@@ -326,19 +333,21 @@ impl<const N: usize> Kernel<N> {
         let vx = px.map(|p| cx - p);
         let vy = py.map(|p| cy - p);
         let vz = pz.map(|p| cz - p);
-        let mut near = [false; LANES];
+        // Masks as 0/1 integers and weights (bool arrays cost byte packing per use).
+        let mut near = [0u32; LANES];
         for l in 0..LANES {
             let d2 = vx[l] * vx[l] + vy[l] * vy[l] + vz[l] * vz[l];
-            near[l] = batch.valid[l] && !(d2 * alpha_min * alpha_min >= r * r);
+            near[l] = valid[l] & u32::from(!(d2 * alpha_min * alpha_min >= r * r));
         }
-        if !any(&near) {
+        if near.iter().fold(0, |a, b| a | b) == 0 {
             return;
         }
         // `view_f32` per lane: the replacement sphere where it crosses the tangent plane.
         let mut dir = [[0.0f32; LANES]; 3];
         let mut alpha = [0.0f32; LANES];
-        let mut shadow = [false; LANES];
-        let mut ind = [false; LANES];
+        let mut shadow = [0.0f32; LANES];
+        let mut ind = [0.0f32; LANES];
+        let mut active = [0u32; LANES];
         for l in 0..LANES {
             let h = vx[l] * nx[l] + vy[l] * ny[l] + vz[l] * nz[l];
             let whole = h >= r;
@@ -347,24 +356,27 @@ impl<const N: usize> Kernel<N> {
             let c = if whole { [cx, cy, cz] } else { [cx + s * nx[l], cy + s * ny[l], cz + s * nz[l]] };
             let v = [c[0] - px[l], c[1] - py[l], c[2] - pz[l]];
             let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let ok = near[l] && !(h <= -r) && d > 0.0;
+            let ok = (near[l] != 0) & !(h <= -r) & (d > 0.0);
             // Lanes the proxy does not touch get a harmless finite direction and α = 0, so
-            // that every product below is finite and masking by multiplying with 0 adds
-            // exactly ±0 (an accumulator is never -0: it starts at +0 and round-to-nearest
-            // sums are -0 only when both terms are).
+            // that every product below is finite and masking by multiplying with a 0/1
+            // weight adds exactly ±0 (an accumulator is never -0: it starts at +0 and
+            // round-to-nearest sums are -0 only when both terms are).
             dir[0][l] = if ok { v[0] / d } else { 0.0 };
             dir[1][l] = if ok { v[1] / d } else { 0.0 };
             dir[2][l] = if ok { v[2] / d } else { 1.0 };
-            alpha[l] = if ok { (r2 / d).min(1.0) } else { 0.0 };
-            shadow[l] = ok && alpha[l] > self.alpha_shadow;
-            ind[l] = ok && self.indirect && alpha[l] > self.alpha_indirect;
+            let a = if ok { (r2 / d).min(1.0) } else { 0.0 };
+            alpha[l] = a;
+            let sh = ok & (a > self.alpha_shadow);
+            let id = ok & self.indirect & (a > self.alpha_indirect);
+            shadow[l] = if sh { 1.0 } else { 0.0 };
+            ind[l] = if id { 1.0 } else { 0.0 };
+            active[l] = u32::from(sh | id);
         }
-        let active: Mask = core::array::from_fn(|l| shadow[l] | ind[l]);
-        if !any(&active) {
+        if active.iter().fold(0, |a, b| a | b) == 0 {
             return;
         }
         for l in 0..LANES {
-            acc.count[l] += u32::from(active[l]);
+            acc.count[l] += active[l];
         }
         // The SH basis at the direction, and the table position (linear in α², see
         // `tables::locate`): lanes that no proxy touches hold garbage that is never added.
@@ -377,7 +389,7 @@ impl<const N: usize> Kernel<N> {
             idx[l] = i as usize;
             t[l] = (x * x - (i * i) as f32) / (2 * i + 1) as f32;
         }
-        if any(&shadow) {
+        if shadow.iter().any(|&w| w != 0.0) {
             let z = masked(lerp_rows(&self.olog, &idx, &t), &shadow);
             for j in 0..N {
                 let zj = &z[band(j)];
@@ -387,13 +399,13 @@ impl<const N: usize> Kernel<N> {
                 }
             }
         }
-        if any(&ind) {
+        if ind.iter().any(|&w| w != 0.0) {
             let v = masked(lerp_rows(&self.vis, &idx, &t), &ind);
             let d = lerp_rows(&self.d, &idx, &t);
             for l in 0..LANES {
                 let i = idx[l];
                 let om = self.omega[i] + t[l] * (self.omega[i + 1] - self.omega[i]);
-                acc.omega[l] += if ind[l] { om } else { 0.0 };
+                acc.omega[l] += om * ind[l];
             }
             let dy: [Lanes; N] = core::array::from_fn(|j| map2(&d[band(j)], &y[j], |a, b| a * b));
             let vyl: [Lanes; 9] = core::array::from_fn(|j| map2(&v[band(j)], &y[j], |a, b| a * b));
