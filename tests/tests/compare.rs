@@ -95,8 +95,19 @@ fn interior_doi_cuts_near_surface_darkness() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
     run(&[
-        "compare", "builtin:interior", "--samples", "128", "--plate-res", "40", "--reference-samples", "512",
-        "--methods", "point,doi", "--quiet", "-o", out,
+        "compare",
+        "builtin:interior",
+        "--samples",
+        "128",
+        "--plate-res",
+        "40",
+        "--reference-samples",
+        "512",
+        "--methods",
+        "point,doi",
+        "--quiet",
+        "-o",
+        out,
     ]);
     let r = report(dir.path());
     println!("{}", summary(&r));
