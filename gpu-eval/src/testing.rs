@@ -51,6 +51,28 @@ pub fn context_or_skip(opts: &ContextOptions) -> Option<GpuContext> {
     }
 }
 
+/// A context with the Khronos validation layer on (for the validation tests), or `None`
+/// after a skip line: no device (as [`gpu_or_skip`]), or no validation layer, which prints
+/// `!!! VALIDATION NOT CHECKED: <reason> !!!` unless `LIGHTVOL_REQUIRE_GPU=1`, where it panics.
+///
+/// # Panics
+/// As [`gpu_or_skip`], and when the layer is missing under `LIGHTVOL_REQUIRE_GPU=1`.
+#[must_use]
+pub fn validated_context_or_skip() -> Option<GpuContext> {
+    // Probe for a device first so that "no device" takes the ordinary skip path.
+    drop(gpu_or_skip()?);
+    let opts = ContextOptions { validation: true, ..ContextOptions::from_env() };
+    match GpuContext::with_options(&opts) {
+        Ok(ctx) => Some(ctx),
+        Err(GpuError::ValidationUnavailable(why)) => {
+            assert!(!gpu_required(), "{REQUIRE_GPU_ENV}=1 but validation is unavailable: {why}");
+            let _ = writeln!(std::io::stderr(), "!!! VALIDATION NOT CHECKED: {why} !!!");
+            None
+        }
+        Err(e) => panic!("Vulkan context creation with validation failed: {e}"),
+    }
+}
+
 /// The reason text of a skip: the error without its "no Vulkan ..." prefix.
 fn skip_reason(e: &GpuError) -> String {
     match e {

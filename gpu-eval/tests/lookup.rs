@@ -15,7 +15,7 @@ use std::sync::Mutex;
 
 use lightvol_gpu::lookup::Quantity;
 use lightvol_gpu::synthetic::{random_queries, smooth_random_volume};
-use lightvol_gpu::{ContextOptions, GpuError, VolumeLookup, gpu_or_skip};
+use lightvol_gpu::{GpuError, VolumeLookup, gpu_or_skip};
 use lightvol_sampler::{BakeControl, BakeSettings, Method, TransportSettings, bake};
 use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::sh_lm;
@@ -271,21 +271,7 @@ fn bad_inputs_are_errors() {
 /// uploads, pipeline creation, dispatches and readbacks.
 #[test]
 fn validation_layer_reports_no_errors() {
-    let Some(ctx0) = gpu_or_skip() else { return };
-    drop(ctx0);
-    let opts = ContextOptions { validation: true, ..ContextOptions::from_env() };
-    let ctx = match lightvol_gpu::GpuContext::with_options(&opts) {
-        Ok(c) => c,
-        Err(GpuError::ValidationUnavailable(why)) => {
-            assert!(
-                !lightvol_gpu::testing::gpu_required(),
-                "LIGHTVOL_REQUIRE_GPU=1 but validation is unavailable: {why}"
-            );
-            println!("!!! VALIDATION NOT CHECKED: {why} !!!");
-            return;
-        }
-        Err(e) => panic!("{e}"),
-    };
+    let Some(ctx) = lightvol_gpu::testing::validated_context_or_skip() else { return };
     assert!(ctx.validation_enabled());
     for coeffs in [4, 16] {
         let vol = test_volume(TEST_VOLUME, coeffs, true, 5);

@@ -2,7 +2,7 @@
 //! (issue 8, acceptance 3, at receiver-buffer resolution): accumulation (kernel 2a) and
 //! exponentiation (kernel 2b), then bilateral upsampling to display resolution (kernel 2c).
 
-use lightvol_gpu::{ContextOptions, GpuError, ProxyShading, gpu_or_skip};
+use lightvol_gpu::{ProxyShading, gpu_or_skip};
 use lightvol_proxies::compare::CompareConfig;
 use lightvol_proxies::kernel::{Accum, Kernel, KernelIndirect, prepare};
 use lightvol_proxies::light::DistantLight;
@@ -168,21 +168,7 @@ fn gpu_proxy_shading_matches_cpu_on_default_scene_9() {
 /// Acceptance 4 for kernel 2: no validation errors.
 #[test]
 fn proxy_shading_is_validation_clean() {
-    let Some(ctx0) = gpu_or_skip() else { return };
-    drop(ctx0);
-    let opts = ContextOptions { validation: true, ..ContextOptions::from_env() };
-    let ctx = match lightvol_gpu::GpuContext::with_options(&opts) {
-        Ok(c) => c,
-        Err(GpuError::ValidationUnavailable(why)) => {
-            assert!(
-                !lightvol_gpu::testing::gpu_required(),
-                "LIGHTVOL_REQUIRE_GPU=1 but validation is unavailable: {why}"
-            );
-            println!("!!! VALIDATION NOT CHECKED: {why} !!!");
-            return;
-        }
-        Err(e) => panic!("{e}"),
-    };
+    let Some(ctx) = lightvol_gpu::testing::validated_context_or_skip() else { return };
     check::<16>(&ctx);
     assert_eq!(ctx.validation_errors(), 0, "validation errors: {:#?}", ctx.validation_messages());
 }
