@@ -7,6 +7,7 @@ pub mod diagnostics;
 pub mod domain;
 pub mod envmap;
 pub mod error;
+pub mod fit;
 pub mod gradients;
 pub mod light_sampler;
 pub mod lights;
