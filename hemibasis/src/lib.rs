@@ -4,12 +4,20 @@ pub mod basis;
 pub mod convert;
 pub mod encode;
 pub mod imse;
+pub mod map;
 pub mod project;
 pub mod quad;
 pub mod render;
 mod sep;
 pub mod sh_basis;
 pub mod shader;
+
+#[cfg(feature = "bc")]
+pub mod bc;
+#[cfg(feature = "hbasis")]
+pub mod lod;
+#[cfg(feature = "ktx2")]
+pub mod texture;
 
 #[cfg(feature = "hbasis")]
 pub mod hbasis;
@@ -34,6 +42,7 @@ pub use hl2::Hl2;
 pub use hsh::Hsh;
 #[cfg(feature = "makhotkin")]
 pub use makhotkin::Makhotkin;
+pub use map::{CoeffMap, Plane};
 pub use project::{Matrix, Projector};
 pub use quad::HemiRule;
 pub use sh_basis::ShBasis;
