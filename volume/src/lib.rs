@@ -2,6 +2,8 @@
 
 pub mod accumulator;
 pub mod accumulator_io;
+pub mod adaptive;
+pub mod adaptive_build;
 pub mod bevy;
 pub mod checksum;
 pub mod dds_io;
@@ -19,6 +21,8 @@ pub mod slab;
 pub mod volume;
 
 pub use accumulator::Accumulator;
+pub use adaptive::{AdaptiveVolume, LevelStats, OctreeParams};
+pub use adaptive_build::{BuildError, Candidates, LevelSamples, build_adaptive};
 pub use encode::{EncodedVolume, Encoding, encode, irradiance_error};
 pub use error::{FileFormat, VolumeError};
 pub use fill::FillReport;

@@ -107,7 +107,7 @@ impl LookupParams {
 /// Corner weights `Π (1-f | f)` in corner order `c = dx + 2dy + 4dz`, each product formed
 /// as `(wx · wy) · wz`.
 #[inline(always)]
-fn weights8(fx: f32, fy: f32, fz: f32) -> [f32; 8] {
+pub(crate) fn weights8(fx: f32, fy: f32, fz: f32) -> [f32; 8] {
     let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
     [
         gx * gy * gz,
@@ -122,7 +122,7 @@ fn weights8(fx: f32, fy: f32, fz: f32) -> [f32; 8] {
 }
 
 /// Per-coefficient factors: `A_l(j)` for irradiance, 1 for radiance.
-fn factors(coeffs: usize, irradiance: bool) -> [f32; 16] {
+pub(crate) fn factors(coeffs: usize, irradiance: bool) -> [f32; 16] {
     std::array::from_fn(|j| {
         if j >= coeffs {
             0.0
@@ -167,6 +167,16 @@ fn shade<const N: usize, const K: usize>(acc: &[f32; K], f: &[f32; 16], n: [f32;
         out[2] += t * acc[3 * j + 2];
     }
     out
+}
+
+/// [`shade`] for a run-time coefficient count (4, 9 or 16); `acc` holds at least
+/// `3 · coeffs` floats `[coeff][rgb]`.
+pub(crate) fn shade_dyn(coeffs: usize, acc: &[f32], f: &[f32; 16], n: [f32; 3]) -> [f32; 3] {
+    match coeffs {
+        4 => shade::<4, 12>(acc[..12].try_into().expect("12 floats"), f, n),
+        9 => shade::<9, 27>(acc[..27].try_into().expect("27 floats"), f, n),
+        _ => shade::<16, 48>(acc[..48].try_into().expect("48 floats"), f, n),
+    }
 }
 
 /// One query of the scalar path.

@@ -1,0 +1,657 @@
+//! The adaptive octree volume of Oat, *Irradiance Volumes for Games* (seed 002, "Adaptive
+//! Octree Subdivision" to "Trilinear Interpolation"), stored as hierarchical surpluses on
+//! nested grids.
+//!
+//! ## Representation
+//! Level 0 is a complete uniform [`IrradianceVolume`] over a base [`GridSpec`]. Level `l`
+//! is the *virtual* uniform grid over the same box with `(n - 1)·2^l + 1` nodes per axis
+//! ([`AdaptiveVolume::level_grid`]): its cells are the octree cells of depth `l`, its nodes
+//! their corners, and node `(i, j, k)` of level `l - 1` is node `(2i, 2j, 2k)` of level `l`.
+//! A cell is *split* when its 8 children exist; the children's 27 corners are the nodes of
+//! level `l + 1` it creates. Each node of level `l ≥ 1` that is kept stores its *surplus*
+//!
+//! `s_l(x_i) = v_l(x_i) − Σ_{m<l} I_m(x_i)`,
+//!
+//! the value baked at the node (level-`l` prefilter support) minus what the coarser levels
+//! already interpolate there; `I_m` is the trilinear interpolation of level `m`'s
+//! surpluses, with absent nodes counting as 0. A lookup at `x` is
+//!
+//! `L(x) = Σ_l I_l(x)`: for each level, the 8 corners of the level-`l` cell containing `x`,
+//! weighted by their trilinear weights (Kontkanen & Laine 2006 Eq. 2), summed.
+//!
+//! Every term is a sum of continuous tent functions, so `L` is continuous (C0) everywhere,
+//! in particular where a coarse leaf meets subdivided neighbours. This is the "continue
+//! using samples from subdivided neighbors for interpolation" rule of seed 002: the fine
+//! nodes on the face between a coarse leaf and its split neighbour (the T-junction samples)
+//! keep contributing inside the coarse leaf, over half a fine cell, so an object moving from
+//! the fine to the coarse side sees no sample "suddenly ignored". Seed 002 suggests
+//! pointers from each octree node to the samples on its faces; the surplus sum reaches the
+//! same samples through the fine level's node table instead, with no per-face bookkeeping.
+//! Where a region is fully refined to level `L` the sum equals the uniform level-`L`
+//! trilinear interpolant of the baked values (the coarse tents are trilinear inside each
+//! fine cell and the surpluses make the sum hit the baked value at every fine node).
+//!
+//! ## Culling
+//! Seed 002: "if a voxel has been subdivided and its children don't differ enough from the
+//! parent, these samples may be culled". Here a node is dropped when its surplus (its
+//! difference from the parent levels' interpolation) satisfies
+//! `max_{coeff, rgb} |s| ≤ cull_tolerance · value_scale`, with
+//! [`AdaptiveVolume::value_scale`] the mean over weighted base nodes of `max_rgb |c_00|`.
+//! Dropping a node changes the field by at most `cull_tolerance · value_scale` per
+//! coefficient near it and keeps it continuous. Nodes of levels `≤ min_level` are never
+//! culled.
+//!
+//! ## Lookups
+//! [`AdaptiveVolume::coeffs_at_reference`] / [`AdaptiveVolume::irradiance_reference`]: f64,
+//! binary search in each level's sorted key table. [`AdaptiveVolume::coeffs_at`] /
+//! [`AdaptiveVolume::irradiance`]: f32, hash-map index (a fixed hasher: deterministic). A
+//! test bounds their difference. Points outside the box clamp to it, as in [`crate::grid`].
+
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
+
+use rayon::prelude::*;
+
+use lightvol_sh::eval::eval_into;
+use lightvol_sh::index::sh_lm;
+use lightvol_sh::irradiance::cosine_lobe_factor;
+
+use crate::error::VolumeError;
+use crate::grid::{GridSpec, corner_weights};
+use crate::lookup::{PAR_CHUNK, factors, shade_dyn, weights8};
+use crate::volume::{BakeMetadata, IrradianceVolume};
+
+/// The finest level accepted: node coordinates of every level must fit the 21 bits per
+/// axis of a packed key, and `(n - 1)·2^8` keeps that for any base grid of up to 8192
+/// cells per axis.
+pub const MAX_LEVEL: u32 = 8;
+
+/// Largest node count [`AdaptiveVolume::to_uniform`] produces (2^24 nodes: 1.7 GiB at 9
+/// RGB f32 coefficients); a guard against a typo in an export resolution.
+pub const TO_UNIFORM_MAX_NODES: usize = 1 << 24;
+
+/// Bits per axis in a packed node or cell key.
+const KEY_BITS: u32 = 21;
+const KEY_MASK: u64 = (1 << KEY_BITS) - 1;
+
+/// Packs level coordinates `(i, j, k)` into a key whose order is `(k, j, i)` lexicographic
+/// (the flat x-fastest order of [`GridSpec`]).
+#[must_use]
+#[inline]
+pub fn pack_key(c: [u32; 3]) -> u64 {
+    u64::from(c[0]) | (u64::from(c[1]) << KEY_BITS) | (u64::from(c[2]) << (2 * KEY_BITS))
+}
+
+/// Inverse of [`pack_key`].
+#[must_use]
+#[inline]
+pub fn unpack_key(key: u64) -> [u32; 3] {
+    [
+        (key & KEY_MASK) as u32,
+        ((key >> KEY_BITS) & KEY_MASK) as u32,
+        ((key >> (2 * KEY_BITS)) & KEY_MASK) as u32,
+    ]
+}
+
+/// Refinement and culling parameters of an adaptive volume (seed 002: "Specify a Min and
+/// Max level of subdivision", culling of redundant samples, plus a memory budget).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OctreeParams {
+    /// Every cell of the levels below `min_level` is split; nodes of levels `≤ min_level`
+    /// are never culled.
+    pub min_level: u32,
+    /// The finest level (`min_level ≤ max_level ≤` [`MAX_LEVEL`]).
+    pub max_level: u32,
+    /// A node is culled when `max |surplus| ≤ cull_tolerance · value_scale` (module docs).
+    pub cull_tolerance: f64,
+    /// Upper bound on [`AdaptiveVolume::memory_bytes`]; cells are split greedily by score
+    /// until it is reached.
+    pub memory_budget: Option<usize>,
+}
+
+impl Default for OctreeParams {
+    fn default() -> Self {
+        Self { min_level: 0, max_level: 2, cull_tolerance: 0.01, memory_budget: None }
+    }
+}
+
+impl OctreeParams {
+    /// Errors unless `min_level ≤ max_level ≤ MAX_LEVEL` and the tolerance is finite and
+    /// non-negative.
+    pub fn validate(&self) -> Result<(), VolumeError> {
+        if self.max_level > MAX_LEVEL || self.min_level > self.max_level {
+            return Err(VolumeError::InvalidData(format!(
+                "octree levels: need min_level ({}) <= max_level ({}) <= {MAX_LEVEL}",
+                self.min_level, self.max_level
+            )));
+        }
+        if !(self.cull_tolerance.is_finite() && self.cull_tolerance >= 0.0) {
+            return Err(VolumeError::InvalidData(format!(
+                "cull tolerance {} must be finite and >= 0",
+                self.cull_tolerance
+            )));
+        }
+        Ok(())
+    }
+}
+
+/// Per-level counts of an adaptive volume (what `lightvol info` prints).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub struct LevelStats {
+    /// The level.
+    pub level: u32,
+    /// Cells of this level present in the tree (level 0: all base cells).
+    pub cells: usize,
+    /// Cells of this level that are leaves (not split).
+    pub leaves: usize,
+    /// Cells of this level split into 8 children.
+    pub split: usize,
+    /// Nodes baked at this level (level 0: all base nodes).
+    pub created_nodes: usize,
+    /// Nodes kept after culling (level 0: all base nodes).
+    pub stored_nodes: usize,
+    /// `created_nodes - stored_nodes` (includes `empty_nodes`).
+    pub culled_nodes: usize,
+    /// Nodes whose bake found no sample in the domain of interest (surplus 0, culled).
+    pub empty_nodes: usize,
+}
+
+/// A fixed multiplicative hasher for packed keys (deterministic across runs, unlike the
+/// std default; the keys are already well spread in their low bits).
+#[derive(Default, Clone, Copy)]
+pub(crate) struct KeyHasher(u64);
+
+impl Hasher for KeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        // splitmix64 finaliser.
+        let mut z = x.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        self.0 = z ^ (z >> 31);
+    }
+}
+
+pub(crate) type KeyMap = HashMap<u64, u32, BuildHasherDefault<KeyHasher>>;
+
+/// The stored nodes of one level `≥ 1`: sorted keys and their surpluses `[node][coeff][rgb]`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub(crate) struct LevelTable {
+    pub(crate) keys: Vec<u64>,
+    pub(crate) data: Vec<f32>,
+}
+
+/// An adaptive irradiance volume (module docs): a base [`IrradianceVolume`] plus sparse
+/// surplus tables of levels `1..=max_level` and the split structure.
+#[derive(Clone)]
+pub struct AdaptiveVolume {
+    pub(crate) base: IrradianceVolume,
+    pub(crate) params: OctreeParams,
+    pub(crate) value_scale: f64,
+    /// Levels `1..=params.max_level` (index `l - 1`).
+    pub(crate) tables: Vec<LevelTable>,
+    /// Split cells of levels `0..params.max_level` (index `l`), sorted keys.
+    pub(crate) split: Vec<Vec<u64>>,
+    pub(crate) stats: Vec<LevelStats>,
+    /// Hash index of `tables` (derived).
+    index: Vec<KeyMap>,
+}
+
+/// Equality of the stored content (the derived hash index is not compared).
+impl PartialEq for AdaptiveVolume {
+    fn eq(&self, o: &Self) -> bool {
+        self.base == o.base
+            && self.params == o.params
+            && self.value_scale.to_bits() == o.value_scale.to_bits()
+            && self.tables == o.tables
+            && self.split == o.split
+            && self.stats == o.stats
+    }
+}
+
+/// A summary.
+impl std::fmt::Debug for AdaptiveVolume {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("AdaptiveVolume")
+            .field("base", &self.base)
+            .field("params", &self.params)
+            .field("value_scale", &self.value_scale)
+            .field("stats", &self.stats)
+            .finish_non_exhaustive()
+    }
+}
+
+/// The level-`level` grid over `base`'s box: `(n - 1)·2^level + 1` nodes per axis, same
+/// placement.
+pub fn level_grid(base: &GridSpec, level: u32) -> Result<GridSpec, VolumeError> {
+    if level > MAX_LEVEL {
+        return Err(VolumeError::InvalidGrid(format!("level {level} above {MAX_LEVEL}")));
+    }
+    let (min, max) = base.bounds();
+    let res = base.res().map(|n| (n - 1) * (1 << level) + 1);
+    let g = GridSpec::new(min, max, res)?;
+    Ok(match base.placement() {
+        Some(p) => g.with_placement(*p),
+        None => g,
+    })
+}
+
+impl AdaptiveVolume {
+    /// Assembles a volume from checked parts (builder and reader).
+    pub(crate) fn from_parts(
+        base: IrradianceVolume,
+        params: OctreeParams,
+        value_scale: f64,
+        tables: Vec<LevelTable>,
+        split: Vec<Vec<u64>>,
+        stats: Vec<LevelStats>,
+    ) -> Result<Self, VolumeError> {
+        params.validate()?;
+        let ml = params.max_level as usize;
+        if tables.len() != ml || split.len() != ml || stats.len() != ml + 1 {
+            return Err(VolumeError::Mismatch(format!(
+                "octree of {ml} levels with {} tables, {} split lists, {} stats",
+                tables.len(),
+                split.len(),
+                stats.len()
+            )));
+        }
+        let k = base.coeffs() * 3;
+        let res0 = base.spec().res();
+        for (l, t) in tables.iter().enumerate() {
+            let n = res0.map(|r| (r - 1) * (1 << (l + 1)) + 1);
+            if t.data.len() != t.keys.len() * k {
+                return Err(VolumeError::Mismatch(format!("level {} table lengths", l + 1)));
+            }
+            check_keys(&t.keys, n, &format!("level {} nodes", l + 1))?;
+            crate::error::check_finite("octree surpluses", &t.data)?;
+        }
+        for (l, s) in split.iter().enumerate() {
+            let n = res0.map(|r| (r - 1) * (1 << l));
+            check_keys(s, n, &format!("level {l} split cells"))?;
+        }
+        if !(value_scale.is_finite() && value_scale > 0.0) {
+            return Err(VolumeError::InvalidData(format!("value scale {value_scale}")));
+        }
+        let index = tables
+            .iter()
+            .map(|t| t.keys.iter().enumerate().map(|(i, &key)| (key, i as u32)).collect())
+            .collect();
+        Ok(Self { base, params, value_scale, tables, split, stats, index })
+    }
+
+    /// The level-0 volume (a complete uniform bake of the base grid).
+    #[must_use]
+    pub fn base(&self) -> &IrradianceVolume {
+        &self.base
+    }
+
+    /// SH coefficients per colour channel.
+    #[must_use]
+    pub fn coeffs(&self) -> usize {
+        self.base.coeffs()
+    }
+
+    /// The parameters the volume was built with.
+    #[must_use]
+    pub fn params(&self) -> &OctreeParams {
+        &self.params
+    }
+
+    /// The finest level with cells in the tree (`≤ params().max_level`).
+    #[must_use]
+    pub fn max_level(&self) -> u32 {
+        self.stats.iter().rev().find(|s| s.cells > 0).map_or(0, |s| s.level)
+    }
+
+    /// Mean over base nodes with weight > 0 of `max_rgb |c_00|`: the scale of the culling
+    /// tolerance and the gradient heuristic.
+    #[must_use]
+    pub fn value_scale(&self) -> f64 {
+        self.value_scale
+    }
+
+    /// The virtual uniform grid of `level` (see the module docs).
+    pub fn level_grid(&self, level: u32) -> Result<GridSpec, VolumeError> {
+        level_grid(self.base.spec(), level)
+    }
+
+    /// Nodes per axis of the finest level present.
+    #[must_use]
+    pub fn finest_res(&self) -> [u32; 3] {
+        self.base.spec().res().map(|n| (n - 1) * (1 << self.max_level()) + 1)
+    }
+
+    /// Per-level counts, index = level, `0..=params().max_level`.
+    #[must_use]
+    pub fn level_stats(&self) -> &[LevelStats] {
+        &self.stats
+    }
+
+    /// Stored nodes of one level `≥ 1` as `(coordinates, surpluses [coeff][rgb])`.
+    pub fn level_nodes(&self, level: u32) -> impl Iterator<Item = ([u32; 3], &[f32])> {
+        let k = self.coeffs() * 3;
+        let t = (level >= 1).then(|| self.tables.get(level as usize - 1)).flatten();
+        t.into_iter().flat_map(move |t| {
+            t.keys.iter().zip(t.data.chunks_exact(k)).map(|(&key, d)| (unpack_key(key), d))
+        })
+    }
+
+    /// Split cells of `level` (coordinates in the level grid), sorted.
+    pub fn split_cells(&self, level: u32) -> impl Iterator<Item = [u32; 3]> + '_ {
+        self.split.get(level as usize).into_iter().flatten().map(|&k| unpack_key(k))
+    }
+
+    /// Whether cell `c` of `level` is split.
+    #[must_use]
+    pub fn is_split(&self, level: u32, c: [u32; 3]) -> bool {
+        self.split.get(level as usize).is_some_and(|s| s.binary_search(&pack_key(c)).is_ok())
+    }
+
+    /// Base nodes plus stored nodes of levels `≥ 1`.
+    #[must_use]
+    pub fn stored_nodes(&self) -> usize {
+        self.base.spec().node_count() + self.tables.iter().map(|t| t.keys.len()).sum::<usize>()
+    }
+
+    /// Bytes of the representation: coefficient floats of every stored node, the base
+    /// weights, one 8-byte key per stored node of level `≥ 1`, and the split bitmaps (one
+    /// bit per cell of levels `0..max_level`: `ceil(base_cells / 8)` plus one byte per
+    /// split cell of levels `0..max_level-1`). The hash index of the fast lookup is an
+    /// acceleration structure, reported by [`Self::index_bytes`], not here.
+    #[must_use]
+    pub fn memory_bytes(&self) -> usize {
+        let fine: usize = self.tables.iter().map(|t| t.keys.len()).sum();
+        let split_below: usize =
+            self.split.iter().take((self.params.max_level as usize).saturating_sub(1)).map(Vec::len).sum();
+        memory_model(self.base.spec(), self.coeffs(), self.params.max_level, fine, split_below)
+    }
+
+    /// Approximate bytes of the run-time hash index: per slot of capacity, one
+    /// `(u64, u32)` entry (16 bytes with padding) and one control byte.
+    #[must_use]
+    pub fn index_bytes(&self) -> usize {
+        self.index.iter().map(|m| m.capacity() * (16 + 1)).sum()
+    }
+
+    /// The bake metadata (of the base volume).
+    #[must_use]
+    pub fn metadata(&self) -> &BakeMetadata {
+        self.base.metadata()
+    }
+
+    /// Replaces the bake metadata.
+    pub fn set_metadata(&mut self, meta: BakeMetadata) {
+        self.base.set_metadata(meta);
+    }
+
+    /// The same volume with `meta` attached.
+    #[must_use]
+    pub fn with_metadata(mut self, meta: BakeMetadata) -> Self {
+        self.base.set_metadata(meta);
+        self
+    }
+
+    /// Grid point in base cell units, clamped into the box (f64).
+    fn base_units(&self, g: [f64; 3]) -> [f64; 3] {
+        let (min, max) = self.base.spec().bounds();
+        let res = self.base.spec().res();
+        std::array::from_fn(|a| {
+            let cells = f64::from(res[a] - 1);
+            let u = ((g[a] - min[a]) / (max[a] - min[a]) * cells).clamp(0.0, cells);
+            if u.is_nan() { 0.0 } else { u }
+        })
+    }
+
+    /// The f64 field `Σ_{l < levels} I_l` at base-cell units `u0` (the reference sum; the
+    /// builder uses it for surpluses).
+    pub(crate) fn sum_levels_f64(&self, u0: [f64; 3], levels: u32, out: &mut [f64]) {
+        let k = self.coeffs() * 3;
+        out[..k].fill(0.0);
+        let res0 = self.base.spec().res();
+        for l in 0..levels {
+            let s = f64::from(1u32 << l);
+            let n = res0.map(|r| (r - 1) * (1 << l) + 1);
+            let mut cell = [0u32; 3];
+            let mut f = [0.0; 3];
+            for a in 0..3 {
+                let u = u0[a] * s;
+                cell[a] = (u.floor() as u32).min(n[a] - 2);
+                f[a] = (u - f64::from(cell[a])).clamp(0.0, 1.0);
+            }
+            let w = corner_weights(f);
+            for (c, &wc) in w.iter().enumerate() {
+                let node = [
+                    cell[0] + (c as u32 & 1),
+                    cell[1] + ((c as u32 >> 1) & 1),
+                    cell[2] + ((c as u32 >> 2) & 1),
+                ];
+                let vals: Option<&[f32]> = if l == 0 {
+                    Some(self.base.node(self.base.spec().node_index(node[0], node[1], node[2])))
+                } else {
+                    let t = &self.tables[l as usize - 1];
+                    t.keys.binary_search(&pack_key(node)).ok().map(|i| &t.data[i * k..(i + 1) * k])
+                };
+                if let Some(v) = vals {
+                    for (o, &x) in out[..k].iter_mut().zip(v) {
+                        *o += wc * f64::from(x);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The interpolated coefficients `[coeff][rgb]` at world point `p`: the f64 reference
+    /// (binary search per corner and level).
+    #[must_use]
+    pub fn coeffs_at_reference(&self, p: [f64; 3]) -> Vec<f64> {
+        let mut out = vec![0.0; self.coeffs() * 3];
+        let u0 = self.base_units(self.base.spec().to_grid(p));
+        self.sum_levels_f64(u0, self.params.max_level + 1, &mut out);
+        out
+    }
+
+    /// The coefficients at a *grid-space* point (f64 reference).
+    pub(crate) fn coeffs_at_grid_f64(&self, g: [f64; 3], out: &mut [f64]) {
+        let u0 = self.base_units(g);
+        self.sum_levels_f64(u0, self.params.max_level + 1, out);
+    }
+
+    /// Irradiance `E(x, n) = Σ_j A_j L_j(x) Y_j(n)` (Kontkanen & Laine 2006 Eq. 3) from
+    /// [`Self::coeffs_at_reference`], in f64.
+    #[must_use]
+    pub fn irradiance_reference(&self, p: [f64; 3], n: [f64; 3]) -> [f64; 3] {
+        let c = self.coeffs_at_reference(p);
+        let mut y = vec![0.0; self.coeffs()];
+        eval_into(self.base.bands(), n, &mut y);
+        let mut e = [0.0; 3];
+        for j in 0..self.coeffs() {
+            let a = cosine_lobe_factor(sh_lm(j).0) * y[j];
+            for ch in 0..3 {
+                e[ch] += a * c[3 * j + ch];
+            }
+        }
+        e
+    }
+
+    /// The interpolated coefficients at world point `p` into `out[..3·coeffs]`
+    /// (`[coeff][rgb]`): the f32 fast path (hash index, levels accumulated coarse to fine,
+    /// corners in order `c = dx + 2dy + 4dz`).
+    ///
+    /// # Panics
+    /// If `out` is shorter than `3 · coeffs`.
+    pub fn coeffs_at(&self, p: [f32; 3], out: &mut [f32]) {
+        let k = self.coeffs() * 3;
+        let out = &mut out[..k];
+        out.fill(0.0);
+        let spec = self.base.spec();
+        let (min, max) = spec.bounds();
+        let res0 = spec.res();
+        let g: [f32; 3] = match spec.placement() {
+            None => p,
+            Some(pl) => {
+                let m = pl.to_grid_matrix().map(|r| r.map(|v| v as f32));
+                std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3])
+            }
+        };
+        let u0: [f32; 3] = std::array::from_fn(|a| {
+            let cells = (res0[a] - 1) as f32;
+            let scale = (f64::from(res0[a] - 1) / (max[a] - min[a])) as f32;
+            // max/min (not clamp) so that NaN maps to 0.
+            ((g[a] - min[a] as f32) * scale).max(0.0).min(cells)
+        });
+        let data0 = self.base.data();
+        let [nx, ny, _] = res0.map(|v| v as usize);
+        for l in 0..=self.params.max_level {
+            let s = (1u32 << l) as f32;
+            let mut cell = [0u32; 3];
+            let mut f = [0.0f32; 3];
+            for a in 0..3 {
+                let u = u0[a] * s;
+                let n = (res0[a] - 1) * (1 << l) + 1;
+                cell[a] = (u as u32).min(n - 2);
+                f[a] = (u - cell[a] as f32).clamp(0.0, 1.0);
+            }
+            let w = weights8(f[0], f[1], f[2]);
+            for (c, &wc) in w.iter().enumerate() {
+                let node = [
+                    cell[0] + (c as u32 & 1),
+                    cell[1] + ((c as u32 >> 1) & 1),
+                    cell[2] + ((c as u32 >> 2) & 1),
+                ];
+                let vals = if l == 0 {
+                    let i = node[0] as usize + nx * (node[1] as usize + ny * node[2] as usize);
+                    &data0[i * k..(i + 1) * k]
+                } else {
+                    let t = &self.tables[l as usize - 1];
+                    match self.index[l as usize - 1].get(&pack_key(node)) {
+                        Some(&i) => &t.data[i as usize * k..(i as usize + 1) * k],
+                        None => continue,
+                    }
+                };
+                for (o, &x) in out.iter_mut().zip(vals) {
+                    *o += wc * x;
+                }
+            }
+        }
+    }
+
+    /// Irradiance (Kontkanen & Laine 2006 Eq. 3) at world point `p` for the unit normal `n`,
+    /// f32 path.
+    #[must_use]
+    pub fn irradiance(&self, p: [f32; 3], n: [f32; 3]) -> [f32; 3] {
+        self.shade(p, n, true)
+    }
+
+    /// Radiance arriving at `p` from direction `dir` (no `A_l`), f32 path.
+    #[must_use]
+    pub fn radiance(&self, p: [f32; 3], dir: [f32; 3]) -> [f32; 3] {
+        self.shade(p, dir, false)
+    }
+
+    fn shade(&self, p: [f32; 3], n: [f32; 3], irr: bool) -> [f32; 3] {
+        let mut c = [0.0f32; 48];
+        self.coeffs_at(p, &mut c);
+        shade_dyn(self.coeffs(), &c, &factors(self.coeffs(), irr), n)
+    }
+
+    /// Batched irradiance, parallel over rayon's pool, bit-identical to
+    /// [`Self::irradiance`] per query. Errors if the slice lengths differ.
+    pub fn irradiance_batch(
+        &self,
+        points: &[[f32; 3]],
+        normals: &[[f32; 3]],
+        out: &mut [[f32; 3]],
+    ) -> Result<(), VolumeError> {
+        if points.len() != normals.len() || points.len() != out.len() {
+            return Err(VolumeError::Mismatch(format!(
+                "batch lookup: {} points, {} normals, {} outputs",
+                points.len(),
+                normals.len(),
+                out.len()
+            )));
+        }
+        out.par_chunks_mut(PAR_CHUNK).enumerate().for_each(|(ci, o)| {
+            for (q, e) in o.iter_mut().enumerate() {
+                let i = ci * PAR_CHUNK + q;
+                *e = self.irradiance(points[i], normals[i]);
+            }
+        });
+        Ok(())
+    }
+
+    /// Resamples to a uniform volume of `res` nodes per axis (default: [`Self::finest_res`])
+    /// over the same box and placement, for formats that cannot hold an octree (KTX2, DDS,
+    /// Bevy). Node values are the f64 reference lookup at the nodes, rounded to f32; weights
+    /// are 1; metadata is copied. At the finest resolution this is exact at every node of
+    /// the finest level. Errors above [`TO_UNIFORM_MAX_NODES`] nodes.
+    pub fn to_uniform(&self, res: Option<[u32; 3]>) -> Result<IrradianceVolume, VolumeError> {
+        let res = res.unwrap_or_else(|| self.finest_res());
+        let count = res.iter().try_fold(1usize, |a, &n| a.checked_mul(n as usize));
+        if count.is_none_or(|c| c > TO_UNIFORM_MAX_NODES) {
+            return Err(VolumeError::InvalidGrid(format!(
+                "to_uniform: {}x{}x{} nodes exceed the export limit of {TO_UNIFORM_MAX_NODES}; pass a smaller resolution",
+                res[0], res[1], res[2]
+            )));
+        }
+        let (min, max) = self.base.spec().bounds();
+        let mut spec = GridSpec::new(min, max, res)?;
+        if let Some(p) = self.base.spec().placement() {
+            spec = spec.with_placement(*p);
+        }
+        let k = self.coeffs() * 3;
+        let mut data = vec![0.0f32; spec.node_count() * k];
+        data.par_chunks_mut(k).enumerate().for_each(|(node, d)| {
+            let [i, j, kk] = spec.node_coords(node);
+            let mut v = [0.0f64; 48];
+            self.coeffs_at_grid_f64(spec.node_position(i, j, kk), &mut v);
+            for (o, x) in d.iter_mut().zip(v) {
+                *o = x as f32;
+            }
+        });
+        let n = spec.node_count();
+        Ok(IrradianceVolume::new(spec, self.coeffs(), data, vec![1.0; n])?
+            .with_metadata(self.metadata().clone()))
+    }
+}
+
+/// The memory model of [`AdaptiveVolume::memory_bytes`] from counts: `fine_nodes` stored
+/// nodes of levels `≥ 1`, `split_below` split cells of levels `0..max_level-1`.
+#[must_use]
+pub fn memory_model(
+    base: &GridSpec,
+    coeffs: usize,
+    max_level: u32,
+    fine_nodes: usize,
+    split_below: usize,
+) -> usize {
+    let node_bytes = coeffs * 3 * 4;
+    let base_bytes = base.node_count() * (node_bytes + 4);
+    let bitmaps = if max_level > 0 { base.cell_count().div_ceil(8) + split_below } else { 0 };
+    base_bytes + fine_nodes * (node_bytes + 8) + bitmaps
+}
+
+/// Checks that keys are strictly increasing and within `n` per axis.
+fn check_keys(keys: &[u64], n: [u32; 3], what: &str) -> Result<(), VolumeError> {
+    if keys.windows(2).any(|w| w[0] >= w[1]) {
+        return Err(VolumeError::InvalidData(format!("{what}: keys not strictly increasing")));
+    }
+    if let Some(&bad) = keys.iter().find(|&&k| {
+        let c = unpack_key(k);
+        k >> (3 * KEY_BITS) != 0 || (0..3).any(|a| c[a] >= n[a])
+    }) {
+        return Err(VolumeError::InvalidData(format!("{what}: key {:?} outside {n:?}", unpack_key(bad))));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+#[path = "adaptive_tests.rs"]
+mod tests;
