@@ -654,4 +654,4 @@ fn check_keys(keys: &[u64], n: [u32; 3], what: &str) -> Result<(), VolumeError> 
 
 #[cfg(test)]
 #[path = "adaptive_tests.rs"]
-mod tests;
+pub(crate) mod tests;

@@ -9,20 +9,20 @@ use lightvol_sh::lowdisc::{SplitMix64, hash2};
 const COEFFS: usize = 4;
 const K: usize = COEFFS * 3;
 
-fn base_spec() -> GridSpec {
+pub(crate) fn base_spec() -> GridSpec {
     GridSpec::new([0.0, 0.0, 0.0], [3.0, 2.0, 2.0], [4, 3, 3]).unwrap()
 }
 
 /// A field with a discontinuity (a step across a slanted plane) on a smooth bowl (curved
 /// along every axis, so that fine nodes on any face carry a surplus), scaled differently
 /// per coefficient and channel.
-fn step_field(x: [f64; 3], q: usize) -> f64 {
+pub(crate) fn step_field(x: [f64; 3], q: usize) -> f64 {
     let smooth = 1.0 + 0.5 * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]);
     let step = if x[0] + 0.3 * x[1] > 1.37 { 2.0 } else { 0.0 };
     (smooth + step) * (1.0 + 0.1 * q as f64)
 }
 
-fn base_from(spec: &GridSpec, f: &impl Fn([f64; 3], usize) -> f64) -> IrradianceVolume {
+pub(crate) fn base_from(spec: &GridSpec, f: &impl Fn([f64; 3], usize) -> f64) -> IrradianceVolume {
     IrradianceVolume::from_fn(spec.clone(), COEFFS, |x| {
         (0..COEFFS).map(|j| std::array::from_fn(|ch| f(x, 3 * j + ch))).collect()
     })
@@ -31,7 +31,7 @@ fn base_from(spec: &GridSpec, f: &impl Fn([f64; 3], usize) -> f64) -> Irradiance
 
 /// A bake callback sampling `f` at the nodes of the level grid; nodes for which
 /// `empty(level, node)` holds report no estimate (weight 0).
-fn point_bake<'a>(
+pub(crate) fn point_bake<'a>(
     spec: &'a GridSpec,
     f: &'a impl Fn([f64; 3], usize) -> f64,
     empty: impl Fn(u32, [u32; 3]) -> bool + 'a,
@@ -50,7 +50,7 @@ fn point_bake<'a>(
 
 /// The step-field volume: split by corner change above 50 %, 3 levels, 1 % culling, a few
 /// empty nodes.
-fn step_volume() -> AdaptiveVolume {
+pub(crate) fn step_volume() -> AdaptiveVolume {
     let spec = base_spec();
     let params = OctreeParams { min_level: 0, max_level: 3, cull_tolerance: 0.01, memory_budget: None };
     build_adaptive(

@@ -87,7 +87,7 @@ pub struct ExrOptions {
     pub compression: ExrCompression,
 }
 
-fn text(s: &str) -> Result<Text, VolumeError> {
+pub(crate) fn text(s: &str) -> Result<Text, VolumeError> {
     Text::new_or_none(s).ok_or_else(|| {
         VolumeError::InvalidData(format!("{s:?} has characters EXR text attributes cannot hold"))
     })
@@ -127,6 +127,18 @@ pub fn exr_to_bytes_with_gradients(
     grad: Option<&VolumeGradients>,
     options: &ExrOptions,
 ) -> Result<Vec<u8>, VolumeError> {
+    let (layers, ia) = base_layers(vol, grad, options)?;
+    encode_image(ia, layers)
+}
+
+/// The parts and image attributes of the native format (what
+/// [`exr_to_bytes_with_gradients`] writes), for extensions that add parts
+/// ([`crate::adaptive_io`]).
+pub(crate) fn base_layers(
+    vol: &IrradianceVolume,
+    grad: Option<&VolumeGradients>,
+    options: &ExrOptions,
+) -> Result<(Vec<ExrLayer>, ImageAttributes), VolumeError> {
     if let Some(g) = grad
         && (g.nodes() != vol.spec().node_count() || g.coeffs() != vol.coeffs())
     {
@@ -243,7 +255,14 @@ pub fn exr_to_bytes_with_gradients(
         ExrSample::F16 => volume_checksum(&through_f16(vol, false)?),
     };
     ia.other.insert(text("lightvol.checksum")?, AttributeValue::Text(text(&to_hex(decoded))?));
+    Ok((layers, ia))
+}
 
+/// One part of a native file.
+pub(crate) type ExrLayer = Layer<AnyChannels<FlatSamples>>;
+
+/// Encodes parts into EXR bytes.
+pub(crate) fn encode_image(ia: ImageAttributes, layers: Vec<ExrLayer>) -> Result<Vec<u8>, VolumeError> {
     let image = Image::from_layers(ia, layers);
     let mut out = Cursor::new(Vec::new());
     image
@@ -403,10 +422,37 @@ pub fn exr_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
 pub fn exr_from_bytes_with_gradients(
     bytes: &[u8],
 ) -> Result<(IrradianceVolume, Option<VolumeGradients>), VolumeError> {
-    guard(F, || exr_from_bytes_inner(bytes))
+    guard(F, || exr_from_bytes_inner(bytes, false)).map(|(v, g, _, _)| (v, g))
 }
 
-fn exr_from_bytes_inner(bytes: &[u8]) -> Result<(IrradianceVolume, Option<VolumeGradients>), VolumeError> {
+/// A part that is not one of the native format's (an extension's), as read: name, size and
+/// channels (name, samples) in the file's channel order.
+pub(crate) struct ExtraPart {
+    pub(crate) name: String,
+    pub(crate) size: (usize, usize),
+    pub(crate) channels: Vec<(String, FlatSamples)>,
+}
+
+/// Whether a part name belongs to the adaptive extension ([`crate::adaptive_io`]).
+pub(crate) fn is_octree_part(name: &str) -> bool {
+    name.starts_with("octree") || name.starts_with("split")
+}
+
+/// The image attribute that marks an adaptive octree file.
+pub(crate) const OCTREE_ATTRIBUTE: &str = "lightvol.octree";
+
+/// Parses a native file; with `extensions`, parts named by [`is_octree_part`] are returned
+/// unchecked instead of rejected, and the image attributes come back too.
+pub(crate) fn exr_from_bytes_ext(
+    bytes: &[u8],
+    extensions: bool,
+) -> Result<(IrradianceVolume, Vec<ExtraPart>, HashMap<Text, AttributeValue>), VolumeError> {
+    guard(F, || exr_from_bytes_inner(bytes, extensions)).map(|(v, _, e, a)| (v, e, a))
+}
+
+type Parsed = (IrradianceVolume, Option<VolumeGradients>, Vec<ExtraPart>, HashMap<Text, AttributeValue>);
+
+fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, VolumeError> {
     let e = |err: exr::error::Error| VolumeError::malformed(F, err.to_string());
     // 1. Headers only.
     let meta = exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), true).map_err(e)?;
@@ -415,10 +461,21 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<(IrradianceVolume, Option<Volume
     // file unknown attributes under the part's own attributes, so look in both.
     let mut attrs = first.shared_attributes.other.clone();
     attrs.extend(first.own_attributes.other.iter().map(|(k, v)| (k.clone(), v.clone())));
+    if !extensions && attrs.keys().any(|k| k.as_slice() == OCTREE_ATTRIBUTE.as_bytes()) {
+        return Err(VolumeError::unsupported(
+            F,
+            "this is an adaptive octree volume (lightvol.octree); read it with adaptive_io::read_adaptive_exr",
+        ));
+    }
     let d = declared(&attrs)?;
     let [nx, ny, nz] = d.spec.res().map(|v| v as usize);
     let size = Vec2(nx, ny * nz);
-    let parts = if d.gradients { 2 * d.coeffs + 1 } else { d.coeffs + 1 };
+    let part_name = |h: &exr::meta::header::Header| {
+        h.own_attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default()
+    };
+    let extra =
+        if extensions { meta.headers.iter().filter(|h| is_octree_part(&part_name(h))).count() } else { 0 };
+    let parts = if d.gradients { 2 * d.coeffs + 1 } else { d.coeffs + 1 } + extra;
     if meta.headers.len() != parts {
         return Err(VolumeError::malformed(F, format!("{} parts, expected {parts}", meta.headers.len())));
     }
@@ -426,7 +483,10 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<(IrradianceVolume, Option<Volume
     let grad_want: Vec<(&str, SampleType)> =
         GRAD_CHANNELS.iter().map(|&(c, _)| (c, SampleType::F32)).collect();
     for h in &meta.headers {
-        let name = h.own_attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default();
+        let name = part_name(h);
+        if extensions && is_octree_part(&name) {
+            continue;
+        }
         let grad_slot = (0..d.coeffs).find(|&j| d.gradients && grad_layer_name(j) == name);
         let (slot, want): (usize, &[(&str, SampleType)]) = if name == "weight" {
             (d.coeffs, &[("Y", SampleType::F32)])
@@ -474,8 +534,22 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<(IrradianceVolume, Option<Volume
     let mut data = vec![0.0f32; n * k];
     let mut weights = vec![0.0f32; n];
     let mut gdata = vec![0.0f32; if d.gradients { n * k * 3 } else { 0 }];
+    let mut extras = Vec::new();
     for layer in &image.layer_data {
         let name = layer.attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default();
+        if extensions && is_octree_part(&name) {
+            extras.push(ExtraPart {
+                name,
+                size: (layer.size.0, layer.size.1),
+                channels: layer
+                    .channel_data
+                    .list
+                    .iter()
+                    .map(|c| (c.name.to_string(), c.sample_data.clone()))
+                    .collect(),
+            });
+            continue;
+        }
         for ch in &layer.channel_data.list {
             let vals: Vec<f32> = ch.sample_data.values_as_f32().collect();
             if vals.len() != n {
@@ -515,5 +589,5 @@ fn exr_from_bytes_inner(bytes: &[u8]) -> Result<(IrradianceVolume, Option<Volume
     let vol = IrradianceVolume::new(d.spec, d.coeffs, data, weights)?.with_metadata(d.meta);
     verify(F, Some(&d.checksum), &vol)?;
     let grad = if d.gradients { Some(VolumeGradients::new(&vol, gdata)?) } else { None };
-    Ok((vol, grad))
+    Ok((vol, grad, extras, attrs))
 }

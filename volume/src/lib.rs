@@ -4,6 +4,7 @@ pub mod accumulator;
 pub mod accumulator_io;
 pub mod adaptive;
 pub mod adaptive_build;
+pub mod adaptive_io;
 pub mod bevy;
 pub mod checksum;
 pub mod dds_io;
