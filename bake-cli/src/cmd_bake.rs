@@ -4,17 +4,18 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lightvol_sampler::{
-    BakeControl, BakeOutput, BakeSettings, Progress, Tracer, Transport, TransportSettings,
+    BakeControl, BakeOutput, BakeSettings, Method, Progress, Tracer, Transport, TransportSettings,
 };
 use lightvol_volume::accumulator_io::write_accumulator;
-use lightvol_volume::exr_io::{ExrOptions, write_exr};
+use lightvol_volume::exr_io::{ExrOptions, write_exr, write_exr_with_gradients};
 use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
 use serde::Serialize;
 
+use crate::gradients::{GradientEstimator, bake_with};
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, parse_shard, with_threads};
 
 /// `lightvol bake`.
@@ -43,6 +44,11 @@ pub struct BakeArgs {
     /// can later be merged with more samples (e.g. another seed).
     #[arg(long)]
     pub keep_accumulator: bool,
+    /// Also bake per-node SH irradiance gradients (seed 002) and store them in the EXR:
+    /// `basis` (default; from the bake's own samples, no extra rays; prefilter/doi) or
+    /// `central` (six extra point projections per node at 1/16 cell).
+    #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1, default_missing_value = "basis")]
+    pub gradients: Option<GradientEstimator>,
     /// Output volume (native multi-part EXR).
     #[arg(short, long, default_value = "volume.exr")]
     pub output: PathBuf,
@@ -89,6 +95,24 @@ pub struct BakeReport {
     pub mrays_per_second: f64,
     /// Output file.
     pub output: String,
+    /// The gradients, when baked.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gradients: Option<GradientsJson>,
+}
+
+/// The gradient step in `bake --json`.
+#[derive(Debug, Serialize)]
+pub struct GradientsJson {
+    /// Estimator name.
+    pub estimator: GradientEstimator,
+    /// Nodes with a singular basis-gradient system (zero gradient).
+    pub singular_nodes: usize,
+    /// Directions traced beyond the bake.
+    pub extra_directions: u64,
+    /// Wall time beyond the bake.
+    pub seconds: f64,
+    /// Bytes of gradient data (f32).
+    pub memory_bytes: usize,
 }
 
 /// Grid description in reports.
@@ -168,6 +192,32 @@ pub fn run_bake(
     Ok(out)
 }
 
+/// [`run_bake`] for a whole (unsharded) bake, finalized with the chosen node fit
+/// (lightvol-sampler's `fit` module).
+#[allow(clippy::too_many_arguments, reason = "the bake's inputs plus its presentation")]
+pub fn run_bake_fitted(
+    loaded: &LoadedScene,
+    tracer: &Tracer,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    transport_settings: TransportSettings,
+    quiet: bool,
+    label: &str,
+    fit: lightvol_sampler::fit::Fit,
+) -> anyhow::Result<(IrradianceVolume, lightvol_sampler::BakeStats)> {
+    let transport = Transport::new(&loaded.scene, tracer, transport_settings);
+    let pb = progress_bar(quiet, 0, label);
+    let report = |p: Progress| {
+        pb.set_length(p.total as u64);
+        pb.set_position(p.done as u64);
+    };
+    let control = BakeControl { progress: Some(&report), cancel: None };
+    let (volume, stats, _) =
+        lightvol_sampler::fit::bake_fitted(&transport, grid, settings, &control, fit).context("baking")?;
+    pb.finish_and_clear();
+    Ok((volume, stats))
+}
+
 /// A short stable hash of the scene geometry and bake settings (FNV-1a over the triangle
 /// vertices and the settings' text), for the file metadata.
 pub fn scene_hash(loaded: &LoadedScene, extra: &str) -> String {
@@ -215,12 +265,40 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         shard,
         ..BakeSettings::default()
     };
+    if args.gradients.is_some() && (args.shard.is_some() || args.keep_accumulator) {
+        bail!(
+            "--gradients cannot be combined with --shard or --keep-accumulator (the accumulator holds no gradient sums)"
+        );
+    }
+    if args.gradients == Some(GradientEstimator::Basis) && method == Method::Point {
+        bail!(
+            "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
+        );
+    }
     let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
-    let (out, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
+    let (out, grads, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
-        Ok((run_bake(&loaded, &tracer, &grid, &settings, ts, args.quiet, &args.method)?, bvh_seconds))
+        Ok(match args.gradients {
+            None => (
+                run_bake(&loaded, &tracer, &grid, &settings, ts, args.quiet, &args.method)?,
+                None,
+                bvh_seconds,
+            ),
+            Some(est) => {
+                let g =
+                    bake_with(&loaded.scene, &tracer, &grid, &settings, ts, est, args.quiet, &args.method)?;
+                let json = GradientsJson {
+                    estimator: g.estimator,
+                    singular_nodes: g.singular_nodes,
+                    extra_directions: g.extra_directions,
+                    seconds: g.seconds,
+                    memory_bytes: g.gradients.memory_bytes(),
+                };
+                (g.output, Some((g.gradients, json)), bvh_seconds)
+            }
+        })
     })??;
     let meta = BakeMetadata {
         method: args.method.clone(),
@@ -243,8 +321,12 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         }
     }
     let (vol, fill) = finish_volume(&out, meta);
-    write_exr(&args.output, &vol, &ExrOptions::default())
-        .with_context(|| format!("writing {}", args.output.display()))?;
+    let (grads, grads_json) = grads.map_or((None, None), |(g, j)| (Some(g), Some(j)));
+    match &grads {
+        None => write_exr(&args.output, &vol, &ExrOptions::default()),
+        Some(g) => write_exr_with_gradients(&args.output, &vol, g, &ExrOptions::default()),
+    }
+    .with_context(|| format!("writing {}", args.output.display()))?;
     let s = &out.stats;
     let report = BakeReport {
         scene: loaded.label.clone(),
@@ -263,6 +345,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         bvh_seconds,
         mrays_per_second: s.mrays_per_second(),
         output: args.output.display().to_string(),
+        gradients: grads_json,
     };
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -290,6 +373,16 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             report.zero_weight_nodes,
             report.filled_nodes
         );
+        if let Some(g) = &report.gradients {
+            eprintln!(
+                "gradients ({}) in {:.2} s: {} extra directions, {} singular nodes (zero gradient), {} bytes",
+                g.estimator.name(),
+                g.seconds,
+                g.extra_directions,
+                g.singular_nodes,
+                g.memory_bytes
+            );
+        }
         eprintln!("wrote {}", args.output.display());
     }
     Ok(ExitCode::SUCCESS)

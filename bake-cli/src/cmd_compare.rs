@@ -17,10 +17,11 @@ use lightvol_volume::{GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::cmd_bake::{GridJson, RaysJson, progress_bar, run_bake};
+use crate::cmd_bake::{GridJson, RaysJson, progress_bar, run_bake_fitted};
+use crate::compare_entries::{Entry, GradientCache, gradient_run, parse_entry, uniform_extra};
 use crate::imaging::{Rgb32, diverging, write_atomic, write_png_linear};
 use crate::metrics::{Metrics, PlatePoint, compute};
-use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, with_threads};
+use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, with_threads};
 
 /// `lightvol compare`.
 #[derive(Debug, Args, Clone)]
@@ -41,9 +42,24 @@ pub struct CompareArgs {
     /// Plate resolution along its longer side.
     #[arg(long, default_value_t = 128)]
     pub plate_res: u32,
-    /// Methods to compare.
+    /// Methods to compare: `point`, `prefilter`, `doi` (trilinear lookup), or
+    /// `BASE+LOOKUP` for a bake with SH gradients (seed 002) read by `taylor` (nearest node,
+    /// first-order Taylor), `gtrilinear` (gradient-extrapolated corners, trilinear) or
+    /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`.
     #[arg(long, default_value = "point,prefilter,doi", value_delimiter = ',')]
     pub methods: Vec<String>,
+    /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for prefilter/doi,
+    /// no extra rays; `central` for point).
+    #[arg(long, value_enum)]
+    pub gradient_estimator: Option<crate::gradients::GradientEstimator>,
+    /// Also run the error-vs-memory study on this plate: uniform doi at several
+    /// resolutions, the same bakes read through the Taylor and Hermite gradient lookups,
+    /// writing `memory_sweep.json`, `.png` and `.svg`.
+    #[arg(long)]
+    pub memory_sweep: bool,
+    /// Scale factors of the grid's cell counts for `--memory-sweep`.
+    #[arg(long, value_delimiter = ',', default_value = "0.5,0.7,1,1.4")]
+    pub sweep_scales: Vec<f64>,
     /// Path-traced samples per plate point for the reference.
     #[arg(long, default_value_t = 512)]
     pub reference_samples: u32,
@@ -356,16 +372,16 @@ pub fn run_method(
         ..BakeSettings::default()
     };
     let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
-    let out = run_bake(loaded, tracer, grid, &settings, ts, args.quiet, name)?;
-    let (vol, _) = out.accumulator.finalize();
+    let (vol, stats) =
+        run_bake_fitted(loaded, tracer, grid, &settings, ts, args.quiet, name, args.sampling.fit)?;
     let estimate = evaluate(&vol, plate);
     let metrics = plate_metrics(plate, &estimate);
     Ok(MethodRun {
         name: name.to_owned(),
         json: MethodJson {
             samples: args.sampling.samples,
-            rays: RaysJson::of(&out.stats.rays),
-            seconds: out.stats.wall_time.as_secs_f64(),
+            rays: RaysJson::of(&stats.rays),
+            seconds: stats.wall_time.as_secs_f64(),
             metrics,
         },
         estimate,
@@ -374,11 +390,14 @@ pub fn run_method(
 
 /// Runs the whole comparison and writes its outputs; returns the report.
 pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
-    let methods: Vec<(String, Method)> = args
+    let methods: Vec<(String, Entry)> = args
         .methods
         .iter()
-        .map(|m| Ok((m.trim().to_owned(), parse_method(m.trim())?)))
+        .map(|m| Ok((m.trim().to_owned(), parse_entry(m.trim())?)))
         .collect::<anyhow::Result<_>>()?;
+    if args.memory_sweep {
+        crate::memory_sweep::check_scales(&args.sweep_scales)?;
+    }
     if methods.is_empty() {
         bail!("--methods needs at least one method");
     }
@@ -405,17 +424,44 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
         }
         let mean_truth = valid_truth.iter().sum::<f64>() / valid_truth.len() as f64;
         let mut runs = Vec::new();
-        for (name, method) in &methods {
-            let run = run_method(&loaded, &tracer, &grid, args, name, *method, &plate)?;
+        let mut extras = Vec::new();
+        let mut gradient_bakes = GradientCache::default();
+        for (name, entry) in &methods {
+            let (run, extra) = match *entry {
+                Entry::Uniform(method) => (
+                    run_method(&loaded, &tracer, &grid, args, name, method, &plate)?,
+                    uniform_extra(&grid, args.grid.coeffs()),
+                ),
+                Entry::Gradient(base, lookup) => {
+                    let gv = gradient_bakes.get(
+                        &loaded,
+                        &tracer,
+                        &grid,
+                        args,
+                        base,
+                        args.gradient_estimator,
+                        name,
+                    )?;
+                    gradient_run(gv, name, lookup, args.sampling.samples, &plate)?
+                }
+            };
             write_panels(&args.output, name, &plate, &run.estimate, mean_truth)?;
             runs.push(run);
+            extras.push(extra);
+        }
+        if args.memory_sweep {
+            crate::memory_sweep::run(&loaded, &tracer, &grid, args, &plate, &args.output)?;
         }
         let named: Vec<(String, Vec<[f64; 3]>)> =
             runs.iter().map(|r| (r.name.clone(), r.estimate.clone())).collect();
         write_plate_exr(&args.output.join("plate.exr"), &plate, &named)?;
         let mut methods_json = serde_json::Map::new();
-        for r in &runs {
-            methods_json.insert(r.name.clone(), serde_json::to_value(&r.json)?);
+        for (r, extra) in runs.iter().zip(extras) {
+            let mut v = serde_json::to_value(&r.json)?;
+            if let serde_json::Value::Object(m) = &mut v {
+                m.extend(extra);
+            }
+            methods_json.insert(r.name.clone(), v);
         }
         let report = CompareReport {
             scene: loaded.label.clone(),
@@ -443,14 +489,21 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
 pub fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
     let report = compare(args)?;
     eprintln!(
-        "{:<10} {:>9} {:>8} {:>9} {:>13} {:>10} {:>10} {:>8}",
-        "method", "rel_rmse", "bias", "too_dark", "too_dark_near", "too_bright", "rays", "seconds"
+        "{:<14} {:>9} {:>8} {:>9} {:>13} {:>10} {:>10} {:>8} {:>10}",
+        "method", "rel_rmse", "bias", "too_dark", "too_dark_near", "too_bright", "rays", "seconds", "memory"
     );
     for (name, v) in &report.methods {
         let m: MethodJsonView = serde_json::from_value(v.clone())?;
         eprintln!(
-            "{name:<10} {:>9.4} {:>8.4} {:>9.4} {:>13.4} {:>10.4} {:>10} {:>8.2}",
-            m.rel_rmse, m.bias, m.too_dark, m.too_dark_near, m.too_bright, m.rays.total, m.seconds
+            "{name:<14} {:>9.4} {:>8.4} {:>9.4} {:>13.4} {:>10.4} {:>10} {:>8.2} {:>10}",
+            m.rel_rmse,
+            m.bias,
+            m.too_dark,
+            m.too_dark_near,
+            m.too_bright,
+            m.rays.total,
+            m.seconds,
+            m.memory_bytes
         );
     }
     eprintln!("wrote {}", args.output.join("report.json").display());
@@ -466,6 +519,8 @@ struct MethodJsonView {
     too_dark: f64,
     too_dark_near: f64,
     too_bright: f64,
+    #[serde(default)]
+    memory_bytes: u64,
 }
 
 #[derive(serde::Deserialize)]

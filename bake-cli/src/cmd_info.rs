@@ -1,59 +1,117 @@
-//! `lightvol info`: describe a volume file.
+//! `lightvol info`: describe a volume file (uniform, with or without seed 002's SH
+//! gradients).
 
+use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use lightvol_volume::exr_io::read_exr;
+use lightvol_volume::exr_io::read_exr_with_gradients;
+use lightvol_volume::gradient::floats_per_sample;
+use serde_json::{Value, json};
 
 use crate::cli::InfoArgs;
+use crate::gradients::{floats_table, uniform_memory_bytes};
 
-/// Runs `lightvol info`.
-pub fn run(args: &InfoArgs) -> anyhow::Result<ExitCode> {
-    let vol = read_exr(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
+/// The description `info --json` prints.
+pub fn describe(path: &Path) -> anyhow::Result<Value> {
+    let (vol, grads) =
+        read_exr_with_gradients(path).with_context(|| format!("reading {}", path.display()))?;
+    let has_grads = grads.is_some();
+    let floats = floats_per_sample(vol.bands(), has_grads);
     let spec = vol.spec();
     let (min, max) = spec.bounds();
     let zero_weight = vol.weights().iter().filter(|&&w| w == 0.0).count();
-    let meta = vol.metadata();
-    let info = serde_json::json!({
-        "file": args.volume.display().to_string(),
+    Ok(json!({
+        "file": path.display().to_string(),
+        "kind": "uniform",
         "grid": { "res": spec.res(), "bounds": [min, max], "cell_size": spec.cell_size(),
                   "nodes": spec.node_count(), "placement": spec.placement().map(|p| p.to_world_matrix()) },
         "sh": { "coeffs": vol.coeffs(), "bands": vol.bands(),
                 "convention": "real orthonormal, index l(l+1)+m, no Condon-Shortley phase, +z polar",
                 "quantity": "incident radiance" },
-        "bake": meta,
+        "bake": vol.metadata(),
         "zero_weight_nodes": zero_weight,
         "memory_bytes": vol.memory_bytes(),
-    });
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&info)?);
-        return Ok(ExitCode::SUCCESS);
-    }
-    let [nx, ny, nz] = spec.res();
-    println!("volume      {}", args.volume.display());
-    println!("grid        {nx} x {ny} x {nz} nodes ({} total)", spec.node_count());
+        "gradients": has_grads,
+        "memory": { "floats_per_node": floats, "bytes_per_node": floats * 4,
+                    "runtime_bytes": uniform_memory_bytes(&vol, has_grads),
+                    "gradient_bytes": grads.as_ref().map_or(0, |g| g.memory_bytes()),
+                    "seed002_floats_per_sample": floats_table(vol.bands()) },
+    }))
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap_or(f64::NAN)
+}
+
+fn print_text(info: &Value) {
+    let g = &info["grid"];
+    let res = |i: usize| g["res"][i].as_u64().unwrap_or(0);
+    let b = |k: usize, i: usize| f(&g["bounds"][k][i]);
+    println!("volume      {}", info["file"].as_str().unwrap_or("?"));
+    println!("grid        {} x {} x {} nodes ({} total)", res(0), res(1), res(2), g["nodes"]);
     println!(
         "bounds      [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
-        min[0], min[1], min[2], max[0], max[1], max[2]
+        b(0, 0),
+        b(0, 1),
+        b(0, 2),
+        b(1, 0),
+        b(1, 1),
+        b(1, 2)
     );
-    let c = spec.cell_size();
-    println!("cell size   {:.4} x {:.4} x {:.4}", c[0], c[1], c[2]);
-    if let Some(p) = spec.placement() {
-        println!("placement   {:?}", p.to_world_matrix());
+    let c = |i: usize| f(&g["cell_size"][i]);
+    println!("cell size   {:.4} x {:.4} x {:.4}", c(0), c(1), c(2));
+    if !g["placement"].is_null() {
+        println!("placement   {}", g["placement"]);
     }
-    println!("SH          {} coefficients per channel ({} bands), RGB radiance", vol.coeffs(), vol.bands());
+    println!(
+        "SH          {} coefficients per channel ({} bands), RGB radiance",
+        info["sh"]["coeffs"], info["sh"]["bands"]
+    );
     println!("convention  real orthonormal, index l(l+1)+m, no Condon-Shortley phase, +z polar axis");
+    let m = &info["bake"];
+    let hash = m["scene_hash"].as_str().unwrap_or("");
     println!(
         "bake        method {}, {} samples, seed {}, shard {}/{}, scene {}",
-        meta.method,
-        meta.samples,
-        meta.seed,
-        meta.shard_index,
-        meta.shard_count,
-        if meta.scene_hash.is_empty() { "-" } else { &meta.scene_hash }
+        m["method"].as_str().unwrap_or("?"),
+        m["samples"],
+        m["seed"],
+        m["shard_index"],
+        m["shard_count"],
+        if hash.is_empty() { "-" } else { hash }
     );
-    println!("units       {}", meta.units);
-    println!("zero-weight {zero_weight} nodes (filled from neighbours)");
-    println!("memory      {} bytes (f32)", vol.memory_bytes());
+    println!("units       {}", m["units"].as_str().unwrap_or("?"));
+    println!("zero-weight {} nodes (filled from neighbours)", info["zero_weight_nodes"]);
+    let has_grads = info["gradients"].as_bool().unwrap_or(false);
+    println!(
+        "gradients   {}",
+        if has_grads { "yes (per-node world gradient of every coefficient, seed 002)" } else { "no" }
+    );
+    let mem = &info["memory"];
+    println!(
+        "memory      {} bytes at run time ({} floats = {} bytes per node{}); file data {} bytes with bake weights",
+        mem["runtime_bytes"],
+        mem["floats_per_node"],
+        mem["bytes_per_node"],
+        if has_grads { ", SH and gradients" } else { ", SH" },
+        info["memory_bytes"].as_u64().unwrap_or(0) + mem["gradient_bytes"].as_u64().unwrap_or(0)
+    );
+    println!("seed 002    floats per sample: order | SH | SH + gradients");
+    for r in mem["seed002_floats_per_sample"].as_array().into_iter().flatten() {
+        println!(
+            "                                 {:>5} | {:>2} | {:>3}",
+            r["order"], r["floats"], r["floats_with_gradients"]
+        );
+    }
+}
+
+/// Runs `lightvol info`.
+pub fn run(args: &InfoArgs) -> anyhow::Result<ExitCode> {
+    let info = describe(&args.volume)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&info)?);
+    } else {
+        print_text(&info);
+    }
     Ok(ExitCode::SUCCESS)
 }

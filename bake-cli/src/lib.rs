@@ -8,12 +8,15 @@ pub mod cmd_demo;
 mod cmd_export;
 pub mod cmd_gpu;
 pub mod cmd_imse;
-mod cmd_info;
+pub mod cmd_info;
 pub mod cmd_lint;
 pub mod cmd_merge;
 pub mod cmd_proxies;
 pub mod cmd_render;
+pub mod compare_entries;
+pub mod gradients;
 pub mod imaging;
+pub mod memory_sweep;
 pub mod metrics;
 pub mod setup;
 

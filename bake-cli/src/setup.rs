@@ -78,6 +78,11 @@ pub struct SampleArgs {
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
+    /// How prefilter/doi node values come from their samples: `average` (Kontkanen & Laine
+    /// Eq. 6) or `lsq[:LAMBDA]` (least squares over the domain of interest, regularised
+    /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `fit` module).
+    #[arg(long, default_value = "average")]
+    pub fit: lightvol_sampler::fit::Fit,
 }
 
 /// A loaded scene with its recommended grid (built-ins) and plate heights.
