@@ -60,6 +60,9 @@ pub enum SceneError {
         /// The number of materials.
         count: usize,
     },
+    /// A triangle refers to a lightmap object or vertex that does not exist.
+    #[error("bad mesh reference: {0}")]
+    BadMesh(String),
     /// After loading, no (non-degenerate) triangle remained.
     #[error("scene {0} has no triangles")]
     Empty(String),

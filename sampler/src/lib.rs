@@ -17,6 +17,7 @@ pub mod qmc;
 pub mod reference;
 pub mod scene;
 pub mod stats;
+pub mod surface;
 pub mod texture;
 pub mod transport;
 
@@ -29,7 +30,7 @@ pub use lights::{Environment, PunctualLight, Sun};
 pub use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 pub use load_obj::{LoadOptions, load_obj, load_scene};
 pub use reference::{reference_irradiance, reference_irradiance_many};
-pub use scene::{LoadReport, Material, Scene, SceneBuilder, Triangle, UpAxis};
+pub use scene::{LoadReport, Material, MeshAttributes, Scene, SceneBuilder, Triangle, TriangleRef, UpAxis};
 pub use stats::{BakeStats, RayCounts};
 pub use transport::{PathRng, Transport, TransportSettings};
 

@@ -1,16 +1,21 @@
 //! glTF 2.0 (`.gltf`, `.glb`) loading: every node of the default scene with its transform,
 //! `baseColorFactor` × `baseColorTexture`, `emissiveFactor` ×
 //! `KHR_materials_emissive_strength`, `doubleSided`, and `KHR_lights_punctual`.
+//!
+//! Every node's mesh instance also becomes a lightmap object ([`MeshAttributes`]) with its
+//! world-space `NORMAL`, `TANGENT`, `TEXCOORD_0` and `TEXCOORD_1` (for the surface bake,
+//! [`crate::surface`]); each scene triangle records its object and vertices
+//! ([`Scene::triangle_refs`]).
 
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{DMat4, DVec2, DVec3, DVec4};
+use glam::{DMat3, DMat4, DVec2, DVec3, DVec4};
 
 use crate::error::SceneError;
 use crate::lights::PunctualLight;
 use crate::load_obj::LoadOptions;
-use crate::scene::{Material, Scene, SceneBuilder};
+use crate::scene::{Material, MeshAttributes, Scene, SceneBuilder, TriangleRef};
 use crate::texture::{Texture, srgb_to_linear};
 
 /// Loads a glTF 2.0 file. A texture that cannot be read or decoded is a warning; the
@@ -43,6 +48,7 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         DVec4::W,
     );
     let mut stack: Vec<(gltf::Node<'_>, DMat4)> = scene.nodes().map(|n| (n, root)).collect();
+    let mut object_names: HashMap<String, usize> = HashMap::new();
     while let Some((node, parent)) = stack.pop() {
         let local = DMat4::from_cols_array_2d(&node.transform().matrix().map(|c| c.map(f64::from)));
         let world = parent * local;
@@ -55,6 +61,19 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         let Some(mesh) = node.mesh() else { continue };
         // A mirroring transform flips the winding (glTF 2.0 §3.7.4).
         let flip = world.determinant() < 0.0;
+        let linear = DMat3::from_mat4(world);
+        // Normals transform with the inverse transpose; tangents with the matrix, and their
+        // handedness flips with a mirroring transform (the bitangent is w · n × t).
+        let normal_matrix = if linear.determinant() != 0.0 { linear.inverse().transpose() } else { linear };
+        let base_name = mesh.name().map_or_else(|| format!("mesh{}", mesh.index()), str::to_owned);
+        let seen = object_names.entry(base_name.clone()).or_insert(0);
+        *seen += 1;
+        let object_name = if *seen == 1 { base_name } else { format!("{base_name}#{seen}") };
+        let mut attrs = MeshAttributes { name: object_name, ..MeshAttributes::default() };
+        let (mut normals, mut tangents, mut uv0, mut uv1) =
+            (Some(Vec::new()), Some(Vec::new()), Some(Vec::new()), Some(Vec::new()));
+        // Faces of all primitives: object vertex ids, positions, base UVs, material.
+        let mut faces: Vec<([usize; 3], [DVec3; 3], [DVec2; 3], u32)> = Vec::new();
         for prim in mesh.primitives() {
             if prim.mode() != gltf::mesh::Mode::Triangles {
                 b.warn(format!(
@@ -87,6 +106,37 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
                 Some(i) => i.into_u32().collect(),
                 None => (0..positions.len() as u32).collect(),
             };
+            let base_vertex = attrs.positions.len();
+            let nv = positions.len();
+            attrs.positions.extend_from_slice(&positions);
+            let read_set = |set: u32| -> Option<Vec<DVec2>> {
+                reader
+                    .read_tex_coords(set)
+                    .map(|t| t.into_f32().map(|q| DVec2::new(f64::from(q[0]), f64::from(q[1]))).collect())
+            };
+            extend_or_drop(&mut uv0, read_set(0), nv);
+            extend_or_drop(&mut uv1, read_set(1), nv);
+            extend_or_drop(
+                &mut normals,
+                reader.read_normals().map(|it| {
+                    it.map(|q| (normal_matrix * DVec3::from_array(q.map(f64::from))).normalize_or_zero())
+                        .collect()
+                }),
+                nv,
+            );
+            let handed = if flip { -1.0 } else { 1.0 };
+            extend_or_drop(
+                &mut tangents,
+                reader.read_tangents().map(|it| {
+                    it.map(|q| {
+                        let t = (linear * DVec3::new(f64::from(q[0]), f64::from(q[1]), f64::from(q[2])))
+                            .normalize_or_zero();
+                        t.extend(if q[3] < 0.0 { -handed } else { handed })
+                    })
+                    .collect()
+                }),
+                nv,
+            );
             for (f, tri) in indices.chunks_exact(3).enumerate() {
                 let mut ids = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                 if flip {
@@ -108,11 +158,30 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
                     });
                 }
                 let uv = ids.map(|i| uvs.get(i).copied().unwrap_or(DVec2::ZERO));
-                b.add_triangle(v, uv, mat)?;
+                faces.push((ids.map(|i| i + base_vertex), v, uv, mat));
             }
+        }
+        attrs.normals = normals;
+        attrs.tangents = tangents;
+        attrs.uv0 = uv0;
+        attrs.uv1 = uv1;
+        let object = b.add_mesh(attrs);
+        for (face, (ids, v, uv, mat)) in faces.into_iter().enumerate() {
+            let r = TriangleRef { mesh: object, face: face as u32, vertices: ids.map(|i| i as u32) };
+            b.add_mesh_triangle(v, uv, mat, r)?;
         }
     }
     b.build()
+}
+
+/// Appends a primitive's attribute array to the object's, or drops the object's array when
+/// this primitive lacks the attribute (or has the wrong count): a set is present for an
+/// object only when every primitive has it.
+fn extend_or_drop<T>(acc: &mut Option<Vec<T>>, part: Option<Vec<T>>, vertices: usize) {
+    match (acc.as_mut(), part) {
+        (Some(a), Some(p)) if p.len() == vertices => a.extend(p),
+        _ => *acc = None,
+    }
 }
 
 fn convert_material(

@@ -7,7 +7,7 @@
 //! with `dot(normal, direction) > 0` meets the back face; on a single-sided material that
 //! is a *back-face hit* in the sense of Kontkanen & Laine 2006 §5.
 
-use glam::{DVec2, DVec3};
+use glam::{DVec2, DVec3, DVec4};
 
 use crate::error::SceneError;
 use crate::lights::{Environment, PunctualLight, Sun};
@@ -111,6 +111,38 @@ impl Triangle {
     }
 }
 
+/// Vertex attributes of one lightmap object (a glTF node's mesh instance, seed 003 §2.1.1:
+/// every static object gets its own coefficient maps). Arrays are vertex-indexed and in world
+/// space; [`TriangleRef::vertices`] index them.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshAttributes {
+    /// Object name used in errors and output (the glTF mesh name, made unique by the loader).
+    pub name: String,
+    /// World-space positions.
+    pub positions: Vec<DVec3>,
+    /// Unit world-space shading normals (glTF `NORMAL`), if the file has them.
+    pub normals: Option<Vec<DVec3>>,
+    /// World-space tangents with handedness in `w` (glTF `TANGENT`): the bitangent is
+    /// `w · normal × tangent` (MikkTSpace convention), if the file has them.
+    pub tangents: Option<Vec<DVec4>>,
+    /// Base texture coordinates (glTF `TEXCOORD_0`).
+    pub uv0: Option<Vec<DVec2>>,
+    /// Lightmap texture coordinates (glTF `TEXCOORD_1`).
+    pub uv1: Option<Vec<DVec2>>,
+}
+
+/// Where a scene triangle came from: its object ([`Scene::meshes`]), its face index in that
+/// object, and its three vertex indices (in the scene triangle's winding).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TriangleRef {
+    /// Index into [`Scene::meshes`].
+    pub mesh: u32,
+    /// Face index within the object (all primitives of the mesh counted in order).
+    pub face: u32,
+    /// Vertex indices into the object's attribute arrays, in the triangle's winding.
+    pub vertices: [u32; 3],
+}
+
 /// A triangle is dropped as degenerate when twice its area is below this fraction of its
 /// longest edge squared (its smallest angle is below ~1e-9 rad): f32 ray tests cannot hit
 /// such slivers reliably, and their normals are noise.
@@ -168,6 +200,12 @@ pub struct Scene {
     pub punctual: Vec<PunctualLight>,
     /// Loader notes.
     pub report: LoadReport,
+    /// Lightmap objects with their vertex attributes (empty for scenes without them).
+    pub meshes: Vec<MeshAttributes>,
+    /// Per triangle, its object and vertices: empty, or one entry per triangle (`None` for
+    /// triangles that belong to no object). Code that edits [`Scene::triangles`] must keep it
+    /// in step (or clear it).
+    pub triangle_refs: Vec<Option<TriangleRef>>,
 }
 
 impl Scene {
@@ -228,6 +266,8 @@ pub struct SceneBuilder {
     materials: Vec<Material>,
     textures: Vec<Texture>,
     report: LoadReport,
+    meshes: Vec<MeshAttributes>,
+    triangle_refs: Vec<Option<TriangleRef>>,
     /// Lights to attach.
     pub environment: Environment,
     /// Sun to attach.
@@ -297,7 +337,50 @@ impl SceneBuilder {
             return Ok(false);
         }
         self.triangles.push(tri);
+        if !self.triangle_refs.is_empty() {
+            self.triangle_refs.push(None);
+        }
         Ok(true)
+    }
+
+    /// Adds a lightmap object's attributes, returning its index for [`TriangleRef::mesh`].
+    pub fn add_mesh(&mut self, m: MeshAttributes) -> u32 {
+        self.meshes.push(m);
+        self.meshes.len() as u32 - 1
+    }
+
+    /// Adds a triangle that belongs to a lightmap object. Returns `Ok(false)` (and counts
+    /// it) when it is degenerate.
+    ///
+    /// # Errors
+    /// As [`add_triangle`](Self::add_triangle), and [`SceneError::BadMesh`] when `r` names
+    /// an object or a vertex that does not exist.
+    pub fn add_mesh_triangle(
+        &mut self,
+        v: [DVec3; 3],
+        uv: [DVec2; 3],
+        material: u32,
+        r: TriangleRef,
+    ) -> Result<bool, SceneError> {
+        let Some(m) = self.meshes.get(r.mesh as usize) else {
+            return Err(SceneError::BadMesh(format!("mesh {} of {}", r.mesh, self.meshes.len())));
+        };
+        if r.vertices.iter().any(|&i| i as usize >= m.positions.len()) {
+            return Err(SceneError::BadMesh(format!(
+                "face {} of mesh '{}' refers to vertex {:?} of {}",
+                r.face,
+                m.name,
+                r.vertices,
+                m.positions.len()
+            )));
+        }
+        let kept = self.add_triangle(v, uv, material)?;
+        if kept {
+            // Earlier plain triangles get `None` (add_triangle only pads once refs exist).
+            self.triangle_refs.resize(self.triangles.len(), None);
+            self.triangle_refs[self.triangles.len() - 1] = Some(r);
+        }
+        Ok(kept)
     }
 
     /// Adds a planar quad `a b c d` (counter-clockwise seen from the front) as two triangles.
@@ -369,6 +452,8 @@ impl SceneBuilder {
             sun: self.sun,
             punctual: self.punctual,
             report: self.report,
+            meshes: self.meshes,
+            triangle_refs: self.triangle_refs,
         })
     }
 }

@@ -1,0 +1,371 @@
+//! Atlas sizing, the lightmap-UV overlap check, and conservative rasterization of UV
+//! triangles into texel footprints.
+//!
+//! Texel `(x, y)` of a `W × H` atlas covers `u ∈ [x/W, (x+1)/W]`, `v ∈ [y/H, (y+1)/H]`; its
+//! centre is at `((x + ½)/W, (y + ½)/H)`. Row `y = 0` is `v ≈ 0`, the top row of a glTF image
+//! (glTF's UV origin is the image's top-left corner). Internally UVs are scaled to *texel
+//! space* `(u W, v H)`, where texel squares are unit squares.
+
+use glam::{DVec2, DVec3};
+
+use super::SurfaceError;
+use super::geometry::{SurfaceGeometry, SurfaceObject};
+
+/// Largest atlas side the bake accepts (a 8192² map of 9 RGB f32 coefficients is 7 GiB).
+pub const MAX_ATLAS_SIZE: u32 = 8192;
+
+/// A texel centre belongs to a UV triangle when it lies at least this far inside every edge
+/// (in texels). Two triangles that share an edge both reach it exactly; the margin keeps a
+/// centre lying on a shared edge (to rounding) from counting as an overlap. Overlaps thinner
+/// than this at a texel centre are not reported: they cannot change a centre's owner.
+pub const OVERLAP_EDGE_TOLERANCE: f64 = 1e-3;
+
+/// Clipped pieces smaller than this (texel²) are dropped: a triangle that only touches a
+/// texel along an edge or at a corner has no footprint there.
+pub const PIECE_MIN_AREA: f64 = 1e-9;
+
+/// Triangles whose geometric normal deviates from the texel's primary triangle's by more than
+/// this angle's cosine (60°) do not contribute to its footprint: a texel straddling two
+/// charts packed edge to edge must not mix, e.g., two faces of a box.
+pub const FOOTPRINT_MIN_COS: f64 = 0.5;
+
+/// `W = H = ceil(D · s)` where `D` is `texels_per_unit` and `s` the object's
+/// [`max_world_per_uv`](SurfaceObject::max_world_per_uv): every triangle gets at least `D`
+/// texels per world unit along its most stretched direction (at least 1 texel).
+///
+/// # Errors
+/// [`SurfaceError::Settings`] for a non-positive density, [`SurfaceError::AtlasTooLarge`]
+/// beyond [`MAX_ATLAS_SIZE`].
+pub fn atlas_size(object: &SurfaceObject, texels_per_unit: f64) -> Result<[u32; 2], SurfaceError> {
+    if !(texels_per_unit > 0.0 && texels_per_unit.is_finite()) {
+        return Err(SurfaceError::Settings(format!(
+            "texels per unit must be positive, got {texels_per_unit}"
+        )));
+    }
+    let n = (texels_per_unit * object.max_world_per_uv).ceil().max(1.0);
+    if !(n <= f64::from(MAX_ATLAS_SIZE)) {
+        let side = if n.is_finite() { n as u64 } else { u64::MAX };
+        return Err(SurfaceError::AtlasTooLarge { mesh: object.name.clone(), width: side, height: side });
+    }
+    Ok([n as u32; 2])
+}
+
+/// The part of one triangle inside one texel, in texel space (a convex polygon of up to 7
+/// vertices: a triangle clipped by 4 half-planes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Piece {
+    /// Scene triangle.
+    pub tri: u32,
+    /// Area in texels².
+    pub area: f64,
+    poly: [DVec2; 7],
+    len: u8,
+}
+
+impl Piece {
+    /// The polygon's vertices (texel space).
+    #[must_use]
+    pub fn polygon(&self) -> &[DVec2] {
+        &self.poly[..usize::from(self.len)]
+    }
+}
+
+/// A covered texel: its index `y·W + x` and the pieces of its footprint.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Footprint {
+    /// Texel index `y·W + x`.
+    pub texel: u32,
+    /// Pieces, primary first (the triangle covering the texel centre, else the largest).
+    pub pieces: Vec<Piece>,
+    /// Total area (texels²).
+    pub area: f64,
+}
+
+impl Footprint {
+    /// A point on the footprint, uniform by area, from three uniforms: `(triangle, texel-space
+    /// point)`. `u[0]` picks the piece and its fan triangle, `u[1..]` the point in it.
+    #[must_use]
+    pub fn sample(&self, u: [f64; 3]) -> (u32, DVec2) {
+        let mut target = u[0] * self.area;
+        let last = self.pieces.len() - 1;
+        for (k, p) in self.pieces.iter().enumerate() {
+            if target < p.area || k == last {
+                let poly = p.polygon();
+                let fan = poly.len() - 2;
+                for i in 0..fan {
+                    let (a, b, c) = (poly[0], poly[i + 1], poly[i + 2]);
+                    let area = 0.5 * (b - a).perp_dot(c - a).abs();
+                    if target < area || i == fan - 1 {
+                        let s = u[1].sqrt();
+                        let (w1, w2) = (s * (1.0 - u[2]), s * u[2]);
+                        return (p.tri, a + (b - a) * w1 + (c - a) * w2);
+                    }
+                    target -= area;
+                }
+            }
+            target -= p.area;
+        }
+        unreachable!("a footprint has at least one piece")
+    }
+}
+
+/// The rasterized atlas of one object.
+#[derive(Clone, Debug)]
+pub struct Atlas {
+    /// Width in texels.
+    pub width: u32,
+    /// Height in texels.
+    pub height: u32,
+    /// Covered texels in index order.
+    pub footprints: Vec<Footprint>,
+}
+
+/// The UV triangle of `tri` in texel space.
+fn texel_space(geo: &SurfaceGeometry, tri: u32, w: u32, h: u32) -> [DVec2; 3] {
+    let s = DVec2::new(f64::from(w), f64::from(h));
+    geo.triangle(tri).expect("object triangle").uv.map(|p| p * s)
+}
+
+impl Atlas {
+    /// Checks the object's UV triangles for overlap at texel centres, then rasterizes them
+    /// conservatively: a texel is covered when a triangle overlaps its square with positive
+    /// area, not only when it covers the centre.
+    ///
+    /// # Errors
+    /// [`SurfaceError::UvOverlap`] naming the two faces and the texel.
+    pub fn build(geo: &SurfaceGeometry, object: usize, size: [u32; 2]) -> Result<Self, SurfaceError> {
+        let [w, h] = size;
+        let obj = &geo.objects()[object];
+        check_overlap(geo, obj, size)?;
+        let mut raw: Vec<(u32, Piece)> = Vec::new();
+        for &tri in &obj.triangles {
+            let q = texel_space(geo, tri, w, h);
+            let lo = q[0].min(q[1]).min(q[2]);
+            let hi = q[0].max(q[1]).max(q[2]);
+            let x0 = (lo.x.floor().max(0.0)) as u32;
+            let y0 = (lo.y.floor().max(0.0)) as u32;
+            let x1 = (hi.x.ceil() as u32).min(w);
+            let y1 = (hi.y.ceil() as u32).min(h);
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    let (poly, len) = clip_to_square(q, DVec2::new(f64::from(x), f64::from(y)));
+                    if len < 3 {
+                        continue;
+                    }
+                    let area = polygon_area(&poly[..len]);
+                    if area > PIECE_MIN_AREA {
+                        raw.push((y * w + x, Piece { tri, area, poly, len: len as u8 }));
+                    }
+                }
+            }
+        }
+        raw.sort_by_key(|(t, _)| *t); // stable: triangle order within a texel
+        let mut footprints = Vec::new();
+        let mut i = 0;
+        while i < raw.len() {
+            let texel = raw[i].0;
+            let mut j = i;
+            while j < raw.len() && raw[j].0 == texel {
+                j += 1;
+            }
+            let group: Vec<Piece> = raw[i..j].iter().map(|(_, p)| *p).collect();
+            footprints.push(select(geo, texel, w, h, group));
+            i = j;
+        }
+        Ok(Self { width: w, height: h, footprints })
+    }
+}
+
+/// Orders a texel's pieces primary-first and drops those facing too differently.
+fn select(geo: &SurfaceGeometry, texel: u32, w: u32, h: u32, mut group: Vec<Piece>) -> Footprint {
+    let centre = DVec2::new(f64::from(texel % w) + 0.5, f64::from(texel / w) + 0.5);
+    let primary = group
+        .iter()
+        .position(|p| inside_by(texel_space(geo, p.tri, w, h), centre) >= 0.0)
+        .unwrap_or_else(|| {
+            // Largest piece; ties to the earliest triangle.
+            let mut best = 0;
+            for (k, p) in group.iter().enumerate() {
+                if p.area > group[best].area {
+                    best = k;
+                }
+            }
+            best
+        });
+    group.swap(0, primary);
+    let n0: DVec3 = geo.geometric_normal(group[0].tri);
+    let first = group[0];
+    let mut pieces = vec![first];
+    pieces.extend(
+        group[1..].iter().copied().filter(|p| geo.geometric_normal(p.tri).dot(n0) >= FOOTPRINT_MIN_COS),
+    );
+    // Keep triangle order after the primary for determinism independent of the swap.
+    pieces[1..].sort_by_key(|p| p.tri);
+    let area = pieces.iter().map(|p| p.area).sum();
+    Footprint { texel, pieces, area }
+}
+
+/// Smallest signed distance (texels) of `c` inside the triangle `q` (either winding);
+/// negative outside.
+fn inside_by(q: [DVec2; 3], c: DVec2) -> f64 {
+    let orient = (q[1] - q[0]).perp_dot(q[2] - q[0]).signum();
+    (0..3)
+        .map(|k| {
+            let (a, b) = (q[k], q[(k + 1) % 3]);
+            let e = b - a;
+            orient * e.perp_dot(c - a) / e.length()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+/// Reports the first pair of faces (in face order) that both contain a texel centre by more
+/// than [`OVERLAP_EDGE_TOLERANCE`].
+fn check_overlap(geo: &SurfaceGeometry, obj: &SurfaceObject, [w, h]: [u32; 2]) -> Result<(), SurfaceError> {
+    let mut owner = vec![u32::MAX; w as usize * h as usize];
+    for &tri in &obj.triangles {
+        let q = texel_space(geo, tri, w, h);
+        let lo = q[0].min(q[1]).min(q[2]);
+        let hi = q[0].max(q[1]).max(q[2]);
+        // Centres x + ½ within [lo, hi].
+        let x0 = (lo.x - 0.5).ceil().max(0.0) as u32;
+        let y0 = (lo.y - 0.5).ceil().max(0.0) as u32;
+        let x1 = ((hi.x - 0.5).floor().max(-1.0) + 1.0).min(f64::from(w)) as u32;
+        let y1 = ((hi.y - 0.5).floor().max(-1.0) + 1.0).min(f64::from(h)) as u32;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let c = DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5);
+                if inside_by(q, c) <= OVERLAP_EDGE_TOLERANCE {
+                    continue;
+                }
+                let slot = &mut owner[(y * w + x) as usize];
+                if *slot != u32::MAX {
+                    let face = |t: u32| geo.triangle(t).expect("object triangle").face;
+                    return Err(SurfaceError::UvOverlap {
+                        mesh: obj.name.clone(),
+                        a: face(*slot),
+                        b: face(tri),
+                        texel: [x, y],
+                    });
+                }
+                *slot = tri;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Sutherland-Hodgman clipping of triangle `q` to the unit square at `origin`.
+fn clip_to_square(q: [DVec2; 3], origin: DVec2) -> ([DVec2; 7], usize) {
+    let mut buf = [DVec2::ZERO; 7];
+    buf[..3].copy_from_slice(&q);
+    let mut len = 3;
+    // (axis, bound, keep the side >= bound?)
+    let planes =
+        [(0, origin.x, true), (0, origin.x + 1.0, false), (1, origin.y, true), (1, origin.y + 1.0, false)];
+    for (axis, bound, keep_above) in planes {
+        let mut out = [DVec2::ZERO; 7];
+        let mut n = 0;
+        let dist = |p: DVec2| if keep_above { p[axis] - bound } else { bound - p[axis] };
+        for i in 0..len {
+            let (a, b) = (buf[i], buf[(i + 1) % len]);
+            let (da, db) = (dist(a), dist(b));
+            if da >= 0.0 {
+                if n < 7 {
+                    out[n] = a;
+                    n += 1;
+                }
+            }
+            if (da >= 0.0) != (db >= 0.0) {
+                let t = da / (da - db);
+                if n < 7 {
+                    out[n] = a + (b - a) * t;
+                    n += 1;
+                }
+            }
+        }
+        buf = out;
+        len = n;
+        if len < 3 {
+            return (buf, len);
+        }
+    }
+    (buf, len)
+}
+
+/// Area of a simple polygon (shoelace, either winding).
+fn polygon_area(p: &[DVec2]) -> f64 {
+    let mut s = 0.0;
+    for i in 0..p.len() {
+        s += p[i].perp_dot(p[(i + 1) % p.len()]);
+    }
+    0.5 * s.abs()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Clipped areas of one triangle over all texels sum to its area, and each texel's clipped
+    /// area equals a fine point-count estimate (the slow reference).
+    #[test]
+    fn clipping_partitions_the_triangle() {
+        const SUM_TOL: f64 = 1e-12; // exact up to rounding
+        const COUNT_TOL: f64 = 2e-3; // 400² grid of points per texel: boundary error ~ perimeter/400
+        let q = [DVec2::new(0.3, 0.2), DVec2::new(3.7, 1.1), DVec2::new(1.2, 2.9)];
+        let total = 0.5 * (q[1] - q[0]).perp_dot(q[2] - q[0]).abs();
+        let mut sum = 0.0;
+        for y in 0..3 {
+            for x in 0..4 {
+                let o = DVec2::new(f64::from(x), f64::from(y));
+                let (poly, len) = clip_to_square(q, o);
+                let a = if len >= 3 { polygon_area(&poly[..len]) } else { 0.0 };
+                sum += a;
+                let n = 400;
+                let mut inside = 0;
+                for j in 0..n {
+                    for i in 0..n {
+                        let c = o + DVec2::new(
+                            (f64::from(i) + 0.5) / f64::from(n),
+                            (f64::from(j) + 0.5) / f64::from(n),
+                        );
+                        if inside_by(q, c) >= 0.0 {
+                            inside += 1;
+                        }
+                    }
+                }
+                let est = f64::from(inside) / f64::from(n * n);
+                assert!((a - est).abs() < COUNT_TOL, "texel {x},{y}: {a} vs {est}");
+            }
+        }
+        assert!((sum - total).abs() < SUM_TOL);
+    }
+
+    /// Footprint sampling is uniform by area: the fraction of points per piece matches its
+    /// share of the area.
+    #[test]
+    fn footprint_sampling_is_area_uniform() {
+        const TOL: f64 = 0.01; // 4096 stratified points: error ~1/4096 per boundary crossing
+        let q1 = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, 1.0)];
+        let q2 = [DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+        let pieces: Vec<Piece> = [(0, q1), (1, q2)]
+            .iter()
+            .map(|&(tri, q)| {
+                let (poly, len) = clip_to_square(q, DVec2::ZERO);
+                Piece { tri, area: polygon_area(&poly[..len]), poly, len: len as u8 }
+            })
+            .collect();
+        let fp = Footprint { texel: 0, area: 1.0, pieces };
+        let h = crate::qmc::Qmc::<3>::new(1, 2);
+        let mut counts = [0u32; 2];
+        let mut left = 0;
+        for i in 0..4096 {
+            let (tri, p) = fp.sample(h.point(i));
+            counts[tri as usize] += 1;
+            assert!((0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y));
+            assert_eq!(tri == 0, p.x + p.y <= 1.0 + 1e-12, "{p}");
+            left += u32::from(p.x < 0.5);
+        }
+        assert!((f64::from(counts[0]) / 4096.0 - 0.5).abs() < TOL);
+        assert!((f64::from(left) / 4096.0 - 0.5).abs() < TOL);
+    }
+}

@@ -1,0 +1,251 @@
+//! The surface bake: every lightmap object's atlas, texel by texel (seed 003 §2.2).
+//!
+//! **Determinism.** Each texel's random streams depend only on `(seed, object, texel)`;
+//! texels are integrated in parallel in chunks and their results stored by index, and the
+//! dilation passes run in index order, so any thread count gives bit-identical maps.
+
+use std::sync::atomic::Ordering;
+use std::time::{Duration, Instant};
+
+use lightvol_hemibasis::convert::sh_to_basis_matrix;
+use lightvol_sh::irradiance::cosine_lobe_factor;
+use rayon::prelude::*;
+
+use super::atlas::{Atlas, atlas_size};
+use super::geometry::SurfaceGeometry;
+use super::map::{CoefficientMap, TexelState, dilate};
+use super::texel::{TexelJob, TexelOut};
+use super::{BasisChoice, InvalidTexels, Quantity, SurfaceError, UvSet};
+use crate::bake::{BakeControl, Progress};
+use crate::stats::RayCounts;
+use crate::transport::Transport;
+
+/// Surface bake settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceSettings {
+    /// The basis the maps store.
+    pub basis: BasisChoice,
+    /// Which UV set holds the lightmap coordinates.
+    pub uv_set: UvSet,
+    /// Texel density `D` (texels per world unit), see [`atlas_size`].
+    pub texels_per_unit: f64,
+    /// Overrides the atlas size of every object.
+    pub resolution: Option<[u32; 2]>,
+    /// In-domain samples (paths) per texel.
+    pub samples: u32,
+    /// At most `max_candidates_factor × samples` candidate points are drawn per texel while
+    /// looking for valid ones.
+    pub max_candidates_factor: u32,
+    /// SH bands of the intermediate projection (3 = 9 coefficients, seed 003 §2.2.1).
+    pub sh_bands: usize,
+    /// Irradiance or radiosity.
+    pub quantity: Quantity,
+    /// Domain-of-interest treatment of invalid texels, or none.
+    pub invalid: InvalidTexels,
+    /// One light sample per path sample (next-event estimation, MIS).
+    pub light_sampling: bool,
+    /// Passes of dilation into empty texels around the charts (0 = none).
+    pub gutter: u32,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Texels per parallel chunk (progress and cancellation granularity).
+    pub chunk: usize,
+}
+
+impl Default for SurfaceSettings {
+    fn default() -> Self {
+        Self {
+            basis: BasisChoice::parse("sh9").expect("SH is always compiled"),
+            uv_set: UvSet::Lightmap,
+            texels_per_unit: 32.0,
+            resolution: None,
+            samples: 256,
+            max_candidates_factor: 4,
+            sh_bands: 3,
+            quantity: Quantity::Irradiance,
+            invalid: InvalidTexels::Fix,
+            light_sampling: true,
+            gutter: 2,
+            seed: 0,
+            chunk: 1024,
+        }
+    }
+}
+
+/// Largest SH band count of the intermediate projection.
+pub const MAX_SH_BANDS: usize = 8;
+
+/// Counters of a surface bake.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SurfaceReport {
+    /// Objects baked.
+    pub objects: usize,
+    /// Texels covered by some triangle.
+    pub texels_covered: u64,
+    /// Covered texels with at least one sample point that saw a back face.
+    pub invalid_texels: u64,
+    /// Invalid texels whose samples were all taken in the valid part of the footprint
+    /// ([`InvalidTexels::Fix`]).
+    pub moved: u64,
+    /// Invalid texels with no valid point, filled from valid neighbours.
+    pub dilated: u64,
+    /// Invalid texels with no valid point that no dilation reached (left 0, `valid` = 0).
+    pub unfilled: u64,
+    /// Empty texels filled by the gutter dilation.
+    pub gutter_texels: u64,
+    /// Rays traced.
+    pub rays: RayCounts,
+    /// Wall-clock time.
+    pub wall_time: Duration,
+}
+
+/// The maps (one per object, in [`SurfaceGeometry::objects`] order) and the report.
+#[derive(Clone, Debug)]
+pub struct SurfaceBake {
+    /// One coefficient map per object.
+    pub maps: Vec<CoefficientMap>,
+    /// Counters.
+    pub report: SurfaceReport,
+}
+
+/// Bakes the coefficient maps of every lightmap object of the transport's scene.
+///
+/// # Errors
+/// Scene and UV errors of [`SurfaceGeometry::new`] and [`Atlas::build`],
+/// [`SurfaceError::Settings`], [`SurfaceError::AtlasTooLarge`], [`SurfaceError::Cancelled`].
+pub fn bake_surface(
+    transport: &Transport<'_>,
+    settings: &SurfaceSettings,
+    control: &BakeControl<'_>,
+) -> Result<SurfaceBake, SurfaceError> {
+    let geo = SurfaceGeometry::new(transport.scene(), settings.uv_set)?;
+    bake_surface_with(transport, &geo, settings, control)
+}
+
+/// [`bake_surface`] with a prepared [`SurfaceGeometry`] (built for `settings.uv_set`).
+///
+/// # Errors
+/// As [`bake_surface`].
+pub fn bake_surface_with(
+    transport: &Transport<'_>,
+    geo: &SurfaceGeometry,
+    settings: &SurfaceSettings,
+    control: &BakeControl<'_>,
+) -> Result<SurfaceBake, SurfaceError> {
+    if settings.samples == 0 || settings.max_candidates_factor == 0 {
+        return Err(SurfaceError::Settings("samples and max_candidates_factor must be positive".into()));
+    }
+    if !(1..=MAX_SH_BANDS).contains(&settings.sh_bands) {
+        return Err(SurfaceError::Settings(format!("sh_bands must be 1..={MAX_SH_BANDS}")));
+    }
+    if geo.uv_set() != settings.uv_set {
+        return Err(SurfaceError::Settings("geometry was built for another UV set".into()));
+    }
+    if let Some([w, h]) = settings.resolution
+        && (w == 0 || h == 0 || w > super::MAX_ATLAS_SIZE || h > super::MAX_ATLAS_SIZE)
+    {
+        return Err(SurfaceError::Settings(format!("resolution {w}×{h}")));
+    }
+    let start = Instant::now();
+    let bands = settings.sh_bands;
+    let basis = settings.basis.basis();
+    let matrix = sh_to_basis_matrix(basis.as_ref(), bands);
+    let factors: Vec<f64> = (0..bands * bands)
+        .map(|j| cosine_lobe_factor(j.isqrt() as u32) * settings.quantity.scale())
+        .collect();
+    let max_candidates = match settings.invalid {
+        InvalidTexels::Fix => settings.samples.saturating_mul(settings.max_candidates_factor),
+        InvalidTexels::Keep => settings.samples,
+    };
+    // Atlases first (all UV errors before any tracing).
+    let mut atlases = Vec::new();
+    for (o, obj) in geo.objects().iter().enumerate() {
+        let size = match settings.resolution {
+            Some(r) => r,
+            None => atlas_size(obj, settings.texels_per_unit)?,
+        };
+        atlases.push(Atlas::build(geo, o, size)?);
+    }
+    let total: usize = atlases.iter().map(|a| a.footprints.len()).sum();
+    let mut report = SurfaceReport { objects: atlases.len(), ..SurfaceReport::default() };
+    let mut maps = Vec::new();
+    let mut done = 0;
+    let chunk = settings.chunk.max(1);
+    for (o, atlas) in atlases.iter().enumerate() {
+        let job = TexelJob {
+            transport,
+            geo,
+            size: [atlas.width, atlas.height],
+            object: o as u32,
+            seed: settings.seed,
+            samples: settings.samples,
+            max_candidates,
+            light_sampling: settings.light_sampling,
+            invalid: settings.invalid,
+            bands,
+            factors: factors.clone(),
+            matrix: &matrix,
+        };
+        let k = basis.len();
+        let n = atlas.width as usize * atlas.height as usize;
+        let mut data = vec![[0.0f32; 3]; n * k];
+        let mut state = vec![TexelState::Empty; n];
+        for part in atlas.footprints.chunks(chunk) {
+            let outs: Vec<Option<TexelOut>> = part
+                .par_iter()
+                .map(|fp| {
+                    if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                        return None;
+                    }
+                    Some(job.run(fp))
+                })
+                .collect();
+            if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || outs.iter().any(Option::is_none) {
+                return Err(SurfaceError::Cancelled);
+            }
+            for (fp, out) in part.iter().zip(outs.into_iter().flatten()) {
+                let t = fp.texel as usize;
+                report.texels_covered += 1;
+                report.rays.add(&out.rays);
+                if out.invalid_points > 0 {
+                    report.invalid_texels += 1;
+                }
+                match out.coeffs {
+                    Some(c) => {
+                        for (dst, src) in data[t * k..(t + 1) * k].iter_mut().zip(&c) {
+                            *dst = src.map(|v| v as f32);
+                        }
+                        state[t] = TexelState::Baked;
+                        if out.invalid_points > 0 && settings.invalid == InvalidTexels::Fix {
+                            report.moved += 1;
+                        }
+                    }
+                    None => state[t] = TexelState::NeedsFill,
+                }
+            }
+            done += part.len();
+            if let Some(p) = control.progress {
+                p(Progress { done, total });
+            }
+        }
+        let d = dilate(&mut data, &mut state, [atlas.width, atlas.height], k, settings.gutter);
+        report.dilated += d.dilated;
+        report.unfilled += d.unfilled;
+        report.gutter_texels += d.gutter;
+        let valid = state.iter().map(|s| s.valid_value()).collect();
+        maps.push(CoefficientMap {
+            object: geo.objects()[o].name.clone(),
+            width: atlas.width,
+            height: atlas.height,
+            basis: settings.basis.tag().to_owned(),
+            coeffs: k,
+            texels_per_unit: settings.texels_per_unit,
+            quantity: settings.quantity,
+            uv_set: settings.uv_set,
+            data,
+            valid,
+        });
+    }
+    report.wall_time = start.elapsed();
+    Ok(SurfaceBake { maps, report })
+}

@@ -1,0 +1,334 @@
+//! The coefficient-map file: one multi-part OpenEXR file (f32, ZIP) per bake.
+//!
+//! ## Layout
+//! - One part per object, named after it, `width × height` pixels, row 0 = `v ≈ 0` (the top
+//!   row, as glTF images).
+//! - Channels (f32): `cKK.R`, `cKK.G`, `cKK.B` for every coefficient `KK = 00, 01, …` of the
+//!   basis (in the basis's own order, lightvol-hemibasis), and `valid` (1 baked, 0.5
+//!   dilated, 0 empty).
+//! - Part attributes: `lightvol.kind` = `"surface"`, `lightvol.version` (i32, 1),
+//!   `lightvol.basis` (tag, e.g. `hbasis_mod6`), `lightvol.coefficients` (i32),
+//!   `lightvol.texels_per_unit` (text, f64 decimal), `lightvol.quantity` (`irradiance` or
+//!   `radiosity`), `lightvol.uv_set` (`TEXCOORD_1` or `TEXCOORD_0`), `lightvol.convention`
+//!   ([`CONVENTION`]).
+//!
+//! Written through a temporary file in the target directory and renamed. The reader checks
+//! every header before decoding pixels; a panic inside the `exr` decoder is caught and
+//! reported as an error.
+
+use std::io::{Cursor, Write};
+use std::path::Path;
+
+use exr::image::{AnyChannel, AnyChannels, Encoding as ExrEncoding, FlatSamples, Image, Layer};
+use exr::math::Vec2;
+use exr::meta::attribute::{AttributeValue, Compression, IntegerBounds, SampleType, Text};
+use exr::meta::header::{ImageAttributes, LayerAttributes};
+use exr::prelude::{ReadChannels, ReadLayers, SmallVec, WritableImage};
+
+use super::map::CoefficientMap;
+use super::{Quantity, SurfaceError, UvSet};
+
+/// File format version written to `lightvol.version`.
+pub const VERSION: i32 = 1;
+
+/// The tangent-space and SH conventions, stored in `lightvol.convention`.
+pub const CONVENTION: &str = "tangent space x = tangent, y = w * (normal x tangent), z = normal (MikkTSpace); \
+     SH real orthonormal, index l(l+1)+m, no Condon-Shortley phase (lightvol-sh)";
+
+/// Largest file [`read_surface_exr`] accepts.
+pub const MAX_FILE_BYTES: u64 = 8 << 30;
+
+fn text(s: &str) -> Result<Text, String> {
+    Text::new_or_none(s).ok_or_else(|| format!("{s:?} cannot be stored as EXR text"))
+}
+
+fn channel_name(k: usize, c: usize) -> String {
+    format!("c{k:02}.{}", ["R", "G", "B"][c])
+}
+
+/// Serialises maps as a multi-part EXR in memory (layout in the module docs).
+///
+/// # Errors
+/// A message for an empty list, a map whose sizes disagree, or a name EXR cannot store.
+pub fn surface_exr_to_bytes(maps: &[CoefficientMap]) -> Result<Vec<u8>, String> {
+    if maps.is_empty() {
+        return Err("no maps to write".into());
+    }
+    let encoding = ExrEncoding { compression: Compression::ZIP16, ..ExrEncoding::SMALL_LOSSLESS };
+    let mut layers = Vec::new();
+    let mut names = std::collections::HashSet::new();
+    let (mut max_w, mut max_h) = (1usize, 1usize);
+    for m in maps {
+        let n = m.width as usize * m.height as usize;
+        if m.width == 0 || m.height == 0 || m.data.len() != n * m.coeffs || m.valid.len() != n {
+            return Err(format!("map '{}' has inconsistent sizes", m.object));
+        }
+        if !names.insert(m.object.clone()) {
+            return Err(format!("two maps are called '{}'", m.object));
+        }
+        max_w = max_w.max(m.width as usize);
+        max_h = max_h.max(m.height as usize);
+        let mut channels = Vec::with_capacity(3 * m.coeffs + 1);
+        for k in 0..m.coeffs {
+            for c in 0..3 {
+                let vals = (0..n).map(|t| m.data[t * m.coeffs + k][c]).collect();
+                channels.push(AnyChannel::new(channel_name(k, c).as_str(), FlatSamples::F32(vals)));
+            }
+        }
+        channels.push(AnyChannel::new("valid", FlatSamples::F32(m.valid.clone())));
+        let channels = AnyChannels::sort(SmallVec::from_vec(channels));
+        let mut attrs = LayerAttributes::named(text(&m.object)?);
+        let mut put = |k: &str, v: AttributeValue| -> Result<(), String> {
+            attrs.other.insert(text(k)?, v);
+            Ok(())
+        };
+        put("lightvol.kind", AttributeValue::Text(text("surface")?))?;
+        put("lightvol.version", AttributeValue::I32(VERSION))?;
+        put("lightvol.basis", AttributeValue::Text(text(&m.basis)?))?;
+        put("lightvol.coefficients", AttributeValue::I32(m.coeffs as i32))?;
+        put("lightvol.texels_per_unit", AttributeValue::Text(text(&format!("{:?}", m.texels_per_unit))?))?;
+        put("lightvol.quantity", AttributeValue::Text(text(m.quantity.name())?))?;
+        put("lightvol.uv_set", AttributeValue::Text(text(m.uv_set.attribute())?))?;
+        put("lightvol.convention", AttributeValue::Text(text(CONVENTION)?))?;
+        layers.push(Layer::new(Vec2(m.width as usize, m.height as usize), attrs, encoding, channels));
+    }
+    let ia = ImageAttributes::new(IntegerBounds::from_dimensions(Vec2(max_w, max_h)));
+    let image = Image::from_layers(ia, layers);
+    let mut out = Cursor::new(Vec::new());
+    image.write().non_parallel().to_buffered(&mut out).map_err(|e| format!("EXR encoder: {e}"))?;
+    Ok(out.into_inner())
+}
+
+/// Writes `maps` to `path` (temporary file in the same directory, then rename).
+///
+/// # Errors
+/// [`SurfaceError::Exr`] for maps that cannot be stored, [`SurfaceError::Io`].
+pub fn write_surface_exr(path: &Path, maps: &[CoefficientMap]) -> Result<(), SurfaceError> {
+    let bytes =
+        surface_exr_to_bytes(maps).map_err(|message| SurfaceError::Exr { path: path.to_owned(), message })?;
+    let io = |source| SurfaceError::Io { path: path.to_owned(), source };
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp =
+        tempfile::Builder::new().prefix(".lightvol-").suffix(".tmp").tempfile_in(dir).map_err(io)?;
+    tmp.write_all(&bytes).map_err(io)?;
+    tmp.as_file().sync_all().map_err(io)?;
+    tmp.persist(path).map_err(|e| io(e.error))?;
+    Ok(())
+}
+
+/// Reads maps written by [`write_surface_exr`].
+///
+/// # Errors
+/// [`SurfaceError::Io`] when the file cannot be read, [`SurfaceError::Exr`] naming what is
+/// wrong otherwise (not EXR, not a lightvol surface file, missing or mistyped attributes or
+/// channels, non-finite values).
+pub fn read_surface_exr(path: &Path) -> Result<Vec<CoefficientMap>, SurfaceError> {
+    let io = |source| SurfaceError::Io { path: path.to_owned(), source };
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    if len > MAX_FILE_BYTES {
+        return Err(SurfaceError::Exr {
+            path: path.to_owned(),
+            message: format!("{len} bytes is too large"),
+        });
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
+    surface_exr_from_bytes(&bytes).map_err(|message| SurfaceError::Exr { path: path.to_owned(), message })
+}
+
+/// Parses maps from memory (see [`read_surface_exr`]).
+///
+/// # Errors
+/// A message naming the problem.
+pub fn surface_exr_from_bytes(bytes: &[u8]) -> Result<Vec<CoefficientMap>, String> {
+    match std::panic::catch_unwind(|| parse(bytes)) {
+        Ok(r) => r,
+        Err(_) => Err("the EXR decoder rejected the data (internal panic caught)".into()),
+    }
+}
+
+struct Declared {
+    object: String,
+    width: u32,
+    height: u32,
+    basis: String,
+    coeffs: usize,
+    texels_per_unit: f64,
+    quantity: Quantity,
+    uv_set: UvSet,
+}
+
+fn declared(h: &exr::meta::header::Header) -> Result<Declared, String> {
+    let object = h.own_attributes.layer_name.as_ref().map(ToString::to_string).ok_or("a part has no name")?;
+    let get = |key: &str| -> Result<&AttributeValue, String> {
+        h.own_attributes
+            .other
+            .iter()
+            .chain(h.shared_attributes.other.iter())
+            .find(|(k, _)| k.as_slice() == key.as_bytes())
+            .map(|(_, v)| v)
+            .ok_or_else(|| format!("part '{object}': missing attribute {key}"))
+    };
+    let txt = |key: &str| -> Result<String, String> {
+        match get(key)? {
+            AttributeValue::Text(t) => Ok(t.to_string()),
+            _ => Err(format!("part '{object}': {key} is not text")),
+        }
+    };
+    let int = |key: &str| -> Result<i32, String> {
+        match get(key)? {
+            AttributeValue::I32(v) => Ok(*v),
+            _ => Err(format!("part '{object}': {key} is not an i32")),
+        }
+    };
+    if txt("lightvol.kind")? != "surface" {
+        return Err(format!("part '{object}' is not a lightvol surface map"));
+    }
+    let version = int("lightvol.version")?;
+    if !(1..=VERSION).contains(&version) {
+        return Err(format!("unsupported lightvol.version {version}"));
+    }
+    let coeffs = usize::try_from(int("lightvol.coefficients")?).map_err(|_| "negative coefficient count")?;
+    let basis = txt("lightvol.basis")?;
+    let choice = super::BasisChoice::parse(&basis).map_err(|e| e.to_string())?;
+    if choice.coeffs() != coeffs {
+        return Err(format!("part '{object}': basis {basis} does not have {coeffs} coefficients"));
+    }
+    let tpu = txt("lightvol.texels_per_unit")?;
+    let texels_per_unit = tpu.parse::<f64>().map_err(|_| format!("lightvol.texels_per_unit {tpu:?}"))?;
+    let q = txt("lightvol.quantity")?;
+    let quantity = Quantity::from_name(&q).ok_or_else(|| format!("unknown quantity {q:?}"))?;
+    let u = txt("lightvol.uv_set")?;
+    let uv_set = UvSet::from_attribute(&u).ok_or_else(|| format!("unknown UV set {u:?}"))?;
+    if txt("lightvol.convention")? != CONVENTION {
+        return Err(format!("part '{object}': convention differs from this version's"));
+    }
+    if h.deep {
+        return Err(format!("part '{object}' is deep data"));
+    }
+    let Vec2(w, hgt) = h.layer_size;
+    let (width, height) = (u32::try_from(w).map_err(|_| "width")?, u32::try_from(hgt).map_err(|_| "height")?);
+    if width == 0 || height == 0 || width > super::MAX_ATLAS_SIZE || height > super::MAX_ATLAS_SIZE {
+        return Err(format!("part '{object}' is {width}×{height}"));
+    }
+    let mut want: Vec<String> = (0..coeffs).flat_map(|k| (0..3).map(move |c| channel_name(k, c))).collect();
+    want.push("valid".into());
+    want.sort();
+    let got: Vec<String> = h.channels.list.iter().map(|c| c.name.to_string()).collect();
+    if got != want || h.channels.list.iter().any(|c| c.sample_type != SampleType::F32) {
+        return Err(format!("part '{object}' has channels {got:?}; expected f32 {want:?}"));
+    }
+    Ok(Declared { object, width, height, basis, coeffs, texels_per_unit, quantity, uv_set })
+}
+
+fn parse(bytes: &[u8]) -> Result<Vec<CoefficientMap>, String> {
+    let meta =
+        exr::meta::MetaData::read_from_buffered(Cursor::new(bytes), true).map_err(|e| e.to_string())?;
+    let decl: Vec<Declared> = meta.headers.iter().map(declared).collect::<Result<_, _>>()?;
+    if decl.is_empty() {
+        return Err("no parts".into());
+    }
+    let image = exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .non_parallel()
+        .pedantic()
+        .from_buffered(Cursor::new(bytes))
+        .map_err(|e| e.to_string())?;
+    if image.layer_data.len() != decl.len() {
+        return Err("part count changed between header and pixels".into());
+    }
+    let mut maps = Vec::new();
+    for (layer, d) in image.layer_data.iter().zip(decl) {
+        let n = d.width as usize * d.height as usize;
+        let mut data = vec![[0.0f32; 3]; n * d.coeffs];
+        let mut valid = vec![0.0f32; n];
+        for ch in &layer.channel_data.list {
+            let vals: Vec<f32> = ch.sample_data.values_as_f32().collect();
+            if vals.len() != n || vals.iter().any(|v| !v.is_finite()) {
+                return Err(format!("part '{}': channel {} has bad samples", d.object, ch.name));
+            }
+            let name = ch.name.to_string();
+            if name == "valid" {
+                valid = vals;
+                continue;
+            }
+            let (k, c) = (0..d.coeffs)
+                .flat_map(|k| (0..3).map(move |c| (k, c)))
+                .find(|&(k, c)| channel_name(k, c) == name)
+                .ok_or_else(|| format!("unexpected channel {name}"))?;
+            for (t, v) in vals.into_iter().enumerate() {
+                data[t * d.coeffs + k][c] = v;
+            }
+        }
+        maps.push(CoefficientMap {
+            object: d.object,
+            width: d.width,
+            height: d.height,
+            basis: d.basis,
+            coeffs: d.coeffs,
+            texels_per_unit: d.texels_per_unit,
+            quantity: d.quantity,
+            uv_set: d.uv_set,
+            data,
+            valid,
+        });
+    }
+    Ok(maps)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample_map(name: &str, w: u32, h: u32) -> CoefficientMap {
+        let n = (w * h) as usize;
+        CoefficientMap {
+            object: name.into(),
+            width: w,
+            height: h,
+            basis: "hbasis_mod6".into(),
+            coeffs: 6,
+            texels_per_unit: 12.5,
+            quantity: Quantity::Radiosity,
+            uv_set: UvSet::Base,
+            data: (0..n * 6).map(|i| [i as f32 * 0.25, -(i as f32), 1.0 / (1.0 + i as f32)]).collect(),
+            valid: (0..n).map(|i| [1.0, 0.5, 0.0][i % 3]).collect(),
+        }
+    }
+
+    /// Two parts of different sizes round-trip bit-exactly with their attributes; bad input
+    /// gives errors, not panics, and leaves no temporary file behind.
+    #[test]
+    fn round_trip_and_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("maps.exr");
+        let maps = vec![sample_map("floor", 5, 3), sample_map("wall#2", 2, 7)];
+        write_surface_exr(&p, &maps).unwrap();
+        let back = read_surface_exr(&p).unwrap();
+        assert_eq!(back, maps);
+        let leftovers = std::fs::read_dir(dir.path()).unwrap().count();
+        assert_eq!(leftovers, 1);
+        // Not an EXR; truncated; missing file; duplicate names; a foreign EXR part.
+        std::fs::write(&p, b"not an exr").unwrap();
+        assert!(matches!(read_surface_exr(&p), Err(SurfaceError::Exr { .. })));
+        let bytes = surface_exr_to_bytes(&maps).unwrap();
+        for cut in [8, bytes.len() / 3, bytes.len() - 5] {
+            assert!(surface_exr_from_bytes(&bytes[..cut]).is_err(), "cut {cut}");
+        }
+        assert!(matches!(read_surface_exr(&dir.path().join("none.exr")), Err(SurfaceError::Io { .. })));
+        assert!(surface_exr_to_bytes(&[sample_map("a", 1, 1), sample_map("a", 1, 1)]).is_err());
+        let mut wrong = sample_map("x", 2, 2);
+        wrong.coeffs = 4;
+        assert!(surface_exr_to_bytes(&[wrong]).is_err());
+        let mut renamed = sample_map("x", 2, 2);
+        renamed.basis = "sh4".into(); // 6 channels declared as a 4-coefficient basis
+        let b = surface_exr_to_bytes(&[renamed]).unwrap();
+        assert!(surface_exr_from_bytes(&b).unwrap_err().contains("does not have"));
+    }
+}

@@ -1,0 +1,211 @@
+//! Surface coefficient maps: lightmaps whose texels store irradiance in a hemispherical basis,
+//! so that normal-mapped surfaces still shade correctly (Ishmukhametov, *Irradiance Normal
+//! Mapping*, seed 003 §2.2), with the domain-of-interest treatment of invalid texels
+//! (Kontkanen & Laine 2006, seed 000 §5).
+//!
+//! Pipeline ([`bake_surface`]):
+//! 1. [`SurfaceGeometry`]: per lightmap object (a glTF mesh instance) the lightmap UVs
+//!    (`TEXCOORD_1`, or `TEXCOORD_0`), checked to lie in `[0, 1]`, and the tangent frames
+//!    (glTF `TANGENT`, else MikkTSpace via `bevy_mikktspace`), [`geometry`], [`tangent`].
+//! 2. [`atlas`]: the atlas size from the texel density, the overlap check at texel centres
+//!    and the conservative rasterization of every triangle into texel footprints.
+//! 3. [`texel`]: per texel, sample points on its footprint, incident radiance over the
+//!    tangent-space hemisphere by path tracing, projected to SH over the hemisphere (seed 003
+//!    Eq. 2.1-2.2), convolved with the clamped cosine (Eq. 2.3) and fitted to the chosen
+//!    basis (`lightvol_hemibasis::convert::sh_to_basis_matrix`, §2.2.1-2.2.2). Sample points
+//!    that see back faces are outside the domain of interest and are replaced by points in
+//!    the valid part of the footprint.
+//! 4. [`map`]: texels with no valid point are dilated from valid neighbours; the gutter
+//!    around charts is dilated too. [`CoefficientMap::shade`] evaluates a map at a
+//!    tangent-space normal.
+//! 5. [`exr`]: one multi-part EXR per bake, one part per object.
+//!
+//! [`reference_surface_irradiance`] path-traces the quantity the maps approximate.
+
+pub mod atlas;
+pub mod bake;
+pub mod error;
+pub mod exr;
+pub mod geometry;
+pub mod map;
+pub mod reference;
+pub mod tangent;
+pub mod texel;
+
+#[cfg(test)]
+mod tests;
+
+pub use atlas::{Atlas, MAX_ATLAS_SIZE, atlas_size};
+pub use bake::{SurfaceBake, SurfaceReport, SurfaceSettings, bake_surface};
+pub use error::SurfaceError;
+pub use exr::{read_surface_exr, write_surface_exr};
+pub use geometry::{SurfaceGeometry, SurfaceObject};
+pub use map::CoefficientMap;
+pub use reference::reference_surface_irradiance;
+pub use tangent::TangentFrame;
+
+use lightvol_hemibasis::HemiBasis;
+
+/// Which glTF texture coordinate set holds the lightmap UVs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum UvSet {
+    /// `TEXCOORD_1`, the usual secondary (lightmap) set.
+    #[default]
+    Lightmap,
+    /// `TEXCOORD_0` (`--uv 0`), for objects whose base UVs are already unique and in `[0, 1]`.
+    Base,
+}
+
+impl UvSet {
+    /// The glTF attribute name.
+    #[must_use]
+    pub fn attribute(self) -> &'static str {
+        match self {
+            Self::Lightmap => "TEXCOORD_1",
+            Self::Base => "TEXCOORD_0",
+        }
+    }
+
+    /// Parses an attribute name.
+    #[must_use]
+    pub fn from_attribute(s: &str) -> Option<Self> {
+        match s {
+            "TEXCOORD_1" => Some(Self::Lightmap),
+            "TEXCOORD_0" => Some(Self::Base),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for UvSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.attribute())
+    }
+}
+
+/// What the coefficients reconstruct.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Quantity {
+    /// Irradiance `E(n) = ∫_H L(ω) max(0, n·ω) dω` (W/m²): SH bands convolved with
+    /// `A_l = π, 2π/3, π/4` (lightvol-sh `cosine_lobe_factor`). Under a uniform sky of
+    /// radiance `L` a flat surface reconstructs `π L` at its normal.
+    #[default]
+    Irradiance,
+    /// `E / π`, the exit radiance of a white Lambertian surface, with the normalised factors
+    /// `1, 2/3, 1/4` of seed 003 Eq. 2.3 (the thesis's convention; a sky `L` gives `L`).
+    Radiosity,
+}
+
+impl Quantity {
+    /// The name stored in files: `"irradiance"` or `"radiosity"`.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Irradiance => "irradiance",
+            Self::Radiosity => "radiosity",
+        }
+    }
+
+    /// Parses [`name`](Self::name).
+    #[must_use]
+    pub fn from_name(s: &str) -> Option<Self> {
+        match s {
+            "irradiance" => Some(Self::Irradiance),
+            "radiosity" => Some(Self::Radiosity),
+            _ => None,
+        }
+    }
+
+    /// The factor applied to an irradiance: 1 or 1/π.
+    #[must_use]
+    pub fn scale(self) -> f64 {
+        match self {
+            Self::Irradiance => 1.0,
+            Self::Radiosity => std::f64::consts::FRAC_1_PI,
+        }
+    }
+}
+
+/// How texels whose sample points see back faces are treated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum InvalidTexels {
+    /// Seed 000's domain of interest: samples are re-drawn in the valid part of the texel's
+    /// footprint; texels with no valid part are dilated from valid neighbours.
+    #[default]
+    Fix,
+    /// No treatment (ablation): invalid points keep their dark samples.
+    Keep,
+}
+
+/// A hemispherical basis by its command-line name: `sh4`, `sh9`, `hl2`, `hsh4`, `hsh9`,
+/// `makhotkin4`, `makhotkin9`, `zernike3`, `zernike6`, `hbasis4`, `hbasis6`, `hbasis_mod4`,
+/// `hbasis_mod6`, or any other size [`lightvol_hemibasis::by_name`] accepts (`hsh16`, ...).
+/// Only bases whose lightvol-hemibasis feature is enabled parse.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct BasisChoice {
+    name: String,
+    count: usize,
+    tag: String,
+}
+
+impl BasisChoice {
+    /// Parses a basis name (trailing digits are the coefficient count; `hl2` has 3).
+    ///
+    /// # Errors
+    /// [`SurfaceError::UnknownBasis`] when no enabled basis has that name and size.
+    pub fn parse(s: &str) -> Result<Self, SurfaceError> {
+        let (name, count) = if s == "hl2" {
+            ("hl2", 3)
+        } else {
+            let split = s.trim_end_matches(|c: char| c.is_ascii_digit()).len();
+            let count = s[split..].parse::<usize>().map_err(|_| SurfaceError::UnknownBasis(s.to_owned()))?;
+            (&s[..split], count)
+        };
+        if lightvol_hemibasis::by_name(name, count).is_none() {
+            return Err(SurfaceError::UnknownBasis(s.to_owned()));
+        }
+        Ok(Self { name: name.to_owned(), count, tag: s.to_owned() })
+    }
+
+    /// The name as given (`hbasis_mod6`), stored in files.
+    #[must_use]
+    pub fn tag(&self) -> &str {
+        &self.tag
+    }
+
+    /// Number of coefficients per colour channel.
+    #[must_use]
+    pub fn coeffs(&self) -> usize {
+        self.count
+    }
+
+    /// The basis.
+    #[must_use]
+    pub fn basis(&self) -> Box<dyn HemiBasis> {
+        lightvol_hemibasis::by_name(&self.name, self.count).expect("checked when parsed")
+    }
+}
+
+impl std::str::FromStr for BasisChoice {
+    type Err = SurfaceError;
+    fn from_str(s: &str) -> Result<Self, SurfaceError> {
+        Self::parse(s)
+    }
+}
+
+/// The basis names of issue 10, all of which parse when every lightvol-hemibasis feature is on.
+pub const ISSUE_BASES: [&str; 13] = [
+    "sh4",
+    "sh9",
+    "hl2",
+    "hsh4",
+    "hsh9",
+    "makhotkin4",
+    "makhotkin9",
+    "zernike3",
+    "zernike6",
+    "hbasis4",
+    "hbasis6",
+    "hbasis_mod4",
+    "hbasis_mod6",
+];

@@ -1,0 +1,694 @@
+//! Acceptance tests of issue 10 (surface coefficient maps): 1 (uniform sky on a plane),
+//! 3 (intersecting boxes, dark leaks with and without the domain-of-interest treatment),
+//! 5 (lightmap UV errors), plus determinism across thread counts and the reference.
+
+use std::f64::consts::PI;
+
+use glam::{DVec2, DVec3};
+use lightvol_hemibasis::HemiBasis;
+use lightvol_sh::lowdisc::SplitMix64;
+
+use super::*;
+use crate::bake::BakeControl;
+use crate::bvh::Tracer;
+use crate::lights::Environment;
+use crate::scene::{Material, MeshAttributes, Scene, SceneBuilder, TriangleRef};
+use crate::transport::{Transport, TransportSettings};
+
+/// Adds one lightmap object (vertex arrays with TEXCOORD_1 = `uv`, TEXCOORD_0 = `uv` too).
+fn add_object(
+    b: &mut SceneBuilder,
+    name: &str,
+    positions: Vec<DVec3>,
+    uv: Vec<DVec2>,
+    faces: &[[u32; 3]],
+    material: u32,
+) {
+    let mesh = b.add_mesh(MeshAttributes {
+        name: name.into(),
+        positions: positions.clone(),
+        normals: None,
+        tangents: None,
+        uv0: Some(uv.clone()),
+        uv1: Some(uv.clone()),
+    });
+    for (f, ids) in faces.iter().enumerate() {
+        let v = ids.map(|i| positions[i as usize]);
+        let t = ids.map(|i| uv[i as usize]);
+        b.add_mesh_triangle(v, t, material, TriangleRef { mesh, face: f as u32, vertices: *ids }).unwrap();
+    }
+}
+
+/// A square plane `[-h, h]²` at z = 0 facing +Z, lightmap UVs spanning [0, 1]², under a
+/// uniform sky of radiance `sky` (black below).
+fn plane(h: f64, sky: [f64; 3]) -> Scene {
+    let mut b = SceneBuilder::new("plane");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let p =
+        vec![DVec3::new(-h, -h, 0.0), DVec3::new(h, -h, 0.0), DVec3::new(h, h, 0.0), DVec3::new(-h, h, 0.0)];
+    let uv = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+    add_object(&mut b, "plane", p, uv, &[[0, 1, 2], [0, 2, 3]], m);
+    b.environment = Environment::UniformSky { sky, ground: None };
+    b.build().unwrap()
+}
+
+fn settings(basis: &str) -> SurfaceSettings {
+    SurfaceSettings { basis: BasisChoice::parse(basis).unwrap(), ..SurfaceSettings::default() }
+}
+
+/// Exact irradiance of a flat receiver under a uniform sky `L` for a tangent-space normal
+/// `n` when light from below the surface's hemisphere is masked (seed 003 Eq. 2.1): the
+/// cosine lobe about `n` clipped to `z > 0`, `E = π L (1 + n_z) / 2` (the classic sky-dome
+/// form factor of a tilted plane).
+fn masked_sky_irradiance(l: f64, n: [f64; 3]) -> f64 {
+    PI * l * (1.0 + n[2]) / 2.0
+}
+
+/// Acceptance 1. A plane under a uniform sky `L`: for every basis of the issue and every
+/// texel, every coefficient equals the least-squares fit of the exact irradiance function
+/// within a stated Monte Carlo bound, and so does the reconstruction at the normal, which is
+/// exactly `π L` for the bases whose span holds `1` and `z` (SH, HSH, H-basis, modified
+/// H-basis); Half-Life 2, Makhotkin and Zernike cannot represent this function exactly and
+/// their fits are printed.
+///
+/// **The exact answer is not "DC = π L, the rest zero".** The bake integrates over the
+/// tangent-space hemisphere only (Eq. 2.1): a normal-mapped normal tilted by θ sees less of
+/// the sky, `E(n) = π L (1 + n_z)/2`, which is π L at the normal but not constant. Its fit has
+/// non-zero coefficients on the zonal functions (SH `y_10`, modified H-basis `H_3 ∝ 1 - z`, …);
+/// all other coefficients are zero. The expected coefficients come from projecting this closed
+/// form with the basis's own least squares (`HemiBasis::project`), a route independent of the
+/// bake's SH pipeline.
+///
+/// **Error bound.** Every path escapes to the sky, so each sample's radiance is exactly `L`
+/// and the only error is the integration error of `ŝ_j = (2π/K) Σ_i L y_j(ω_i)` over `K`
+/// uniform hemisphere directions. For `j = 0` it is zero (`y_00` is constant). For `j > 0`
+/// the Monte Carlo standard deviation is `σ_j ≤ 2π L sqrt(E[y_j²]) / sqrt(K) = L sqrt(π/K)`
+/// (`∫_H y_j² = 1/2` because `y_j²` is even in `z`). The irradiance coefficients are
+/// `e_j = A_l ŝ_j` and the basis coefficients `c = M e`, so coefficient `i` is within
+/// `Σ_j |M_ij| A_l · 4σ_j` (4 standard deviations; the scrambled Halton directions do much
+/// better, which the measured maxima printed below show) and the reconstruction at the
+/// normal within `Σ_j |Σ_i B_i(N) M_ij| A_l · 4σ_j` — tiny, because only the zonal `j`
+/// survive at the pole.
+#[test]
+fn acceptance_1_uniform_sky_plane() {
+    const L: [f64; 3] = [1.0, 0.5, 0.25];
+    const K: u32 = 1024;
+    const SIGMAS: f64 = 4.0;
+    // f32 storage of coefficients up to ~10 L: 10 · 2^-24 relative, plus rounding of the fit.
+    const F32_SLACK: f64 = 1e-5;
+    // Bases that span {1, z}: the fit of E is exact (to quadrature rounding).
+    const EXACT_AT_POLE: [&str; 8] =
+        ["sh4", "sh9", "hsh4", "hsh9", "hbasis4", "hbasis6", "hbasis_mod4", "hbasis_mod6"];
+    const SPAN_TOL: f64 = 1e-9;
+    let scene = plane(1.0, L);
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    let sigma = |j: usize, ch: usize| if j == 0 { 0.0 } else { L[ch] * (PI / f64::from(K)).sqrt() };
+    let a = |j: usize| lightvol_sh::irradiance::cosine_lobe_factor(j.isqrt() as u32);
+    let pole = [0.0, 0.0, 1.0];
+    for name in ISSUE_BASES {
+        let s = SurfaceSettings { samples: K, resolution: Some([4, 4]), ..settings(name) };
+        let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
+        assert_eq!(bake.report.texels_covered, 16);
+        assert_eq!(bake.report.invalid_texels, 0);
+        let map = &bake.maps[0];
+        let basis = map.basis().unwrap();
+        let m = lightvol_hemibasis::convert::sh_to_basis_matrix(basis.as_ref(), 3);
+        let mut bpole = vec![0.0; basis.len()];
+        basis.eval_f64(pole, &mut bpole);
+        let mut worst = 0.0f64;
+        for ch in 0..3 {
+            let exact = basis.project(&|n| masked_sky_irradiance(L[ch], n));
+            let bound_c: Vec<f64> = (0..basis.len())
+                .map(|i| (0..9).map(|j| m[(i, j)].abs() * a(j) * SIGMAS * sigma(j, ch)).sum())
+                .collect();
+            let bound_e: f64 = (0..9)
+                .map(|j| {
+                    (0..basis.len()).map(|i| bpole[i] * m[(i, j)]).sum::<f64>().abs()
+                        * a(j)
+                        * SIGMAS
+                        * sigma(j, ch)
+                })
+                .sum();
+            for y in 0..4 {
+                for x in 0..4 {
+                    let c: Vec<f64> = map.texel(x, y).iter().map(|v| f64::from(v[ch])).collect();
+                    let e = basis.reconstruct_f64(&c, pole);
+                    let want = basis.reconstruct_f64(&exact, pole);
+                    assert!(
+                        (e - want).abs() <= bound_e + F32_SLACK * want,
+                        "{name} ch {ch}: E(N) {e} vs {want}"
+                    );
+                    for i in 0..basis.len() {
+                        let err = (c[i] - exact[i]).abs();
+                        worst = worst.max(err / L[ch]);
+                        assert!(
+                            err <= bound_c[i] + F32_SLACK * want,
+                            "{name} c{i} ch {ch}: {} vs {}",
+                            c[i],
+                            exact[i]
+                        );
+                    }
+                }
+            }
+        }
+        // Bases whose span holds `a + b z` reproduce π L at the normal exactly; the others
+        // (Half-Life 2, Makhotkin's √z family, Zernike in r = sin θ) only approximately.
+        let fit_pole = basis.reconstruct_f64(&basis.project(&|n| masked_sky_irradiance(1.0, n)), pole) / PI;
+        if EXACT_AT_POLE.contains(&name) {
+            assert!((fit_pole - 1.0).abs() < SPAN_TOL, "{name}: {fit_pole}");
+        }
+        println!(
+            "{name}: largest coefficient error {worst:.2e} L over 16 texels; least-squares fit at the normal {fit_pole:.6} π L"
+        );
+    }
+}
+
+/// The SH9 bake's DC coefficient is exact (uniform hemisphere directions and a constant
+/// radiance: `ŝ_00 = 2π L y_00` for every sample) and equals the hemispherical quadrature of
+/// Eq. 2.1 times `A_0 = π`: `e_00 = π · 2π L / sqrt(4π) = π^{3/2} L`. The band-2 zonal
+/// coefficient `s_20` vanishes (`∫_0^1 (3z² - 1) dz = 0`).
+#[test]
+fn sh9_dc_is_exact_under_a_uniform_sky() {
+    const DC_TOL: f64 = 1e-6; // f32 storage
+    let l = 0.75;
+    let scene = plane(1.0, [l; 3]);
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    let s = SurfaceSettings { samples: 64, resolution: Some([2, 2]), ..settings("sh9") };
+    let map = &bake_surface(&t, &s, &BakeControl::default()).unwrap().maps[0];
+    let q = lightvol_sh::quadrature::SphereQuadrature::hemisphere(8, 8);
+    let s00 = q.integrate(|d| l * lightvol_sh::reference::sh_reference(0, 0, d));
+    for y in 0..2 {
+        for x in 0..2 {
+            let dc = f64::from(map.texel(x, y)[0][1]);
+            assert!((dc - PI * s00).abs() < DC_TOL * dc);
+            assert!((dc - PI.powf(1.5) * l).abs() < DC_TOL * dc);
+        }
+    }
+}
+
+/// The path-traced reference at perturbed normals matches the closed form of the masked
+/// sky, and so does the SH9 map shaded at the same normal (the cheap shading path of the
+/// renderer).
+#[test]
+fn reference_and_shading_at_perturbed_normals() {
+    // Reference: 4096 cosine-weighted QMC samples of a bounded integrand (π L · mask):
+    // binomial σ ≤ π L / (2 sqrt(4096)) ≈ 0.025 L; QMC is far better. 0.02 L is 1σ of MC.
+    const REF_TOL: f64 = 0.02;
+    // Map: 1024 samples per texel; SH9 holds E exactly (bands 0-1), so the error is the
+    // Monte Carlo error of e_1m (σ ≤ (2π/3) L sqrt(π/1024) ≈ 0.12 L, 4σ 0.46 L) times |y_1m| ≤ 0.49.
+    const MAP_TOL: f64 = 0.23;
+    let l = 2.0;
+    let scene = plane(1.0, [l; 3]);
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
+    let s = SurfaceSettings { samples: 1024, resolution: Some([4, 4]), ..settings("sh9") };
+    let map = &bake_surface(&t, &s, &BakeControl::default()).unwrap().maps[0];
+    let basis = map.basis().unwrap();
+    for (k, n) in [[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [-0.3, 0.4, (0.75f64).sqrt()], [0.0, -0.96, 0.28]]
+        .into_iter()
+        .enumerate()
+    {
+        let exact = masked_sky_irradiance(l, n);
+        let (r, _) =
+            reference_surface_irradiance(&t, &geo, 0, [0.3, 0.2], n, Quantity::Irradiance, 4096, 9, k as u64);
+        assert!((r[0] - exact).abs() < REF_TOL * l, "reference {n:?}: {} vs {exact}", r[0]);
+        let uv = geo.lightmap_uv(0, [0.3, 0.2]).unwrap();
+        let e = map.shade(basis.as_ref(), uv, n);
+        assert!((e[0] - exact).abs() < MAP_TOL * l, "map {n:?}: {} vs {exact}", e[0]);
+    }
+    // Radiosity is irradiance / π.
+    let (r, _) = reference_surface_irradiance(
+        &t,
+        &geo,
+        0,
+        [0.3, 0.2],
+        [0.0, 0.0, 1.0],
+        Quantity::Radiosity,
+        256,
+        9,
+        0,
+    );
+    assert!((r[0] - l).abs() < 1e-9 * l);
+}
+
+/// Bit-identical maps for 1 and 3 threads, and for chunk sizes 1 and 1024.
+#[test]
+fn deterministic_across_thread_counts() {
+    let scene = boxes_scene();
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings { bounces: 1, ..TransportSettings::default() });
+    let s = SurfaceSettings { samples: 8, texels_per_unit: 3.0, ..settings("hbasis_mod6") };
+    let run = |threads: usize, chunk: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            bake_surface(&t, &SurfaceSettings { chunk, ..s.clone() }, &BakeControl::default()).unwrap()
+        })
+    };
+    let a = run(1, 1024);
+    let b = run(3, 1);
+    assert_eq!(a.maps, b.maps);
+    assert_eq!(a.report.rays, b.report.rays);
+    assert!(a.report.invalid_texels > 0);
+}
+
+// ---------------------------------------------------------------------------------------
+// Acceptance 3: intersecting boxes.
+
+/// Box A `[-1, 1]² × [0, 1.5]` and box B `[0.3, 1.8] × [-0.5, 0.5] × [0, 1]`, which pierces
+/// A's +X face; both without bottoms, on a ground plane (not baked), under a uniform sky.
+/// Each box face gets its own chart in a 3 × 2 grid of the lightmap, 4 % padding (2 texels at
+/// the test's density).
+const BOX_A: (DVec3, DVec3) = (DVec3::new(-1.0, -1.0, 0.0), DVec3::new(1.0, 1.0, 1.5));
+const BOX_B: (DVec3, DVec3) = (DVec3::new(0.3, -0.5, 0.0), DVec3::new(1.8, 0.5, 1.0));
+
+fn box_object(b: &mut SceneBuilder, name: &str, (lo, hi): (DVec3, DVec3), material: u32) {
+    let c = |x: usize, y: usize, z: usize| DVec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
+    // Counter-clockwise seen from outside; no bottom face.
+    let faces = [
+        [c(1, 0, 0), c(1, 1, 0), c(1, 1, 1), c(1, 0, 1)],
+        [c(0, 1, 0), c(0, 0, 0), c(0, 0, 1), c(0, 1, 1)],
+        [c(1, 1, 0), c(0, 1, 0), c(0, 1, 1), c(1, 1, 1)],
+        [c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)],
+        [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)],
+    ];
+    let extent = (hi - lo).max_element();
+    let (cell_w, cell_h, pad) = (1.0 / 3.0, 0.5, 0.04);
+    let k = ((cell_w - 2.0 * pad) / extent).min((cell_h - 2.0 * pad) / extent);
+    let (mut p, mut uv, mut tris) = (Vec::new(), Vec::new(), Vec::new());
+    for (f, q) in faces.iter().enumerate() {
+        let origin = DVec2::new((f % 3) as f64 * cell_w + pad, (f / 3) as f64 * cell_h + pad);
+        let (es, et) = (q[1] - q[0], q[3] - q[0]);
+        let base = p.len() as u32;
+        for (s, t) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+            p.push(q[0] + es * s + et * t);
+            uv.push(origin + DVec2::new(s * es.length() * k, t * et.length() * k));
+        }
+        tris.push([base, base + 1, base + 2]);
+        tris.push([base, base + 2, base + 3]);
+    }
+    add_object(b, name, p, uv, &tris, material);
+}
+
+fn boxes_scene() -> Scene {
+    let mut b = SceneBuilder::new("boxes");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let g = b.add_material(Material::diffuse("ground", [0.3; 3])).unwrap();
+    b.add_quad(
+        [
+            DVec3::new(-6.0, -6.0, 0.0),
+            DVec3::new(6.0, -6.0, 0.0),
+            DVec3::new(6.0, 6.0, 0.0),
+            DVec3::new(-6.0, 6.0, 0.0),
+        ],
+        g,
+    )
+    .unwrap();
+    box_object(&mut b, "A", BOX_A, m);
+    box_object(&mut b, "B", BOX_B, m);
+    b.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
+    b.build().unwrap()
+}
+
+fn strictly_inside((lo, hi): (DVec3, DVec3), p: DVec3) -> bool {
+    const MARGIN: f64 = 1e-9;
+    (0..3).all(|i| p[i] > lo[i] + MARGIN && p[i] < hi[i] - MARGIN)
+}
+
+/// Acceptance 3. A texel is *near the intersection* when its footprint has both visible and
+/// buried points (a 4 × 4 grid of footprint points, classified analytically: a point of box A
+/// strictly inside box B is buried, and vice versa — ground truth independent of the bake's
+/// ray-based classification). Such a texel *leaks dark* when its irradiance at the normal is
+/// below half the path-traced irradiance (256 samples) at the centroid of its visible grid
+/// points, i.e. what bilinear filtering carries into the visible surface. With the
+/// domain-of-interest treatment no such texel leaks; without it some do.
+#[test]
+fn acceptance_3_intersecting_boxes() {
+    const DARK: f64 = 0.5;
+    let scene = boxes_scene();
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings { bounces: 1, ..TransportSettings::default() });
+    let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
+    let base = SurfaceSettings { samples: 64, texels_per_unit: 8.0, ..settings("sh9") };
+    let fixed = bake_surface(&t, &base, &BakeControl::default()).unwrap();
+    let kept = bake_surface(
+        &t,
+        &SurfaceSettings { invalid: InvalidTexels::Keep, ..base.clone() },
+        &BakeControl::default(),
+    )
+    .unwrap();
+    let r = &fixed.report;
+    println!("fixed: {r:?}\nkept: {:?}", kept.report);
+    assert!(r.invalid_texels > 0 && r.moved > 0 && r.dilated > 0, "{r:?}");
+    // Faces buried whole (B's -X face inside A) have no valid texel to dilate from.
+    assert_eq!(r.invalid_texels, r.moved + r.dilated + r.unfilled);
+    assert!(kept.report.invalid_texels > 0);
+    assert_eq!((kept.report.moved, kept.report.dilated), (0, 0));
+
+    let sh9 = lightvol_hemibasis::ShBasis::new(3);
+    let mut near = 0;
+    let (mut leaks_fixed, mut leaks_kept) = (Vec::new(), Vec::new());
+    for (o, obj) in geo.objects().iter().enumerate() {
+        let other = if obj.name == "A" { BOX_B } else { BOX_A };
+        let (w, h) = (fixed.maps[o].width, fixed.maps[o].height);
+        for y in 0..h {
+            for x in 0..w {
+                let mut visible = Vec::new();
+                let mut buried = 0;
+                for j in 0..4 {
+                    for i in 0..4 {
+                        let uv = DVec2::new(
+                            (f64::from(x) + (f64::from(i) + 0.5) / 4.0) / f64::from(w),
+                            (f64::from(y) + (f64::from(j) + 0.5) / 4.0) / f64::from(h),
+                        );
+                        let Some((tri, bary)) = locate(&geo, &obj.triangles, uv) else { continue };
+                        let p = scene.triangles[tri as usize].point(bary[0], bary[1]);
+                        if strictly_inside(other, p) {
+                            buried += 1;
+                        } else {
+                            visible.push((tri, p));
+                        }
+                    }
+                }
+                if buried == 0 || visible.is_empty() {
+                    continue;
+                }
+                near += 1;
+                // Centroid of the visible points (they lie on one face: the charts are faces).
+                let tri = visible[0].0;
+                let c = visible.iter().map(|v| v.1).sum::<DVec3>() / visible.len() as f64;
+                let bary = bary_of(&scene.triangles[tri as usize].v, c);
+                let (reference, _) = reference_surface_irradiance(
+                    &t,
+                    &geo,
+                    tri,
+                    bary,
+                    [0.0, 0.0, 1.0],
+                    Quantity::Irradiance,
+                    256,
+                    5,
+                    u64::from(y * w + x),
+                );
+                let at = |m: &CoefficientMap| {
+                    let c: Vec<f64> = m.texel(x, y).iter().map(|v| f64::from(v[1])).collect();
+                    sh9.reconstruct_f64(&c, [0.0, 0.0, 1.0])
+                };
+                let (ef, ek) = (at(&fixed.maps[o]), at(&kept.maps[o]));
+                if ef < DARK * reference[1] {
+                    leaks_fixed.push((obj.name.clone(), x, y, ef, reference[1]));
+                }
+                if ek < DARK * reference[1] {
+                    leaks_kept.push((obj.name.clone(), x, y, ek, reference[1]));
+                }
+            }
+        }
+    }
+    println!(
+        "{near} texels near the intersection; dark leaks: fixed {}, kept {}",
+        leaks_fixed.len(),
+        leaks_kept.len()
+    );
+    assert!(near >= 20, "{near}");
+    assert!(leaks_fixed.is_empty(), "{leaks_fixed:?}");
+    assert!(leaks_kept.len() >= 5, "{leaks_kept:?}");
+}
+
+/// The triangle of `tris` whose lightmap UV triangle contains `uv`, with barycentrics.
+fn locate(geo: &SurfaceGeometry, tris: &[u32], uv: DVec2) -> Option<(u32, [f64; 2])> {
+    tris.iter().find_map(|&tri| {
+        let t = geo.triangle(tri)?.uv;
+        let (d1, d2, r) = (t[1] - t[0], t[2] - t[0], uv - t[0]);
+        let det = d1.perp_dot(d2);
+        let (u, v) = (r.perp_dot(d2) / det, d1.perp_dot(r) / det);
+        (u >= 0.0 && v >= 0.0 && u + v <= 1.0).then_some((tri, [u, v]))
+    })
+}
+
+/// Barycentrics `(u, v)` of a point in the plane of triangle `v`.
+fn bary_of(v: &[DVec3; 3], p: DVec3) -> [f64; 2] {
+    let (e1, e2, r) = (v[1] - v[0], v[2] - v[0], p - v[0]);
+    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (r1, r2) = (r.dot(e1), r.dot(e2));
+    let det = d11 * d22 - d12 * d12;
+    [(r1 * d22 - r2 * d12) / det, (r2 * d11 - r1 * d12) / det]
+}
+
+// ---------------------------------------------------------------------------------------
+// Acceptance 5: lightmap UV errors from glTF files.
+
+fn base64(data: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for c in data.chunks(3) {
+        let n = (u32::from(c[0]) << 16)
+            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+            | u32::from(*c.get(2).unwrap_or(&0));
+        for k in 0..4 {
+            out.push(if k <= c.len() { A[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
+        }
+    }
+    out
+}
+
+/// A glTF file with one mesh "Floor" of two triangles over the unit square (4 vertices),
+/// `TEXCOORD_0` = positions, `TEXCOORD_1` = `uv1` if given, optional `TANGENT`s, under a node
+/// with scale `scale`.
+fn gltf_file(
+    dir: &std::path::Path,
+    uv1: Option<[[f32; 2]; 4]>,
+    tangents: Option<[[f32; 4]; 4]>,
+    scale: [f32; 3],
+) -> std::path::PathBuf {
+    let pos = [[0.0f32, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+    let mut bytes = Vec::new();
+    let mut views = Vec::new();
+    let mut accessors = Vec::new();
+    let mut attrs = Vec::new();
+    let mut push = |bytes: &mut Vec<u8>, vals: Vec<f32>, ty: &str, name: &str, extra: &str| {
+        let off = bytes.len();
+        for v in &vals {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+        views.push(format!(r#"{{"buffer": 0, "byteOffset": {off}, "byteLength": {}}}"#, vals.len() * 4));
+        accessors.push(format!(
+            r#"{{"bufferView": {}, "componentType": 5126, "count": 4, "type": "{ty}"{extra}}}"#,
+            views.len() - 1
+        ));
+        attrs.push(format!(r#""{name}": {}"#, accessors.len() - 1));
+    };
+    push(
+        &mut bytes,
+        pos.iter().flatten().copied().collect(),
+        "VEC3",
+        "POSITION",
+        r#", "min": [0, 0, 0], "max": [1, 1, 0]"#,
+    );
+    push(&mut bytes, pos.iter().flat_map(|p| [p[0], p[1]]).collect(), "VEC2", "TEXCOORD_0", "");
+    if let Some(uv) = uv1 {
+        push(&mut bytes, uv.iter().flatten().copied().collect(), "VEC2", "TEXCOORD_1", "");
+    }
+    push(&mut bytes, [[0.0f32, 0.0, 1.0]; 4].iter().flatten().copied().collect(), "VEC3", "NORMAL", "");
+    if let Some(t) = tangents {
+        push(&mut bytes, t.iter().flatten().copied().collect(), "VEC4", "TANGENT", "");
+    }
+    // Indices (u16), padded to 4 bytes.
+    let off = bytes.len();
+    for i in [0u16, 1, 2, 0, 2, 3] {
+        bytes.extend_from_slice(&i.to_le_bytes());
+    }
+    views.push(format!(r#"{{"buffer": 0, "byteOffset": {off}, "byteLength": 12}}"#));
+    accessors.push(format!(
+        r#"{{"bufferView": {}, "componentType": 5123, "count": 6, "type": "SCALAR"}}"#,
+        views.len() - 1
+    ));
+    let indices = accessors.len() - 1;
+    let text = format!(
+        r#"{{"asset": {{"version": "2.0"}}, "scene": 0, "scenes": [{{"nodes": [0]}}],
+  "nodes": [{{"mesh": 0, "scale": {scale:?}}}],
+  "meshes": [{{"name": "Floor", "primitives": [{{"attributes": {{{}}}, "indices": {indices}}}]}}],
+  "accessors": [{}], "bufferViews": [{}],
+  "buffers": [{{"byteLength": {}, "uri": "data:application/octet-stream;base64,{}"}}]}}"#,
+        attrs.join(", "),
+        accessors.join(", "),
+        views.join(", "),
+        bytes.len(),
+        base64(&bytes)
+    );
+    let p = dir.join("t.gltf");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn load(p: &std::path::Path) -> Scene {
+    crate::load_gltf::load_gltf(p, &crate::LoadOptions { up: crate::UpAxis::Z, ..Default::default() })
+        .unwrap()
+}
+
+/// Acceptance 5: a missing lightmap UV set, overlapping UV triangles, out-of-range and
+/// degenerate UVs are clear errors naming the mesh (and faces); `--uv 0` uses TEXCOORD_0.
+#[test]
+fn acceptance_5_uv_errors() {
+    let d = tempfile::tempdir().unwrap();
+    let good = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
+    // Missing TEXCOORD_1.
+    let s = load(&gltf_file(d.path(), None, None, [1.0; 3]));
+    let e = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap_err();
+    assert!(
+        matches!(&e, SurfaceError::MissingUvSet { mesh, set: UvSet::Lightmap } if mesh == "Floor"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("Floor") && e.to_string().contains("TEXCOORD_1"));
+    assert!(SurfaceGeometry::new(&s, UvSet::Base).is_ok());
+    // Overlap: vertex 3 mapped onto vertex 1's side folds triangle 1 over triangle 0.
+    let s =
+        load(&gltf_file(d.path(), Some([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.9, 0.1]]), None, [1.0; 3]));
+    let geo = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap();
+    let e = Atlas::build(&geo, 0, [16, 16]).unwrap_err();
+    assert!(matches!(&e, SurfaceError::UvOverlap { mesh, a: 0, b: 1, .. } if mesh == "Floor"), "{e}");
+    assert!(e.to_string().contains("triangles 0 and 1"), "{e}");
+    // Through the whole bake too (no tracing happens before the check).
+    let tracer = Tracer::new(&s);
+    let t = Transport::new(&s, &tracer, TransportSettings::default());
+    assert!(matches!(
+        bake_surface(&t, &settings("sh4"), &BakeControl::default()),
+        Err(SurfaceError::UvOverlap { .. })
+    ));
+    // Out of range.
+    let s =
+        load(&gltf_file(d.path(), Some([[0.0, 0.0], [1.5, 0.0], [1.0, 1.0], [0.0, 1.0]]), None, [1.0; 3]));
+    let e = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap_err();
+    assert!(matches!(&e, SurfaceError::UvOutOfRange { mesh, triangle: 0, .. } if mesh == "Floor"), "{e}");
+    // Degenerate (all of triangle 1 on a line).
+    let s =
+        load(&gltf_file(d.path(), Some([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.5, 0.5]]), None, [1.0; 3]));
+    let e = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap_err();
+    assert!(matches!(&e, SurfaceError::DegenerateUv { triangle: 1, .. }), "{e}");
+    // Scenes without objects.
+    let obj = crate::builtin::city();
+    assert!(matches!(
+        SurfaceGeometry::new(&obj.scene, UvSet::Lightmap),
+        Err(SurfaceError::NoLightmapObjects)
+    ));
+    // Good UVs: fine, and the shared diagonal is not an overlap at any resolution.
+    let s = load(&gltf_file(d.path(), Some(good), None, [1.0; 3]));
+    let geo = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap();
+    for n in [1, 2, 3, 7, 64] {
+        let a = Atlas::build(&geo, 0, [n, n]).unwrap();
+        assert_eq!(a.footprints.len(), (n * n) as usize);
+    }
+    assert!(BasisChoice::parse("hbasis5").is_err() && BasisChoice::parse("nope").is_err());
+    assert!(BasisChoice::parse("").is_err() && BasisChoice::parse("9").is_err());
+}
+
+/// No input panics: random UVs (with NaN, infinities, out-of-range values, degenerate and
+/// overlapping triangles) give `Ok` or an error, never a panic.
+#[test]
+fn random_uvs_never_panic() {
+    let mut rng = SplitMix64::new(7);
+    for case in 0..200 {
+        let mut b = SceneBuilder::new("r");
+        let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+        let n = 3 + (case % 7);
+        let p: Vec<DVec3> =
+            (0..n).map(|i| DVec3::new(i as f64, (i * i % 5) as f64, (i % 3) as f64)).collect();
+        let uv: Vec<DVec2> = (0..n)
+            .map(|_| {
+                let mut c = || match rng.next_u64() % 20 {
+                    0 => f64::NAN,
+                    1 => f64::INFINITY,
+                    2 => 0.5,
+                    _ => rng.range(-0.1, 1.1),
+                };
+                DVec2::new(c(), c())
+            })
+            .collect();
+        let faces: Vec<[u32; 3]> =
+            (0..n as u32).map(|i| [i, (i + 1) % n as u32, (i + 2) % n as u32]).collect();
+        add_object(&mut b, "r", p, uv, &faces, m);
+        let Ok(s) = b.build() else { continue };
+        if let Ok(geo) = SurfaceGeometry::new(&s, UvSet::Lightmap) {
+            let obj = &geo.objects()[0];
+            let _ = atlas_size(obj, 4.0).map(|size| Atlas::build(&geo, 0, size));
+            let _ = Atlas::build(&geo, 0, [5, 3]);
+        }
+    }
+}
+
+/// glTF TANGENTs are used as given (world space, handedness flipped by a mirroring node),
+/// and MikkTSpace fills in when they are missing: on the unit square with TEXCOORD_0 = xy the
+/// frame is (x, y, z).
+#[test]
+fn gltf_tangents_and_mikktspace() {
+    const TOL: f64 = 1e-6; // f32 attributes
+    let d = tempfile::tempdir().unwrap();
+    let good = Some([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]);
+    let s = load(&gltf_file(d.path(), good, None, [1.0; 3]));
+    assert!(s.meshes[0].tangents.is_none());
+    let geo = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap();
+    let f = geo.frame(0, [0.2, 0.3]).unwrap();
+    assert!(
+        (f.t - DVec3::X).length() < TOL && (f.b - DVec3::Y).length() < TOL && (f.n - DVec3::Z).length() < TOL
+    );
+    // Authored tangents along +Y with w = -1: b = -(z × y) = +x.
+    let s = load(&gltf_file(d.path(), good, Some([[0.0, 1.0, 0.0, -1.0]; 4]), [1.0; 3]));
+    let geo = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap();
+    let f = geo.frame(1, [0.2, 0.3]).unwrap();
+    assert!((f.t - DVec3::Y).length() < TOL && (f.b - DVec3::X).length() < TOL, "{f:?}");
+    // Mirrored in x: the tangent is mirrored, w flips, the normal stays +z (winding flipped).
+    let s = load(&gltf_file(d.path(), good, Some([[1.0, 0.0, 0.0, 1.0]; 4]), [-1.0, 1.0, 1.0]));
+    let m = &s.meshes[0];
+    assert_eq!(m.tangents.as_ref().unwrap()[0], glam::DVec4::new(-1.0, 0.0, 0.0, -1.0));
+    assert_eq!(m.uv1.as_ref().unwrap()[2], DVec2::new(1.0, 1.0));
+    let geo = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap();
+    let f = geo.frame(0, [0.2, 0.3]).unwrap();
+    assert!((f.n - DVec3::Z).length() < TOL && (f.b - DVec3::Y).length() < TOL, "{f:?}");
+    // Every triangle of the file has a reference to the mesh.
+    assert!(s.triangle_refs.iter().all(|r| r.is_some_and(|r| r.mesh == 0)));
+}
+
+/// Maps written by a bake read back identically through the EXR file.
+#[test]
+fn bake_writes_and_reads_exr() {
+    let scene = plane(0.5, [1.0; 3]);
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    let s = SurfaceSettings { samples: 16, texels_per_unit: 6.0, ..settings("hl2") };
+    let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
+    // Plane of side 1 with UVs over [0, 1]: 6 texels per unit → 6 × 6.
+    assert_eq!((bake.maps[0].width, bake.maps[0].height), (6, 6));
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("m.exr");
+    write_surface_exr(&p, &bake.maps).unwrap();
+    assert_eq!(read_surface_exr(&p).unwrap(), bake.maps);
+    let _: &dyn HemiBasis = bake.maps[0].basis().unwrap().as_ref();
+}
+
+/// Conservative rasterization: a UV triangle that covers no texel centre still covers the
+/// texels it overlaps, and the bake gives them values from its footprint only.
+#[test]
+fn conservative_rasterization_covers_centreless_texels() {
+    let mut b = SceneBuilder::new("sliver");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let p = vec![DVec3::new(0.0, 0.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(0.0, 1.0, 0.0)];
+    // In a 4 × 4 atlas the centre of texel (0, 0) is (0.125, 0.125): u + v = 0.25 > 0.21.
+    let uv = vec![DVec2::new(0.01, 0.01), DVec2::new(0.2, 0.01), DVec2::new(0.01, 0.2)];
+    add_object(&mut b, "sliver", p, uv, &[[0, 1, 2]], m);
+    b.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
+    let scene = b.build().unwrap();
+    let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
+    let a = Atlas::build(&geo, 0, [4, 4]).unwrap();
+    assert_eq!(a.footprints.len(), 1);
+    assert_eq!(a.footprints[0].texel, 0);
+    // Its area is the whole triangle: 0.19² / 2 UV² = 0.01805 · 16 texels².
+    assert!((a.footprints[0].area - 0.19 * 0.19 / 2.0 * 16.0).abs() < 1e-12);
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    let s = SurfaceSettings { samples: 16, resolution: Some([4, 4]), gutter: 0, ..settings("sh4") };
+    let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
+    assert_eq!(bake.report.texels_covered, 1);
+    assert_eq!(bake.maps[0].valid_at(0, 0), map::VALID_BAKED);
+    assert_eq!(bake.maps[0].valid_at(1, 0), map::VALID_EMPTY);
+    assert!(bake.maps[0].texel(0, 0)[0][0] > 0.0);
+}
