@@ -46,3 +46,24 @@ fn eval_f32(bencher: Bencher<'_, '_>, tag: &str) {
 fn conversion_matrices() -> usize {
     table_bases().iter().map(|b| b.sh_irradiance_matrix(3).rows()).sum()
 }
+
+/// Encodes a 64 × 64 SH9 map to 8-bit planes (seed 003 §2.2.3).
+#[divan::bench]
+fn encode_map_64(bencher: Bencher<'_, '_>) {
+    let basis = lightvol_hemibasis::ShBasis::new(3);
+    let map = lightvol_hemibasis::map::sky_test_map(&basis, 64, 64, 0.8);
+    let enc = lightvol_hemibasis::encode::Encoding::default();
+    bencher.bench_local(|| black_box(enc.encode_map(&basis, black_box(&map))));
+}
+
+/// Block-compresses one 64 × 64 plane, BC1 against BC7 in the same run.
+#[cfg(feature = "bc")]
+#[divan::bench(args = ["bc1", "bc7"])]
+fn compress_plane_64(bencher: Bencher<'_, '_>, format: &str) {
+    use lightvol_hemibasis::bc::{BlockFormat, compress};
+    let basis = lightvol_hemibasis::ShBasis::new(3);
+    let map = lightvol_hemibasis::map::sky_test_map(&basis, 64, 64, 0.8);
+    let (planes, _) = lightvol_hemibasis::encode::Encoding::default().encode_map(&basis, &map);
+    let f = if format == "bc1" { BlockFormat::Bc1 } else { BlockFormat::Bc7 };
+    bencher.bench_local(|| black_box(compress(black_box(&planes[1]), f)));
+}
