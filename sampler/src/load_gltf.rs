@@ -73,7 +73,7 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         let (mut normals, mut tangents, mut uv0, mut uv1) =
             (Some(Vec::new()), Some(Vec::new()), Some(Vec::new()), Some(Vec::new()));
         // Faces of all primitives: object vertex ids, positions, base UVs, material.
-        let mut faces: Vec<([usize; 3], [DVec3; 3], [DVec2; 3], u32)> = Vec::new();
+        let mut faces: Vec<Face> = Vec::new();
         for prim in mesh.primitives() {
             if prim.mode() != gltf::mesh::Mode::Triangles {
                 b.warn(format!(
@@ -173,6 +173,9 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
     }
     b.build()
 }
+
+/// One face while an object is assembled: object vertex ids, positions, base UVs, material.
+type Face = ([usize; 3], [DVec3; 3], [DVec2; 3], u32);
 
 /// Appends a primitive's attribute array to the object's, or drops the object's array when
 /// this primitive lacks the attribute (or has the wrong count): a set is present for an

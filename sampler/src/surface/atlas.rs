@@ -269,11 +269,11 @@ fn clip_to_square(q: [DVec2; 3], origin: DVec2) -> ([DVec2; 7], usize) {
         for i in 0..len {
             let (a, b) = (buf[i], buf[(i + 1) % len]);
             let (da, db) = (dist(a), dist(b));
-            if da >= 0.0 {
-                if n < 7 {
-                    out[n] = a;
-                    n += 1;
-                }
+            // A triangle clipped by 4 half-planes has at most 7 vertices; `n < 7` only guards
+            // against rounding producing an 8th.
+            if da >= 0.0 && n < 7 {
+                out[n] = a;
+                n += 1;
             }
             if (da >= 0.0) != (db >= 0.0) {
                 let t = da / (da - db);
