@@ -199,23 +199,184 @@ pub(crate) fn bake_with_sink(
     }
     let mut acc =
         Accumulator::new(grid.clone(), settings.coeffs).map_err(|e| BakeError::Volume(e.to_string()))?;
-    let bands = bands_of(settings.coeffs)
-        .ok_or_else(|| BakeError::Settings(format!("{} coefficients", settings.coeffs)))?;
     let units = match settings.method {
         Method::Point => grid.node_count(),
         Method::Prefilter | Method::Doi => grid.cell_count(),
     };
     let (lo, hi) = (units * k as usize / n as usize, units * (k as usize + 1) / n as usize);
+    let stats = run_units(transport, grid, settings, control, hi - lo, |i| lo + i, &mut acc, &mut sink)?;
+    Ok(BakeOutput { accumulator: acc, stats })
+}
+
+/// Where a bake's contributions go: the dense [`Accumulator`], or the sparse sums of a
+/// unit-subset bake ([`SubsetSums`]). Both perform exactly the additions of
+/// [`Accumulator::add`] / [`Accumulator::add_outside`].
+trait NodeSums {
+    fn add(&mut self, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]);
+    fn add_outside(&mut self, node: usize, b: f64);
+}
+
+impl NodeSums for Accumulator {
+    fn add(&mut self, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
+        Accumulator::add(self, node, b, radiance_over_pdf, basis);
+    }
+    fn add_outside(&mut self, node: usize, b: f64) {
+        Accumulator::add_outside(self, node, b);
+    }
+}
+
+/// The per-node sums of a bake restricted to a subset of its units ([`bake_units`]): the
+/// touched nodes (flat indices of the grid, ascending) with their Eq. 6 numerators
+/// `[node][coeff][rgb]`, denominators and outside sums.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SubsetSums {
+    /// Touched nodes, ascending.
+    pub nodes: Vec<usize>,
+    /// Numerators, `[i][coeff][rgb]` for `nodes[i]`.
+    pub numerator: Vec<f64>,
+    /// Denominators `Σ b`.
+    pub denominator: Vec<f64>,
+    /// Sums `Σ b` of rejected candidates.
+    pub outside: Vec<f64>,
+}
+
+impl SubsetSums {
+    /// Position of `node` in [`Self::nodes`].
+    #[must_use]
+    pub fn find(&self, node: usize) -> Option<usize> {
+        self.nodes.binary_search(&node).ok()
+    }
+}
+
+/// Sparse sums in insertion order (sorted by [`SparseSums::finish`]).
+struct SparseSums {
+    k: usize,
+    slot: std::collections::HashMap<usize, usize>,
+    nodes: Vec<usize>,
+    numerator: Vec<f64>,
+    denominator: Vec<f64>,
+    outside: Vec<f64>,
+}
+
+impl SparseSums {
+    fn slot(&mut self, node: usize) -> usize {
+        let next = self.nodes.len();
+        let s = *self.slot.entry(node).or_insert(next);
+        if s == next {
+            self.nodes.push(node);
+            self.numerator.extend(std::iter::repeat_n(0.0, self.k));
+            self.denominator.push(0.0);
+            self.outside.push(0.0);
+        }
+        s
+    }
+
+    fn finish(self) -> SubsetSums {
+        let mut order: Vec<usize> = (0..self.nodes.len()).collect();
+        order.sort_unstable_by_key(|&i| self.nodes[i]);
+        let k = self.k;
+        SubsetSums {
+            nodes: order.iter().map(|&i| self.nodes[i]).collect(),
+            numerator: order
+                .iter()
+                .flat_map(|&i| self.numerator[i * k..(i + 1) * k].iter().copied())
+                .collect(),
+            denominator: order.iter().map(|&i| self.denominator[i]).collect(),
+            outside: order.iter().map(|&i| self.outside[i]).collect(),
+        }
+    }
+}
+
+impl NodeSums for SparseSums {
+    fn add(&mut self, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
+        let s = self.slot(node);
+        let k = self.k;
+        let num = &mut self.numerator[s * k..(s + 1) * k];
+        // The arithmetic of Accumulator::add, operation for operation.
+        let r = [b * radiance_over_pdf[0], b * radiance_over_pdf[1], b * radiance_over_pdf[2]];
+        for (j, &y) in basis.iter().enumerate() {
+            num[3 * j] += r[0] * y;
+            num[3 * j + 1] += r[1] * y;
+            num[3 * j + 2] += r[2] * y;
+        }
+        self.denominator[s] += b;
+    }
+    fn add_outside(&mut self, node: usize, b: f64) {
+        let s = self.slot(node);
+        self.outside[s] += b;
+    }
+}
+
+/// A bake restricted to the listed units (cells for prefilter and doi, nodes for point
+/// sampling; flat indices of `grid`, strictly increasing). Each unit is sampled exactly as
+/// in [`bake`] and the contributions are added in unit order, so every node whose units
+/// all lie in the subset gets sums bit-identical to the full bake's, for any thread count.
+/// `settings.shard` must be `(0, 1)`. Progress reports count the listed units.
+///
+/// # Errors
+/// As [`bake`], plus [`BakeError::Settings`] for units out of range or not increasing.
+pub fn bake_units(
+    transport: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    units: &[usize],
+    control: &BakeControl<'_>,
+) -> Result<(SubsetSums, BakeStats), BakeError> {
+    if settings.shard != (0, 1) {
+        return Err(BakeError::Settings("a unit-subset bake cannot be sharded".into()));
+    }
+    if settings.samples == 0 {
+        return Err(BakeError::Settings("samples must be positive".into()));
+    }
+    lightvol_volume::volume::check_coeffs(settings.coeffs).map_err(|e| BakeError::Settings(e.to_string()))?;
+    let count = match settings.method {
+        Method::Point => grid.node_count(),
+        Method::Prefilter | Method::Doi => grid.cell_count(),
+    };
+    if units.windows(2).any(|w| w[0] >= w[1]) || units.last().is_some_and(|&u| u >= count) {
+        return Err(BakeError::Settings(format!("units must be increasing and below {count}")));
+    }
+    let mut sums = SparseSums {
+        k: settings.coeffs * 3,
+        slot: std::collections::HashMap::new(),
+        nodes: Vec::new(),
+        numerator: Vec::new(),
+        denominator: Vec::new(),
+        outside: Vec::new(),
+    };
+    let stats =
+        run_units(transport, grid, settings, control, units.len(), |i| units[i], &mut sums, &mut |_| {})?;
+    Ok((sums.finish(), stats))
+}
+
+/// Samples units `unit_of(0..count)` in parallel chunks and feeds them in order.
+#[allow(
+    clippy::too_many_arguments,
+    reason = "the bake loop's inputs are independent; a struct would only rename them"
+)]
+fn run_units(
+    transport: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    control: &BakeControl<'_>,
+    count: usize,
+    unit_of: impl Fn(usize) -> usize + Sync,
+    acc: &mut impl NodeSums,
+    sink: &mut impl FnMut(&UnitOut),
+) -> Result<BakeStats, BakeError> {
+    let bands = bands_of(settings.coeffs)
+        .ok_or_else(|| BakeError::Settings(format!("{} coefficients", settings.coeffs)))?;
     let start = Instant::now();
     let mut stats = BakeStats::default();
     let chunk = settings.chunk.max(1);
     let mut basis = [vec![0.0; settings.coeffs], vec![0.0; settings.coeffs]];
     let mut done = 0;
-    for c0 in (lo..hi).step_by(chunk) {
-        let c1 = (c0 + chunk).min(hi);
+    for c0 in (0..count).step_by(chunk) {
+        let c1 = (c0 + chunk).min(count);
         let outs: Vec<Option<UnitOut>> = (c0..c1)
             .into_par_iter()
-            .map(|u| {
+            .map(|i| {
+                let u = unit_of(i);
                 if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
                     return None;
                 }
@@ -229,23 +390,23 @@ pub(crate) fn bake_with_sink(
             return Err(BakeError::Cancelled);
         }
         for out in outs.into_iter().flatten() {
-            feed(&mut acc, &out, bands, &mut basis);
+            feed(acc, &out, bands, &mut basis);
             sink(&out);
             stats.add_counts(&out.stats);
         }
         done += c1 - c0;
         if let Some(p) = control.progress {
-            p(Progress { done, total: hi - lo });
+            p(Progress { done, total: count });
         }
     }
     stats.wall_time = start.elapsed();
-    Ok(BakeOutput { accumulator: acc, stats })
+    Ok(stats)
 }
 
 /// Adds a unit's samples in order. A sample with two terms is added as two half-weight
 /// contributions with doubled radiance: `(b/2)·(2 r)` equals `b·r` exactly (powers of two),
 /// so the numerator receives `b (r₁ Y(ω₁) + r₂ Y(ω₂))` and the denominator exactly `b`.
-fn feed(acc: &mut Accumulator, out: &UnitOut, bands: usize, basis: &mut [Vec<f64>; 2]) {
+fn feed(acc: &mut impl NodeSums, out: &UnitOut, bands: usize, basis: &mut [Vec<f64>; 2]) {
     for s in &out.samples {
         let n_terms = usize::from(s.n_terms);
         // One basis evaluation per term, shared by the (up to 8) corners.

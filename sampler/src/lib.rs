@@ -1,5 +1,6 @@
 #![doc = include_str!("../README.md")]
 
+pub mod adaptive;
 pub mod bake;
 pub mod builtin;
 pub mod bvh;

@@ -12,15 +12,20 @@
 //!   order), each with a weight (0 = no estimate: such a node keeps the coarser levels'
 //!   interpolation, surplus 0).
 //!
-//! For each level `l < max_level`: score the leaves; split, in order of decreasing score
-//! (ties by cell key), every cell with score `≥ 1` (all cells below `min_level`); bake the
-//! level-`l+1` nodes the splits create; store each node's surplus unless it is culled (see
-//! [`crate::adaptive`]). With a memory budget a split is taken only while the memory model of
-//! [`AdaptiveVolume::memory_bytes`] (counting the new nodes before culling) stays within it;
-//! cells that did not fit are retried after culling has freed memory, for at most
-//! [`MAX_ROUNDS`] rounds per level. Everything is deterministic given deterministic callbacks.
+//! For each level `l < max_level`: score the leaves; split every cell with score `≥ 1` (all
+//! cells below `min_level`); bake the level-`l+1` nodes the splits create; store each node's
+//! surplus unless it is culled (see [`crate::adaptive`]).
+//!
+//! **Memory budget.** Seed 002's brute-force scheme: "super-sample, then discard redundant
+//! voxels using some error tolerance". When the tree the heuristics grew exceeds
+//! `memory_budget` (as [`AdaptiveVolume::memory_bytes`] counts it), the cull tolerance is
+//! raised by bisection until it fits: the surpluses are recomputed level by level from the
+//! baked values for each trial tolerance, so the nodes kept are, across all levels, those
+//! that differ most from their parents' interpolation. The tolerance used is stored in
+//! [`OctreeParams::cull_tolerance`] of the result. Everything is deterministic given
+//! deterministic callbacks.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::BTreeSet;
 
 use crate::adaptive::{
     AdaptiveVolume, LevelStats, LevelTable, OctreeParams, level_grid, memory_model, pack_key,
@@ -28,9 +33,6 @@ use crate::adaptive::{
 use crate::error::VolumeError;
 use crate::grid::GridSpec;
 use crate::volume::IrradianceVolume;
-
-/// Refinement rounds per level under a memory budget.
-pub const MAX_ROUNDS: usize = 8;
 
 /// The baked values of a list of nodes: `values` `[node][coeff][rgb]`, `weights` one per
 /// node (the domain-of-interest weight; 0 = no estimate).
@@ -180,9 +182,12 @@ fn child_nodes(c: [u32; 3]) -> impl Iterator<Item = [u32; 3]> {
     (0..27u32).map(move |q| [2 * c[0] + q % 3, 2 * c[1] + (q / 3) % 3, 2 * c[2] + q / 9])
 }
 
+/// Baked values of the nodes of one level `≥ 1`, sorted by key (`None`: no estimate).
+type Baked = Vec<(u64, Option<Vec<f64>>)>;
+
 /// Builds an adaptive volume over `base` (module docs). Errors on invalid parameters, a
-/// memory budget below the base level (plus the splits `min_level` forces), callback output
-/// of the wrong length or with non-finite values, and callback errors.
+/// memory budget below the base level plus the nodes `min_level` keeps, callback output of
+/// the wrong length or with non-finite values, and callback errors.
 pub fn build_adaptive<E>(
     base: IrradianceVolume,
     params: &OctreeParams,
@@ -195,16 +200,14 @@ pub fn build_adaptive<E>(
     let k = coeffs * 3;
     let spec0 = base.spec().clone();
     let scale = value_scale(&base);
-    let cull_at = params.cull_tolerance * scale;
-    let node_bytes = k * 4 + 8;
-    let mut mem = memory_model(&spec0, coeffs, ml, 0, 0);
-    if let Some(b) = params.memory_budget
-        && b < mem
-    {
-        return Err(VolumeError::InvalidData(format!(
-            "memory budget of {b} bytes is below the base level's {mem} bytes"
-        ))
-        .into());
+    if let Some(b) = params.memory_budget {
+        let need = memory_model(&spec0, coeffs, ml, 0, 0);
+        if b < need {
+            return Err(VolumeError::InvalidData(format!(
+                "memory budget of {b} bytes is below the base level's {need} bytes"
+            ))
+            .into());
+        }
     }
     let mut field = NodeValues {
         keys: (0..spec0.node_count()).map(|n| pack_key(spec0.node_coords(n))).collect(),
@@ -225,7 +228,7 @@ pub fn build_adaptive<E>(
         vec![Vec::new(); ml as usize],
         stats.clone(),
     )?;
-    let mut interp = vec![0.0f64; k];
+    let mut baked: Vec<Baked> = vec![Vec::new(); ml as usize];
 
     for l in 0..ml {
         let grid = level_grid(&spec0, l)?;
@@ -246,8 +249,7 @@ pub fn build_adaptive<E>(
         if cand.is_empty() {
             break;
         }
-        let forced = l < params.min_level;
-        let scores = if forced {
+        let scores = if l < params.min_level {
             vec![f64::INFINITY; cand.len()]
         } else {
             let c = Candidates { level: l, grid: &grid, cells: &cand, values: &field, value_scale: scale };
@@ -261,37 +263,16 @@ pub fn build_adaptive<E>(
             ))
             .into());
         }
-        let mut remaining: Vec<usize> = (0..cand.len()).filter(|&i| scores[i] >= 1.0).collect();
-        // Largest score first; ties in key order (cand is sorted by key).
-        remaining.sort_by(|&a, &b| scores[b].total_cmp(&scores[a]).then(a.cmp(&b)));
-
-        let bitmap_cost = usize::from(l + 1 < ml);
-        let mut new_field: BTreeMap<u64, Vec<f64>> = BTreeMap::new();
-        let mut stored: BTreeMap<u64, Vec<f32>> = BTreeMap::new();
-        let mut split_l: Vec<u64> = Vec::new();
-        let (mut created, mut empty) = (0usize, 0usize);
-        for _round in 0..MAX_ROUNDS {
-            let mut pending: BTreeSet<u64> = BTreeSet::new();
-            let mut taken = Vec::new();
-            let mut left = Vec::new();
-            for &ci in &remaining {
-                let new: Vec<u64> = child_nodes(cand[ci])
-                    .map(pack_key)
-                    .filter(|key| !new_field.contains_key(key) && !pending.contains(key))
-                    .collect();
-                let cost = new.len() * node_bytes + bitmap_cost;
-                if !forced && params.memory_budget.is_some_and(|b| mem + cost > b) {
-                    left.push(ci);
-                    continue;
-                }
-                mem += cost;
-                pending.extend(new);
-                taken.push(ci);
-            }
-            if taken.is_empty() {
-                break;
-            }
-            let nodes: Vec<[u32; 3]> = pending.iter().map(|&key| crate::adaptive::unpack_key(key)).collect();
+        let split_l: Vec<u64> =
+            (0..cand.len()).filter(|&i| scores[i] >= 1.0).map(|i| pack_key(cand[i])).collect();
+        let new: BTreeSet<u64> = split_l
+            .iter()
+            .flat_map(|&key| child_nodes(crate::adaptive::unpack_key(key)).map(pack_key))
+            .collect();
+        let nodes: Vec<[u32; 3]> = new.iter().map(|&key| crate::adaptive::unpack_key(key)).collect();
+        let level_baked: Baked = if nodes.is_empty() {
+            Vec::new()
+        } else {
             let s = bake(l + 1, &nodes).map_err(BuildError::Callback)?;
             if s.values.len() != nodes.len() * k || s.weights.len() != nodes.len() {
                 return Err(VolumeError::InvalidData(format!(
@@ -303,12 +284,8 @@ pub fn build_adaptive<E>(
                 ))
                 .into());
             }
-            let inv = 1.0 / f64::from(1u32 << (l + 1));
-            for (idx, (&key, node)) in pending.iter().zip(&nodes).enumerate() {
-                // Exact: node coordinates over a power of two.
-                let u0 = node.map(|c| f64::from(c) * inv);
-                vol.sum_levels_f64(u0, l + 1, &mut interp);
-                created += 1;
+            let mut out = Vec::with_capacity(nodes.len());
+            for (idx, &key) in new.iter().enumerate() {
                 let v = &s.values[idx * k..(idx + 1) * k];
                 let has = s.weights[idx] > 0.0;
                 if has && v.iter().any(|x| !x.is_finite()) {
@@ -316,64 +293,22 @@ pub fn build_adaptive<E>(
                         VolumeError::InvalidData(format!("level {}: non-finite node value", l + 1)).into()
                     );
                 }
-                let sur: Vec<f32> = if has {
-                    v.iter().zip(&interp).map(|(a, b)| (a - b) as f32).collect()
-                } else {
-                    vec![0.0; k]
-                };
-                empty += usize::from(!has);
-                let keep =
-                    l + 1 <= params.min_level || (has && sur.iter().any(|x| f64::from(x.abs()) > cull_at));
-                let value: Vec<f64> = if keep {
-                    interp.iter().zip(&sur).map(|(a, &b)| a + f64::from(b)).collect()
-                } else {
-                    mem -= node_bytes;
-                    interp.clone()
-                };
-                if keep {
-                    stored.insert(key, sur);
-                }
-                new_field.insert(key, value);
+                out.push((key, has.then(|| v.to_vec())));
             }
-            split_l.extend(taken.iter().map(|&ci| pack_key(cand[ci])));
-            remaining = left;
-            if remaining.is_empty() || params.memory_budget.is_none() {
-                break;
-            }
-        }
-        if forced
-            && let Some(b) = params.memory_budget
-            && mem > b
-        {
-            return Err(VolumeError::InvalidData(format!(
-                "memory budget of {b} bytes is below the {mem} bytes that min_level {} requires",
-                params.min_level
-            ))
-            .into());
-        }
-        split_l.sort_unstable();
+            out
+        };
         let st = &mut stats[l as usize];
         st.cells = cand.len();
         st.split = split_l.len();
         st.leaves = cand.len() - split_l.len();
-        let next = &mut stats[l as usize + 1];
-        next.cells = 8 * split_l.len();
-        next.created_nodes = created;
-        next.stored_nodes = stored.len();
-        next.culled_nodes = created - stored.len();
-        next.empty_nodes = empty;
+        stats[l as usize + 1].cells = 8 * split_l.len();
         vol.split[l as usize] = split_l;
-        let mut table = LevelTable::default();
-        for (key, s) in stored {
-            table.keys.push(key);
-            table.data.extend(s);
-        }
+        // Surpluses of the new level at the requested tolerance; the field they give
+        // feeds the next level's candidates.
+        let (table, values) = level_surpluses(&vol, l + 1, &level_baked, params.cull_tolerance * scale);
         vol.tables[l as usize] = table;
-        field = NodeValues {
-            keys: new_field.keys().copied().collect(),
-            vals: new_field.into_values().flatten().collect(),
-            k,
-        };
+        field = values;
+        baked[l as usize] = level_baked;
     }
     // Leaves of the finest level present.
     if let Some(last) = stats.iter_mut().rev().find(|s| s.cells > 0)
@@ -381,6 +316,110 @@ pub fn build_adaptive<E>(
     {
         last.leaves = last.cells;
     }
+    let mut params = *params;
+    if let Some(b) = params.memory_budget {
+        params.cull_tolerance = fit_budget(&mut vol, &baked, b, params.cull_tolerance * scale)? / scale;
+    }
+    for l in 1..=ml as usize {
+        let st = &mut stats[l];
+        st.created_nodes = baked[l - 1].len();
+        st.stored_nodes = vol.tables[l - 1].keys.len();
+        st.culled_nodes = st.created_nodes - st.stored_nodes;
+        st.empty_nodes = baked[l - 1].iter().filter(|(_, v)| v.is_none()).count();
+    }
     let AdaptiveVolume { base, tables, split, .. } = vol;
-    Ok(AdaptiveVolume::from_parts(base, *params, scale, tables, split, stats)?)
+    Ok(AdaptiveVolume::from_parts(base, params, scale, tables, split, stats)?)
+}
+
+/// The surplus table of `level` from its baked values, against the tables of the coarser
+/// levels already in `vol`, culling at the absolute tolerance `cull_abs` (never below
+/// `min_level`), and the field values at the level's nodes.
+fn level_surpluses(
+    vol: &AdaptiveVolume,
+    level: u32,
+    baked: &Baked,
+    cull_abs: f64,
+) -> (LevelTable, NodeValues) {
+    let k = vol.coeffs() * 3;
+    let inv = 1.0 / f64::from(1u32 << level);
+    let mut interp = vec![0.0f64; k];
+    let mut table = LevelTable::default();
+    let mut values =
+        NodeValues { keys: Vec::with_capacity(baked.len()), vals: Vec::with_capacity(baked.len() * k), k };
+    for (key, v) in baked {
+        // Exact: node coordinates over a power of two.
+        let u0 = crate::adaptive::unpack_key(*key).map(|c| f64::from(c) * inv);
+        vol.sum_levels_f64(u0, level, &mut interp);
+        let sur: Vec<f32> = match v {
+            Some(v) => v.iter().zip(&interp).map(|(a, b)| (a - b) as f32).collect(),
+            None => vec![0.0; k],
+        };
+        let keep = level <= vol.params.min_level
+            || (v.is_some() && sur.iter().any(|x| f64::from(x.abs()) > cull_abs));
+        values.keys.push(*key);
+        if keep {
+            values.vals.extend(interp.iter().zip(&sur).map(|(a, &b)| a + f64::from(b)));
+            table.keys.push(*key);
+            table.data.extend(sur);
+        } else {
+            values.vals.extend_from_slice(&interp);
+        }
+    }
+    (table, values)
+}
+
+/// Rebuilds every level's surpluses at the absolute cull tolerance `tol`; returns the
+/// resulting memory.
+fn rebuild(vol: &mut AdaptiveVolume, baked: &[Baked], tol: f64) -> usize {
+    for l in 1..=vol.params.max_level {
+        let (table, _) = level_surpluses(vol, l, &baked[l as usize - 1], tol);
+        vol.tables[l as usize - 1] = table;
+    }
+    vol.memory_bytes()
+}
+
+/// Bisection steps of [`fit_budget`] (on a log scale over up to 12 decades: the found
+/// tolerance is within a factor 1.000002 of the smallest feasible one).
+const BUDGET_STEPS: u32 = 48;
+
+/// Raises the cull tolerance (absolute, from `tol0`) until `memory_bytes() ≤ budget`: the
+/// seed's "super-sample, then discard redundant samples", with the error tolerance chosen
+/// by bisection so that the nodes kept are those that differ most from their parents'
+/// interpolation, across all levels. Returns the tolerance used.
+fn fit_budget(
+    vol: &mut AdaptiveVolume,
+    baked: &[Baked],
+    budget: usize,
+    tol0: f64,
+) -> Result<f64, VolumeError> {
+    if vol.memory_bytes() <= budget {
+        return Ok(tol0);
+    }
+    // Above every surplus magnitude: culls every node above min_level.
+    let big = baked
+        .iter()
+        .flatten()
+        .filter_map(|(_, v)| v.as_ref())
+        .flatten()
+        .fold(0.0f64, |m, x| m.max(x.abs()))
+        .max(vol.base.data().iter().fold(0.0f64, |m, x| m.max(f64::from(x.abs()))));
+    let mut hi = 4.0 * big + f64::MIN_POSITIVE;
+    if rebuild(vol, baked, hi) > budget {
+        return Err(VolumeError::InvalidData(format!(
+            "memory budget of {budget} bytes is below the {} bytes that the base level and min_level {} require",
+            vol.memory_bytes(),
+            vol.params.min_level
+        )));
+    }
+    let mut lo = tol0.max(hi * 1e-12);
+    for _ in 0..BUDGET_STEPS {
+        let mid = (lo * hi).sqrt();
+        if rebuild(vol, baked, mid) <= budget {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    rebuild(vol, baked, hi);
+    Ok(hi)
 }

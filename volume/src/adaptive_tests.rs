@@ -365,12 +365,15 @@ fn finest_trilinear_field_and_full_refinement_equal_uniform_fine_grid() {
 }
 
 #[test]
-fn memory_budget_is_respected_and_greedy() {
+fn memory_budget_is_respected_and_monotone() {
     let spec = base_spec();
     let full = step_volume();
     let mut last = 0;
+    let mut last_tol = f64::INFINITY;
     for frac in [0.0, 0.3, 0.6, 2.0] {
-        let base_mem = memory_model(&spec, COEFFS, 3, 0, 0);
+        // Everything culled: the base level and the split bitmaps.
+        let st = full.level_stats();
+        let base_mem = memory_model(&spec, COEFFS, 3, 0, st[0].split + st[1].split);
         let budget = base_mem + (frac * (full.memory_bytes() - base_mem) as f64) as usize;
         let params =
             OctreeParams { min_level: 0, max_level: 3, cull_tolerance: 0.01, memory_budget: Some(budget) };
@@ -384,6 +387,13 @@ fn memory_budget_is_respected_and_greedy() {
         assert!(v.memory_bytes() <= budget, "{} > {budget}", v.memory_bytes());
         assert!(v.memory_bytes() >= last);
         last = v.memory_bytes();
+        // The tolerance was raised to fit, less for larger budgets; never below the request.
+        assert!(v.params().cull_tolerance <= last_tol && v.params().cull_tolerance >= 0.01);
+        last_tol = v.params().cull_tolerance;
+        if frac > 0.0 && frac < 1.0 {
+            // The budget is used: within one node of it, or the next tolerance step adds more.
+            assert!(v.memory_bytes() * 10 >= budget * 8, "{} of {budget}", v.memory_bytes());
+        }
         if frac >= 1.0 {
             // Enough budget: the same volume as without one.
             assert_eq!(v.tables, full.tables);

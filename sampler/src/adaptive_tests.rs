@@ -1,0 +1,237 @@
+//! Tests of the adaptive bake: the unit-subset bake against the full bake, the exact
+//! triangle-box test against clipping, the harmonic-mean depth against its closed form,
+//! determinism across thread counts, the geometry heuristic, the budget, cancellation.
+
+use super::*;
+use crate::builtin::city;
+use crate::scene::{Material, SceneBuilder};
+use crate::transport::TransportSettings;
+use lightvol_sh::lowdisc::SplitMix64;
+use std::sync::atomic::AtomicBool;
+
+fn small_city_grid() -> GridSpec {
+    GridSpec::new([-14.0, -14.0, -1.0], [14.0, 14.0, 11.0], [7, 7, 4]).unwrap()
+}
+
+fn pool<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(f)
+}
+
+/// A node's sums from a subset bake equal the full bake's bit for bit when all the node's
+/// units are in the subset, for every method and for 1 and 2 threads.
+#[test]
+fn unit_subset_bake_is_bit_identical_to_the_full_bake() {
+    let c = city();
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let grid = small_city_grid();
+    for method in [Method::Doi, Method::Point] {
+        let s = BakeSettings { method, samples: 12, seed: 3, chunk: 5, ..Default::default() };
+        let full = bake(&t, &grid, &s, &BakeControl::default()).unwrap().accumulator;
+        let count = if method == Method::Point { grid.node_count() } else { grid.cell_count() };
+        let units: Vec<usize> = (0..count).filter(|u| u % 5 != 0 && *u > count / 4).collect();
+        let (a, sa) = pool(1, || bake_units(&t, &grid, &s, &units, &BakeControl::default()).unwrap());
+        let (b, sb) = pool(2, || bake_units(&t, &grid, &s, &units, &BakeControl::default()).unwrap());
+        assert_eq!(a, b);
+        assert_eq!(sa.rays, sb.rays);
+        let k = s.coeffs * 3;
+        let mut compared = 0;
+        for node in 0..grid.node_count() {
+            let [i, j, kk] = grid.node_coords(node);
+            let own: Vec<usize> =
+                if method == Method::Point { vec![node] } else { units_for(&grid, method, &[[i, j, kk]]) };
+            if !own.iter().all(|u| units.binary_search(u).is_ok()) {
+                continue;
+            }
+            let p = a.find(node).expect("a node of a baked unit is touched");
+            assert_eq!(&a.numerator[p * k..(p + 1) * k], &full.numerator()[node * k..(node + 1) * k]);
+            assert_eq!(a.denominator[p], full.denominator()[node]);
+            assert_eq!(a.outside[p], full.outside()[node]);
+            compared += 1;
+        }
+        assert!(compared > 20, "{method:?}: {compared}");
+    }
+    let s = BakeSettings::default();
+    assert!(bake_units(&t, &grid, &s, &[3, 2], &BakeControl::default()).is_err());
+    assert!(bake_units(&t, &grid, &s, &[grid.cell_count()], &BakeControl::default()).is_err());
+    assert!(
+        bake_units(&t, &grid, &BakeSettings { shard: (0, 2), ..s }, &[1], &BakeControl::default()).is_err()
+    );
+}
+
+/// Sutherland-Hodgman clipping of the triangle against the 6 box planes (closed): the
+/// triangle meets the box iff something is left. A second method for
+/// [`triangle_box_overlap`].
+fn overlap_by_clipping(t: &[DVec3; 3], lo: DVec3, hi: DVec3) -> bool {
+    let mut poly: Vec<DVec3> = t.to_vec();
+    for a in 0..3 {
+        for (bound, keep_below) in [(lo[a], false), (hi[a], true)] {
+            let inside = |p: DVec3| if keep_below { p[a] <= bound } else { p[a] >= bound };
+            let mut out = Vec::new();
+            for i in 0..poly.len() {
+                let (p, q) = (poly[i], poly[(i + 1) % poly.len()]);
+                if inside(p) {
+                    out.push(p);
+                }
+                if inside(p) != inside(q) {
+                    let s = (bound - p[a]) / (q[a] - p[a]);
+                    let mut x = p + (q - p) * s;
+                    x[a] = bound;
+                    out.push(x);
+                }
+            }
+            poly = out;
+            if poly.is_empty() {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+#[test]
+fn triangle_box_test_matches_clipping() {
+    let mut rng = SplitMix64::new(17);
+    let (mut yes, mut no) = (0, 0);
+    for _ in 0..20_000 {
+        let lo = DVec3::new(rng.range(-1.0, 0.0), rng.range(-1.0, 0.0), rng.range(-1.0, 0.0));
+        let hi = lo + DVec3::new(rng.range(0.1, 1.5), rng.range(0.1, 1.5), rng.range(0.1, 1.5));
+        let size = rng.range(0.05, 4.0);
+        let c = DVec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
+        let t: [DVec3; 3] = std::array::from_fn(|_| {
+            c + size * DVec3::new(rng.range(-1.0, 1.0), rng.range(-1.0, 1.0), rng.range(-1.0, 1.0))
+        });
+        let sat = triangle_box_overlap(&t, lo, hi);
+        assert_eq!(sat, overlap_by_clipping(&t, lo, hi), "{t:?} {lo} {hi}");
+        if sat { yes += 1 } else { no += 1 }
+    }
+    assert!(yes > 1000 && no > 1000, "{yes} {no}");
+    // A large triangle through the box (no vertex inside, no edge through it).
+    let big = [DVec3::new(-10.0, -10.0, 0.5), DVec3::new(10.0, -10.0, 0.5), DVec3::new(0.0, 10.0, 0.5)];
+    assert!(triangle_box_overlap(&big, DVec3::ZERO, DVec3::ONE));
+    // Touching a face counts (closed boxes).
+    let touch = [DVec3::new(-1.0, -1.0, 1.0), DVec3::new(3.0, -1.0, 1.0), DVec3::new(0.0, 3.0, 1.0)];
+    assert!(triangle_box_overlap(&touch, DVec3::ZERO, DVec3::ONE));
+    assert!(!triangle_box_overlap(&touch, DVec3::ZERO, DVec3::splat(0.999)));
+}
+
+/// Above an infinite plane at distance d, rays going down travel `d / cos θ`, so
+/// `E[1/d_i] = (1/4π) ∫_{lower hemisphere} cos θ / d dω = 1/(4d)` and `H = 4d`.
+#[test]
+fn harmonic_mean_depth_above_a_plane_is_four_times_the_height() {
+    let mut b = SceneBuilder::new("plane");
+    let m = b.add_material(Material::diffuse("g", [0.5; 3])).unwrap();
+    let h = 1e4;
+    b.add_quad(
+        [DVec3::new(-h, -h, 0.0), DVec3::new(h, -h, 0.0), DVec3::new(h, h, 0.0), DVec3::new(-h, h, 0.0)],
+        m,
+    )
+    .unwrap();
+    let scene = b.build().unwrap();
+    let tracer = Tracer::new(&scene);
+    // 1024 stratified directions integrate the smooth cos θ to well under 1 %; the plane's
+    // finite size (1e4 vs d ≤ 2) removes ~d/1e4 of the integral.
+    const HM_REL_TOL: f64 = 0.01;
+    for d in [0.5, 2.0] {
+        let (hm, inside) = harmonic_mean_depth(&tracer, DVec3::new(0.3, -0.2, d), 1024, 5, 9);
+        assert!((hm / (4.0 * d) - 1.0).abs() < HM_REL_TOL, "d {d}: H {hm}");
+        assert!(!inside);
+    }
+    // Inside a closed building of the city, every ray meets a back face.
+    let c = city();
+    let t = Tracer::new(&c.scene);
+    let (lo, hi) = crate::builtin::city_buildings()[0];
+    let (hm, inside) = harmonic_mean_depth(&t, (lo + hi) * 0.5, 64, 1, 2);
+    assert!(inside && hm.is_finite());
+    assert_eq!(harmonic_mean_depth(&t, DVec3::new(0.0, 0.0, 1e6), 16, 1, 2).0, f64::INFINITY);
+}
+
+fn tiny_settings() -> (BakeSettings, AdaptiveSettings) {
+    (
+        BakeSettings { samples: 8, seed: 21, chunk: 64, ..Default::default() },
+        AdaptiveSettings { max_level: 2, depth_rays: 8, ..AdaptiveSettings::default() },
+    )
+}
+
+#[test]
+fn adaptive_city_is_bit_identical_across_thread_counts() {
+    let c = city();
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let grid = small_city_grid();
+    let (s, a) = tiny_settings();
+    let (v1, s1) = pool(1, || bake_adaptive(&t, &grid, &s, &a, &BakeControl::default()).unwrap());
+    let (v2, s2) = pool(2, || bake_adaptive(&t, &grid, &s, &a, &BakeControl::default()).unwrap());
+    assert_eq!(v1, v2);
+    assert_eq!(s1.rays, s2.rays);
+    assert_eq!(s1.split_votes, s2.split_votes);
+    let st = v1.level_stats();
+    assert!(st[1].stored_nodes > 0 && st[2].stored_nodes > 0, "{st:?}");
+    assert!(s1.split_votes.iter().all(|&v| v > 0), "{:?}", s1.split_votes);
+    assert!(s1.depth_rays > 0 && s1.rays.total() > s1.base.rays.total());
+}
+
+/// With only the geometry heuristic on, a candidate cell is split exactly when a triangle
+/// overlaps it (checked by brute force over all triangles with the clipping test).
+#[test]
+fn geometry_heuristic_splits_exactly_the_cells_with_geometry() {
+    let c = city();
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let grid = small_city_grid();
+    let (s, a) = tiny_settings();
+    let a =
+        AdaptiveSettings { gradient_threshold: None, depth_ratio_threshold: None, cull_tolerance: 0.0, ..a };
+    let (v, _) = bake_adaptive(&t, &grid, &s, &a, &BakeControl::default()).unwrap();
+    let tris: Vec<[DVec3; 3]> = c.scene.triangles.iter().map(|t| t.v).collect();
+    let mut checked = 0;
+    for l in 0..2u32 {
+        let g = v.level_grid(l).unwrap();
+        let cands: Vec<[u32; 3]> = if l == 0 {
+            (0..g.cell_count()).map(|i| g.cell_coords(i)).collect()
+        } else {
+            v.split_cells(0)
+                .flat_map(|p| {
+                    (0..8u32)
+                        .map(move |q| [2 * p[0] + (q & 1), 2 * p[1] + ((q >> 1) & 1), 2 * p[2] + (q >> 2)])
+                })
+                .collect()
+        };
+        for cl in cands {
+            let lo = DVec3::from_array(g.node_position(cl[0], cl[1], cl[2]));
+            let hi = DVec3::from_array(g.node_position(cl[0] + 1, cl[1] + 1, cl[2] + 1));
+            let has = tris.iter().any(|t| overlap_by_clipping(t, lo, hi));
+            assert_eq!(v.is_split(l, cl), has, "level {l} cell {cl:?}");
+            checked += 1;
+        }
+    }
+    assert!(checked > 200);
+}
+
+#[test]
+fn memory_budget_and_cancellation() {
+    let c = city();
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let grid = small_city_grid();
+    let (s, a) = tiny_settings();
+    // The memory of a uniform grid with twice the resolution.
+    let uniform = level_grid(&grid, 1).unwrap().node_count() * (s.coeffs * 3 + 1) * 4;
+    let a = AdaptiveSettings { memory_budget: Some(uniform), ..a };
+    let (v, _) = bake_adaptive(&t, &grid, &s, &a, &BakeControl::default()).unwrap();
+    assert!(
+        v.memory_bytes() <= uniform && v.memory_bytes() > uniform * 3 / 4,
+        "{} of {uniform}",
+        v.memory_bytes()
+    );
+    let tight = AdaptiveSettings { memory_budget: Some(1000), ..a };
+    assert!(matches!(
+        bake_adaptive(&t, &grid, &s, &tight, &BakeControl::default()),
+        Err(BakeError::Settings(_))
+    ));
+    let cancel = AtomicBool::new(true);
+    let r = bake_adaptive(&t, &grid, &s, &a, &BakeControl { progress: None, cancel: Some(&cancel) });
+    assert!(matches!(r, Err(BakeError::Cancelled)));
+    let bad = AdaptiveSettings { gradient_threshold: Some(-1.0), ..a };
+    assert!(bake_adaptive(&t, &grid, &s, &bad, &BakeControl::default()).is_err());
+}
