@@ -21,6 +21,9 @@ pub enum Command {
     Bench(crate::cmd_bench::BenchArgs),
     /// Bake an irradiance volume from a glTF/OBJ scene or a built-in scene.
     Bake(crate::cmd_bake::BakeArgs),
+    /// Bake coefficient maps for lightmapped, normal-mapped surfaces in a hemispherical basis
+    /// (seed 003 §2.2), with optional 8-bit / BC1 / BC7 textures.
+    BakeSurface(crate::cmd_bake_surface::BakeSurfaceArgs),
     /// Bake every method at equal sample budget and measure leakage on a plate against a
     /// path-traced reference (Kontkanen & Laine 2006 Fig. 6).
     Compare(crate::cmd_compare::CompareArgs),

@@ -50,9 +50,17 @@ pub struct RenderArgs {
     /// Worker threads.
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Output PNG.
+    /// Output PNG (with --surface: output directory, default `surface_render`).
     #[arg(short, long, default_value = "render.png")]
     pub output: PathBuf,
+    /// Shade lightmapped surfaces from the coefficient maps that `bake-surface` wrote to this
+    /// directory, one image per basis next to a path-traced reference, with `report.json`
+    /// (seed 003 Fig. 3.5).
+    #[arg(long, value_name = "DIR", conflicts_with_all = ["volume", "reference"])]
+    pub surface: Option<PathBuf>,
+    /// Normal map for --surface: `procedural[:FREQ[:SLOPE]]`, `flat` or an RGB PNG.
+    #[arg(long, default_value = "procedural", requires = "surface")]
+    pub normal_map: String,
 }
 
 /// A pinhole camera.
@@ -108,6 +116,12 @@ impl Camera {
         Self::look_at(v(parts[0])?, v(parts[1])?, fov)
     }
 
+    /// The camera position.
+    #[must_use]
+    pub fn eye(&self) -> DVec3 {
+        self.eye
+    }
+
     /// The unit ray direction through pixel `(x, y)` of a `w × h` image.
     #[must_use]
     pub fn ray(&self, x: u32, y: u32, w: u32, h: u32) -> DVec3 {
@@ -120,6 +134,9 @@ impl Camera {
 
 /// Runs `lightvol render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+    if let Some(dir) = &args.surface {
+        return crate::cmd_render_surface::run(args, dir, &args.normal_map);
+    }
     if args.width == 0 || args.height == 0 || u64::from(args.width) * u64::from(args.height) > 64 << 20 {
         bail!("image size {}x{} must be positive and at most 64 Mpixels", args.width, args.height);
     }

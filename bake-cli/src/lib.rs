@@ -2,6 +2,7 @@
 
 pub mod cli;
 pub mod cmd_bake;
+pub mod cmd_bake_surface;
 pub mod cmd_bench;
 pub mod cmd_compare;
 pub mod cmd_demo;
@@ -13,6 +14,7 @@ pub mod cmd_lint;
 pub mod cmd_merge;
 pub mod cmd_proxies;
 pub mod cmd_render;
+pub mod cmd_render_surface;
 pub mod compare_entries;
 pub mod gradients;
 pub mod imaging;
@@ -62,6 +64,7 @@ where
 pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
     match args.command {
         cli::Command::Bake(a) => cmd_bake::run(&a),
+        cli::Command::BakeSurface(a) => cmd_bake_surface::run(&a),
         cli::Command::Bench(a) => cmd_bench::run(&a),
         cli::Command::Compare(a) => cmd_compare::run(&a),
         cli::Command::Demo(a) => cmd_demo::run(&a),
