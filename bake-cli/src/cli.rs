@@ -85,4 +85,9 @@ pub struct ExportArgs {
     /// Output file (a `.json` sidecar is written beside texture outputs).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Adaptive volumes only: the uniform resolution `NX,NY,NZ` that KTX2, DDS and Bevy
+    /// exports resample the octree to (default: the finest level's resolution, which
+    /// reproduces every finest-level node exactly). The resolution used is printed.
+    #[arg(long, value_name = "NX,NY,NZ")]
+    pub res: Option<String>,
 }

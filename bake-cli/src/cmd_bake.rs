@@ -49,6 +49,9 @@ pub struct BakeArgs {
     /// `central` (six extra point projections per node at 1/16 cell).
     #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1, default_missing_value = "basis")]
     pub gradients: Option<GradientEstimator>,
+    /// Adaptive octree (seed 002).
+    #[command(flatten)]
+    pub adaptive: crate::adaptive_bake::AdaptiveArgs,
     /// Output volume (native multi-part EXR).
     #[arg(short, long, default_value = "volume.exr")]
     pub output: PathBuf,
@@ -250,6 +253,12 @@ pub fn finish_volume(
 
 /// Runs `lightvol bake`.
 pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
+    if args.adaptive.adaptive {
+        return crate::adaptive_bake::run(args);
+    }
+    if let Some(first) = args.adaptive.stray_options().first() {
+        bail!("{first} needs --adaptive");
+    }
     let method = parse_method(&args.method)?;
     let loaded = args.scene.load()?;
     let grid = args.grid.grid(&loaded)?;

@@ -18,7 +18,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::cmd_bake::{GridJson, RaysJson, progress_bar, run_bake_fitted};
-use crate::compare_entries::{Entry, GradientCache, gradient_run, parse_entry, uniform_extra};
+use crate::compare_entries::{Entry, GradientCache, adaptive_run, gradient_run, parse_entry, uniform_extra};
 use crate::imaging::{Rgb32, diverging, write_atomic, write_png_linear};
 use crate::metrics::{Metrics, PlatePoint, compute};
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, with_threads};
@@ -45,7 +45,8 @@ pub struct CompareArgs {
     /// Methods to compare: `point`, `prefilter`, `doi` (trilinear lookup), or
     /// `BASE+LOOKUP` for a bake with SH gradients (seed 002) read by `taylor` (nearest node,
     /// first-order Taylor), `gtrilinear` (gradient-extrapolated corners, trilinear) or
-    /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`.
+    /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`; `adaptive` for seed 002's
+    /// octree baked to the uniform grid's memory.
     #[arg(long, default_value = "point,prefilter,doi", value_delimiter = ',')]
     pub methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for prefilter/doi,
@@ -444,6 +445,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
                     )?;
                     gradient_run(gv, name, lookup, args.sampling.samples, &plate)?
                 }
+                Entry::Adaptive => adaptive_run(&loaded, &tracer, &grid, args, name, &plate)?,
             };
             write_panels(&args.output, name, &plate, &run.estimate, mean_truth)?;
             runs.push(run);

@@ -39,11 +39,31 @@ struct Level {
     plate_res: u32,
     reference_samples: u32,
     sweep: &'static [u32],
+    /// Cell-count scales of the error-vs-memory study (`compare --memory-sweep`).
+    memory_scales: &'static [f64],
 }
 
-const QUICK: Level = Level { samples: 64, plate_res: 64, reference_samples: 192, sweep: &[8, 12, 16, 24] };
-const FULL: Level =
-    Level { samples: 256, plate_res: 160, reference_samples: 1024, sweep: &[8, 12, 16, 24, 32] };
+/// Scenes of the error-vs-memory study (issue 9: `city` and `interior`).
+const MEMORY_SWEEP_SCENES: [&str; 2] = ["city", "interior"];
+
+/// Entries added to every scene's comparison besides point, prefilter and doi: the doi
+/// bake read through seed 002's gradient lookups, and seed 002's octree at doi's memory.
+const EXTRA_ENTRIES: [&str; 3] = ["doi+taylor", "doi+hermite", "adaptive"];
+
+const QUICK: Level = Level {
+    samples: 64,
+    plate_res: 64,
+    reference_samples: 192,
+    sweep: &[8, 12, 16, 24],
+    memory_scales: &[0.5, 0.7, 1.0, 1.4],
+};
+const FULL: Level = Level {
+    samples: 256,
+    plate_res: 160,
+    reference_samples: 1024,
+    sweep: &[8, 12, 16, 24, 32],
+    memory_scales: &[0.4, 0.5, 0.7, 1.0, 1.4, 2.0],
+};
 
 fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> CompareArgs {
     CompareArgs {
@@ -69,8 +89,8 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
         plate_res: level.plate_res,
         methods: vec!["point".into(), "prefilter".into(), "doi".into()],
         gradient_estimator: None,
-        memory_sweep: false,
-        sweep_scales: vec![1.0],
+        memory_sweep: MEMORY_SWEEP_SCENES.contains(&scene),
+        sweep_scales: level.memory_scales.to_vec(),
         reference_samples: level.reference_samples,
         classify_dirs: 256,
         output: out,
@@ -118,7 +138,36 @@ fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
     })?
 }
 
-fn html(reports: &[(String, CompareReport)], quick: bool) -> String {
+/// The error-vs-memory section: plot and numbers per scene (from `memory_sweep.json`).
+fn memory_html(s: &mut String, sweeps: &[(String, serde_json::Value)]) {
+    s.push_str("<h2>Error vs memory (seed 002: uniform, uniform with SH gradients, adaptive octree)</h2>\n<p>One doi bake per resolution (same samples per cell), read by trilinear interpolation (uniform) or through the gradient lookups; memory is the run-time f32 data (27 floats per node, 108 with gradients). The adaptive octree is baked to each uniform grid's memory (its own count includes weights, keys and split bitmaps).</p>\n");
+    for (scene, r) in sweeps {
+        let _ = writeln!(
+            s,
+            "<h3>{scene}</h3>\n<img src=\"{scene}/memory_sweep.svg\" alt=\"{scene}: relative RMSE vs memory\"><p>Also as <a href=\"{scene}/memory_sweep.png\">PNG</a>; numbers in <a href=\"{scene}/memory_sweep.json\">memory_sweep.json</a>.</p>"
+        );
+        s.push_str("<table><tr><th>series</th><th>grid</th><th>memory (bytes)</th><th>rel_rmse</th><th>bias</th><th>too_dark_near</th></tr>\n");
+        for p in r["points"].as_array().into_iter().flatten() {
+            let g = |k: &str| p[k].as_f64().unwrap_or(f64::NAN);
+            let res = &p["res"];
+            let _ = writeln!(
+                s,
+                "<tr><th>{}</th><td>{}x{}x{}</td><td>{}</td><td>{:.4}</td><td>{:+.4}</td><td>{:.4}</td></tr>",
+                p["series"].as_str().unwrap_or("?"),
+                res[0],
+                res[1],
+                res[2],
+                p["memory_bytes"],
+                g("rel_rmse"),
+                g("bias"),
+                g("too_dark_near")
+            );
+        }
+        s.push_str("</table>\n");
+    }
+}
+
+fn html(reports: &[(String, CompareReport)], sweeps: &[(String, serde_json::Value)], quick: bool) -> String {
     let mut s = String::from(
         "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>lightvol demo</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}table{border-collapse:collapse;}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right;}img{image-rendering:pixelated;margin:4px;border:1px solid #ddd;}</style></head><body>\n<h1>lightvol: domain-of-interest sampling vs point sampling</h1>\n",
     );
@@ -165,7 +214,9 @@ fn html(reports: &[(String, CompareReport)], quick: bool) -> String {
             );
         }
     }
-    s.push_str("<h2>Grid resolution sweep (city)</h2>\n<img src=\"sweep.svg\" alt=\"relative RMSE vs resolution\"><p>Also as <a href=\"sweep.png\">PNG</a>.</p>\n</body></html>\n");
+    s.push_str("<h2>Grid resolution sweep (city)</h2>\n<img src=\"sweep.svg\" alt=\"relative RMSE vs resolution\"><p>Also as <a href=\"sweep.png\">PNG</a>.</p>\n");
+    memory_html(&mut s, sweeps);
+    s.push_str("</body></html>\n");
     s
 }
 
@@ -178,12 +229,19 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         if !args.quiet {
             eprintln!("== {scene}");
         }
-        let ca = compare_args(scene, args.output.join(scene), level, args);
+        let mut ca = compare_args(scene, args.output.join(scene), level, args);
+        ca.methods.extend(EXTRA_ENTRIES.iter().map(|m| (*m).to_owned()));
         reports.push((scene.to_owned(), compare(&ca).with_context(|| format!("comparing on {scene}"))?));
+    }
+    let mut sweeps = Vec::new();
+    for scene in MEMORY_SWEEP_SCENES {
+        let path = args.output.join(scene).join("memory_sweep.json");
+        let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+        sweeps.push((scene.to_owned(), serde_json::from_str(&text)?));
     }
     let plot = sweep(args, level)?;
     plot.write(&args.output.join("sweep"))?;
-    write_atomic(&args.output.join("index.html"), html(&reports, args.quick).as_bytes())?;
+    write_atomic(&args.output.join("index.html"), html(&reports, &sweeps, args.quick).as_bytes())?;
     eprintln!("wrote {}", args.output.join("index.html").display());
     Ok(ExitCode::SUCCESS)
 }

@@ -1,28 +1,79 @@
-//! `lightvol export`: engine formats.
+//! `lightvol export`: engine formats. Adaptive volumes: see [`crate::adaptive_files`]
+//! (JSON describes the octree; KTX2, DDS and Bevy resample it to a uniform grid).
 
 use std::process::ExitCode;
 
-use anyhow::Context;
+use anyhow::{Context, bail};
+use lightvol_volume::IrradianceVolume;
 use lightvol_volume::encode::Encoding;
 use lightvol_volume::exr_io::read_exr;
 use lightvol_volume::sidecar::{Sidecar, sidecar_path, write_sidecar};
 
+use crate::adaptive_files;
 use crate::cli::{ExportArgs, ExportFormat};
+use crate::imaging::write_atomic;
 
-/// Runs `lightvol export`.
-pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
-    let vol = read_exr(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
+/// Parses `--res NX,NY,NZ` (each a whole number of at least 2).
+fn parse_res(s: &str) -> anyhow::Result<[u32; 3]> {
+    let v: Vec<u32> = s
+        .split(',')
+        .map(|t| t.trim().parse::<u32>().with_context(|| format!("--res: '{t}' is not a whole number")))
+        .collect::<anyhow::Result<_>>()?;
+    match v[..] {
+        [x, y, z] if x >= 2 && y >= 2 && z >= 2 => Ok([x, y, z]),
+        _ => bail!("--res: expected NX,NY,NZ with each at least 2, got '{s}'"),
+    }
+}
+
+fn write_uniform(args: &ExportArgs, vol: &IrradianceVolume) -> anyhow::Result<()> {
     let out = &args.output;
     let ctx = || format!("writing {}", out.display());
     match args.format {
-        ExportFormat::Ktx2 => lightvol_volume::ktx2_io::write_ktx2(out, &vol).with_context(ctx)?,
-        ExportFormat::Dds => lightvol_volume::dds_io::write_dds(out, &vol).with_context(ctx)?,
-        ExportFormat::Bevy => lightvol_volume::bevy::write_bevy(out, &vol).with_context(ctx)?,
+        ExportFormat::Ktx2 => lightvol_volume::ktx2_io::write_ktx2(out, vol).with_context(ctx)?,
+        ExportFormat::Dds => lightvol_volume::dds_io::write_dds(out, vol).with_context(ctx)?,
+        ExportFormat::Bevy => lightvol_volume::bevy::write_bevy(out, vol).with_context(ctx)?,
         ExportFormat::Json => {
             let sc =
-                Sidecar::describe(&vol, Encoding::F32, Some(args.volume.display().to_string()), "native-exr");
+                Sidecar::describe(vol, Encoding::F32, Some(args.volume.display().to_string()), "native-exr");
             write_sidecar(out, &sc).with_context(ctx)?;
         }
+    }
+    Ok(())
+}
+
+/// Runs `lightvol export`.
+pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
+    let res = args.res.as_deref().map(parse_res).transpose()?;
+    let out = &args.output;
+    if adaptive_files::is_adaptive(&args.volume) {
+        let vol = adaptive_files::read(&args.volume)?;
+        if args.format == ExportFormat::Json {
+            if res.is_some() {
+                bail!(
+                    "--res applies to KTX2, DDS and Bevy exports; the JSON export describes the octree itself"
+                );
+            }
+            let v = adaptive_files::export_json(&vol, &args.volume)?;
+            write_atomic(out, serde_json::to_string_pretty(&v)?.as_bytes())?;
+        } else {
+            let (uniform, used) = adaptive_files::resample(&vol, res)?;
+            let finest = vol.finest_res();
+            eprintln!(
+                "resampled the adaptive volume (levels 0..{}) to a uniform {}x{}x{} grid{}",
+                vol.max_level(),
+                used[0],
+                used[1],
+                used[2],
+                if used == finest { " (its finest level)" } else { "" }
+            );
+            write_uniform(args, &uniform)?;
+        }
+    } else {
+        if res.is_some() {
+            bail!("--res resamples adaptive volumes only; {} is a uniform volume", args.volume.display());
+        }
+        let vol = read_exr(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
+        write_uniform(args, &vol)?;
     }
     eprintln!("wrote {}", out.display());
     if args.format != ExportFormat::Json {

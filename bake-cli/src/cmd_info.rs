@@ -1,5 +1,5 @@
 //! `lightvol info`: describe a volume file (uniform, with or without seed 002's SH
-//! gradients).
+//! gradients, or adaptive: see [`crate::adaptive_files`]).
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -12,8 +12,11 @@ use serde_json::{Value, json};
 use crate::cli::InfoArgs;
 use crate::gradients::{floats_table, uniform_memory_bytes};
 
-/// The description `info --json` prints.
+/// The description `info --json` prints (`"kind": "uniform"` or `"adaptive"`).
 pub fn describe(path: &Path) -> anyhow::Result<Value> {
+    if crate::adaptive_files::is_adaptive(path) {
+        return crate::adaptive_files::describe(path);
+    }
     let (vol, grads) =
         read_exr_with_gradients(path).with_context(|| format!("reading {}", path.display()))?;
     let has_grads = grads.is_some();
@@ -82,6 +85,10 @@ fn print_text(info: &Value) {
     );
     println!("units       {}", m["units"].as_str().unwrap_or("?"));
     println!("zero-weight {} nodes (filled from neighbours)", info["zero_weight_nodes"]);
+    if info["kind"] == "adaptive" {
+        crate::adaptive_files::print_octree(info);
+        return;
+    }
     let has_grads = info["gradients"].as_bool().unwrap_or(false);
     println!(
         "gradients   {}",

@@ -32,6 +32,12 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
     if p.extension().is_some_and(|e| e == "lvacc") {
         return Ok(p.to_owned());
     }
+    if crate::adaptive_files::is_adaptive(p) {
+        bail!(
+            "{} is an adaptive (octree) volume; merge combines uniform shard bakes only (bake --adaptive is never sharded)",
+            p.display()
+        );
+    }
     let sibling = p.with_extension("lvacc");
     if sibling.is_file() {
         Ok(sibling)

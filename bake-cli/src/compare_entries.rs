@@ -1,20 +1,32 @@
 //! The entries of `lightvol compare` beyond seed 000's three bakes: a uniform bake read
 //! through one of seed 002's gradient lookups (`doi+taylor`, `doi+gtrilinear`,
-//! `doi+hermite`, any base method), and, with lightvol's adaptive octree, `adaptive`.
+//! `doi+hermite`, any base method), and `adaptive`, seed 002's octree.
 //!
 //! Every entry reports `memory_bytes`, the run-time bytes of what a renderer would keep:
 //! for a uniform grid seed 002's accounting (RGB SH floats per node, ×4 with gradients,
-//! f32; bake weights not counted, see [`uniform_memory_bytes`]).
+//! f32; bake weights not counted, see [`uniform_memory_bytes`]); for the octree
+//! `AdaptiveVolume::memory_bytes` (coefficients, base weights, an 8-byte key per fine
+//! node, split bitmaps).
+//!
+//! **Equal memory.** The `adaptive` entry is baked (doi, `--samples` per cell at every
+//! level) with level 0 on the compare grid with its cell counts scaled by
+//! [`ADAPTIVE_BASE_SCALE`], down to level [`ADAPTIVE_MAX_LEVEL`] (the compare grid's cell
+//! size), the sampler's default heuristics and culling, under a memory budget equal
+//! to the uniform entry's `memory_bytes`. The octree's own count includes its weights and
+//! index, which the uniform count leaves out, so the octree never gets more memory than the
+//! uniform grid it is compared with.
 
 use std::collections::BTreeMap;
 
 use anyhow::bail;
+use lightvol_sampler::adaptive::{AdaptiveSettings, AdaptiveStats};
 use lightvol_sampler::{BakeSettings, BakeStats, Method, Tracer, TransportSettings};
-use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
-use lightvol_volume::{GridSpec, IrradianceVolume, VolumeGradients};
+use lightvol_volume::gradient::{GradientLookup, floats_per_sample, irradiance as gradient_irradiance};
+use lightvol_volume::{AdaptiveVolume, GridSpec, IrradianceVolume, VolumeGradients};
 use rayon::prelude::*;
 use serde_json::{Map, Value, json};
 
+use crate::adaptive_bake::run_adaptive_bake;
 use crate::cmd_bake::RaysJson;
 use crate::cmd_compare::{CompareArgs, MethodJson, MethodRun, PlateData, plate_metrics};
 use crate::gradients::{GradientEstimator, bake_with, lookup_name, parse_lookup, uniform_memory_bytes};
@@ -27,11 +39,25 @@ pub enum Entry {
     Uniform(Method),
     /// A uniform bake with per-node gradients, read by a gradient lookup (seed 002).
     Gradient(Method, GradientLookup),
+    /// Seed 002's adaptive octree at the uniform grid's memory (module docs).
+    Adaptive,
 }
 
-/// Parses `point|prefilter|doi` or `BASE+LOOKUP` with LOOKUP one of `taylor`,
+/// Level 0 of the `adaptive` entry: the compare grid's cell counts times this.
+pub const ADAPTIVE_BASE_SCALE: f64 = 0.5;
+/// Finest level of the `adaptive` entry: level 1 has the compare grid's cell size, so the
+/// octree matches the uniform grid's resolution where its heuristics refine and keeps half
+/// of it elsewhere. (Measured on `city`, `compare --memory-sweep`: a second level, refined
+/// under the same budget, gave higher errors at every memory, e.g. rel_rmse 0.1985 against
+/// 0.1909 at the default grid's 193 536 bytes.)
+pub const ADAPTIVE_MAX_LEVEL: u32 = 1;
+
+/// Parses `point|prefilter|doi`, `adaptive`, or `BASE+LOOKUP` with LOOKUP one of `taylor`,
 /// `gtrilinear`, `hermite`.
 pub fn parse_entry(s: &str) -> anyhow::Result<Entry> {
+    if s == "adaptive" {
+        return Ok(Entry::Adaptive);
+    }
     match s.split_once('+') {
         None => Ok(Entry::Uniform(parse_method(s)?)),
         Some((base, lookup)) => Ok(Entry::Gradient(parse_method(base)?, parse_lookup(lookup)?)),
@@ -137,15 +163,90 @@ pub fn gradient_run(
     ))
 }
 
+/// An adaptive bake at the memory of the uniform grid `grid` (module docs); returns the
+/// volume, its statistics and the budget in bytes.
+pub fn adaptive_volume(
+    loaded: &LoadedScene,
+    tracer: &Tracer,
+    grid: &GridSpec,
+    args: &CompareArgs,
+    label: &str,
+) -> anyhow::Result<(AdaptiveVolume, AdaptiveStats, usize)> {
+    let coeffs = args.grid.coeffs();
+    let bands = (coeffs as f64).sqrt().round() as usize;
+    let budget = grid.node_count() * floats_per_sample(bands, false) * 4;
+    let base = crate::memory_sweep::scaled_grid(grid, ADAPTIVE_BASE_SCALE)?;
+    let settings = BakeSettings {
+        method: Method::Doi,
+        samples: args.sampling.samples,
+        coeffs,
+        seed: args.sampling.seed,
+        ..BakeSettings::default()
+    };
+    let adaptive = AdaptiveSettings {
+        max_level: ADAPTIVE_MAX_LEVEL,
+        memory_budget: Some(budget),
+        ..AdaptiveSettings::default()
+    };
+    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let (vol, stats) = run_adaptive_bake(loaded, tracer, &base, &settings, &adaptive, ts, args.quiet, label)?;
+    Ok((vol, stats, budget))
+}
+
+/// Irradiance (normal up) of an adaptive volume at every plate point (f32 lookup, like the
+/// uniform entries').
+#[must_use]
+pub fn evaluate_adaptive(vol: &AdaptiveVolume, plate: &PlateData) -> Vec<[f64; 3]> {
+    plate
+        .points
+        .par_iter()
+        .map(|p| vol.irradiance(p.as_vec3().to_array(), [0.0, 0.0, 1.0]).map(f64::from))
+        .collect()
+}
+
+/// The `adaptive` entry on the uniform grid `grid`'s memory.
+pub fn adaptive_run(
+    loaded: &LoadedScene,
+    tracer: &Tracer,
+    grid: &GridSpec,
+    args: &CompareArgs,
+    name: &str,
+    plate: &PlateData,
+) -> anyhow::Result<(MethodRun, Map<String, Value>)> {
+    let (vol, stats, budget) = adaptive_volume(loaded, tracer, grid, args, name)?;
+    let estimate = evaluate_adaptive(&vol, plate);
+    let metrics = plate_metrics(plate, &estimate);
+    let extra = json!({
+        "memory_bytes": vol.memory_bytes(),
+        "memory_budget": budget,
+        "nodes": vol.stored_nodes(),
+        "base_res": vol.base().spec().res(),
+        "finest_res": vol.finest_res(),
+        "levels": vol.level_stats(),
+        "depth_rays": stats.depth_rays,
+    });
+    let Value::Object(extra) = extra else { unreachable!("json! of an object literal") };
+    Ok((
+        MethodRun {
+            name: name.to_owned(),
+            json: MethodJson {
+                samples: args.sampling.samples,
+                rays: RaysJson::of(&stats.rays),
+                seconds: stats.wall_time.as_secs_f64(),
+                metrics,
+            },
+            estimate,
+        },
+        extra,
+    ))
+}
+
 /// Report fields a plain uniform entry adds to [`MethodJson`].
 #[must_use]
 pub fn uniform_extra(grid: &GridSpec, coeffs: usize) -> Map<String, Value> {
     let bands = (coeffs as f64).sqrt().round() as usize;
     let mut m = Map::new();
-    m.insert(
-        "memory_bytes".into(),
-        json!(grid.node_count() * lightvol_volume::gradient::floats_per_sample(bands, false) * 4),
-    );
+    m.insert("memory_bytes".into(), json!(grid.node_count() * floats_per_sample(bands, false) * 4));
     m.insert("nodes".into(), json!(grid.node_count()));
     m
 }
@@ -201,6 +302,7 @@ mod tests {
             parse_entry("point+hermite").unwrap(),
             Entry::Gradient(Method::Point, GradientLookup::Hermite)
         );
+        assert_eq!(parse_entry("adaptive").unwrap(), Entry::Adaptive);
         assert!(parse_entry("doi+cubic").is_err());
         assert!(parse_entry("bogus+taylor").is_err());
     }

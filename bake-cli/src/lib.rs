@@ -1,5 +1,7 @@
 #![doc = include_str!("../README.md")]
 
+pub mod adaptive_bake;
+pub mod adaptive_files;
 pub mod cli;
 pub mod cmd_bake;
 pub mod cmd_bake_surface;

@@ -6,10 +6,15 @@
 //!   SH gradients (seed 002; the `basis` estimator from the bake's own samples, or the one
 //!   `--gradient-estimator` names) read by the gradient lookups,
 //!
+//! - `adaptive`: seed 002's octree baked to the memory of each uniform grid (the
+//!   `adaptive` entry of `compare`, see [`crate::compare_entries`]; `res` is its finest
+//!   level's, `nodes` its stored nodes),
+//!
 //! at several grid resolutions (the grid's cell counts scaled by `--sweep-scales`, same
 //! bounds), against the run-time memory of each (seed 002's accounting: `3 n²` f32 per node,
-//! `4 · 3 n²` with gradients). Every bake takes `--samples` per cell; every volume is the
-//! Eq. 6 average (no `--fit`), so the series differ only in resolution and lookup.
+//! `4 · 3 n²` with gradients; the octree's own count with its weights and index). Every
+//! bake takes `--samples` per cell; every uniform volume is the Eq. 6 average (no `--fit`),
+//! so the uniform series differ only in resolution and lookup.
 
 use std::path::Path;
 
@@ -20,7 +25,7 @@ use lightvol_volume::gradient::GradientLookup;
 use serde::Serialize;
 
 use crate::cmd_compare::{CompareArgs, PlateData, evaluate, plate_metrics};
-use crate::compare_entries::{evaluate_gradient, gradient_volume};
+use crate::compare_entries::{adaptive_volume, evaluate_adaptive, evaluate_gradient, gradient_volume};
 use crate::gradients::{lookup_name, uniform_memory_bytes};
 use crate::imaging::{Plot, write_atomic};
 use crate::setup::LoadedScene;
@@ -31,7 +36,7 @@ const MAX_SCALE: f64 = 4.0;
 /// One (series, resolution) point of the study.
 #[derive(Debug, Clone, Serialize)]
 pub struct SweepPoint {
-    /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`.
+    /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`, `adaptive`.
     pub series: String,
     /// Grid nodes per axis.
     pub res: [u32; 3],
@@ -146,6 +151,28 @@ pub fn sweep(
                 bake_seconds + gv.gradient_seconds,
             );
         }
+        let (av, stats, _) = adaptive_volume(loaded, tracer, &grid, args, &format!("adaptive x{scale}"))?;
+        let m = plate_metrics(plate, &evaluate_adaptive(&av, plate));
+        if !args.quiet {
+            eprintln!(
+                "memory sweep {:<18} base {:?} {:>9} bytes: rel RMSE {:.4}",
+                "adaptive",
+                av.base().spec().res(),
+                av.memory_bytes(),
+                m.rel_rmse
+            );
+        }
+        points.push(SweepPoint {
+            series: "adaptive".into(),
+            res: av.finest_res(),
+            nodes: av.stored_nodes(),
+            memory_bytes: av.memory_bytes(),
+            rel_rmse: m.rel_rmse,
+            bias: m.bias,
+            too_dark_near: m.too_dark_near,
+            rays: stats.rays.total(),
+            seconds: stats.wall_time.as_secs_f64(),
+        });
     }
     // Series by series, each by memory.
     points.sort_by(|a, b| a.series.cmp(&b.series).then(a.memory_bytes.cmp(&b.memory_bytes)));
@@ -160,12 +187,13 @@ pub fn sweep(
     })
 }
 
-/// rel_rmse against memory (KiB), one line per series.
+/// rel_rmse against log2 of the memory in KiB, one line per series.
 #[must_use]
 pub fn plot(report: &SweepReport) -> Plot {
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for p in &report.points {
-        let xy = (p.memory_bytes as f64 / 1024.0, p.rel_rmse);
+        // Memories span two orders of magnitude: a log axis (the plot's axis is linear).
+        let xy = ((p.memory_bytes as f64 / 1024.0).log2(), p.rel_rmse);
         match series.iter_mut().find(|s| s.0 == p.series) {
             Some(s) => s.1.push(xy),
             None => series.push((p.series.clone(), vec![xy])),
@@ -173,7 +201,7 @@ pub fn plot(report: &SweepReport) -> Plot {
     }
     Plot {
         title: format!("{}: relative RMSE vs run-time memory", report.scene.trim_start_matches("builtin:")),
-        x_label: "memory (KiB, f32 SH [+ gradients] per node)".into(),
+        x_label: "log2 of memory in KiB (f32 SH [+ gradients] per node)".into(),
         y_label: "relative RMSE".into(),
         series,
     }

@@ -754,3 +754,31 @@ fn irradiance_at_the_normal_per_basis() {
         }
     }
 }
+
+/// A mesh used by two nodes is two lightmap objects ("Floor", "Floor#2"), each with its own
+/// triangles and world-space attributes.
+#[test]
+fn instanced_meshes_are_separate_objects() {
+    let d = tempfile::tempdir().unwrap();
+    let p = gltf_file(d.path(), Some([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]]), None, [1.0; 3]);
+    let text = std::fs::read_to_string(&p).unwrap().replace(
+        r#""scenes": [{"nodes": [0]}],
+  "nodes": [{"mesh": 0, "scale": [1.0, 1.0, 1.0]}],"#,
+        r#""scenes": [{"nodes": [0, 1]}],
+  "nodes": [{"mesh": 0, "scale": [1.0, 1.0, 1.0]}, {"mesh": 0, "translation": [0, 0, 3]}],"#,
+    );
+    assert!(text.contains("\"translation\""));
+    std::fs::write(&p, text).unwrap();
+    let s = load(&p);
+    let names: Vec<&str> = s.meshes.iter().map(|m| m.name.as_str()).collect();
+    assert_eq!(names.len(), 2);
+    assert!(names.contains(&"Floor") && names.contains(&"Floor#2"), "{names:?}");
+    let geo = SurfaceGeometry::new(&s, UvSet::Lightmap).unwrap();
+    assert_eq!(geo.objects().len(), 2);
+    for (k, obj) in geo.objects().iter().enumerate() {
+        assert_eq!(obj.triangles.len(), 2);
+        assert!((obj.area - 1.0).abs() < 1e-12);
+        let z = s.meshes[obj.mesh as usize].positions[0].z;
+        assert!(z == 0.0 || z == 3.0, "object {k}: z = {z}");
+    }
+}

@@ -1,0 +1,222 @@
+//! Issue 9, adaptive octree volumes through the CLI: bake --adaptive → info → export round
+//! trip (acceptance 5: formats that cannot hold an octree resample to a stated uniform
+//! resolution), merge refusing octrees, bad options, and the equal-memory comparison on
+//! `city` (acceptance 4).
+
+use std::path::Path;
+use std::process::ExitCode;
+
+use lightvol_volume::adaptive_io::read_adaptive_exr;
+use serde_json::Value;
+
+fn run(args: &[&str]) -> Result<ExitCode, String> {
+    lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()))
+        .map_err(|e| lightvol::one_line(&e))
+}
+
+fn ok(args: &[&str]) {
+    if let Err(e) = run(args) {
+        panic!("lightvol {}: {e}", args.join(" "));
+    }
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// f16 storage of KTX2/DDS texels: 11 significant bits, relative error at most 2^-11
+/// (4.9e-4); the absolute floor covers values that round to f16 subnormals.
+const F16_RELATIVE: f32 = 4.9e-4;
+const F16_ABSOLUTE: f32 = 1e-6;
+
+const BAKE: [&str; 12] = [
+    "--samples",
+    "16",
+    "--res",
+    "6,6,4",
+    "--max-level",
+    "2",
+    "--seed",
+    "5",
+    "--quiet",
+    "--depth-rays",
+    "8",
+    "--adaptive",
+];
+
+/// Acceptance 5: bake --adaptive → info → export json/ktx2/dds/bevy. KTX2 at the default
+/// resolution (the finest level's) reproduces the octree's lookup at every texel to f16
+/// precision; `--res` states another resolution, which the file then has.
+#[test]
+fn adaptive_bake_info_export_round_trip() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol_path = d.join("city_octree.exr");
+    let mut a = vec!["bake", "builtin:city", "-o", s(&vol_path)];
+    a.extend_from_slice(&BAKE);
+    ok(&a);
+    let vol = read_adaptive_exr(&vol_path).unwrap();
+    assert!(vol.max_level() >= 1, "the city must refine somewhere");
+    // The finest level of a 6x6x4 base at level L has 5*2^L+1 x 5*2^L+1 x 3*2^L+1 nodes.
+    let l = vol.max_level();
+    assert_eq!(vol.finest_res(), [5 * (1 << l) + 1, 5 * (1 << l) + 1, 3 * (1 << l) + 1]);
+
+    // info: kind, level histogram and memory, consistent with the file.
+    ok(&["info", s(&vol_path)]);
+    let info = lightvol::cmd_info::describe(&vol_path).unwrap();
+    assert_eq!(info["kind"], "adaptive");
+    assert_eq!(info["grid"]["res"], serde_json::json!([6, 6, 4]));
+    let levels = info["octree"]["levels"].as_array().unwrap();
+    assert_eq!(levels.len() as u32, l + 1);
+    assert_eq!(levels[0]["cells"].as_u64(), Some(5 * 5 * 3));
+    let stored: u64 = levels.iter().map(|v| v["stored_nodes"].as_u64().unwrap()).sum();
+    assert_eq!(stored as usize, vol.stored_nodes());
+    for v in levels {
+        let n = |k: &str| v[k].as_u64().unwrap();
+        assert_eq!(n("leaves") + n("split"), n("cells"));
+        assert_eq!(n("created_nodes") - n("stored_nodes"), n("culled_nodes"));
+    }
+    // A split cell of level l has 8 children at level l + 1.
+    for w in levels.windows(2) {
+        assert_eq!(w[1]["cells"].as_u64().unwrap(), 8 * w[0]["split"].as_u64().unwrap());
+    }
+    assert_eq!(info["octree"]["memory_bytes"].as_u64().unwrap() as usize, vol.memory_bytes());
+
+    // JSON: the base grid's sidecar plus the octree section, naming the native file.
+    let json_out = d.join("octree.json");
+    ok(&["export", s(&vol_path), "--format", "json", "-o", s(&json_out)]);
+    let j: Value = serde_json::from_str(&std::fs::read_to_string(&json_out).unwrap()).unwrap();
+    assert_eq!(j["grid"]["res"], serde_json::json!([6, 6, 4]));
+    assert_eq!(j["octree"]["levels"].as_array().unwrap().len() as u32, l + 1);
+    assert!(j["storage"]["file"].as_str().unwrap().ends_with("city_octree.exr"));
+
+    // KTX2 at the default resolution: the finest level's, every texel the octree's lookup.
+    let ktx = d.join("octree.ktx2");
+    ok(&["export", s(&vol_path), "--format", "ktx2", "-o", s(&ktx)]);
+    let back = lightvol_volume::ktx2_io::read_ktx2(&ktx).unwrap();
+    assert_eq!(back.spec().res(), vol.finest_res());
+    let spec = back.spec().clone();
+    let mut worst = 0.0f32;
+    for node in (0..spec.node_count()).step_by(7) {
+        let [i, j, k] = spec.node_coords(node);
+        let want = vol.coeffs_at_reference(spec.node_position_world(i, j, k));
+        for (a, b) in back.node(node).iter().zip(&want) {
+            let b = *b as f32;
+            let err = (a - b).abs();
+            assert!(err <= F16_RELATIVE * b.abs() + F16_ABSOLUTE, "node {node}: {a} vs {b}");
+            worst = worst.max(err / b.abs().max(1e-3));
+        }
+    }
+    println!("ktx2 at the finest level vs the octree lookup: worst relative {worst:.2e}");
+
+    // A stated resolution.
+    let ktx9 = d.join("octree9.ktx2");
+    ok(&["export", s(&vol_path), "--format", "ktx2", "--res", "9,9,5", "-o", s(&ktx9)]);
+    assert_eq!(lightvol_volume::ktx2_io::read_ktx2(&ktx9).unwrap().spec().res(), [9, 9, 5]);
+    for (fmt, ext) in [("dds", "dds"), ("bevy", "ktx2")] {
+        let out = d.join(format!("octree_{fmt}.{ext}"));
+        ok(&["export", s(&vol_path), "--format", fmt, "--res", "9,9,5", "-o", s(&out)]);
+        assert!(out.metadata().unwrap().len() > 0);
+    }
+    let dds = lightvol_volume::dds_io::read_dds(&d.join("octree_dds.dds")).unwrap();
+    assert_eq!(dds.spec().res(), [9, 9, 5]);
+
+    // merge refuses an octree with a clear line.
+    let err = run(&["merge", s(&vol_path), "-o", s(&d.join("m.exr"))]).unwrap_err();
+    assert!(err.contains("adaptive"), "{err}");
+    assert!(!d.join("m.exr").exists());
+
+    // The same bake twice is bit-identical, with one thread too.
+    let again = d.join("again.exr");
+    let mut a = vec!["bake", "builtin:city", "-o", s(&again), "--threads", "1"];
+    a.extend_from_slice(&BAKE);
+    ok(&a);
+    assert!(read_adaptive_exr(&again).unwrap() == vol);
+}
+
+/// Bad adaptive options: one line, an error, no output file.
+#[test]
+fn bad_adaptive_options_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v.exr");
+    let o = s(&out);
+    let cases: [(&[&str], &str); 11] = [
+        (&["--adaptive", "--min-level", "3", "--max-level", "2"], "--min-level"),
+        (&["--adaptive", "--max-level", "9"], "--max-level"),
+        (&["--adaptive", "--gradient-threshold", "-1"], "--gradient-threshold"),
+        (&["--adaptive", "--gradient-threshold", "steep"], "--gradient-threshold"),
+        (&["--adaptive", "--depth-ratio", "inf"], "--depth-ratio"),
+        (&["--adaptive", "--cull-tolerance", "NaN"], "--cull-tolerance"),
+        (&["--adaptive", "--node-budget", "0"], "--node-budget"),
+        (&["--adaptive", "--node-budget", "10"], "budget"),
+        (&["--max-level", "3"], "--max-level needs --adaptive"),
+        (&["--adaptive", "--shard", "0/2"], "--shard"),
+        (&["--adaptive", "--gradients"], "--gradients"),
+    ];
+    for (extra, want) in cases {
+        let mut a = vec!["bake", "builtin:maze", "-o", o, "--samples", "4", "--res", "4,4,3", "--quiet"];
+        a.extend_from_slice(extra);
+        let err = run(&a).expect_err(&a.join(" "));
+        assert!(err.contains(want), "{}: {err}", a.join(" "));
+        assert!(!err.contains('\n'), "{err}");
+        assert!(!out.exists(), "no output after: {err}");
+    }
+    // export --res: only for adaptive volumes, and a valid resolution.
+    let uniform = dir.path().join("u.exr");
+    ok(&["bake", "builtin:maze", "-o", s(&uniform), "--samples", "4", "--res", "4,4,3", "--quiet"]);
+    let k = dir.path().join("u.ktx2");
+    let err = run(&["export", s(&uniform), "--format", "ktx2", "--res", "8,8,8", "-o", s(&k)]).unwrap_err();
+    assert!(err.contains("--res resamples adaptive volumes only"), "{err}");
+    assert!(!k.exists());
+    let err = run(&["export", s(&uniform), "--format", "ktx2", "--res", "1,8,8", "-o", s(&k)]).unwrap_err();
+    assert!(err.contains("--res"), "{err}");
+    assert!(!k.exists());
+}
+
+/// Issue 9 acceptance 4: at equal memory the adaptive octree's relative RMSE on the `city`
+/// plate is lower than the uniform grid's, through `lightvol compare` at reduced settings
+/// (64 samples per cell, a 40-point plate, 128 reference samples; the recommended 16x16x7
+/// grid). The octree (level 0 at half the grid's cell counts, level 1 at its cell size) is
+/// baked under a budget of the uniform grid's run-time bytes, and its own count includes
+/// its base weights, keys and split bitmaps, which the uniform count leaves out.
+///
+/// The margin is small: measured rel_rmse 0.1946 (adaptive) against 0.1967 (doi), about 1%.
+/// On city the irradiance on the plate varies almost everywhere near the ground (building
+/// shadows), so refinement has little room to save; `compare --memory-sweep` shows the two
+/// within a few percent of each other at every memory (README of the lightvol crate).
+#[test]
+fn city_adaptive_beats_uniform_at_equal_memory() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cmp");
+    ok(&[
+        "compare",
+        "builtin:city",
+        "--samples",
+        "64",
+        "--plate-res",
+        "40",
+        "--reference-samples",
+        "128",
+        "--methods",
+        "doi,adaptive",
+        "--quiet",
+        "-o",
+        s(&out),
+    ]);
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let m = &r["methods"];
+    let mem = |k: &str| m[k]["memory_bytes"].as_u64().unwrap();
+    let rmse = |k: &str| m[k]["rel_rmse"].as_f64().unwrap();
+    println!(
+        "adaptive rel_rmse {:.4} at {} bytes; doi {:.4} at {} bytes",
+        rmse("adaptive"),
+        mem("adaptive"),
+        rmse("doi"),
+        mem("doi")
+    );
+    assert_eq!(mem("doi"), 16 * 16 * 7 * 27 * 4);
+    assert!(mem("adaptive") <= mem("doi"), "equal memory: the octree stays within the uniform bytes");
+    assert!(mem("adaptive") as f64 >= 0.95 * mem("doi") as f64, "the budget is used");
+    assert!(rmse("adaptive") < rmse("doi"), "adaptive {} vs doi {}", rmse("adaptive"), rmse("doi"));
+    assert_eq!(m["adaptive"]["base_res"], serde_json::json!([9, 9, 4]));
+}
