@@ -89,9 +89,10 @@ pub struct BakeSurfaceArgs {
     /// Also write 8-bit textures (seed 003 §2.2.3 encoding).
     #[arg(long, value_enum)]
     pub encode: Option<EncodeFormat>,
-    /// Block-compress the 8-bit textures (KTX2 containers; implies `--encode ktx2`).
-    #[arg(long, value_enum)]
-    pub compress: Option<CompressFormat>,
+    /// Block-compress the 8-bit textures (KTX2 containers; implies `--encode ktx2`); a
+    /// comma-separated list writes and measures each.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    pub compress: Vec<CompressFormat>,
     /// Range compression of the non-DC coefficients: `[-r, r]` maps to `[0, 1]`.
     #[arg(long, default_value_t = 0.75)]
     pub range: f64,
@@ -270,23 +271,22 @@ pub fn default_encode_scale(basis: &dyn HemiBasis, maps: &[CoefficientMap], rang
 struct Stored {
     /// `[object][coefficient]` RGBA8 planes.
     planes: Vec<Vec<Plane>>,
-    /// `[object][coefficient]` blocks, with `--compress`.
-    compressed: Vec<Vec<CompressedPlane>>,
     /// Error and clamp counts of the 8-bit storage.
     rgb8: (MapError, ClampStats),
-    /// Error of the block-compressed storage (8-bit step included), with `--compress`.
-    block: Option<MapError>,
+    /// Per `--compress` format: `[object][coefficient]` blocks and the error of that storage
+    /// (the 8-bit step included).
+    blocks: Vec<(BlockFormat, Vec<Vec<CompressedPlane>>, MapError)>,
 }
 
-/// Encodes `maps` (scaled by `scale`) into 8-bit planes, block-compresses them with `block`
-/// (planes in parallel: BC7 runs at ~0.2 Mtexel/s per core), and measures both storages on
-/// the covered texels, in the maps' own units.
+/// Encodes `maps` (scaled by `scale`) into 8-bit planes, block-compresses them to each of
+/// `formats` (planes in parallel: BC7 runs at ~0.2 Mtexel/s per core), and measures every
+/// storage on the covered texels, in the maps' own units.
 fn store(
     basis: &dyn HemiBasis,
     maps: &[CoefficientMap],
     enc: &Encoding,
     scale: f64,
-    block: Option<BlockFormat>,
+    formats: &[BlockFormat],
 ) -> Stored {
     let mut clamped = ClampStats::default();
     let mut planes = Vec::with_capacity(maps.len());
@@ -312,9 +312,9 @@ fn store(
     };
     let decoded: Vec<CoeffMap> = planes.iter().map(|p| enc.decode_map(basis, p)).collect();
     let rgb8 = (error(&decoded), clamped);
-    let (compressed, block_err) = match block {
-        None => (Vec::new(), None),
-        Some(f) => {
+    let blocks = formats
+        .iter()
+        .map(|&f| {
             let compressed: Vec<Vec<CompressedPlane>> =
                 planes.iter().map(|ps| ps.par_iter().map(|p| bc::compress(p, f)).collect()).collect();
             let decoded: Vec<CoeffMap> = compressed
@@ -322,10 +322,10 @@ fn store(
                 .map(|cs| enc.decode_map(basis, &cs.iter().map(bc::decompress).collect::<Vec<_>>()))
                 .collect();
             let e = error(&decoded);
-            (compressed, Some(e))
-        }
-    };
-    Stored { planes, compressed, rgb8, block: block_err }
+            (f, compressed, e)
+        })
+        .collect();
+    Stored { planes, rgb8, blocks }
 }
 
 /// A file name fragment safe on every file system.
@@ -358,13 +358,15 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     {
         bail!("--encode-scale must be a positive finite number");
     }
-    let encode = match (args.encode, args.compress) {
-        (Some(EncodeFormat::Png), Some(_)) => {
+    let encode = match (args.encode, args.compress.is_empty()) {
+        (Some(EncodeFormat::Png), false) => {
             bail!("--compress writes block-compressed KTX2 files: use --encode ktx2 (or leave --encode out)")
         }
-        (None, Some(_)) => Some(EncodeFormat::Ktx2),
+        (None, false) => Some(EncodeFormat::Ktx2),
         (e, _) => e,
     };
+    let mut formats: Vec<BlockFormat> = args.compress.iter().map(|c| c.block()).collect();
+    formats.dedup();
     let resolution = args.resolution.as_deref().map(parse_resolution).transpose()?;
     if args.output.exists() && !args.output.is_dir() {
         bail!("output {} exists and is not a directory", args.output.display());
@@ -417,10 +419,9 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
         let enc = Encoding { range: args.range, dc: DcTransfer::Srgb, quantize_8bit: true };
         let k = basis.len();
         let mut encodings = std::collections::BTreeMap::new();
-        let block = args.compress.map(CompressFormat::block);
-        let stored = store(basis.as_ref(), &out.maps, &enc, scale, block);
+        let stored = store(basis.as_ref(), &out.maps, &enc, scale, &formats);
         encodings.insert("rgb8".to_owned(), json_of(&stored.rgb8.0, &stored.rgb8.1, 3.0 * k as f64));
-        if let (Some(f), Some(e)) = (block, &stored.block) {
+        for (f, _, e) in &stored.blocks {
             encodings.insert(f.name().to_owned(), json_of(e, &stored.rgb8.1, f.bytes_per_texel() * k as f64));
         }
         let mut files = vec![format!("{tag}.exr"), format!("{tag}.json")];
@@ -437,22 +438,23 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                         "decode": if dc { "c = srgb_decode(v) / encode_scale" } else { "c = (2 range v - range) / encode_scale" },
                     })
                     .to_string();
-                    match (format, block) {
-                        (EncodeFormat::Png, _) => {
+                    match format {
+                        EncodeFormat::Png => {
                             let rel = sub.join(format!("{stem}.png"));
                             pngs.push((rel.clone(), plane.width, plane.height, plane.rgb_bytes()));
                             files.push(rel.display().to_string());
                         }
-                        (EncodeFormat::Ktx2, None) => {
+                        EncodeFormat::Ktx2 if stored.blocks.is_empty() => {
                             let rel = sub.join(format!("{stem}.ktx2"));
                             outputs.push((rel.clone(), ktx2_rgba8(plane, dc, &desc)));
                             files.push(rel.display().to_string());
                         }
-                        (EncodeFormat::Ktx2, Some(f)) => {
-                            let rel = sub.join(format!("{stem}.{}.ktx2", f.name()));
-                            outputs
-                                .push((rel.clone(), ktx2_compressed(&stored.compressed[oi][j], dc, &desc)));
-                            files.push(rel.display().to_string());
+                        EncodeFormat::Ktx2 => {
+                            for (f, compressed, _) in &stored.blocks {
+                                let rel = sub.join(format!("{stem}.{}.ktx2", f.name()));
+                                outputs.push((rel.clone(), ktx2_compressed(&compressed[oi][j], dc, &desc)));
+                                files.push(rel.display().to_string());
+                            }
                         }
                     }
                 }

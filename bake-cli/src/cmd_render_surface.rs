@@ -6,7 +6,8 @@
 //! map present, a `lightmap` image shows its lowest level of detail (`H1` only, Listing 2.2),
 //! i.e. plain light mapping, on which the normal map has no effect.
 //!
-//! `OUT/report.json`:
+//! `OUT/sheet.png` tiles the reference, the bases in file-name order and `lightmap`, four per
+//! row. `OUT/report.json`:
 //! `{"bases": {"<basis>": {"rel_rmse", "bytes_per_texel", "coefficients", "image"}},
 //!   "invalid_texels", "reference": {"image", "samples"}, "pixels", "normal_map"}`.
 //! `rel_rmse = sqrt(Σ (I_b - I_ref)²) / sqrt(Σ I_ref²)` over the lightmapped pixels and
@@ -240,6 +241,25 @@ fn read_dir_maps(dir: &Path) -> anyhow::Result<(Vec<BasisMaps>, u64)> {
     Ok((out, invalid))
 }
 
+/// Equally sized images side by side (4 columns, 2-pixel black gaps), row by row.
+fn sheet(images: &[&Rgb32]) -> Rgb32 {
+    const COLS: usize = 4;
+    const GAP: usize = 2;
+    let (w, h) = (images[0].width, images[0].height);
+    let cols = COLS.min(images.len());
+    let rows = images.len().div_ceil(COLS);
+    let mut out = Rgb32::new(cols * w + (cols - 1) * GAP, rows * h + (rows - 1) * GAP);
+    for (k, img) in images.iter().enumerate() {
+        let (ox, oy) = ((k % COLS) * (w + GAP), (k / COLS) * (h + GAP));
+        for y in 0..h {
+            for x in 0..w {
+                out.set(ox + x, oy + y, img.pixels[y * w + x]);
+            }
+        }
+    }
+    out
+}
+
 /// What a camera ray sees.
 enum PixelHit {
     /// Sky or a surface that is not lightmapped: its final colour.
@@ -421,6 +441,9 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
     for ((name, _), img) in names.iter().zip(&images) {
         write_png_linear(&out_dir.join(format!("{name}.png")), img, exposure)?;
     }
+    let mut tiles = vec![&reference];
+    tiles.extend(images.iter());
+    write_png_linear(&out_dir.join("sheet.png"), &sheet(&tiles), exposure)?;
     write_atomic(&out_dir.join("report.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
     for (name, b) in &report.bases {
         eprintln!("{name:>12}: rel RMSE {:.4} ({} bytes/texel)", b.rel_rmse, b.bytes_per_texel);

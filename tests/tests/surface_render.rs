@@ -77,7 +77,7 @@ fn hbasis6_is_close_to_sh9_and_hl2_is_worst_on_a_bumpy_plane() {
     assert_eq!(report["bases"]["sh9"]["bytes_per_texel"], 27);
     assert_eq!(report["invalid_texels"], 0);
     assert_eq!(report["pixels"], 40 * 30, "the plane fills the view");
-    for f in ["reference.png", "sh9.png", "hbasis6.png", "hl2.png"] {
+    for f in ["reference.png", "sh9.png", "hbasis6.png", "hl2.png", "sheet.png"] {
         assert!(shots.join(f).is_file(), "{f}");
     }
 }
