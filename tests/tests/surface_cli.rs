@@ -152,3 +152,69 @@ fn bad_input_is_one_clear_line_and_writes_nothing() {
     assert!(err.contains("no coefficient maps"), "{err}");
     assert!(!r.exists());
 }
+
+#[test]
+fn render_matches_maps_to_objects_and_refuses_another_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    // A floor and a wall standing on it (wall: x = 0 plane, normal +X).
+    let mut wall = plane("wall");
+    wall.positions = vec![[0.0, 0.0, -0.3], [0.0, 0.6, -0.3], [0.0, 0.6, 0.3], [0.0, 0.0, 0.3]];
+    let two = write_gltf(dir.path(), "two.gltf", &[plane("floor"), wall]);
+    let maps = dir.path().join("maps");
+    let m = maps.to_str().unwrap();
+    let bake = [
+        "bake-surface",
+        two.to_str().unwrap(),
+        "--basis",
+        "hbasis_mod4",
+        "--texels-per-unit",
+        "4",
+        "--samples",
+        "32",
+        "--sky",
+        SKY,
+        "--sun",
+        SUN,
+        "-o",
+        m,
+        "--quiet",
+    ];
+    assert_eq!(run(&bake), Ok(ExitCode::SUCCESS));
+    let shots = dir.path().join("shots");
+    let render = [
+        "render",
+        two.to_str().unwrap(),
+        "--sky",
+        SKY,
+        "--sun",
+        SUN,
+        "--surface",
+        m,
+        "--camera",
+        "-1,-1,1:0,0,0.1:50",
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--reference-samples",
+        "8",
+        "-o",
+        shots.to_str().unwrap(),
+    ];
+    assert_eq!(run(&render), Ok(ExitCode::SUCCESS));
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(shots.join("report.json")).unwrap()).unwrap();
+    assert!(report["pixels"].as_u64().unwrap() > 0);
+    // The modified H-basis brings its lowest level of detail, the plain lightmap.
+    assert_eq!(report["bases"]["lightmap"]["bytes_per_texel"], 3);
+    assert_eq!(report["bases"]["hbasis_mod4"]["bytes_per_texel"], 12);
+    // The same maps against a scene with other objects: one clear error, no output.
+    let one = write_gltf(dir.path(), "one.gltf", &[plane("floor")]);
+    let other = dir.path().join("other");
+    let mut r = render;
+    r[1] = one.to_str().unwrap();
+    r[r.len() - 1] = other.to_str().unwrap();
+    let err = run(&r).unwrap_err();
+    assert!(err.contains("do not match"), "{err}");
+    assert!(!other.exists());
+}
