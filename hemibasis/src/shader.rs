@@ -9,7 +9,15 @@
 //! Each snippet defines two functions, named after [`crate::HemiBasis::tag`]
 //! (e.g. `lv_hsh9`):
 //! - `lv_TAG_basis(n)`: the `K` basis values at the unit tangent-space normal `n`;
-//! - `lv_TAG_irradiance(n, c)`: `Σ c[i] B_i(n)` for RGB coefficients `c`.
+//! - `lv_TAG_irradiance(n, c)`: `Σ c[i] B_i(n)` for RGB coefficients `c`;
+//! - `lv_TAG_irradiance_stored(n, t, count, range, inv_scale)`: seed 003 Listing 2.2 on
+//!   sampled 8-bit texels `t` (see [`crate::encode`]): the DC texel (coefficient
+//!   [`HemiBasis::dc_index`]) is used as sampled, i.e. linearised by an `_SRGB` texture
+//!   format ([`crate::encode::DcTransfer::Srgb`]), every other one is decoded by
+//!   `2 range t - range`; only the first `count` terms are summed (the levels of detail of
+//!   Listing 2.2: 1, 4 or 6 for the modified H-basis, see [`crate::lod`]), and the sum is
+//!   multiplied by `inv_scale` (the inverse of the scale applied before encoding). It mirrors
+//!   `lod::eval_listing_2_2`.
 //!
 //! Constants are printed with the shortest decimal that round-trips to the same `f32`.
 
@@ -187,8 +195,10 @@ fn header(basis: &dyn HemiBasis, comment: &str) -> String {
     )
 }
 
-/// WGSL functions `lv_TAG_basis(n: vec3<f32>) -> array<f32, K>` and
-/// `lv_TAG_irradiance(n: vec3<f32>, c: array<vec3<f32>, K>) -> vec3<f32>`.
+/// WGSL functions `lv_TAG_basis(n: vec3<f32>) -> array<f32, K>`,
+/// `lv_TAG_irradiance(n: vec3<f32>, c: array<vec3<f32>, K>) -> vec3<f32>` and
+/// `lv_TAG_irradiance_stored(n, t: array<vec3<f32>, K>, count: u32, range: f32, inv_scale: f32)`
+/// (see the module docs).
 #[must_use]
 pub fn wgsl(basis: &dyn HemiBasis) -> String {
     let tag = basis.tag();
@@ -213,12 +223,29 @@ pub fn wgsl(basis: &dyn HemiBasis) -> String {
     let _ = writeln!(s, "    let b = lv_{tag}_basis(n);");
     s.push_str("    return ");
     push_dot(&mut s, k);
-    s.push_str(";\n}\n");
+    s.push_str(";\n}\n\n");
+    let _ = writeln!(
+        s,
+        "fn lv_{tag}_irradiance_stored(n: vec3<f32>, t: array<vec3<f32>, {k}>, count: u32, range: f32, inv_scale: f32) -> vec3<f32> {{"
+    );
+    let _ = writeln!(s, "    var b = lv_{tag}_basis(n);\n    var tt = t;\n    var e = vec3<f32>(0.0);");
+    let _ = writeln!(s, "    for (var i = 0u; i < min(count, {k}u); i++) {{");
+    let _ = writeln!(s, "        var c = tt[i];");
+    let _ =
+        writeln!(s, "        if (i != {}u) {{ c = 2.0 * range * c - vec3<f32>(range); }}", dc_or_none(basis));
+    s.push_str("        e += c * b[i];\n    }\n    return e * inv_scale;\n}\n");
     s
 }
 
-/// GLSL functions `void lv_TAG_basis(vec3 n, out float b[K])` and
-/// `vec3 lv_TAG_irradiance(vec3 n, vec3 c[K])` (GLSL 4.50 / ES 3.10 syntax).
+/// The DC index, or an index no coefficient has (HL2: every texel is range-compressed).
+fn dc_or_none(basis: &dyn HemiBasis) -> usize {
+    basis.dc_index().unwrap_or(basis.len())
+}
+
+/// GLSL functions `void lv_TAG_basis(vec3 n, out float b[K])`,
+/// `vec3 lv_TAG_irradiance(vec3 n, vec3 c[K])` and
+/// `vec3 lv_TAG_irradiance_stored(vec3 n, vec3 t[K], uint count, float range, float inv_scale)`
+/// (GLSL 4.50 / ES 3.10 syntax).
 #[must_use]
 pub fn glsl(basis: &dyn HemiBasis) -> String {
     let tag = basis.tag();
@@ -242,7 +269,16 @@ pub fn glsl(basis: &dyn HemiBasis) -> String {
     let _ = writeln!(s, "    float b[{k}];\n    lv_{tag}_basis(n, b);");
     s.push_str("    return ");
     push_dot(&mut s, k);
-    s.push_str(";\n}\n");
+    s.push_str(";\n}\n\n");
+    let _ = writeln!(
+        s,
+        "vec3 lv_{tag}_irradiance_stored(vec3 n, vec3 t[{k}], uint count, float range, float inv_scale) {{"
+    );
+    let _ = writeln!(s, "    float b[{k}];\n    lv_{tag}_basis(n, b);\n    vec3 e = vec3(0.0);");
+    let _ = writeln!(s, "    for (uint i = 0u; i < min(count, {k}u); i++) {{");
+    let _ = writeln!(s, "        vec3 c = t[i];");
+    let _ = writeln!(s, "        if (i != {}u) {{ c = 2.0 * range * c - vec3(range); }}", dc_or_none(basis));
+    s.push_str("        e += c * b[i];\n    }\n    return e * inv_scale;\n}\n");
     s
 }
 

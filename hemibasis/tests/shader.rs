@@ -74,7 +74,7 @@ fn wgsl_snippets_compile() {
         let k = b.len();
         let tag = b.tag();
         let src = format!(
-            "{}\n@fragment\nfn fs_main(@location(0) n: vec3<f32>) -> @location(0) vec4<f32> {{\n    var c: array<vec3<f32>, {k}>;\n    for (var i = 0; i < {k}; i++) {{ c[i] = vec3<f32>(f32(i)); }}\n    return vec4<f32>(lv_{tag}_irradiance(normalize(n), c), 1.0);\n}}\n",
+            "{}\n@fragment\nfn fs_main(@location(0) n: vec3<f32>) -> @location(0) vec4<f32> {{\n    var c: array<vec3<f32>, {k}>;\n    for (var i = 0; i < {k}; i++) {{ c[i] = vec3<f32>(f32(i)); }}\n    return vec4<f32>(lv_{tag}_irradiance(normalize(n), c) + lv_{tag}_irradiance_stored(normalize(n), c, 4u, 0.75, 2.0), 1.0);\n}}\n",
             wgsl(b.as_ref())
         );
         let module = naga::front::wgsl::parse_str(&src)
@@ -90,7 +90,7 @@ fn glsl_snippets_compile() {
         let k = b.len();
         let tag = b.tag();
         let src = format!(
-            "#version 450\n{}\nlayout(location = 0) in vec3 v_normal;\nlayout(location = 0) out vec4 o_color;\nvoid main() {{\n    vec3 c[{k}];\n    for (int i = 0; i < {k}; i++) {{ c[i] = vec3(float(i)); }}\n    o_color = vec4(lv_{tag}_irradiance(normalize(v_normal), c), 1.0);\n}}\n",
+            "#version 450\n{}\nlayout(location = 0) in vec3 v_normal;\nlayout(location = 0) out vec4 o_color;\nvoid main() {{\n    vec3 c[{k}];\n    for (int i = 0; i < {k}; i++) {{ c[i] = vec3(float(i)); }}\n    o_color = vec4(lv_{tag}_irradiance(normalize(v_normal), c) + lv_{tag}_irradiance_stored(normalize(v_normal), c, 4u, 0.75, 2.0), 1.0);\n}}\n",
             glsl(b.as_ref())
         );
         let mut frontend = naga::front::glsl::Frontend::default();
