@@ -7,6 +7,7 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use lightvol_sampler::fit::{Fit, MassMatrix, bake_with_mass, finalize_least_squares, solve_least_squares};
 use lightvol_sampler::{
     BakeControl, BakeOutput, BakeSettings, Method, Progress, Tracer, Transport, TransportSettings,
 };
@@ -195,6 +196,36 @@ pub fn run_bake(
     Ok(out)
 }
 
+/// What a bake carries besides its accumulator.
+enum Grads {
+    /// Per-node SH gradients and their report.
+    Gradients(lightvol_volume::VolumeGradients, GradientsJson),
+    /// The mass matrix of a least-squares fit.
+    Mass(MassMatrix),
+}
+
+/// [`run_bake`] that also accumulates the least-squares mass matrix.
+fn run_bake_with_mass(
+    loaded: &LoadedScene,
+    tracer: &Tracer,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    transport_settings: TransportSettings,
+    quiet: bool,
+    label: &str,
+) -> anyhow::Result<(BakeOutput, MassMatrix)> {
+    let transport = Transport::new(&loaded.scene, tracer, transport_settings);
+    let pb = progress_bar(quiet, 0, label);
+    let report = |p: Progress| {
+        pb.set_length(p.total as u64);
+        pb.set_position(p.done as u64);
+    };
+    let control = BakeControl { progress: Some(&report), cancel: None };
+    let out = bake_with_mass(&transport, grid, settings, &control).context("baking")?;
+    pb.finish_and_clear();
+    Ok(out)
+}
+
 /// [`run_bake`] for a whole (unsharded) bake, finalized with the chosen node fit
 /// (lightvol-sampler's `fit` module).
 #[allow(clippy::too_many_arguments, reason = "the bake's inputs plus its presentation")]
@@ -206,7 +237,7 @@ pub fn run_bake_fitted(
     transport_settings: TransportSettings,
     quiet: bool,
     label: &str,
-    fit: lightvol_sampler::fit::Fit,
+    fit: Fit,
 ) -> anyhow::Result<(IrradianceVolume, lightvol_sampler::BakeStats)> {
     let transport = Transport::new(&loaded.scene, tracer, transport_settings);
     let pb = progress_bar(quiet, 0, label);
@@ -279,6 +310,17 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             "--gradients cannot be combined with --shard or --keep-accumulator (the accumulator holds no gradient sums)"
         );
     }
+    let fit = if method == Method::Point { Fit::Average } else { args.sampling.fit };
+    if fit != Fit::Average && (args.shard.is_some() || args.keep_accumulator) {
+        bail!(
+            "--fit {fit} needs the whole bake (shard accumulators hold no mass matrix); use --fit average with --shard or --keep-accumulator"
+        );
+    }
+    if fit != Fit::Average && args.gradients.is_some() {
+        bail!(
+            "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
+        );
+    }
     if args.gradients == Some(GradientEstimator::Basis) && method == Method::Point {
         bail!(
             "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
@@ -290,6 +332,11 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
         Ok(match args.gradients {
+            None if fit != Fit::Average => {
+                let (out, mass) =
+                    run_bake_with_mass(&loaded, &tracer, &grid, &settings, ts, args.quiet, &args.method)?;
+                (out, Some(Grads::Mass(mass)), bvh_seconds)
+            }
             None => (
                 run_bake(&loaded, &tracer, &grid, &settings, ts, args.quiet, &args.method)?,
                 None,
@@ -305,19 +352,21 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     seconds: g.seconds,
                     memory_bytes: g.gradients.memory_bytes(),
                 };
-                (g.output, Some((g.gradients, json)), bvh_seconds)
+                (g.output, Some(Grads::Gradients(g.gradients, json)), bvh_seconds)
             }
         })
     })??;
+    let method_label =
+        if fit == Fit::Average { args.method.clone() } else { format!("{} fit={fit}", args.method) };
     let meta = BakeMetadata {
-        method: args.method.clone(),
+        method: method_label.clone(),
         samples: out.stats.rays.sampling,
         seed: args.sampling.seed,
         shard_index: shard.0,
         shard_count: shard.1,
         scene_hash: scene_hash(
             &loaded,
-            &format!("{:?} {:?} {} {}", grid.bounds(), grid.res(), args.method, settings.samples),
+            &format!("{:?} {:?} {} {}", grid.bounds(), grid.res(), method_label, settings.samples),
         ),
         units: "relative".into(),
     };
@@ -329,8 +378,31 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             eprintln!("wrote {}", acc_path.display());
         }
     }
-    let (vol, fill) = finish_volume(&out, meta);
-    let (grads, grads_json) = grads.map_or((None, None), |(g, j)| (Some(g), Some(j)));
+    let (vol, fill, grads, grads_json) = match grads {
+        None => {
+            let (vol, fill) = finish_volume(&out, meta);
+            (vol, fill, None, None)
+        }
+        Some(Grads::Gradients(g, j)) => {
+            let (vol, fill) = finish_volume(&out, meta);
+            (vol, fill, Some(g), Some(j))
+        }
+        Some(Grads::Mass(mass)) => {
+            let Fit::LeastSquares { lambda } = fit else {
+                unreachable!("mass matrices are only baked for lsq")
+            };
+            let (values, solve) =
+                solve_least_squares(&mass, &out.accumulator, lambda).context("least-squares node fit")?;
+            if !args.json {
+                eprintln!(
+                    "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
+                    solve.active_nodes, solve.max_iterations, solve.max_relative_residual
+                );
+            }
+            let (vol, fill) = finalize_least_squares(&out.accumulator, values);
+            (vol.with_metadata(meta), fill, None, None)
+        }
+    };
     match &grads {
         None => write_exr(&args.output, &vol, &ExrOptions::default()),
         Some(g) => write_exr_with_gradients(&args.output, &vol, g, &ExrOptions::default()),
@@ -339,7 +411,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let s = &out.stats;
     let report = BakeReport {
         scene: loaded.label.clone(),
-        method: args.method.clone(),
+        method: method_label,
         grid: GridJson::of(&grid),
         samples: args.sampling.samples,
         seed: args.sampling.seed,

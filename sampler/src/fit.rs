@@ -24,11 +24,11 @@
 //! 27 non-zeros per row and is solved per coefficient by Jacobi-preconditioned conjugate
 //! gradients, in a fixed order (deterministic for any thread count).
 
-use lightvol_volume::fill::fill_empty_nodes;
+use lightvol_volume::fill::{FillReport, fill_empty_nodes};
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
-use crate::bake::{BakeControl, BakeSettings, Method, UnitOut, bake_with_sink};
+use crate::bake::{BakeControl, BakeOutput, BakeSettings, Method, UnitOut, bake_with_sink};
 use crate::error::BakeError;
 use crate::stats::BakeStats;
 use crate::transport::Transport;
@@ -62,6 +62,16 @@ pub enum Fit {
 impl Default for Fit {
     fn default() -> Self {
         Self::LeastSquares { lambda: DEFAULT_LAMBDA }
+    }
+}
+
+/// The name [`FromStr`](std::str::FromStr) accepts: `average` or `lsq:LAMBDA`.
+impl std::fmt::Display for Fit {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Average => f.write_str("average"),
+            Self::LeastSquares { lambda } => write!(f, "lsq:{lambda}"),
+        }
     }
 }
 
@@ -304,10 +314,11 @@ fn conjugate_gradient(
 }
 
 /// Turns the least-squares node values into a volume: weights as in
-/// [`Accumulator::finalize`], zero-weight nodes filled the same way.
+/// [`Accumulator::finalize`], zero-weight nodes filled the same way (the report says how
+/// many).
 #[must_use]
-pub fn finalize_least_squares(acc: &Accumulator, mut values: Vec<f64>) -> IrradianceVolume {
-    let (lumped, _) = acc.finalize();
+pub fn finalize_least_squares(acc: &Accumulator, mut values: Vec<f64>) -> (IrradianceVolume, FillReport) {
+    let (lumped, lumped_report) = acc.finalize();
     let weights: Vec<f64> = lumped.weights().iter().map(|&w| f64::from(w)).collect();
     let k = acc.coeffs() * 3;
     let den = acc.denominator();
@@ -315,12 +326,30 @@ pub fn finalize_least_squares(acc: &Accumulator, mut values: Vec<f64>) -> Irradi
     let fill_weights: Vec<f64> = (0..weights.len())
         .map(|i| if den[i] > 0.0 { weights[i].max(f64::MIN_POSITIVE) } else { 0.0 })
         .collect();
-    fill_empty_nodes(acc.spec(), k, &mut values, &fill_weights);
+    let report = fill_empty_nodes(acc.spec(), k, &mut values, &fill_weights);
+    let report = FillReport { non_finite_zeroed: lumped_report.non_finite_zeroed, ..report };
     let data: Vec<f32> = values.iter().map(|&v| v as f32).collect();
     let w32: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
-    IrradianceVolume::new(acc.spec().clone(), acc.coeffs(), data, w32)
+    let volume = IrradianceVolume::new(acc.spec().clone(), acc.coeffs(), data, w32)
         .expect("consistent parts")
-        .with_metadata(lumped.metadata().clone())
+        .with_metadata(lumped.metadata().clone());
+    (volume, report)
+}
+
+/// A whole or sharded bake that also accumulates the [`MassMatrix`] of its kept samples
+/// (the input of [`solve_least_squares`]); the accumulator is exactly [`crate::bake`]'s.
+///
+/// # Errors
+/// As [`crate::bake`].
+pub fn bake_with_mass(
+    transport: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    control: &BakeControl<'_>,
+) -> Result<(BakeOutput, MassMatrix), BakeError> {
+    let mut mass = MassMatrix::new(grid);
+    let out = bake_with_sink(transport, grid, settings, control, |u| mass.add_unit(u))?;
+    Ok((out, mass))
 }
 
 /// A whole (unsharded) bake with the chosen [`Fit`]. For [`Method::Point`] or
@@ -341,10 +370,9 @@ pub fn bake_fitted(
             Ok((v, s, None))
         }
         (_, Fit::LeastSquares { lambda }) => {
-            let mut mass = MassMatrix::new(grid);
-            let out = bake_with_sink(transport, grid, settings, control, |u| mass.add_unit(u))?;
+            let (out, mass) = bake_with_mass(transport, grid, settings, control)?;
             let (values, report) = solve_least_squares(&mass, &out.accumulator, lambda)?;
-            let volume = finalize_least_squares(&out.accumulator, values);
+            let (volume, _) = finalize_least_squares(&out.accumulator, values);
             let (_, stats) = out.finish();
             Ok((volume, stats, Some(report)))
         }

@@ -181,4 +181,7 @@ fn fit_names_parse() {
     assert!("lsq:-1".parse::<Fit>().is_err());
     assert!("lsq:nan".parse::<Fit>().is_err());
     assert!("blur".parse::<Fit>().is_err());
+    for f in [Fit::Average, Fit::default(), Fit::LeastSquares { lambda: 0.1 }] {
+        assert_eq!(f.to_string().parse::<Fit>(), Ok(f));
+    }
 }

@@ -194,3 +194,50 @@ fn bad_input_is_refused_cleanly() {
     assert!(err.contains("accumulator"), "{err}");
     assert!(!out.exists());
 }
+
+/// `bake --fit lsq`: the least-squares node fit writes a volume that differs from the Eq. 6
+/// bake of the same samples, records the fit in the method metadata, and refuses shards,
+/// kept accumulators and gradients (whose sums assume Eq. 6) with one clear line and no
+/// output file.
+#[test]
+fn least_squares_fit_bakes_and_refuses_what_it_cannot_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let common = ["--samples", "16", "--res", "8,7,5", "--quiet", "--seed", "3"];
+    let avg = d.join("avg.exr");
+    let lsq = d.join("lsq.exr");
+    let mut a = vec!["bake", "builtin:interior", "-o", s(&avg)];
+    a.extend_from_slice(&common);
+    ok(&a);
+    let mut a = vec!["bake", "builtin:interior", "--fit", "lsq:0.5", "-o", s(&lsq)];
+    a.extend_from_slice(&common);
+    ok(&a);
+    let (va, vl) = (read_exr(&avg).unwrap(), read_exr(&lsq).unwrap());
+    assert_eq!(vl.metadata().method, "doi fit=lsq:0.5");
+    assert_eq!(va.weights(), vl.weights(), "same samples, same domain weights");
+    assert_ne!(va.data(), vl.data());
+    // Same DC level overall: the fit redistributes light between nodes, it does not add any.
+    let dc_mean = |v: &lightvol_volume::IrradianceVolume| {
+        (0..v.spec().node_count()).map(|n| f64::from(v.node(n)[0])).sum::<f64>()
+            / v.spec().node_count() as f64
+    };
+    // Relative tolerance: the two fits weight the boundary nodes differently, a few percent.
+    const DC_MEAN_REL: f64 = 0.1;
+    assert!(
+        (dc_mean(&va) - dc_mean(&vl)).abs() <= DC_MEAN_REL * dc_mean(&va),
+        "{} {}",
+        dc_mean(&va),
+        dc_mean(&vl)
+    );
+    for extra in [&["--shard", "0/2"][..], &["--keep-accumulator"][..], &["--gradients"][..]] {
+        let out = d.join("refused.exr");
+        let mut a = vec!["bake", "builtin:interior", "--fit", "lsq", "-o", s(&out)];
+        a.extend_from_slice(extra);
+        a.extend_from_slice(&common);
+        let e = run(&a).expect_err("must be refused");
+        assert!(e.contains("--fit lsq"), "{e}");
+        assert!(!out.exists() && !out.with_extension("lvacc").exists());
+    }
+    let e = run(&["bake", "builtin:interior", "--fit", "lsq:-1", "-o", s(&d.join("x.exr"))]).unwrap_err();
+    assert!(e.contains("lsq"), "{e}");
+}
