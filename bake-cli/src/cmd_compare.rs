@@ -46,7 +46,7 @@ pub struct CompareArgs {
     /// `BASE+LOOKUP` for a bake with SH gradients (seed 002) read by `taylor` (nearest node,
     /// first-order Taylor), `gtrilinear` (gradient-extrapolated corners, trilinear) or
     /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`; `adaptive` for seed 002's
-    /// octree baked to the uniform grid's memory.
+    /// octree baked to the uniform grid's memory (`adaptive2` with one more level).
     #[arg(long, default_value = "point,prefilter,doi", value_delimiter = ',')]
     pub methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for prefilter/doi,
@@ -445,7 +445,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
                     )?;
                     gradient_run(gv, name, lookup, args.sampling.samples, &plate)?
                 }
-                Entry::Adaptive => adaptive_run(&loaded, &tracer, &grid, args, name, &plate)?,
+                Entry::Adaptive(levels) => adaptive_run(&loaded, &tracer, &grid, args, name, levels, &plate)?,
             };
             write_panels(&args.output, name, &plate, &run.estimate, mean_truth)?;
             runs.push(run);

@@ -8,10 +8,11 @@
 //! `AdaptiveVolume::memory_bytes` (coefficients, base weights, an 8-byte key per fine
 //! node, split bitmaps).
 //!
-//! **Equal memory.** The `adaptive` entry is baked (doi, `--samples` per cell at every
+//! **Equal memory.** The `adaptive[L]` entry is baked (doi, `--samples` per cell at every
 //! level) with level 0 on the compare grid with its cell counts scaled by
-//! [`ADAPTIVE_BASE_SCALE`], down to level [`ADAPTIVE_MAX_LEVEL`] (the compare grid's cell
-//! size), the sampler's default heuristics and culling, under a memory budget equal
+//! [`ADAPTIVE_BASE_SCALE`], down to level `L` (default [`ADAPTIVE_MAX_LEVEL`]: level 1 has
+//! the compare grid's cell size, level 2 half of it), the sampler's default heuristics and
+//! culling, under a memory budget equal
 //! to the uniform entry's `memory_bytes`. The octree's own count includes its weights and
 //! index, which the uniform count leaves out, so the octree never gets more memory than the
 //! uniform grid it is compared with.
@@ -39,24 +40,34 @@ pub enum Entry {
     Uniform(Method),
     /// A uniform bake with per-node gradients, read by a gradient lookup (seed 002).
     Gradient(Method, GradientLookup),
-    /// Seed 002's adaptive octree at the uniform grid's memory (module docs).
-    Adaptive,
+    /// Seed 002's adaptive octree at the uniform grid's memory, with this finest level
+    /// (module docs). Named `adaptive` (level 1) or `adaptiveL`.
+    Adaptive(u32),
 }
 
 /// Level 0 of the `adaptive` entry: the compare grid's cell counts times this.
 pub const ADAPTIVE_BASE_SCALE: f64 = 0.5;
 /// Finest level of the `adaptive` entry: level 1 has the compare grid's cell size, so the
 /// octree matches the uniform grid's resolution where its heuristics refine and keeps half
-/// of it elsewhere. (Measured on `city`, `compare --memory-sweep`: a second level, refined
-/// under the same budget, gave higher errors at every memory, e.g. rel_rmse 0.1985 against
-/// 0.1909 at the default grid's 193 536 bytes.)
+/// of it elsewhere. `adaptive2` refines once more (measured in `compare --memory-sweep`:
+/// on `city` level 2 spends the budget less well than level 1, on `interior` much better;
+/// see the crate README).
 pub const ADAPTIVE_MAX_LEVEL: u32 = 1;
 
-/// Parses `point|prefilter|doi`, `adaptive`, or `BASE+LOOKUP` with LOOKUP one of `taylor`,
+/// Largest `L` accepted in `adaptiveL`.
+pub const ADAPTIVE_LEVELS_MAX: u32 = 3;
+
+/// Parses `point|prefilter|doi`, `adaptive[L]`, or `BASE+LOOKUP` with LOOKUP one of `taylor`,
 /// `gtrilinear`, `hermite`.
 pub fn parse_entry(s: &str) -> anyhow::Result<Entry> {
     if s == "adaptive" {
-        return Ok(Entry::Adaptive);
+        return Ok(Entry::Adaptive(ADAPTIVE_MAX_LEVEL));
+    }
+    if let Some(l) = s.strip_prefix("adaptive") {
+        return match l.parse::<u32>() {
+            Ok(l) if (1..=ADAPTIVE_LEVELS_MAX).contains(&l) => Ok(Entry::Adaptive(l)),
+            _ => bail!("'{s}': adaptiveL needs a finest level L from 1 to {ADAPTIVE_LEVELS_MAX}"),
+        };
     }
     match s.split_once('+') {
         None => Ok(Entry::Uniform(parse_method(s)?)),
@@ -163,13 +174,14 @@ pub fn gradient_run(
     ))
 }
 
-/// An adaptive bake at the memory of the uniform grid `grid` (module docs); returns the
-/// volume, its statistics and the budget in bytes.
+/// An adaptive bake with finest level `max_level` at the memory of the uniform grid `grid`
+/// (module docs); returns the volume, its statistics and the budget in bytes.
 pub fn adaptive_volume(
     loaded: &LoadedScene,
     tracer: &Tracer,
     grid: &GridSpec,
     args: &CompareArgs,
+    max_level: u32,
     label: &str,
 ) -> anyhow::Result<(AdaptiveVolume, AdaptiveStats, usize)> {
     let coeffs = args.grid.coeffs();
@@ -183,11 +195,7 @@ pub fn adaptive_volume(
         seed: args.sampling.seed,
         ..BakeSettings::default()
     };
-    let adaptive = AdaptiveSettings {
-        max_level: ADAPTIVE_MAX_LEVEL,
-        memory_budget: Some(budget),
-        ..AdaptiveSettings::default()
-    };
+    let adaptive = AdaptiveSettings { max_level, memory_budget: Some(budget), ..AdaptiveSettings::default() };
     let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
     let (vol, stats) = run_adaptive_bake(loaded, tracer, &base, &settings, &adaptive, ts, args.quiet, label)?;
     Ok((vol, stats, budget))
@@ -211,9 +219,10 @@ pub fn adaptive_run(
     grid: &GridSpec,
     args: &CompareArgs,
     name: &str,
+    max_level: u32,
     plate: &PlateData,
 ) -> anyhow::Result<(MethodRun, Map<String, Value>)> {
-    let (vol, stats, budget) = adaptive_volume(loaded, tracer, grid, args, name)?;
+    let (vol, stats, budget) = adaptive_volume(loaded, tracer, grid, args, max_level, name)?;
     let estimate = evaluate_adaptive(&vol, plate);
     let metrics = plate_metrics(plate, &estimate);
     let extra = json!({
@@ -302,7 +311,10 @@ mod tests {
             parse_entry("point+hermite").unwrap(),
             Entry::Gradient(Method::Point, GradientLookup::Hermite)
         );
-        assert_eq!(parse_entry("adaptive").unwrap(), Entry::Adaptive);
+        assert_eq!(parse_entry("adaptive").unwrap(), Entry::Adaptive(1));
+        assert_eq!(parse_entry("adaptive2").unwrap(), Entry::Adaptive(2));
+        assert!(parse_entry("adaptive0").is_err());
+        assert!(parse_entry("adaptive9").is_err());
         assert!(parse_entry("doi+cubic").is_err());
         assert!(parse_entry("bogus+taylor").is_err());
     }

@@ -6,9 +6,9 @@
 //!   SH gradients (seed 002; the `basis` estimator from the bake's own samples, or the one
 //!   `--gradient-estimator` names) read by the gradient lookups,
 //!
-//! - `adaptive`: seed 002's octree baked to the memory of each uniform grid (the
-//!   `adaptive` entry of `compare`, see [`crate::compare_entries`]; `res` is its finest
-//!   level's, `nodes` its stored nodes),
+//! - `adaptive`, `adaptive2`: seed 002's octree baked to the memory of each uniform grid,
+//!   finest level 1 or 2 (the `adaptive[L]` entries of `compare`, see
+//!   [`crate::compare_entries`]; `res` is its finest level's, `nodes` its stored nodes),
 //!
 //! at several grid resolutions (the grid's cell counts scaled by `--sweep-scales`, same
 //! bounds), against the run-time memory of each (seed 002's accounting: `3 n²` f32 per node,
@@ -36,7 +36,8 @@ const MAX_SCALE: f64 = 4.0;
 /// One (series, resolution) point of the study.
 #[derive(Debug, Clone, Serialize)]
 pub struct SweepPoint {
-    /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`, `adaptive`.
+    /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`, `adaptive`,
+    /// `adaptive2`.
     pub series: String,
     /// Grid nodes per axis.
     pub res: [u32; 3],
@@ -92,6 +93,9 @@ pub fn scaled_grid(base: &GridSpec, scale: f64) -> anyhow::Result<GridSpec> {
     let res = base.res().map(|r| ((f64::from(r - 1) * scale).round() as u32).max(1) + 1);
     Ok(GridSpec::new(min, max, res)?)
 }
+
+/// The octree series: name and finest level (see [`crate::compare_entries`]).
+const ADAPTIVE_SERIES: [(&str, u32); 2] = [("adaptive", 1), ("adaptive2", 2)];
 
 const LOOKUPS: [GradientLookup; 3] =
     [GradientLookup::Taylor, GradientLookup::GradientTrilinear, GradientLookup::Hermite];
@@ -151,28 +155,31 @@ pub fn sweep(
                 bake_seconds + gv.gradient_seconds,
             );
         }
-        let (av, stats, _) = adaptive_volume(loaded, tracer, &grid, args, &format!("adaptive x{scale}"))?;
-        let m = plate_metrics(plate, &evaluate_adaptive(&av, plate));
-        if !args.quiet {
-            eprintln!(
-                "memory sweep {:<18} base {:?} {:>9} bytes: rel RMSE {:.4}",
-                "adaptive",
-                av.base().spec().res(),
-                av.memory_bytes(),
-                m.rel_rmse
-            );
+        for (series, levels) in ADAPTIVE_SERIES {
+            let (av, stats, _) =
+                adaptive_volume(loaded, tracer, &grid, args, levels, &format!("{series} x{scale}"))?;
+            let m = plate_metrics(plate, &evaluate_adaptive(&av, plate));
+            if !args.quiet {
+                eprintln!(
+                    "memory sweep {:<18} base {:?} {:>9} bytes: rel RMSE {:.4}",
+                    series,
+                    av.base().spec().res(),
+                    av.memory_bytes(),
+                    m.rel_rmse
+                );
+            }
+            points.push(SweepPoint {
+                series: series.into(),
+                res: av.finest_res(),
+                nodes: av.stored_nodes(),
+                memory_bytes: av.memory_bytes(),
+                rel_rmse: m.rel_rmse,
+                bias: m.bias,
+                too_dark_near: m.too_dark_near,
+                rays: stats.rays.total(),
+                seconds: stats.wall_time.as_secs_f64(),
+            });
         }
-        points.push(SweepPoint {
-            series: "adaptive".into(),
-            res: av.finest_res(),
-            nodes: av.stored_nodes(),
-            memory_bytes: av.memory_bytes(),
-            rel_rmse: m.rel_rmse,
-            bias: m.bias,
-            too_dark_near: m.too_dark_near,
-            rays: stats.rays.total(),
-            seconds: stats.wall_time.as_secs_f64(),
-        });
     }
     // Series by series, each by memory.
     points.sort_by(|a, b| a.series.cmp(&b.series).then(a.memory_bytes.cmp(&b.memory_bytes)));

@@ -64,4 +64,32 @@ fn demo_quick_writes_everything() {
         assert!(out.join(f).metadata().unwrap().len() > 100, "{f}");
     }
     assert!(std::fs::read_to_string(out.join("sweep.svg")).unwrap().contains("<polyline"));
+    // Issue 9: the error-vs-memory study on city and interior (plot, numbers, index.html),
+    // and the gradient and adaptive entries in every report with their memory.
+    for scene in ["city", "interior"] {
+        let text =
+            std::fs::read_to_string(out.join(scene).join("memory_sweep.json")).expect("memory_sweep.json");
+        let r: Value = serde_json::from_str(&text).expect("memory_sweep.json parses");
+        let pts = r["points"].as_array().expect("points");
+        for series in ["uniform", "uniform+taylor", "uniform+hermite", "adaptive", "adaptive2"] {
+            let n = pts.iter().filter(|p| p["series"] == series).count();
+            assert_eq!(n, r["scales"].as_array().unwrap().len(), "{scene}: {series} at every scale");
+        }
+        for p in pts {
+            assert!(p["memory_bytes"].as_u64().is_some_and(|m| m > 0));
+            assert!(p["rel_rmse"].as_f64().is_some_and(f64::is_finite));
+        }
+        for f in ["memory_sweep.svg", "memory_sweep.png"] {
+            assert!(out.join(scene).join(f).metadata().unwrap().len() > 100, "{scene}/{f}");
+        }
+        assert!(index.contains(&format!("{scene}/memory_sweep.svg")));
+        let text = std::fs::read_to_string(out.join(scene).join("report.json")).unwrap();
+        let rep: Value = serde_json::from_str(&text).unwrap();
+        for m in ["point", "doi", "doi+taylor", "doi+hermite", "adaptive", "adaptive2"] {
+            assert!(rep["methods"][m]["memory_bytes"].as_u64().is_some(), "{scene}: {m}.memory_bytes");
+        }
+        let mem = |m: &str| rep["methods"][m]["memory_bytes"].as_u64().unwrap();
+        assert_eq!(mem("doi+hermite"), 4 * mem("doi"), "seed 002: gradients quadruple the floats");
+        assert!(mem("adaptive") <= mem("doi") && mem("adaptive2") <= mem("doi"), "{scene}: equal memory");
+    }
 }
