@@ -58,9 +58,9 @@ pub struct RenderArgs {
     /// (seed 003 Fig. 3.5).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["volume", "reference"])]
     pub surface: Option<PathBuf>,
-    /// Normal map for --surface: `procedural[:FREQ[:SLOPE]]`, `flat` or an RGB PNG.
-    #[arg(long, default_value = "procedural", requires = "surface")]
-    pub normal_map: String,
+    /// Normal map for --surface: `procedural[:FREQ[:SLOPE]]` (default), `flat` or an RGB PNG.
+    #[arg(long, requires = "surface")]
+    pub normal_map: Option<String>,
 }
 
 /// A pinhole camera.
@@ -135,7 +135,7 @@ impl Camera {
 /// Runs `lightvol render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.surface {
-        return crate::cmd_render_surface::run(args, dir, &args.normal_map);
+        return crate::cmd_render_surface::run(args, dir, args.normal_map.as_deref().unwrap_or("procedural"));
     }
     if args.width == 0 || args.height == 0 || u64::from(args.width) * u64::from(args.height) > 64 << 20 {
         bail!("image size {}x{} must be positive and at most 64 Mpixels", args.width, args.height);
