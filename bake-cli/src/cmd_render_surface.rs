@@ -496,6 +496,31 @@ mod tests {
         assert!((MIN_Z - 1f64.to_radians().sin()).abs() < 1e-17);
     }
 
+    /// 8-bit normal-map texels decode within half a code: 0.5 / 127.5 per component.
+    const TEXEL_TOL: f64 = 0.5 / 127.5;
+
+    #[test]
+    fn png_normal_maps_decode_and_wrap() {
+        let dir = std::env::temp_dir().join(format!("lightvol-nm-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("n.png");
+        // 2 × 1: left texel flat (128, 128, 255), right texel tilted towards +x.
+        let tilted = DVec3::new(0.6, 0.0, 0.8);
+        let enc = |v: f64| ((v + 1.0) * 127.5).round() as u8;
+        let rgb = [128, 128, 255, enc(tilted.x), enc(tilted.y), enc(tilted.z)];
+        image::save_buffer(&path, &rgb, 2, 1, image::ExtendedColorType::Rgb8).unwrap();
+        let nm = NormalMap::parse(path.to_str().unwrap()).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        // Texel centres at u = 0.25 and 0.75; u = 1.25 wraps to 0.25.
+        for (u, want) in [(0.25, DVec3::Z), (0.75, tilted), (1.25, DVec3::Z)] {
+            let n = DVec3::from_array(nm.normal([u, 0.5]));
+            assert!((n - want).abs().max_element() < 2.0 * TEXEL_TOL, "u={u}: {n} vs {want}");
+        }
+        // Halfway between the two: the bilinear blend, renormalised.
+        let mid = DVec3::from_array(nm.normal([0.5, 0.5]));
+        assert!((mid - (DVec3::Z + tilted).normalize()).abs().max_element() < 2.0 * TEXEL_TOL);
+    }
+
     #[test]
     fn bad_normal_map_specs_are_errors() {
         assert!(NormalMap::parse("procedural:x").is_err());
