@@ -27,8 +27,8 @@ use lightvol_hemibasis::encode::{ClampStats, DcTransfer, Encoding};
 use lightvol_hemibasis::map::{CoeffMap, MapError, Plane, map_error};
 use lightvol_hemibasis::texture::{ktx2_compressed, ktx2_rgba8};
 use lightvol_sampler::surface::{
-    BasisChoice, CoefficientMap, InvalidTexels, SurfaceReport, SurfaceSettings, UvSet, bake_surface,
-    write_surface_exr,
+    BasisChoice, CoefficientMap, InvalidTexels, Quantity, SurfaceReport, SurfaceSettings, UvSet,
+    bake_surface, write_surface_exr,
 };
 use lightvol_sampler::{BakeControl, Progress, Tracer, Transport, TransportSettings};
 use rayon::prelude::*;
@@ -100,6 +100,16 @@ pub struct BakeSurfaceArgs {
     /// / the largest |coefficient| for bases without a DC term).
     #[arg(long)]
     pub encode_scale: Option<f64>,
+    /// What the maps hold: `irradiance` (`E`, a sky of radiance L gives π L) or `radiosity`
+    /// (`E / π`, seed 003 Eq. 2.3's normalised convolution).
+    #[arg(long, value_parser = ["irradiance", "radiosity"], default_value = "irradiance")]
+    pub quantity: String,
+    /// SH bands of the intermediate hemisphere projection (seed 003 §2.2.1 uses 3).
+    #[arg(long, default_value_t = 3)]
+    pub sh_bands: usize,
+    /// Dilation passes into empty atlas texels around the charts.
+    #[arg(long, default_value_t = 2)]
+    pub gutter: u32,
     /// Keep invalid texels (sample points that see back faces) as they are: the ablation
     /// that shows the dark leak under intersecting geometry.
     #[arg(long)]
@@ -368,6 +378,8 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     let mut formats: Vec<BlockFormat> = args.compress.iter().map(|c| c.block()).collect();
     formats.dedup();
     let resolution = args.resolution.as_deref().map(parse_resolution).transpose()?;
+    let quantity = Quantity::from_name(&args.quantity)
+        .with_context(|| format!("--quantity: '{}' is neither irradiance nor radiosity", args.quantity))?;
     if args.output.exists() && !args.output.is_dir() {
         bail!("output {} exists and is not a directory", args.output.display());
     }
@@ -388,6 +400,9 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                 resolution,
                 samples: args.samples,
                 invalid: if args.no_invalid_fix { InvalidTexels::Keep } else { InvalidTexels::Fix },
+                quantity,
+                sh_bands: args.sh_bands,
+                gutter: args.gutter,
                 seed: args.seed,
                 ..SurfaceSettings::default()
             };

@@ -84,6 +84,8 @@ fn png_encoding_writes_one_image_per_coefficient() {
         SKY,
         "--encode",
         "png",
+        "--quantity",
+        "radiosity",
         "-o",
         out.to_str().unwrap(),
         "--quiet",
@@ -92,6 +94,7 @@ fn png_encoding_writes_one_image_per_coefficient() {
     let v: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("hl2.json")).unwrap()).unwrap();
     assert_eq!(v["uv_set"], "TEXCOORD_0");
+    assert_eq!(v["quantity"], "radiosity");
     assert_eq!(v["encodings"]["rgb8"]["bytes_per_texel"], 9.0);
     for j in 0..3 {
         let png = std::fs::read(out.join("hl2").join(format!("floor_c{j:02}.png"))).unwrap();
