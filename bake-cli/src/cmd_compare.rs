@@ -46,7 +46,7 @@ pub struct CompareArgs {
     /// `BASE+LOOKUP` for a bake with SH gradients (seed 002) read by `taylor` (nearest node,
     /// first-order Taylor), `gtrilinear` (gradient-extrapolated corners, trilinear) or
     /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`; `adaptive` for seed 002's
-    /// octree baked to the uniform grid's memory (`adaptive2` with one more level).
+    /// octree baked to the uniform grid's memory (finest level 2 below half the grid's resolution; `adaptive1` stops one level earlier).
     #[arg(long, default_value = "point,prefilter,doi", value_delimiter = ',')]
     pub methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for prefilter/doi,

@@ -48,8 +48,8 @@ const MEMORY_SWEEP_SCENES: [&str; 2] = ["city", "interior"];
 
 /// Entries added to every scene's comparison besides point, prefilter and doi: the doi
 /// bake read through seed 002's gradient lookups, and seed 002's octree at doi's memory
-/// (finest level 1 and 2).
-const EXTRA_ENTRIES: [&str; 4] = ["doi+taylor", "doi+hermite", "adaptive", "adaptive2"];
+/// (finest level 2 and 1).
+const EXTRA_ENTRIES: [&str; 4] = ["doi+taylor", "doi+hermite", "adaptive", "adaptive1"];
 
 const QUICK: Level = Level {
     samples: 64,

@@ -6,8 +6,8 @@
 //!   SH gradients (seed 002; the `basis` estimator from the bake's own samples, or the one
 //!   `--gradient-estimator` names) read by the gradient lookups,
 //!
-//! - `adaptive`, `adaptive2`: seed 002's octree baked to the memory of each uniform grid,
-//!   finest level 1 or 2 (the `adaptive[L]` entries of `compare`, see
+//! - `adaptive`, `adaptive1`: seed 002's octree baked to the memory of each uniform grid,
+//!   finest level 2 or 1 (the `adaptive[L]` entries of `compare`, see
 //!   [`crate::compare_entries`]; `res` is its finest level's, `nodes` its stored nodes),
 //!
 //! at several grid resolutions (the grid's cell counts scaled by `--sweep-scales`, same
@@ -37,7 +37,7 @@ const MAX_SCALE: f64 = 4.0;
 #[derive(Debug, Clone, Serialize)]
 pub struct SweepPoint {
     /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`, `adaptive`,
-    /// `adaptive2`.
+    /// `adaptive1`.
     pub series: String,
     /// Grid nodes per axis.
     pub res: [u32; 3],
@@ -95,7 +95,7 @@ pub fn scaled_grid(base: &GridSpec, scale: f64) -> anyhow::Result<GridSpec> {
 }
 
 /// The octree series: name and finest level (see [`crate::compare_entries`]).
-const ADAPTIVE_SERIES: [(&str, u32); 2] = [("adaptive", 1), ("adaptive2", 2)];
+const ADAPTIVE_SERIES: [(&str, u32); 2] = [("adaptive", 2), ("adaptive1", 1)];
 
 const LOOKUPS: [GradientLookup; 3] =
     [GradientLookup::Taylor, GradientLookup::GradientTrilinear, GradientLookup::Hermite];

@@ -71,7 +71,7 @@ fn demo_quick_writes_everything() {
             std::fs::read_to_string(out.join(scene).join("memory_sweep.json")).expect("memory_sweep.json");
         let r: Value = serde_json::from_str(&text).expect("memory_sweep.json parses");
         let pts = r["points"].as_array().expect("points");
-        for series in ["uniform", "uniform+taylor", "uniform+hermite", "adaptive", "adaptive2"] {
+        for series in ["uniform", "uniform+taylor", "uniform+hermite", "adaptive", "adaptive1"] {
             let n = pts.iter().filter(|p| p["series"] == series).count();
             assert_eq!(n, r["scales"].as_array().unwrap().len(), "{scene}: {series} at every scale");
         }
@@ -85,11 +85,11 @@ fn demo_quick_writes_everything() {
         assert!(index.contains(&format!("{scene}/memory_sweep.svg")));
         let text = std::fs::read_to_string(out.join(scene).join("report.json")).unwrap();
         let rep: Value = serde_json::from_str(&text).unwrap();
-        for m in ["point", "doi", "doi+taylor", "doi+hermite", "adaptive", "adaptive2"] {
+        for m in ["point", "doi", "doi+taylor", "doi+hermite", "adaptive", "adaptive1"] {
             assert!(rep["methods"][m]["memory_bytes"].as_u64().is_some(), "{scene}: {m}.memory_bytes");
         }
         let mem = |m: &str| rep["methods"][m]["memory_bytes"].as_u64().unwrap();
         assert_eq!(mem("doi+hermite"), 4 * mem("doi"), "seed 002: gradients quadruple the floats");
-        assert!(mem("adaptive") <= mem("doi") && mem("adaptive2") <= mem("doi"), "{scene}: equal memory");
+        assert!(mem("adaptive") <= mem("doi") && mem("adaptive1") <= mem("doi"), "{scene}: equal memory");
     }
 }
