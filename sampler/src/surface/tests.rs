@@ -782,3 +782,70 @@ fn instanced_meshes_are_separate_objects() {
         assert!(z == 0.0 || z == 3.0, "object {k}: z = {z}");
     }
 }
+
+/// The thesis's ranking at the bake level (issue 10 acceptance 2 measures it on rendered
+/// images, in the CLI): a plane under a grazing sun (10° elevation) and a sky, shaded at 48
+/// perturbed tangent-space normals (tilt up to 50°) against the path-traced reference:
+/// SH9 < H-basis 6 < Half-Life 2 in relative RMSE, and the H-basis and the modified H-basis
+/// (same span) give the same shading.
+///
+/// Measured (relative RMSE sh9 / hbasis6 / hl2): sun 10°, tilt ≤ 50°: 0.055 / 0.083 / 0.285
+/// (hbasis6 = 1.50 × sh9); sun 10°, tilt ≤ 30°: 0.064 / 0.103 / 0.417 (1.61 ×); sun 20°,
+/// tilt ≤ 50°: 0.047 / 0.093 / 0.234 (1.98 ×); sun 5°: 0.057 / 0.076 / 0.307 (1.34 ×). Five or
+/// seven SH bands in the intermediate projection change these by under 10 %: the gap is the
+/// bases' own, not the pipeline's.
+#[test]
+fn basis_ranking_under_a_grazing_sun() {
+    let mut b = SceneBuilder::new("plane");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let p = vec![
+        DVec3::new(-1.0, -1.0, 0.0),
+        DVec3::new(1.0, -1.0, 0.0),
+        DVec3::new(1.0, 1.0, 0.0),
+        DVec3::new(-1.0, 1.0, 0.0),
+    ];
+    let uv = vec![DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+    add_object(&mut b, "plane", p, uv, &[[0, 1, 2], [0, 2, 3]], m);
+    b.environment = Environment::UniformSky { sky: [0.3, 0.4, 0.6], ground: None };
+    b.sun = Some(crate::lights::Sun::from_angles(10.0, 30.0, [3.0, 2.8, 2.5], 0.00465));
+    let scene = b.build().unwrap();
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
+    let (tri, bary) = (0, [0.3, 0.3]);
+    let uv = geo.lightmap_uv(tri, bary).unwrap();
+    let h = crate::qmc::Qmc::<2>::new(3, 0);
+    let normals: Vec<[f64; 3]> = (0..48)
+        .map(|i| {
+            let q = h.point(i);
+            let (ct, phi) = (1.0 - q[0] * (1.0 - 50f64.to_radians().cos()), 2.0 * PI * q[1]);
+            let st = (1.0 - ct * ct).sqrt();
+            [st * phi.cos(), st * phi.sin(), ct]
+        })
+        .collect();
+    let reference: Vec<f64> = normals
+        .iter()
+        .enumerate()
+        .map(|(k, &n)| {
+            reference_surface_irradiance(&t, &geo, tri, bary, n, Quantity::Irradiance, 4096, 1, k as u64).0[1]
+        })
+        .collect();
+    let mut rmse = std::collections::HashMap::new();
+    for name in ["sh9", "hbasis6", "hbasis_mod6", "hl2"] {
+        let s = SurfaceSettings { samples: 1024, resolution: Some([2, 2]), ..settings(name) };
+        let map = &bake_surface(&t, &s, &BakeControl::default()).unwrap().maps[0];
+        let basis = map.basis().unwrap();
+        let (mut num, mut den) = (0.0, 0.0);
+        for (n, r) in normals.iter().zip(&reference) {
+            let e = map.shade(basis.as_ref(), uv, *n)[1];
+            num += (e - r) * (e - r);
+            den += r * r;
+        }
+        let v = (num / den).sqrt();
+        println!("{name}: relative RMSE {v:.4}");
+        rmse.insert(name, v);
+    }
+    assert!(rmse["sh9"] < rmse["hbasis6"] && rmse["hbasis6"] < rmse["hl2"], "{rmse:?}");
+    // Same span, same least-squares fit: equal up to the f32 storage of the coefficients.
+    assert!((rmse["hbasis6"] - rmse["hbasis_mod6"]).abs() < 1e-6 * rmse["hbasis6"], "{rmse:?}");
+}
