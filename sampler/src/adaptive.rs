@@ -116,6 +116,7 @@ impl AdaptiveSettings {
             max_level: self.max_level,
             cull_tolerance: self.cull_tolerance,
             memory_budget: self.memory_budget,
+            budget_tolerance: 0.0,
         }
     }
 }

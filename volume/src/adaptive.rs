@@ -34,11 +34,11 @@
 //! ## Culling
 //! Seed 002: "if a voxel has been subdivided and its children don't differ enough from the
 //! parent, these samples may be culled". Here a node is dropped when its surplus (its
-//! difference from the parent levels' interpolation) satisfies
-//! `max_{coeff, rgb} |s| ≤ cull_tolerance · value_scale`, with
+//! difference from the parent levels' interpolation) is small in irradiance:
+//! [`surplus_measure`]`(s) ≤ cull_tolerance · value_scale`, with
 //! [`AdaptiveVolume::value_scale`] the mean over weighted base nodes of `max_rgb |c_00|`.
-//! Dropping a node changes the field by at most `cull_tolerance · value_scale` per
-//! coefficient near it and keeps it continuous. Nodes of levels `≤ min_level` are never
+//! Dropping a node changes the irradiance near it by at most that (L2 norm over normals,
+//! divided by π) and keeps the field continuous. Nodes of levels `≤ min_level` are never
 //! culled.
 //!
 //! ## Lookups
@@ -104,14 +104,19 @@ pub struct OctreeParams {
     pub max_level: u32,
     /// A node is culled when `max |surplus| ≤ cull_tolerance · value_scale` (module docs).
     pub cull_tolerance: f64,
-    /// Upper bound on [`AdaptiveVolume::memory_bytes`]; cells are split greedily by score
-    /// until it is reached.
+    /// Upper bound on [`AdaptiveVolume::memory_bytes`], met by raising `budget_tolerance`
+    /// ([`crate::adaptive_build`]).
     pub memory_budget: Option<usize>,
+    /// The L2-weighted cull threshold (relative to the value scale) that the memory budget
+    /// required: a node of level `l` is also culled when `max |s| · 2^(-3l/2) ≤
+    /// budget_tolerance · value_scale`. An output of the builder (0 without a budget or when
+    /// the tree fits); ignored on input.
+    pub budget_tolerance: f64,
 }
 
 impl Default for OctreeParams {
     fn default() -> Self {
-        Self { min_level: 0, max_level: 2, cull_tolerance: 0.01, memory_budget: None }
+        Self { min_level: 0, max_level: 2, cull_tolerance: 0.01, memory_budget: None, budget_tolerance: 0.0 }
     }
 }
 
@@ -125,10 +130,14 @@ impl OctreeParams {
                 self.min_level, self.max_level
             )));
         }
-        if !(self.cull_tolerance.is_finite() && self.cull_tolerance >= 0.0) {
+        if !(self.cull_tolerance.is_finite()
+            && self.cull_tolerance >= 0.0
+            && self.budget_tolerance.is_finite()
+            && self.budget_tolerance >= 0.0)
+        {
             return Err(VolumeError::InvalidData(format!(
-                "cull tolerance {} must be finite and >= 0",
-                self.cull_tolerance
+                "cull tolerances {} and {} must be finite and >= 0",
+                self.cull_tolerance, self.budget_tolerance
             )));
         }
         Ok(())
@@ -636,6 +645,29 @@ pub fn memory_model(
     let base_bytes = base.node_count() * (node_bytes + 4);
     let bitmaps = if max_level > 0 { base.cell_count().div_ceil(8) + split_below } else { 0 };
     base_bytes + fine_nodes * (node_bytes + 8) + bitmaps
+}
+
+/// The culling measure of a surplus `[coeff][rgb]`: the L2 norm over the sphere of the
+/// irradiance it adds, divided by π, largest over RGB:
+/// `max_rgb sqrt(∫ E_s(n)² dn) / π = max_rgb sqrt(Σ_j (Â_l(j) s_j)²)`, with
+/// `Â_l = A_l / π` the normalised clamped-cosine factors (1, 2/3, 1/4, 0, −1/24, …;
+/// Ramamoorthi & Hanrahan 2001) and the SH basis orthonormal. For a surplus in the DC
+/// term alone it is `|s_0|`. Coefficients of odd bands above 1 do not change irradiance
+/// and do not count.
+#[must_use]
+pub fn surplus_measure(s: &[f32]) -> f64 {
+    let coeffs = s.len() / 3;
+    (0..3)
+        .map(|ch| {
+            (0..coeffs)
+                .map(|j| {
+                    let a = lightvol_sh::irradiance::normalized_cosine_lobe_factor(sh_lm(j).0);
+                    (a * f64::from(s[3 * j + ch])).powi(2)
+                })
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(0.0, f64::max)
 }
 
 /// Checks that keys are strictly increasing and within `n` per axis.

@@ -18,11 +18,12 @@
 //!
 //! **Memory budget.** Seed 002's brute-force scheme: "super-sample, then discard redundant
 //! voxels using some error tolerance". When the tree the heuristics grew exceeds
-//! `memory_budget` (as [`AdaptiveVolume::memory_bytes`] counts it), the cull tolerance is
-//! raised by bisection until it fits: the surpluses are recomputed level by level from the
-//! baked values for each trial tolerance, so the nodes kept are, across all levels, those
-//! that differ most from their parents' interpolation. The tolerance used is stored in
-//! [`OctreeParams::cull_tolerance`] of the result. Everything is deterministic given
+//! `memory_budget` (as [`AdaptiveVolume::memory_bytes`] counts it), a second, L2-weighted
+//! cull threshold is raised by bisection until it fits: a node is kept only if
+//! `max |s| · 2^(-3l/2)` (its surplus times the L2 norm of its tent relative to level 0)
+//! exceeds it. The surpluses are recomputed level by level from the baked values for each
+//! trial, so the nodes kept are, across all levels, those whose removal would change the
+//! field most. The threshold used is stored in [`OctreeParams::budget_tolerance`]. Everything is deterministic given
 //! deterministic callbacks.
 
 use std::collections::BTreeSet;
@@ -305,7 +306,7 @@ pub fn build_adaptive<E>(
         vol.split[l as usize] = split_l;
         // Surpluses of the new level at the requested tolerance; the field they give
         // feeds the next level's candidates.
-        let (table, values) = level_surpluses(&vol, l + 1, &level_baked, params.cull_tolerance * scale);
+        let (table, values) = level_surpluses(&vol, l + 1, &level_baked, params.cull_tolerance * scale, 0.0);
         vol.tables[l as usize] = table;
         field = values;
         baked[l as usize] = level_baked;
@@ -318,7 +319,7 @@ pub fn build_adaptive<E>(
     }
     let mut params = *params;
     if let Some(b) = params.memory_budget {
-        params.cull_tolerance = fit_budget(&mut vol, &baked, b, params.cull_tolerance * scale)? / scale;
+        params.budget_tolerance = fit_budget(&mut vol, &baked, b, params.cull_tolerance * scale)? / scale;
     }
     for l in 1..=ml as usize {
         let st = &mut stats[l];
@@ -331,15 +332,24 @@ pub fn build_adaptive<E>(
     Ok(AdaptiveVolume::from_parts(base, params, scale, tables, split, stats)?)
 }
 
+/// `2^(-3l/2)`: the L2 norm of a level-`l` tent function relative to a level-0 one (its
+/// support has `2^(-3l)` of the volume).
+fn l2_weight(level: u32) -> f64 {
+    2f64.powf(-1.5 * f64::from(level))
+}
+
 /// The surplus table of `level` from its baked values, against the tables of the coarser
-/// levels already in `vol`, culling at the absolute tolerance `cull_abs` (never below
-/// `min_level`), and the field values at the level's nodes.
+/// levels already in `vol`, and the field values at the level's nodes. A node is culled
+/// (never at or below `min_level`) when `max |s| ≤ cull_abs` or
+/// `max |s| · 2^(-3l/2) ≤ l2_abs`.
 fn level_surpluses(
     vol: &AdaptiveVolume,
     level: u32,
     baked: &Baked,
     cull_abs: f64,
+    l2_abs: f64,
 ) -> (LevelTable, NodeValues) {
+    let w = l2_weight(level);
     let k = vol.coeffs() * 3;
     let inv = 1.0 / f64::from(1u32 << level);
     let mut interp = vec![0.0f64; k];
@@ -354,8 +364,8 @@ fn level_surpluses(
             Some(v) => v.iter().zip(&interp).map(|(a, b)| (a - b) as f32).collect(),
             None => vec![0.0; k],
         };
-        let keep = level <= vol.params.min_level
-            || (v.is_some() && sur.iter().any(|x| f64::from(x.abs()) > cull_abs));
+        let m = crate::adaptive::surplus_measure(&sur);
+        let keep = level <= vol.params.min_level || (v.is_some() && m > cull_abs && m * w > l2_abs);
         values.keys.push(*key);
         if keep {
             values.vals.extend(interp.iter().zip(&sur).map(|(a, &b)| a + f64::from(b)));
@@ -368,11 +378,11 @@ fn level_surpluses(
     (table, values)
 }
 
-/// Rebuilds every level's surpluses at the absolute cull tolerance `tol`; returns the
-/// resulting memory.
-fn rebuild(vol: &mut AdaptiveVolume, baked: &[Baked], tol: f64) -> usize {
+/// Rebuilds every level's surpluses with the absolute tolerances of [`level_surpluses`];
+/// returns the resulting memory.
+fn rebuild(vol: &mut AdaptiveVolume, baked: &[Baked], cull_abs: f64, l2_abs: f64) -> usize {
     for l in 1..=vol.params.max_level {
-        let (table, _) = level_surpluses(vol, l, &baked[l as usize - 1], tol);
+        let (table, _) = level_surpluses(vol, l, &baked[l as usize - 1], cull_abs, l2_abs);
         vol.tables[l as usize - 1] = table;
     }
     vol.memory_bytes()
@@ -382,20 +392,22 @@ fn rebuild(vol: &mut AdaptiveVolume, baked: &[Baked], tol: f64) -> usize {
 /// tolerance is within a factor 1.000002 of the smallest feasible one).
 const BUDGET_STEPS: u32 = 48;
 
-/// Raises the cull tolerance (absolute, from `tol0`) until `memory_bytes() ≤ budget`: the
-/// seed's "super-sample, then discard redundant samples", with the error tolerance chosen
-/// by bisection so that the nodes kept are those that differ most from their parents'
-/// interpolation, across all levels. Returns the tolerance used.
+/// Finds, by bisection, the smallest L2 tolerance `l2_abs` (see [`level_surpluses`]) with
+/// which `memory_bytes() ≤ budget`, and leaves `vol` rebuilt with it: the seed's
+/// "super-sample, then discard redundant samples", keeping across all levels the nodes whose
+/// removal would change the field most in the L2 sense (`|s|` times the L2 norm of the
+/// node's tent, the standard thresholding of hierarchical bases). Returns the tolerance
+/// (0 when the tree already fits).
 fn fit_budget(
     vol: &mut AdaptiveVolume,
     baked: &[Baked],
     budget: usize,
-    tol0: f64,
+    cull_abs: f64,
 ) -> Result<f64, VolumeError> {
     if vol.memory_bytes() <= budget {
-        return Ok(tol0);
+        return Ok(0.0);
     }
-    // Above every surplus magnitude: culls every node above min_level.
+    // Above every weighted surplus magnitude: culls every node above min_level.
     let big = baked
         .iter()
         .flatten()
@@ -404,22 +416,22 @@ fn fit_budget(
         .fold(0.0f64, |m, x| m.max(x.abs()))
         .max(vol.base.data().iter().fold(0.0f64, |m, x| m.max(f64::from(x.abs()))));
     let mut hi = 4.0 * big + f64::MIN_POSITIVE;
-    if rebuild(vol, baked, hi) > budget {
+    if rebuild(vol, baked, cull_abs, hi) > budget {
         return Err(VolumeError::InvalidData(format!(
             "memory budget of {budget} bytes is below the {} bytes that the base level and min_level {} require",
             vol.memory_bytes(),
             vol.params.min_level
         )));
     }
-    let mut lo = tol0.max(hi * 1e-12);
+    let mut lo = hi * 1e-12;
     for _ in 0..BUDGET_STEPS {
         let mid = (lo * hi).sqrt();
-        if rebuild(vol, baked, mid) <= budget {
+        if rebuild(vol, baked, cull_abs, mid) <= budget {
             hi = mid;
         } else {
             lo = mid;
         }
     }
-    rebuild(vol, baked, hi);
+    rebuild(vol, baked, cull_abs, hi);
     Ok(hi)
 }

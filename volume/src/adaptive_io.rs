@@ -63,6 +63,7 @@ struct ParamsJson {
     max_level: u32,
     cull_tolerance: f64,
     memory_budget: Option<usize>,
+    budget_tolerance: f64,
 }
 
 fn octree_name(l: usize) -> String {
@@ -148,6 +149,7 @@ pub fn adaptive_exr_to_bytes(vol: &AdaptiveVolume) -> Result<Vec<u8>, VolumeErro
             max_level: p.max_level,
             cull_tolerance: p.cull_tolerance,
             memory_budget: p.memory_budget,
+            budget_tolerance: p.budget_tolerance,
         },
         value_scale: vol.value_scale,
         stats: vol.stats.clone(),
@@ -284,6 +286,7 @@ pub fn adaptive_exr_from_bytes(bytes: &[u8]) -> Result<AdaptiveVolume, VolumeErr
         max_level: h.params.max_level,
         cull_tolerance: h.params.cull_tolerance,
         memory_budget: h.params.memory_budget,
+        budget_tolerance: h.params.budget_tolerance,
     };
     params.validate().map_err(|e| VolumeError::malformed(F, e.to_string()))?;
     let ml = params.max_level as usize;
