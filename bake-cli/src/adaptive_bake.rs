@@ -140,6 +140,7 @@ impl AdaptiveArgs {
 }
 
 /// Runs `bake_adaptive` with a progress bar.
+#[allow(clippy::too_many_arguments, reason = "the bake's inputs plus its presentation")]
 pub fn run_adaptive_bake(
     loaded: &LoadedScene,
     tracer: &Tracer,

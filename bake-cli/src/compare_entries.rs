@@ -289,15 +289,12 @@ impl GradientCache {
         estimator: Option<GradientEstimator>,
         label: &str,
     ) -> anyhow::Result<&GradientVolume> {
-        let key = method_key(base);
-        if !self.bakes.contains_key(&key) {
-            let gv = gradient_volume(loaded, tracer, grid, args, base, estimator, label)?;
-            self.bakes.insert(key, gv);
-        }
-        match self.bakes.get(&key) {
-            Some(gv) => Ok(gv),
-            None => bail!("gradient bake missing"),
-        }
+        Ok(match self.bakes.entry(method_key(base)) {
+            std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
+            std::collections::btree_map::Entry::Vacant(e) => {
+                e.insert(gradient_volume(loaded, tracer, grid, args, base, estimator, label)?)
+            }
+        })
     }
 }
 
