@@ -311,3 +311,24 @@ fn adaptive_beats_uniform_at_equal_memory_on_city() {
         assert!(ea < eu, "adaptive {ea} vs uniform {eu}");
     }
 }
+
+/// Progress counts units: never beyond the planned total, and the last report is complete.
+#[test]
+fn progress_reaches_the_planned_total() {
+    use std::sync::Mutex;
+    let c = city();
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let (s, a) = tiny_settings();
+    let seen = Mutex::new(Vec::new());
+    let cb = |p: Progress| seen.lock().unwrap().push(p);
+    bake_adaptive(&t, &small_city_grid(), &s, &a, &BakeControl { progress: Some(&cb), cancel: None })
+        .unwrap();
+    let seen = seen.into_inner().unwrap();
+    assert!(seen.len() > 3);
+    assert!(seen.iter().all(|p| p.done <= p.total));
+    assert!(seen.windows(2).all(|w| w[0].done <= w[1].done && w[0].total <= w[1].total));
+    let last = seen.last().unwrap();
+    assert_eq!(last.done, last.total);
+    assert!(last.total > small_city_grid().cell_count());
+}

@@ -63,7 +63,7 @@ pub(crate) fn step_volume() -> AdaptiveVolume {
         base_from(&spec, &step_field),
         &params,
         |c| Ok::<_, VolumeError>((0..c.cells().len()).map(|i| c.corner_change(i) / 0.5).collect()),
-        point_bake(&spec, &step_field, |l, n| hash2(u64::from(l), pack_key(n)) % 13 == 0),
+        point_bake(&spec, &step_field, |l, n| hash2(u64::from(l), pack_key(n)).is_multiple_of(13)),
     )
     .unwrap()
 }
@@ -403,7 +403,7 @@ fn memory_budget_is_respected_and_monotone() {
             base_from(&spec, &step_field),
             &params,
             |c| Ok::<_, VolumeError>((0..c.cells().len()).map(|i| c.corner_change(i) / 0.5).collect()),
-            point_bake(&spec, &step_field, |l, n| hash2(u64::from(l), pack_key(n)) % 13 == 0),
+            point_bake(&spec, &step_field, |l, n| hash2(u64::from(l), pack_key(n)).is_multiple_of(13)),
         )
         .unwrap();
         assert!(v.memory_bytes() <= budget, "{} > {budget}", v.memory_bytes());
