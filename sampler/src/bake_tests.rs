@@ -206,23 +206,27 @@ fn cornell_box_walls_do_not_leak_with_doi() {
     assert!(point.iter().filter(|&&r| r < 0.45).count() >= 4);
 }
 
-/// Fig. 6c in miniature: in the built-in interior (thick walls, recommended grid), probes
-/// 0.15 m in front of the side and back walls, facing into the room. The outermost node
+/// Fig. 6c in miniature: in the built-in interior (thick walls, recommended ~0.3 m grid),
+/// probes 5 cm in front of the side and back walls, facing into the room. The outermost node
 /// planes lie inside the walls, so `point` mixes the walls' black insides into the room:
-/// its probes come out at 0.22-0.82 of the reference (mean 0.53). `doi` stays within a
-/// factor of 2 everywhere (measured 0.73-1.37, mean 1.08; the rest is the grid's resolution
-/// and the reference's noise).
+/// measured 0.35-0.93 of the reference (mean 0.64). `doi` measured 0.53-1.61, mean 1.04; its
+/// lowest probe faces the sunlit window from the front wall, and reads the same 0.53 at
+/// 0.15 m, on the room's first node layer where no wall node contributes: that is the
+/// grid's blur of the sun patch, not a leak.
 #[test]
 fn interior_walls_do_not_leak_with_doi() {
     let b = crate::builtin::interior();
     let tracer = Tracer::new(&b.scene);
     let t = Transport::new(&b.scene, &tracer, TransportSettings::default());
     let mut probes = Vec::new();
+    // Between the node layer inside the walls (0.15 m deep) and the first one in the room
+    // (0.15 m out): the wall nodes carry a third of the trilinear weight here.
+    let d = 0.05;
     for z in [1.2, 2.0] {
         for s in [0.3, 0.5, 0.7] {
-            probes.push((DVec3::new(0.15, 5.0 * s, z), DVec3::X));
-            probes.push((DVec3::new(5.85, 5.0 * s, z), -DVec3::X));
-            probes.push((DVec3::new(6.0 * s, 0.15, z), DVec3::Y));
+            probes.push((DVec3::new(d, 5.0 * s, z), DVec3::X));
+            probes.push((DVec3::new(6.0 - d, 5.0 * s, z), -DVec3::X));
+            probes.push((DVec3::new(6.0 * s, d, z), DVec3::Y));
         }
     }
     let reference: Vec<f64> = probes
@@ -247,5 +251,7 @@ fn interior_walls_do_not_leak_with_doi() {
     eprintln!("interior: doi mean {:.3} {doi:.2?}\n point mean {:.3} {point:.2?}", mean(&doi), mean(&point));
     let off = |r: f64| !(0.5..=2.0).contains(&r);
     assert!(!doi.iter().any(|&r| off(r)), "{doi:?}");
-    assert!(point.iter().filter(|&&r| off(r)).count() >= 3, "{point:?}");
+    assert!((0.9..=1.2).contains(&mean(&doi)), "{doi:?}");
+    assert!(mean(&point) < 0.75 * mean(&doi), "{point:?}");
+    assert!(point.iter().filter(|&&r| r < 0.6).count() >= 6, "{point:?}");
 }
