@@ -3,6 +3,8 @@
 
 use super::*;
 use crate::adaptive_build::{LevelSamples, build_adaptive};
+use crate::grid::corner_weights;
+use lightvol_sh::irradiance::cosine_lobe_factor;
 use lightvol_sh::lowdisc::{SplitMix64, hash2};
 
 /// Coefficients per channel in these tests (4: small and fast; the code is generic).
@@ -533,4 +535,59 @@ fn surplus_measure_is_the_rms_irradiance_over_pi() {
     let mut s = vec![0.0f32; 48];
     s[3 * 12] = 2.0;
     assert!(surplus_measure(&s) < 1e-16);
+}
+
+/// With a placement, world-space lookups (both paths) equal the unplaced volume's lookups
+/// at the grid-space point, and the file keeps the placement.
+#[test]
+fn placement_maps_world_queries_to_the_grid() {
+    let pl =
+        crate::grid::Placement::new([[0.0, -2.0, 0.0, 1.0], [1.0, 0.0, 0.0, -3.0], [0.0, 0.0, 1.5, 7.0]])
+            .unwrap();
+    let spec = base_spec();
+    let placed_spec = spec.clone().with_placement(pl);
+    let params = OctreeParams { max_level: 2, ..OctreeParams::default() };
+    let build = |s: &GridSpec| {
+        build_adaptive(
+            base_from(s, &|x, q| step_field(x, q)),
+            &params,
+            |c| Ok::<_, VolumeError>((0..c.cells().len()).map(|i| c.corner_change(i) / 0.5).collect()),
+            point_bake(s, &|x, q| step_field(x, q), |_, _| false),
+        )
+        .unwrap()
+    };
+    let plain = build(&spec);
+    // The field is evaluated at world positions; for the placed volume feed it grid points.
+    let inv = |x: [f64; 3]| pl.to_grid(x);
+    let placed = build_adaptive(
+        base_from(&placed_spec, &|x, q| step_field(inv(x), q)),
+        &params,
+        |c| Ok::<_, VolumeError>((0..c.cells().len()).map(|i| c.corner_change(i) / 0.5).collect()),
+        point_bake(&placed_spec, &|x, q| step_field(inv(x), q), |_, _| false),
+    )
+    .unwrap();
+    assert_eq!(placed.tables.len(), plain.tables.len());
+    let tol = f32_lookup_tol(&plain) * 4.0;
+    let mut rng = SplitMix64::new(8);
+    let (lo, hi) = spec.bounds();
+    let mut out = [0.0f32; K];
+    for _ in 0..500 {
+        let g: [f64; 3] = std::array::from_fn(|a| rng.range(lo[a], hi[a]));
+        let w = pl.to_world(g);
+        let a = plain.coeffs_at_reference(g);
+        let b = placed.coeffs_at_reference(w);
+        placed.coeffs_at(w.map(|x| x as f32), &mut out);
+        for q in 0..K {
+            assert!((a[q] - b[q]).abs() <= 1e-5 * a[q].abs().max(1.0), "{g:?}: {} vs {}", a[q], b[q]);
+            // The f32 world point is rounded before the placement: allow the field's change
+            // over that rounding (Lipschitz bound times a few ulps of |w| ≤ 16).
+            let slack = lipschitz(&plain) * 4.0 * 16.0 * f64::from(f32::EPSILON);
+            assert!((f64::from(out[q]) - b[q]).abs() <= tol + slack, "{g:?}: {} vs {}", out[q], b[q]);
+        }
+    }
+    let back = crate::adaptive_io::adaptive_exr_from_bytes(
+        &crate::adaptive_io::adaptive_exr_to_bytes(&placed).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(back, placed);
 }

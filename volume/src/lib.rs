@@ -5,6 +5,7 @@ pub mod accumulator_io;
 pub mod adaptive;
 pub mod adaptive_build;
 pub mod adaptive_io;
+pub mod adaptive_lookup;
 pub mod bevy;
 pub mod checksum;
 pub mod dds_io;
