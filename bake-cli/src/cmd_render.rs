@@ -132,6 +132,28 @@ impl Camera {
     }
 }
 
+/// A uniform or an adaptive (octree) volume, shaded alike.
+enum AnyVolume {
+    Uniform(lightvol_volume::IrradianceVolume),
+    Adaptive(lightvol_volume::AdaptiveVolume),
+}
+
+impl AnyVolume {
+    fn spec(&self) -> &lightvol_volume::GridSpec {
+        match self {
+            Self::Uniform(v) => v.spec(),
+            Self::Adaptive(v) => v.base().spec(),
+        }
+    }
+
+    fn irradiance(&self, p: [f32; 3], n: [f32; 3]) -> [f32; 3] {
+        match self {
+            Self::Uniform(v) => v.irradiance(p, n),
+            Self::Adaptive(v) => v.irradiance(p, n),
+        }
+    }
+}
+
 /// Runs `lightvol render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.surface {
@@ -142,7 +164,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     }
     let loaded = args.scene.load()?;
     let vol = match (&args.volume, args.reference) {
-        (Some(p), _) => Some(read_exr(p).with_context(|| format!("reading {}", p.display()))?),
+        (Some(p), _) if crate::adaptive_files::is_adaptive(p) => {
+            Some(AnyVolume::Adaptive(crate::adaptive_files::read(p)?))
+        }
+        (Some(p), _) => {
+            Some(AnyVolume::Uniform(read_exr(p).with_context(|| format!("reading {}", p.display()))?))
+        }
         (None, true) => None,
         (None, false) => bail!("render needs --volume V.exr (or --reference for the path-traced view)"),
     };
