@@ -18,6 +18,42 @@ use crate::load_obj::LoadOptions;
 use crate::scene::{Material, MeshAttributes, Scene, SceneBuilder, TriangleRef};
 use crate::texture::{Texture, srgb_to_linear};
 
+/// Checks that every mesh primitive's accessor indices exist, before `gltf` validates the
+/// document: gltf-json 1.4 indexes `accessors[POSITION]` unchecked in its validation and
+/// panics on a dangling index. Anything that does not parse is left to `gltf` to report.
+fn check_accessor_indices(bytes: &[u8]) -> Result<(), String> {
+    let json: &[u8] = if bytes.starts_with(b"glTF") {
+        match gltf::Glb::from_slice(bytes) {
+            Ok(glb) => return check_json(&glb.json),
+            Err(_) => return Ok(()),
+        }
+    } else {
+        bytes
+    };
+    check_json(json)
+}
+
+fn check_json(json: &[u8]) -> Result<(), String> {
+    let Ok(root) = gltf::json::Root::from_slice(json) else {
+        return Ok(());
+    };
+    let n = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            let indices = prim.indices.iter().map(|i| ("indices".to_owned(), i.value()));
+            let attributes = prim.attributes.iter().map(|(k, v)| (format!("attribute {k:?}"), v.value()));
+            for (what, index) in indices.chain(attributes) {
+                if index >= n {
+                    return Err(format!(
+                        "mesh {m} primitive {p}: {what} refers to accessor {index}, but the file has {n} accessors"
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Loads a glTF 2.0 file. A texture that cannot be read or decoded is a warning; the
 /// material then uses its factor. Non-triangle primitives are skipped with a warning.
 ///
@@ -29,7 +65,10 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
         return Err(SceneError::NotFound(path.to_owned()));
     }
     let gerr = |e: gltf::Error| SceneError::Gltf { path: path.to_owned(), message: e.to_string() };
-    let gltf::Gltf { document: doc, blob } = gltf::Gltf::open(path).map_err(gerr)?;
+    let bytes = std::fs::read(path)
+        .map_err(|e| SceneError::Gltf { path: path.to_owned(), message: e.to_string() })?;
+    check_accessor_indices(&bytes).map_err(|message| SceneError::Gltf { path: path.to_owned(), message })?;
+    let gltf::Gltf { document: doc, blob } = gltf::Gltf::from_slice(&bytes).map_err(gerr)?;
     let base = path.parent();
     let buffers = gltf::import_buffers(&doc, base, blob).map_err(gerr)?;
     let name = path.file_name().map_or_else(|| "gltf".to_owned(), |n| n.to_string_lossy().into_owned());
@@ -424,6 +463,34 @@ mod tests {
             load_gltf(&d.path().join("none.glb"), &LoadOptions::default()),
             Err(SceneError::NotFound(_))
         ));
+    }
+
+    /// Dangling accessor indices (which make gltf-json 1.4's validation index out of
+    /// bounds and panic) are a clear error, in .gltf and in .glb files.
+    #[test]
+    fn dangling_accessor_is_an_error_not_a_panic() {
+        let d = tempfile::tempdir().unwrap();
+        let json = r#"{"asset":{"version":"2.0"},"meshes":[{"primitives":[{"attributes":{"POSITION":5}}]}],"nodes":[{"mesh":0}],"scenes":[{"nodes":[0]}]}"#;
+        let p = d.path().join("dangling.gltf");
+        std::fs::write(&p, json).unwrap();
+        let e = load_gltf(&p, &LoadOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("refers to accessor 5"), "{e}");
+        // The same JSON as the only chunk of a GLB (padded to 4 bytes with spaces).
+        let mut chunk = json.as_bytes().to_vec();
+        while chunk.len() % 4 != 0 {
+            chunk.push(b' ');
+        }
+        let mut glb = Vec::new();
+        glb.extend_from_slice(b"glTF");
+        glb.extend_from_slice(&2u32.to_le_bytes());
+        glb.extend_from_slice(&(12 + 8 + chunk.len() as u32).to_le_bytes());
+        glb.extend_from_slice(&(chunk.len() as u32).to_le_bytes());
+        glb.extend_from_slice(b"JSON");
+        glb.extend_from_slice(&chunk);
+        let p = d.path().join("dangling.glb");
+        std::fs::write(&p, glb).unwrap();
+        let e = load_gltf(&p, &LoadOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("refers to accessor 5"), "{e}");
     }
 
     /// baseColorTexture (a PNG in a data URI) is decoded, linearised and sampled at the
