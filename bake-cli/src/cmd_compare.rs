@@ -9,6 +9,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_sampler::domain::classify_point;
 use lightvol_sampler::envmap::luminance;
+use lightvol_sampler::fit::Fit;
 use lightvol_sampler::{
     BakeSettings, DVec3, Method, Tracer, Transport, TransportSettings, reference_irradiance_many,
 };
@@ -46,7 +47,9 @@ pub struct CompareArgs {
     /// `BASE+LOOKUP` for a bake with SH gradients (seed 002) read by `taylor` (nearest node,
     /// first-order Taylor), `gtrilinear` (gradient-extrapolated corners, trilinear) or
     /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`; `adaptive` for seed 002's
-    /// octree baked to the uniform grid's memory (finest level 2 below half the grid's resolution; `adaptive1` stops one level earlier).
+    /// octree baked to the uniform grid's memory (finest level 2 below half the grid's
+    /// resolution; `adaptive1` stops one level earlier); `BASE+lsq[:λ]` or `BASE+average` for
+    /// a bake finalized with that node fit instead of `--fit`'s.
     #[arg(long, default_value = "point,prefilter,doi", value_delimiter = ',')]
     pub methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for prefilter/doi,
@@ -355,7 +358,8 @@ pub struct MethodRun {
     pub estimate: Vec<[f64; 3]>,
 }
 
-/// Bakes `method` and evaluates it on the plate.
+/// Bakes `method`, finalized with `fit`, and evaluates it on the plate.
+#[allow(clippy::too_many_arguments, reason = "the bake's inputs and its evaluation plate")]
 pub fn run_method(
     loaded: &LoadedScene,
     tracer: &Tracer,
@@ -363,6 +367,7 @@ pub fn run_method(
     args: &CompareArgs,
     name: &str,
     method: Method,
+    fit: Fit,
     plate: &PlateData,
 ) -> anyhow::Result<MethodRun> {
     let settings = BakeSettings {
@@ -373,8 +378,7 @@ pub fn run_method(
         ..BakeSettings::default()
     };
     let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
-    let (vol, stats) =
-        run_bake_fitted(loaded, tracer, grid, &settings, ts, args.quiet, name, args.sampling.fit)?;
+    let (vol, stats) = run_bake_fitted(loaded, tracer, grid, &settings, ts, args.quiet, name, fit)?;
     let estimate = evaluate(&vol, plate);
     let metrics = plate_metrics(plate, &estimate);
     Ok(MethodRun {
@@ -430,7 +434,11 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
         for (name, entry) in &methods {
             let (run, extra) = match *entry {
                 Entry::Uniform(method) => (
-                    run_method(&loaded, &tracer, &grid, args, name, method, &plate)?,
+                    run_method(&loaded, &tracer, &grid, args, name, method, args.sampling.fit, &plate)?,
+                    uniform_extra(&grid, args.grid.coeffs()),
+                ),
+                Entry::Fitted(method, fit) => (
+                    run_method(&loaded, &tracer, &grid, args, name, method, fit, &plate)?,
                     uniform_extra(&grid, args.grid.coeffs()),
                 ),
                 Entry::Gradient(base, lookup) => {

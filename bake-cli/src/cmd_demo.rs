@@ -46,10 +46,10 @@ struct Level {
 /// Scenes of the error-vs-memory study (issue 9: `city` and `interior`).
 const MEMORY_SWEEP_SCENES: [&str; 2] = ["city", "interior"];
 
-/// Entries added to every scene's comparison besides point, prefilter and doi: the doi
-/// bake read through seed 002's gradient lookups, and seed 002's octree at doi's memory
-/// (finest level 2 and 1).
-const EXTRA_ENTRIES: [&str; 4] = ["doi+taylor", "doi+hermite", "adaptive", "adaptive1"];
+/// Entries added to every scene's comparison besides point, prefilter and doi: doi with
+/// the least-squares node fit, the doi bake read through seed 002's gradient lookups, and
+/// seed 002's octree at doi's memory (finest level 2 and 1).
+const EXTRA_ENTRIES: [&str; 5] = ["doi+lsq", "doi+taylor", "doi+hermite", "adaptive", "adaptive1"];
 
 const QUICK: Level = Level {
     samples: 64,
@@ -119,7 +119,7 @@ fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
                 let scale = f64::from(nx - 1) / f64::from(base.res()[0] - 1);
                 let res = base.res().map(|r| ((f64::from(r - 1) * scale).round() as u32 + 1).max(2));
                 let grid = GridSpec::new(min, max, res)?;
-                let run = run_method(&loaded, &tracer, &grid, &ca, name, method, &plate)?;
+                let run = run_method(&loaded, &tracer, &grid, &ca, name, method, ca.sampling.fit, &plate)?;
                 pts.push((f64::from(nx), run.json.metrics.rel_rmse));
                 if !args.quiet {
                     eprintln!(

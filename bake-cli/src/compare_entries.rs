@@ -22,6 +22,7 @@ use std::collections::BTreeMap;
 
 use anyhow::bail;
 use lightvol_sampler::adaptive::{AdaptiveSettings, AdaptiveStats};
+use lightvol_sampler::fit::Fit;
 use lightvol_sampler::{BakeSettings, BakeStats, Method, Tracer, TransportSettings};
 use lightvol_volume::gradient::{GradientLookup, floats_per_sample, irradiance as gradient_irradiance};
 use lightvol_volume::{AdaptiveVolume, GridSpec, IrradianceVolume, VolumeGradients};
@@ -35,12 +36,15 @@ use crate::gradients::{GradientEstimator, bake_with, lookup_name, parse_lookup, 
 use crate::setup::{LoadedScene, parse_method};
 
 /// One `--methods` entry.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Entry {
     /// A uniform bake read by trilinear interpolation (seed 000 Fig. 6).
     Uniform(Method),
     /// A uniform bake with per-node gradients, read by a gradient lookup (seed 002).
     Gradient(Method, GradientLookup),
+    /// A uniform bake finalized with another node fit than `--fit`: `BASE+average` or
+    /// `BASE+lsq[:λ]` (lightvol-sampler's `fit` module).
+    Fitted(Method, Fit),
     /// Seed 002's adaptive octree at the uniform grid's memory, with this finest level
     /// (module docs). Named `adaptive` (level 2) or `adaptiveL`.
     Adaptive(u32),
@@ -73,6 +77,10 @@ pub fn parse_entry(s: &str) -> anyhow::Result<Entry> {
     }
     match s.split_once('+') {
         None => Ok(Entry::Uniform(parse_method(s)?)),
+        Some((base, fit)) if fit == "average" || fit.starts_with("lsq") => Ok(Entry::Fitted(
+            parse_method(base)?,
+            fit.parse::<Fit>().map_err(|e| anyhow::anyhow!("'{s}': {e}"))?,
+        )),
         Some((base, lookup)) => Ok(Entry::Gradient(parse_method(base)?, parse_lookup(lookup)?)),
     }
 }
@@ -311,6 +319,13 @@ mod tests {
             Entry::Gradient(Method::Point, GradientLookup::Hermite)
         );
         assert_eq!(parse_entry("adaptive").unwrap(), Entry::Adaptive(2));
+        assert_eq!(parse_entry("doi+lsq").unwrap(), Entry::Fitted(Method::Doi, Fit::default()));
+        assert_eq!(
+            parse_entry("prefilter+lsq:0.5").unwrap(),
+            Entry::Fitted(Method::Prefilter, Fit::LeastSquares { lambda: 0.5 })
+        );
+        assert_eq!(parse_entry("doi+average").unwrap(), Entry::Fitted(Method::Doi, Fit::Average));
+        assert!(parse_entry("doi+lsq:-2").is_err());
         assert_eq!(parse_entry("adaptive1").unwrap(), Entry::Adaptive(1));
         assert_eq!(parse_entry("adaptive2").unwrap(), Entry::Adaptive(2));
         assert!(parse_entry("adaptive0").is_err());

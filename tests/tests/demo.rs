@@ -85,7 +85,7 @@ fn demo_quick_writes_everything() {
         assert!(index.contains(&format!("{scene}/memory_sweep.svg")));
         let text = std::fs::read_to_string(out.join(scene).join("report.json")).unwrap();
         let rep: Value = serde_json::from_str(&text).unwrap();
-        for m in ["point", "doi", "doi+taylor", "doi+hermite", "adaptive", "adaptive1"] {
+        for m in ["point", "doi", "doi+lsq", "doi+taylor", "doi+hermite", "adaptive", "adaptive1"] {
             assert!(rep["methods"][m]["memory_bytes"].as_u64().is_some(), "{scene}: {m}.memory_bytes");
         }
         let mem = |m: &str| rep["methods"][m]["memory_bytes"].as_u64().unwrap();
