@@ -2,9 +2,155 @@
 
 mod surface_util;
 
+use std::path::Path;
 use std::process::ExitCode;
 
+use lightvol_hemibasis::bc::{self, BlockFormat, CompressedPlane};
+use lightvol_hemibasis::encode::{DcTransfer, Encoding};
+use lightvol_hemibasis::map::{CoeffMap, Plane, map_error};
+use lightvol_hemibasis::texture::{PlaneFormat, read_ktx2_plane};
 use surface_util::{Mesh, plane, run, write_gltf};
+
+/// The recomputed error of the files on disk against the JSON's `rel_rms`: the files hold
+/// exactly the planes the CLI measured and the EXR exactly its f32 maps, so the two agree to
+/// f64 summation rounding over a few hundred texels (~1e-15 relative); 1e-9 leaves room for
+/// a different summation order, while any changed code value (one 8-bit step moves the
+/// error by ~1e-4 relative) fails.
+const FILE_ERROR_REL_TOL: f64 = 1e-9;
+
+/// One object's f32 coefficient map and validity read straight from the EXR with the `exr`
+/// crate (channels `cKK.R/G/B` and `valid`, one part per object), not with the CLI's reader.
+struct ExrObject {
+    name: String,
+    width: usize,
+    height: usize,
+    /// `(y * width + x) * k + j`, RGB.
+    data: Vec<[f32; 3]>,
+    valid: Vec<f32>,
+}
+
+fn read_exr_objects(path: &Path, k: usize) -> Vec<ExrObject> {
+    let img = exr::prelude::read_all_flat_layers_from_file(path).expect("surface EXR");
+    img.layer_data
+        .iter()
+        .map(|layer| {
+            let (width, height) = (layer.size.0, layer.size.1);
+            let n = width * height;
+            let channel = |name: &str| -> Vec<f32> {
+                let c = layer
+                    .channel_data
+                    .list
+                    .iter()
+                    .find(|c| c.name.to_string() == name)
+                    .unwrap_or_else(|| panic!("channel {name}"));
+                (0..n).map(|i| c.sample_data.value_by_flat_index(i).to_f32()).collect()
+            };
+            let mut data = vec![[0.0f32; 3]; n * k];
+            for j in 0..k {
+                for (ch, c) in ["R", "G", "B"].iter().enumerate() {
+                    for (i, v) in channel(&format!("c{j:02}.{c}")).into_iter().enumerate() {
+                        data[i * k + j][ch] = v;
+                    }
+                }
+            }
+            let name = layer.attributes.layer_name.as_ref().expect("part name").to_string();
+            ExrObject { name, width, height, data, valid: channel("valid") }
+        })
+        .collect()
+}
+
+/// How a coefficient plane is stored on disk.
+#[derive(Clone, Copy)]
+enum Stored {
+    /// `<object>_cKK.png` (RGB8).
+    Png,
+    /// `<object>_cKK.ktx2` (RGBA8).
+    Ktx2,
+    /// `<object>_cKK.<bc1|bc7>.ktx2`.
+    Block(BlockFormat),
+}
+
+/// Reads one stored plane back (hemibasis KTX2 reader + `bc::decompress`, or the PNG
+/// decoder), with its sRGB tag (PNG: `None`, the file carries no format tag).
+fn read_plane(dir: &Path, stem: &str, how: Stored) -> (Plane, Option<bool>) {
+    match how {
+        Stored::Png => {
+            let img = image::open(dir.join(format!("{stem}.png"))).expect("png").to_rgb8();
+            let texels = img.pixels().map(|p| [p[0], p[1], p[2], 255]).collect();
+            (Plane { width: img.width() as usize, height: img.height() as usize, texels }, None)
+        }
+        Stored::Ktx2 => {
+            let t = read_ktx2_plane(&std::fs::read(dir.join(format!("{stem}.ktx2"))).unwrap()).unwrap();
+            assert_eq!(t.format, PlaneFormat::Rgba8);
+            let texels = t.data.chunks_exact(4).map(|c| [c[0], c[1], c[2], c[3]]).collect();
+            (Plane { width: t.width, height: t.height, texels }, Some(t.srgb))
+        }
+        Stored::Block(f) => {
+            let t = read_ktx2_plane(&std::fs::read(dir.join(format!("{stem}.{}.ktx2", f.name()))).unwrap())
+                .unwrap();
+            let format = if f == BlockFormat::Bc1 { PlaneFormat::Bc1 } else { PlaneFormat::Bc7 };
+            assert_eq!(t.format, format);
+            let c = CompressedPlane { format: f, width: t.width, height: t.height, blocks: t.data };
+            (bc::decompress(&c), Some(t.srgb))
+        }
+    }
+}
+
+/// Decodes every written plane of `tag` in `out`, rebuilds the coefficient maps (the
+/// shader's decode, seed 003 Listing 2.2: DC through the sRGB curve, others `2 r v - r`),
+/// and returns `map_error` over the covered texels against the EXR's maps scaled by the
+/// JSON's `encode_scale` (what the CLI reports as `rel_rms`).
+fn error_of_files(out: &Path, tag: &str, how: Stored) -> f64 {
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join(format!("{tag}.json"))).unwrap()).unwrap();
+    let k = v["coefficients"].as_u64().unwrap() as usize;
+    let scale = v["encode_scale"].as_f64().unwrap();
+    let range = v["range"].as_f64().unwrap();
+    let name = tag.trim_end_matches(|c: char| c.is_ascii_digit());
+    let basis =
+        lightvol_hemibasis::by_name(tag, k).or_else(|| lightvol_hemibasis::by_name(name, k)).expect("basis");
+    let enc = Encoding { range, dc: DcTransfer::Srgb, quantize_8bit: true };
+    let (mut orig, mut back) = (Vec::new(), Vec::new());
+    for obj in read_exr_objects(&out.join(format!("{tag}.exr")), k) {
+        let planes: Vec<Plane> = (0..k)
+            .map(|j| {
+                let (p, srgb) = read_plane(&out.join(tag), &format!("{}_c{j:02}", obj.name), how);
+                assert_eq!((p.width, p.height), (obj.width, obj.height), "{tag} c{j:02}");
+                if let Some(srgb) = srgb {
+                    assert_eq!(srgb, basis.dc_index() == Some(j), "only the DC plane is sRGB");
+                }
+                p
+            })
+            .collect();
+        let decoded = enc.decode_map(basis.as_ref(), &planes);
+        for (i, &valid) in obj.valid.iter().enumerate() {
+            if valid > 0.0 {
+                orig.extend(
+                    obj.data[i * k..(i + 1) * k].iter().map(|c| c.map(|x| (f64::from(x) * scale) as f32)),
+                );
+                back.extend_from_slice(&decoded.data[i * k..(i + 1) * k]);
+            }
+        }
+    }
+    let n = orig.len() / k;
+    assert!(n > 0, "{tag}: no covered texels");
+    let orig = CoeffMap { width: n, height: 1, len: k, data: orig };
+    let back = CoeffMap { width: n, height: 1, len: k, data: back };
+    map_error(basis.as_ref(), &orig, &back).rel_rms
+}
+
+/// Asserts that the files of `tag` decode to the JSON's reported error for `key`.
+fn assert_files_measured(out: &Path, tag: &str, key: &str, how: Stored) {
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join(format!("{tag}.json"))).unwrap()).unwrap();
+    let reported = v["encodings"][key]["rel_rms"].as_f64().unwrap();
+    let from_files = error_of_files(out, tag, how);
+    assert!(reported > 0.0, "{tag} {key}: a lossy storage reports 0");
+    assert!(
+        (from_files - reported).abs() <= FILE_ERROR_REL_TOL * reported,
+        "{tag} {key}: files {from_files} vs reported {reported}"
+    );
+}
 
 /// The grazing light of seed 003 §3.2 in lightvol's +Z-up frame: a sun 5.7° above the
 /// horizon (irradiance 5 on a facing surface) and a blue sky.
@@ -49,7 +195,7 @@ fn bake_writes_maps_encodings_and_summary() {
         for j in 0..k {
             for f in ["bc1", "bc7"] {
                 let p = out.join(tag).join(format!("floor_c{j:02}.{f}.ktx2"));
-                let t = lightvol_hemibasis::texture::read_ktx2_plane(&std::fs::read(&p).unwrap()).unwrap();
+                let t = read_ktx2_plane(&std::fs::read(&p).unwrap()).unwrap();
                 assert_eq!(t.srgb, j == 0, "only the DC plane is sRGB");
             }
         }
@@ -61,6 +207,9 @@ fn bake_writes_maps_encodings_and_summary() {
         }
         assert!(v["encodings"]["bc7"]["rel_rms"].as_f64() < v["encodings"]["bc1"]["rel_rms"].as_f64());
         assert_eq!(v["encodings"]["bc1"]["bytes_per_texel"], 0.5 * k as f64);
+        // The files on disk are what was measured: decoded back, they give the reported error.
+        assert_files_measured(&out, tag, "bc1", Stored::Block(BlockFormat::Bc1));
+        assert_files_measured(&out, tag, "bc7", Stored::Block(BlockFormat::Bc7));
     }
 }
 
@@ -73,7 +222,7 @@ fn png_encoding_writes_one_image_per_coefficient() {
         "bake-surface",
         scene.to_str().unwrap(),
         "--basis",
-        "hl2",
+        "hl2,hbasis_mod4",
         "--uv",
         "0",
         "--texels-per-unit",
@@ -101,6 +250,10 @@ fn png_encoding_writes_one_image_per_coefficient() {
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
     }
     assert!(!out.join("hl2").join("floor_c03.png").exists());
+    // The PNGs decode to the reported 8-bit error (hl2: all planes range-compressed;
+    // hbasis_mod4: the DC plane through the sRGB curve).
+    assert_files_measured(&out, "hl2", "rgb8", Stored::Png);
+    assert_files_measured(&out, "hbasis_mod4", "rgb8", Stored::Png);
 }
 
 #[test]
@@ -178,11 +331,15 @@ fn render_matches_maps_to_objects_and_refuses_another_scene() {
         SKY,
         "--sun",
         SUN,
+        "--encode",
+        "ktx2",
         "-o",
         m,
         "--quiet",
     ];
     assert_eq!(run(&bake), Ok(ExitCode::SUCCESS));
+    // The uncompressed KTX2 planes (RGBA8, DC plane `_SRGB`) decode to the reported error.
+    assert_files_measured(&maps, "hbasis_mod4", "rgb8", Stored::Ktx2);
     let shots = dir.path().join("shots");
     let render = [
         "render",
