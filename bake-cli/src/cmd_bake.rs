@@ -173,8 +173,29 @@ pub fn progress_bar(quiet: bool, len: u64, what: &str) -> ProgressBar {
     pb
 }
 
-/// Bakes `loaded` on `grid` with `settings`, showing progress. Returns the output and the
-/// BVH build time.
+/// Runs `bake` with a transport over `loaded` and a progress bar labelled `label` (hidden
+/// when `quiet`), cleared when the bake ends.
+fn with_progress<T>(
+    loaded: &LoadedScene,
+    tracer: &Tracer,
+    transport_settings: TransportSettings,
+    quiet: bool,
+    label: &str,
+    bake: impl FnOnce(&Transport<'_>, &BakeControl<'_>) -> Result<T, lightvol_sampler::BakeError>,
+) -> anyhow::Result<T> {
+    let transport = Transport::new(&loaded.scene, tracer, transport_settings);
+    let pb = progress_bar(quiet, 0, label);
+    let report = |p: Progress| {
+        pb.set_length(p.total as u64);
+        pb.set_position(p.done as u64);
+    };
+    let control = BakeControl { progress: Some(&report), cancel: None };
+    let out = bake(&transport, &control).context("baking")?;
+    pb.finish_and_clear();
+    Ok(out)
+}
+
+/// Bakes `loaded` on `grid` with `settings`, showing progress.
 pub fn run_bake(
     loaded: &LoadedScene,
     tracer: &Tracer,
@@ -184,16 +205,9 @@ pub fn run_bake(
     quiet: bool,
     label: &str,
 ) -> anyhow::Result<BakeOutput> {
-    let transport = Transport::new(&loaded.scene, tracer, transport_settings);
-    let pb = progress_bar(quiet, 0, label);
-    let report = |p: Progress| {
-        pb.set_length(p.total as u64);
-        pb.set_position(p.done as u64);
-    };
-    let control = BakeControl { progress: Some(&report), cancel: None };
-    let out = lightvol_sampler::bake(&transport, grid, settings, &control).context("baking")?;
-    pb.finish_and_clear();
-    Ok(out)
+    with_progress(loaded, tracer, transport_settings, quiet, label, |t, c| {
+        lightvol_sampler::bake(t, grid, settings, c)
+    })
 }
 
 /// What a bake carries besides its accumulator.
@@ -214,16 +228,9 @@ fn run_bake_with_mass(
     quiet: bool,
     label: &str,
 ) -> anyhow::Result<(BakeOutput, MassMatrix)> {
-    let transport = Transport::new(&loaded.scene, tracer, transport_settings);
-    let pb = progress_bar(quiet, 0, label);
-    let report = |p: Progress| {
-        pb.set_length(p.total as u64);
-        pb.set_position(p.done as u64);
-    };
-    let control = BakeControl { progress: Some(&report), cancel: None };
-    let out = bake_with_mass(&transport, grid, settings, &control).context("baking")?;
-    pb.finish_and_clear();
-    Ok(out)
+    with_progress(loaded, tracer, transport_settings, quiet, label, |t, c| {
+        bake_with_mass(t, grid, settings, c)
+    })
 }
 
 /// [`run_bake`] for a whole (unsharded) bake, finalized with the chosen node fit
@@ -239,16 +246,9 @@ pub fn run_bake_fitted(
     label: &str,
     fit: Fit,
 ) -> anyhow::Result<(IrradianceVolume, lightvol_sampler::BakeStats)> {
-    let transport = Transport::new(&loaded.scene, tracer, transport_settings);
-    let pb = progress_bar(quiet, 0, label);
-    let report = |p: Progress| {
-        pb.set_length(p.total as u64);
-        pb.set_position(p.done as u64);
-    };
-    let control = BakeControl { progress: Some(&report), cancel: None };
-    let (volume, stats, _) =
-        lightvol_sampler::fit::bake_fitted(&transport, grid, settings, &control, fit).context("baking")?;
-    pb.finish_and_clear();
+    let (volume, stats, _) = with_progress(loaded, tracer, transport_settings, quiet, label, |t, c| {
+        lightvol_sampler::fit::bake_fitted(t, grid, settings, c, fit)
+    })?;
     Ok((volume, stats))
 }
 

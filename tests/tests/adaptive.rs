@@ -4,25 +4,12 @@
 //! `city` (acceptance 4).
 
 use std::path::Path;
-use std::process::ExitCode;
 
 use lightvol_volume::adaptive_io::read_adaptive_exr;
 use serde_json::Value;
 
-fn run(args: &[&str]) -> Result<ExitCode, String> {
-    lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()))
-        .map_err(|e| lightvol::one_line(&e))
-}
-
-fn ok(args: &[&str]) {
-    if let Err(e) = run(args) {
-        panic!("lightvol {}: {e}", args.join(" "));
-    }
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{ok, run, s};
 
 /// f16 storage of KTX2/DDS texels: 11 significant bits, relative error at most 2^-11
 /// (4.9e-4); the absolute floor covers values that round to f16 subnormals.

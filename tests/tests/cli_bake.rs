@@ -1,25 +1,10 @@
 //! The CLI's bake pipeline end to end (acceptance 4 and 5 of the CLI issue): bake → info →
 //! export → merge, sharded bakes merged against the whole bake, and bad input.
 
-use std::path::Path;
-use std::process::ExitCode;
-
 use lightvol_volume::exr_io::read_exr;
 
-fn run(args: &[&str]) -> Result<ExitCode, String> {
-    lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()))
-        .map_err(|e| lightvol::one_line(&e))
-}
-
-fn ok(args: &[&str]) {
-    if let Err(e) = run(args) {
-        panic!("lightvol {}: {e}", args.join(" "));
-    }
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{ok, run, s};
 
 /// Two shards merged equal the whole bake: the Eq. 6 sums are added exactly (f64), so the
 /// finalized f32 coefficients agree to within one f32 rounding (relative 2^-23 ≈ 1.2e-7,

@@ -3,27 +3,12 @@
 //! reads them back consistently, and `compare` reports the gradient lookups with their
 //! memory. Bad options are refused with one line and no output file.
 
-use std::path::Path;
-use std::process::ExitCode;
-
 use lightvol_volume::exr_io::{read_exr, read_exr_with_gradients};
 use lightvol_volume::gradient::{GradientLookup, coeffs_at};
 use serde_json::Value;
 
-fn run(args: &[&str]) -> Result<ExitCode, String> {
-    lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()))
-        .map_err(|e| lightvol::one_line(&e))
-}
-
-fn ok(args: &[&str]) {
-    if let Err(e) = run(args) {
-        panic!("lightvol {}: {e}", args.join(" "));
-    }
-}
-
-fn s(p: &Path) -> &str {
-    p.to_str().unwrap()
-}
+mod common;
+use common::{ok, run, s};
 
 /// f32 storage of the gradients and coefficients: a Taylor value `c + g·d` recomputed in f64
 /// from the file's f32 numbers agrees with the library's to f64 rounding of a few terms.
