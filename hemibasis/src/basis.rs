@@ -46,7 +46,8 @@ pub trait HemiBasis: Send + Sync {
     fn order(&self) -> usize;
 
     /// Index of the coefficient that is a lightmap (non-negative for non-negative signals) and
-    /// is stored in sRGB by [`crate::encode`]; `None` when there is none (Half-Life 2).
+    /// is stored through a transfer curve (gamma 2.2 or sRGB) by [`crate::encode`]; `None` when
+    /// there is none (Half-Life 2).
     fn dc_index(&self) -> Option<usize> {
         Some(0)
     }

@@ -1,10 +1,13 @@
 //! Storage encoding of coefficient maps (seed 003 §2.2.3, Listings 2.1-2.2).
 //!
 //! The lightmap-like coefficient ([`HemiBasis::dc_index`], the constant term) is stored
-//! gamma-encoded ("sRGB": `v = c^(1/2.2)`, decoded by the hardware sRGB lookup); every other
-//! coefficient is range-compressed linearly like a normal map, `v = (c + r) / (2r)` with the
-//! compression range `r` (default 0.75), decoded by `c = 2r v - r` (Listing 2.2's
-//! `2*0.75*tex - 0.75`). Stored values are clamped to `[0, 1]`; with 8-bit textures they are
+//! through a transfer curve ([`DcTransfer`]): the thesis's gamma 2.2, `v = c^(1/2.2)`
+//! ([`DcTransfer::Gamma22`], the default), or the piecewise sRGB curve of IEC 61966-2-1
+//! ([`DcTransfer::Srgb`], which the hardware decodes exactly when the texture has an `_SRGB`
+//! format; gamma 2.2 only approximates it, so an `_SRGB` texture must hold sRGB-encoded
+//! values, as `lightvol bake-surface` writes). Every other coefficient is range-compressed
+//! linearly like a normal map, `v = (c + r) / (2r)` with the compression range `r` (default
+//! 0.75), decoded by `c = 2r v - r` (Listing 2.2's `2*0.75*tex - 0.75`). Stored values are clamped to `[0, 1]`; with 8-bit textures they are
 //! also quantised to `k/255`.
 //!
 //! Correction to seed 003 Listing 2.1: its compression line `modHc[] + 0.75/(2*0.75)` lost
