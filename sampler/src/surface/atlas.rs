@@ -14,11 +14,15 @@ use super::geometry::{SurfaceGeometry, SurfaceObject};
 /// Largest atlas side the bake accepts (a 8192² map of 9 RGB f32 coefficients is 7 GiB).
 pub const MAX_ATLAS_SIZE: u32 = 8192;
 
-/// A texel centre belongs to a UV triangle when it lies at least this far inside every edge
-/// (in texels). Two triangles that share an edge both reach it exactly; the margin keeps a
-/// centre lying on a shared edge (to rounding) from counting as an overlap. Overlaps thinner
-/// than this at a texel centre are not reported: they cannot change a centre's owner.
-pub const OVERLAP_EDGE_TOLERANCE: f64 = 1e-3;
+/// Two UV triangles of one object overlap when, inside some texel, the intersection of their
+/// pieces exceeds this area (texel²). Pieces are intersected in coordinates relative to the
+/// texel's corner, where every vertex lies in `[0, 1]²` and f64 round-off is ~1e-16, so
+/// triangles that only share an edge or a vertex give areas of ~1e-16: ten orders below. An
+/// overlap under 1e-6 of a texel mixes at most that fraction of another surface into a texel,
+/// invisible next to the Monte Carlo noise of a bake. (UVs of one chart that were quantized
+/// *independently*, e.g. unwelded f32 seam vertices, can differ by an f32 ulp, ~5e-4 texels at
+/// 8192²; such a coincident edge is reported once it folds a sliver above this area.)
+pub const UV_OVERLAP_AREA_TOLERANCE: f64 = 1e-6;
 
 /// Clipped pieces smaller than this (texel²) are dropped: a triangle that only touches a
 /// texel along an edge or at a corner has no footprint there.
@@ -127,16 +131,19 @@ fn texel_space(geo: &SurfaceGeometry, tri: u32, w: u32, h: u32) -> [DVec2; 3] {
 }
 
 impl Atlas {
-    /// Checks the object's UV triangles for overlap at texel centres, then rasterizes them
-    /// conservatively: a texel is covered when a triangle overlaps its square with positive
-    /// area, not only when it covers the centre.
+    /// Rasterizes the object's UV triangles conservatively (a texel is covered when a triangle
+    /// overlaps its square with positive area, not only when it covers the centre) and checks
+    /// them for overlap by area: within every texel, the pieces of every two triangles are
+    /// intersected (convex clipping) and an intersection above [`UV_OVERLAP_AREA_TOLERANCE`]
+    /// is an error. Only pieces sharing a texel are compared (sweep over their bounding
+    /// boxes), so the cost grows with the pieces per texel, mostly 1-2.
     ///
     /// # Errors
-    /// [`SurfaceError::UvOverlap`] naming the two faces and the texel.
+    /// [`SurfaceError::UvOverlap`] naming the two faces and the first texel (in index order)
+    /// where they overlap.
     pub fn build(geo: &SurfaceGeometry, object: usize, size: [u32; 2]) -> Result<Self, SurfaceError> {
         let [w, h] = size;
         let obj = &geo.objects()[object];
-        check_overlap(geo, obj, size)?;
         let mut raw: Vec<(u32, Piece)> = Vec::new();
         for &tri in &obj.triangles {
             let q = texel_space(geo, tri, w, h);
@@ -169,6 +176,16 @@ impl Atlas {
                 j += 1;
             }
             let group: Vec<Piece> = raw[i..j].iter().map(|(_, p)| *p).collect();
+            let (x, y) = (texel % w, texel / w);
+            if let Some((a, b)) = overlap_in_texel(&group, DVec2::new(f64::from(x), f64::from(y))) {
+                let face = |t: u32| geo.triangle(t).expect("object triangle").face;
+                return Err(SurfaceError::UvOverlap {
+                    mesh: obj.name.clone(),
+                    a: face(group[a].tri),
+                    b: face(group[b].tri),
+                    texel: [x, y],
+                });
+            }
             footprints.push(select(geo, texel, w, h, group));
             i = j;
         }
@@ -218,40 +235,86 @@ fn inside_by(q: [DVec2; 3], c: DVec2) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
-/// Reports the first pair of faces (in face order) that both contain a texel centre by more
-/// than [`OVERLAP_EDGE_TOLERANCE`].
-fn check_overlap(geo: &SurfaceGeometry, obj: &SurfaceObject, [w, h]: [u32; 2]) -> Result<(), SurfaceError> {
-    let mut owner = vec![u32::MAX; w as usize * h as usize];
-    for &tri in &obj.triangles {
-        let q = texel_space(geo, tri, w, h);
-        let lo = q[0].min(q[1]).min(q[2]);
-        let hi = q[0].max(q[1]).max(q[2]);
-        // Centres x + ½ within [lo, hi].
-        let x0 = (lo.x - 0.5).ceil().max(0.0) as u32;
-        let y0 = (lo.y - 0.5).ceil().max(0.0) as u32;
-        let x1 = ((hi.x - 0.5).floor().max(-1.0) + 1.0).min(f64::from(w)) as u32;
-        let y1 = ((hi.y - 0.5).floor().max(-1.0) + 1.0).min(f64::from(h)) as u32;
-        for y in y0..y1 {
-            for x in x0..x1 {
-                let c = DVec2::new(f64::from(x) + 0.5, f64::from(y) + 0.5);
-                if inside_by(q, c) <= OVERLAP_EDGE_TOLERANCE {
-                    continue;
-                }
-                let slot = &mut owner[(y * w + x) as usize];
-                if *slot != u32::MAX {
-                    let face = |t: u32| geo.triangle(t).expect("object triangle").face;
-                    return Err(SurfaceError::UvOverlap {
-                        mesh: obj.name.clone(),
-                        a: face(*slot),
-                        b: face(tri),
-                        texel: [x, y],
-                    });
-                }
-                *slot = tri;
+/// The first pair `(i, j)`, `i < j`, of pieces of one texel (origin `origin`, pieces in
+/// triangle order) whose intersection exceeds [`UV_OVERLAP_AREA_TOLERANCE`]; pairs are visited
+/// in a fixed order (sweep by bounding box), so the answer is deterministic.
+fn overlap_in_texel(group: &[Piece], origin: DVec2) -> Option<(usize, usize)> {
+    if group.len() < 2 {
+        return None;
+    }
+    let local: Vec<([DVec2; 7], usize, DVec2, DVec2)> = group
+        .iter()
+        .map(|p| {
+            let mut poly = [DVec2::ZERO; 7];
+            let len = usize::from(p.len);
+            let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
+            for (d, s) in poly.iter_mut().zip(p.polygon()) {
+                *d = *s - origin;
+                lo = lo.min(*d);
+                hi = hi.max(*d);
+            }
+            (poly, len, lo, hi)
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..group.len()).collect();
+    order.sort_by(|&a, &b| local[a].2.x.total_cmp(&local[b].2.x).then(a.cmp(&b)));
+    let mut found: Option<(usize, usize)> = None;
+    for (k, &i) in order.iter().enumerate() {
+        for &j in &order[k + 1..] {
+            if local[j].2.x > local[i].3.x {
+                break;
+            }
+            if local[j].2.y > local[i].3.y || local[i].2.y > local[j].3.y {
+                continue;
+            }
+            let (pi, pj) = (&local[i].0[..local[i].1], &local[j].0[..local[j].1]);
+            if convex_intersection_area(pi, pj) > UV_OVERLAP_AREA_TOLERANCE {
+                let pair = (i.min(j), i.max(j));
+                found = Some(found.map_or(pair, |f| f.min(pair)));
             }
         }
     }
-    Ok(())
+    found
+}
+
+/// Area of the intersection of two convex polygons (either winding): `p` clipped by every
+/// edge of `q` (Sutherland-Hodgman). At most 7 + 7 vertices.
+fn convex_intersection_area(p: &[DVec2], q: &[DVec2]) -> f64 {
+    const CAP: usize = 16;
+    let orient = {
+        let mut s = 0.0;
+        for i in 0..q.len() {
+            s += q[i].perp_dot(q[(i + 1) % q.len()]);
+        }
+        s.signum()
+    };
+    let mut buf = [DVec2::ZERO; CAP];
+    buf[..p.len()].copy_from_slice(p);
+    let mut len = p.len();
+    for e in 0..q.len() {
+        let (a, b) = (q[e], q[(e + 1) % q.len()]);
+        let dist = |x: DVec2| orient * (b - a).perp_dot(x - a);
+        let mut out = [DVec2::ZERO; CAP];
+        let mut n = 0;
+        for i in 0..len {
+            let (c, d) = (buf[i], buf[(i + 1) % len]);
+            let (dc, dd) = (dist(c), dist(d));
+            if dc >= 0.0 && n < CAP {
+                out[n] = c;
+                n += 1;
+            }
+            if (dc >= 0.0) != (dd >= 0.0) && n < CAP {
+                out[n] = c + (d - c) * (dc / (dc - dd));
+                n += 1;
+            }
+        }
+        buf = out;
+        len = n;
+        if len < 3 {
+            return 0.0;
+        }
+    }
+    polygon_area(&buf[..len])
 }
 
 /// Sutherland-Hodgman clipping of triangle `q` to the unit square at `origin`.
@@ -338,6 +401,53 @@ mod tests {
             }
         }
         assert!((sum - total).abs() < SUM_TOL);
+    }
+
+    /// The convex intersection area matches a point count (the slow reference) for pieces of
+    /// crossing triangles, is zero for pieces that share only an edge, and is symmetric.
+    #[test]
+    fn convex_intersection_matches_point_count() {
+        const COUNT_TOL: f64 = 3e-3; // 500² points per texel: boundary error ~ perimeter/500
+        const SHARED_EDGE_TOL: f64 = 1e-14; // round-off only
+        let inside = |poly: &[DVec2], c: DVec2| {
+            let orient = (poly[1] - poly[0]).perp_dot(poly[2] - poly[0]).signum();
+            (0..poly.len())
+                .all(|k| orient * (poly[(k + 1) % poly.len()] - poly[k]).perp_dot(c - poly[k]) >= 0.0)
+        };
+        let cases = [
+            (
+                [DVec2::new(-0.4, 0.1), DVec2::new(1.3, 0.3), DVec2::new(0.2, 1.6)],
+                [DVec2::new(0.9, -0.2), DVec2::new(0.7, 1.2), DVec2::new(-0.3, 0.5)],
+            ),
+            (
+                [DVec2::new(0.1, 0.1), DVec2::new(0.9, 0.2), DVec2::new(0.5, 0.8)],
+                [DVec2::new(0.3, 0.3), DVec2::new(0.4, 0.3), DVec2::new(0.3, 0.45)],
+            ),
+        ];
+        for (t1, t2) in cases {
+            let (p1, l1) = clip_to_square(t1, DVec2::ZERO);
+            let (p2, l2) = clip_to_square(t2, DVec2::ZERO);
+            let (p1, p2) = (&p1[..l1], &p2[..l2]);
+            let a = convex_intersection_area(p1, p2);
+            assert!((a - convex_intersection_area(p2, p1)).abs() < SHARED_EDGE_TOL);
+            let n = 500;
+            let mut count = 0;
+            for j in 0..n {
+                for i in 0..n {
+                    let c =
+                        DVec2::new((f64::from(i) + 0.5) / f64::from(n), (f64::from(j) + 0.5) / f64::from(n));
+                    count += u32::from(inside(p1, c) && inside(p2, c));
+                }
+            }
+            let est = f64::from(count) / f64::from(n * n);
+            assert!(a > 1e-3 && (a - est).abs() < COUNT_TOL, "{a} vs {est}");
+        }
+        // Two halves of a texel split along its diagonal, and two triangles touching at a vertex.
+        let lower = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0)];
+        let upper = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+        assert!(convex_intersection_area(&lower, &upper) < SHARED_EDGE_TOL);
+        let touch = [DVec2::new(1.0, 1.0), DVec2::new(1.5, 1.0), DVec2::new(1.0, 1.5)];
+        assert!(convex_intersection_area(&lower, &touch) < SHARED_EDGE_TOL);
     }
 
     /// Footprint sampling is uniform by area: the fraction of points per piece matches its

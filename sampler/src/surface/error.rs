@@ -40,8 +40,9 @@ pub enum SurfaceError {
         /// Face index in the object.
         triangle: u32,
     },
-    /// Two triangles of one object cover the same texel centre.
-    #[error("mesh '{mesh}': lightmap UV triangles {a} and {b} overlap (both cover texel {texel:?})")]
+    /// Two triangles of one object overlap in UV space (by more than
+    /// [`UV_OVERLAP_AREA_TOLERANCE`](super::atlas::UV_OVERLAP_AREA_TOLERANCE) of a texel).
+    #[error("mesh '{mesh}': lightmap UV triangles {a} and {b} overlap (in texel {texel:?})")]
     UvOverlap {
         /// The object.
         mesh: String,
@@ -49,7 +50,7 @@ pub enum SurfaceError {
         a: u32,
         /// Face index of the second triangle.
         b: u32,
-        /// Texel `[x, y]` whose centre both cover.
+        /// The first texel `[x, y]` (in index order) where they overlap.
         texel: [u32; 2],
     },
     /// The texel density asks for an atlas larger than [`MAX_ATLAS_SIZE`](super::MAX_ATLAS_SIZE).

@@ -7,8 +7,8 @@
 //! 1. [`SurfaceGeometry`]: per lightmap object (a glTF mesh instance) the lightmap UVs
 //!    (`TEXCOORD_1`, or `TEXCOORD_0`), checked to lie in `[0, 1]`, and the tangent frames
 //!    (glTF `TANGENT`, else MikkTSpace via `bevy_mikktspace`), [`geometry`], [`tangent`].
-//! 2. [`atlas`]: the atlas size from the texel density, the overlap check at texel centres
-//!    and the conservative rasterization of every triangle into texel footprints.
+//! 2. [`atlas`]: the atlas size from the texel density, the conservative rasterization of
+//!    every triangle into texel footprints and the overlap check by area within each texel.
 //! 3. [`texel`]: per texel, sample points on its footprint, incident radiance over the
 //!    tangent-space hemisphere by path tracing, projected to SH over the hemisphere (seed 003
 //!    Eq. 2.1-2.2), convolved with the clamped cosine (Eq. 2.3) and fitted to the chosen

@@ -618,6 +618,117 @@ fn acceptance_5_uv_errors() {
     assert!(BasisChoice::parse("").is_err() && BasisChoice::parse("9").is_err());
 }
 
+/// Acceptance 5, overlap by area (review of the centre-only check): a decal triangle whose UVs
+/// lie inside the floor's chart without covering a texel centre, two identical small UV
+/// triangles, and a thin sliver overlap along a shared diagonal are errors naming the mesh
+/// and faces; a sliver below [`atlas::UV_OVERLAP_AREA_TOLERANCE`] and a finely triangulated
+/// chart (edges and vertices shared by many triangles in one texel) are not.
+#[test]
+fn uv_overlap_is_checked_by_area() {
+    let mut b = SceneBuilder::new("decal");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let q = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0], [0.32, 0.32], [0.37, 0.32], [0.32, 0.37]];
+    let p: Vec<DVec3> =
+        q.iter().enumerate().map(|(i, c)| DVec3::new(c[0], c[1], if i < 4 { 0.0 } else { 0.01 })).collect();
+    let uv: Vec<DVec2> = q.iter().map(|c| DVec2::new(c[0], c[1])).collect();
+    add_object(&mut b, "Floor", p, uv, &[[0, 1, 2], [0, 2, 3], [4, 5, 6]], m);
+    b.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
+    let scene = b.build().unwrap();
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    // 8 texels per unit on a unit floor: an 8 × 8 atlas; the decal lies inside texel (2, 2)
+    // (texel space 2.56..2.96) and covers no centre.
+    let s = SurfaceSettings { samples: 4, texels_per_unit: 8.0, ..settings("sh4") };
+    let e = bake_surface(&t, &s, &BakeControl::default()).unwrap_err();
+    assert!(
+        matches!(&e, SurfaceError::UvOverlap { mesh, a: 0 | 1, b: 2, texel: [2, 2] } if mesh == "Floor"),
+        "{e}"
+    );
+    assert!(e.to_string().contains("Floor"), "{e}");
+
+    // Two identical UV triangles (different positions) that cover no texel centre of 8 × 8.
+    let mut b = SceneBuilder::new("twins");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let p = vec![
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+        DVec3::new(0.0, 0.0, 1.0),
+        DVec3::new(1.0, 0.0, 1.0),
+        DVec3::new(0.0, 1.0, 1.0),
+    ];
+    let t3 = [DVec2::new(0.01, 0.01), DVec2::new(0.1, 0.01), DVec2::new(0.01, 0.1)];
+    let uv = [t3, t3].concat();
+    add_object(&mut b, "Twins", p, uv, &[[0, 1, 2], [3, 4, 5]], m);
+    let scene = b.build().unwrap();
+    let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
+    let e = Atlas::build(&geo, 0, [8, 8]).unwrap_err();
+    assert!(
+        matches!(&e, SurfaceError::UvOverlap { mesh, a: 0, b: 1, texel: [0, 0] } if mesh == "Twins"),
+        "{e}"
+    );
+
+    // A sliver: triangle 1's corner at (1, 1 - eps) instead of (1, 1) folds a thin wedge of
+    // width eps·u below the shared diagonal into triangle 0. At 8 × 8 and eps = 1e-4 it is at
+    // most 8e-4 texels wide at the diagonal's texel centres (under the old 1e-3 centre margin)
+    // yet holds up to ~4e-4 texel² per texel; at eps = 1e-9 every texel holds < 1e-8 texel².
+    let sliver = |eps: f64| {
+        let mut b = SceneBuilder::new("sliver");
+        let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+        let p = vec![
+            DVec3::new(0.0, 0.0, 0.0),
+            DVec3::new(1.0, 0.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+            DVec3::new(0.0, 1.0, 0.0),
+            DVec3::new(1.0, 1.0, 0.0),
+        ];
+        let uv = vec![
+            DVec2::new(0.0, 0.0),
+            DVec2::new(1.0, 0.0),
+            DVec2::new(1.0, 1.0),
+            DVec2::new(0.0, 1.0),
+            DVec2::new(1.0, 1.0 - eps),
+        ];
+        add_object(&mut b, "Sliver", p, uv, &[[0, 1, 2], [0, 4, 3]], m);
+        let scene = b.build().unwrap();
+        let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
+        Atlas::build(&geo, 0, [8, 8]).map(|a| a.footprints.len())
+    };
+    let e = sliver(1e-4).unwrap_err();
+    assert!(matches!(&e, SurfaceError::UvOverlap { mesh, a: 0, b: 1, .. } if mesh == "Sliver"), "{e}");
+    assert_eq!(sliver(1e-9).unwrap(), 64);
+
+    // A 12 × 12 grid of quads, each split into two triangles, over [0, 1]²: at 1 × 1 all 288
+    // triangles share one texel; no resolution reports an overlap.
+    let n = 12u32;
+    let mut b = SceneBuilder::new("grid");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let mut p = Vec::new();
+    let mut uv = Vec::new();
+    for j in 0..=n {
+        for i in 0..=n {
+            let (u, v) = (f64::from(i) / f64::from(n), f64::from(j) / f64::from(n));
+            p.push(DVec3::new(u, v, 0.0));
+            uv.push(DVec2::new(u, v));
+        }
+    }
+    let mut faces = Vec::new();
+    for j in 0..n {
+        for i in 0..n {
+            let c = j * (n + 1) + i;
+            faces.push([c, c + 1, c + n + 2]);
+            faces.push([c, c + n + 2, c + n + 1]);
+        }
+    }
+    add_object(&mut b, "Grid", p, uv, &faces, m);
+    let scene = b.build().unwrap();
+    let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
+    for r in [1, 2, 5, 7, 24, 61] {
+        let a = Atlas::build(&geo, 0, [r, r]).unwrap();
+        assert_eq!(a.footprints.len(), (r * r) as usize);
+    }
+}
+
 /// No input panics: random UVs (with NaN, infinities, out-of-range values, degenerate and
 /// overlapping triangles) give `Ok` or an error, never a panic.
 #[test]
