@@ -18,8 +18,10 @@ fn main() {
 const RAYS: usize = 200_000;
 
 /// A 708 × 708-quad heightfield (1,002,528 triangles) plus 400 boxes (4,800 triangles).
-fn scene() -> &'static (Scene, Tracer, Vec<(DVec3, DVec3)>) {
-    static S: OnceLock<(Scene, Tracer, Vec<(DVec3, DVec3)>)> = OnceLock::new();
+type Terrain = (Scene, Tracer, Vec<(DVec3, DVec3)>);
+
+fn scene() -> &'static Terrain {
+    static S: OnceLock<Terrain> = OnceLock::new();
     S.get_or_init(|| {
         let mut b = SceneBuilder::new("terrain");
         let m = b.add_material(Material::diffuse("t", [0.5; 3])).unwrap();

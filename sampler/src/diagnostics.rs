@@ -156,7 +156,8 @@ pub struct WindingReport {
 pub fn winding_report(scene: &Scene, weld: f64) -> WindingReport {
     let key = |p: DVec3| -> [i64; 3] { [p.x, p.y, p.z].map(|c| (c / weld).round() as i64) };
     // Undirected edge → list of (triangle, traversed from smaller to larger key).
-    let mut edges: HashMap<([i64; 3], [i64; 3]), Vec<(u32, bool)>> = HashMap::new();
+    type EdgeKey = ([i64; 3], [i64; 3]);
+    let mut edges: HashMap<EdgeKey, Vec<(u32, bool)>> = HashMap::new();
     for (t, tri) in scene.triangles.iter().enumerate() {
         let k = tri.v.map(key);
         for e in 0..3 {

@@ -477,7 +477,7 @@ mod tests {
         assert!(e.to_string().contains("refers to accessor 5"), "{e}");
         // The same JSON as the only chunk of a GLB (padded to 4 bytes with spaces).
         let mut chunk = json.as_bytes().to_vec();
-        while chunk.len() % 4 != 0 {
+        while !chunk.len().is_multiple_of(4) {
             chunk.push(b' ');
         }
         let mut glb = Vec::new();

@@ -56,6 +56,7 @@ impl PathRng {
 
     /// Uniform in [0, 1).
     #[inline]
+    #[allow(clippy::should_implement_trait, reason = "an endless f64 stream, not an Iterator of Options")]
     pub fn next(&mut self) -> f64 {
         self.0.next_f64()
     }

@@ -441,12 +441,12 @@ pub(crate) fn is_octree_part(name: &str) -> bool {
 /// The image attribute that marks an adaptive octree file.
 pub(crate) const OCTREE_ATTRIBUTE: &str = "lightvol.octree";
 
+/// A volume, its extra parts and its image attributes.
+pub(crate) type VolumeWithExtras = (IrradianceVolume, Vec<ExtraPart>, HashMap<Text, AttributeValue>);
+
 /// Parses a native file; with `extensions`, parts named by [`is_octree_part`] are returned
 /// unchecked instead of rejected, and the image attributes come back too.
-pub(crate) fn exr_from_bytes_ext(
-    bytes: &[u8],
-    extensions: bool,
-) -> Result<(IrradianceVolume, Vec<ExtraPart>, HashMap<Text, AttributeValue>), VolumeError> {
+pub(crate) fn exr_from_bytes_ext(bytes: &[u8], extensions: bool) -> Result<VolumeWithExtras, VolumeError> {
     guard(F, || exr_from_bytes_inner(bytes, extensions)).map(|(v, _, e, a)| (v, e, a))
 }
 
