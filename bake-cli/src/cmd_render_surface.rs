@@ -3,11 +3,14 @@
 //! each map evaluated at the normal-mapped tangent-space normal), next to a path-traced
 //! reference of the same quantity (`reference_surface_irradiance`: the same normal, light
 //! from below the tangent-space hemisphere excluded, as the maps). With a modified H-basis
-//! map present, a `lightmap` image shows its lowest level of detail (`H1` only, Listing 2.2),
-//! i.e. plain light mapping, on which the normal map has no effect.
+//! map present, its lower levels of detail (Listing 2.2's stop points) get images of their
+//! own: `lightmap` (`H1` only, i.e. plain light mapping, on which the normal map has no
+//! effect) and `lightmap4` (`H1 … H4`, the linear band). At the geometric normal every level
+//! equals the full evaluation (`H2 … H6` vanish there); see `lightvol_hemibasis::lod` for what
+//! that value is (the 3-band SH irradiance less `sqrt(5)/(8 sqrt(π)) E_20`).
 //!
-//! `OUT/sheet.png` tiles the reference, the bases in file-name order and `lightmap`, four per
-//! row. `OUT/report.json`:
+//! `OUT/sheet.png` tiles the reference, the bases in file-name order, `lightmap` and
+//! `lightmap4`, four per row. `OUT/report.json`:
 //! `{"bases": {"<basis>": {"rel_rmse", "bytes_per_texel", "coefficients", "image"}},
 //!   "invalid_texels", "reference": {"image", "samples"}, "pixels", "normal_map"}`.
 //! `rel_rmse = sqrt(Σ (I_b - I_ref)²) / sqrt(Σ I_ref²)` over the lightmapped pixels and
@@ -173,7 +176,7 @@ pub struct ReferenceReport {
 /// `report.json`.
 #[derive(Debug, Serialize)]
 pub struct SurfaceRenderReport {
-    /// Per basis (and `lightmap`, the modified H-basis's lowest level).
+    /// Per basis (and `lightmap` / `lightmap4`, the modified H-basis's lower levels of detail).
     pub bases: BTreeMap<String, BasisReport>,
     /// Invalid texels reported by the bakes (largest over the bases; they share the
     /// geometry and sample points).
@@ -316,7 +319,11 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
         Quantity::Radiosity => 1.0,
     };
     let lightmap_set = sets.iter().position(|s| s.tag.starts_with("hbasis_mod"));
-    let n_images = sets.len() + usize::from(lightmap_set.is_some());
+    // With a modified H-basis map: its lowest levels of detail (Listing 2.2's stop points),
+    // `lightmap` (H1) and `lightmap4` (H1-H4).
+    let lods: &[(&str, Lod)] =
+        if lightmap_set.is_some() { &[("lightmap", Lod::Lightmap), ("lightmap4", Lod::Linear)] } else { &[] };
+    let n_images = sets.len() + lods.len();
     // Per pixel: reference colour, then one colour per image; lightmapped flag.
     let rows = with_threads(args.threads, || -> Vec<(bool, [f32; 3], Vec<[f32; 3]>)> {
         let tracer = Tracer::new(&loaded.scene);
@@ -375,7 +382,9 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
                             .collect();
                         if let Some(k) = lightmap_set {
                             let c = sets[k].maps[object].lookup(uv);
-                            cols.push(shade(eval_modified_h(&c, n_t, Lod::Lightmap)));
+                            for &(_, lod) in lods {
+                                cols.push(shade(eval_modified_h(&c, n_t, lod)));
+                            }
                         }
                         (true, shade(e_ref), cols)
                     }
@@ -386,9 +395,7 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
 
     // Errors over lightmapped pixels.
     let mut names: Vec<(String, usize)> = sets.iter().map(|s| (s.tag.clone(), s.basis.len())).collect();
-    if lightmap_set.is_some() {
-        names.push(("lightmap".into(), 1));
-    }
+    names.extend(lods.iter().map(|&(name, lod)| (name.to_owned(), lod.coefficients())));
     let mut err2 = vec![0.0f64; n_images];
     let mut ref2 = 0.0f64;
     let mut pixels = 0usize;
