@@ -13,7 +13,8 @@ use rayon::prelude::*;
 
 use super::atlas::{Atlas, atlas_size};
 use super::geometry::SurfaceGeometry;
-use super::map::{CoefficientMap, TexelState, dilate};
+use super::lighting::lighting_fingerprint;
+use super::map::{CoefficientMap, InvalidCounts, TexelState, dilate};
 use super::texel::{TexelJob, TexelOut};
 use super::{BasisChoice, InvalidTexels, Quantity, SurfaceError, UvSet};
 use crate::bake::{BakeControl, Progress};
@@ -166,6 +167,7 @@ pub fn bake_surface_with(
         };
         atlases.push(Atlas::build(geo, o, size)?);
     }
+    let lighting = lighting_fingerprint(transport.scene(), transport.settings().bounces);
     let total: usize = atlases.iter().map(|a| a.footprints.len()).sum();
     let mut report = SurfaceReport { objects: atlases.len(), ..SurfaceReport::default() };
     let mut maps = Vec::new();
@@ -190,6 +192,7 @@ pub fn bake_surface_with(
         let n = atlas.width as usize * atlas.height as usize;
         let mut data = vec![[0.0f32; 3]; n * k];
         let mut state = vec![TexelState::Empty; n];
+        let mut invalid = InvalidCounts::default();
         for part in atlas.footprints.chunks(chunk) {
             let outs: Vec<Option<TexelOut>> = part
                 .par_iter()
@@ -208,7 +211,7 @@ pub fn bake_surface_with(
                 report.texels_covered += 1;
                 report.rays.add(&out.rays);
                 if out.invalid_points > 0 {
-                    report.invalid_texels += 1;
+                    invalid.invalid_texels += 1;
                 }
                 match out.coeffs {
                     Some(c) => {
@@ -217,7 +220,7 @@ pub fn bake_surface_with(
                         }
                         state[t] = TexelState::Baked;
                         if out.invalid_points > 0 && settings.invalid == InvalidTexels::Fix {
-                            report.moved += 1;
+                            invalid.moved += 1;
                         }
                     }
                     None => state[t] = TexelState::NeedsFill,
@@ -229,8 +232,12 @@ pub fn bake_surface_with(
             }
         }
         let d = dilate(&mut data, &mut state, [atlas.width, atlas.height], k, settings.gutter);
-        report.dilated += d.dilated;
-        report.unfilled += d.unfilled;
+        invalid.dilated = d.dilated;
+        invalid.unfilled = d.unfilled;
+        report.invalid_texels += invalid.invalid_texels;
+        report.moved += invalid.moved;
+        report.dilated += invalid.dilated;
+        report.unfilled += invalid.unfilled;
         report.gutter_texels += d.gutter;
         let valid = state.iter().map(|s| s.valid_value()).collect();
         maps.push(CoefficientMap {
@@ -244,6 +251,8 @@ pub fn bake_surface_with(
             uv_set: settings.uv_set,
             data,
             valid,
+            lighting: lighting.clone(),
+            invalid,
         });
     }
     report.wall_time = start.elapsed();

@@ -6,14 +6,19 @@
 //! - Channels (f32): `cKK.R`, `cKK.G`, `cKK.B` for every coefficient `KK = 00, 01, …` of the
 //!   basis (in the basis's own order, lightvol-hemibasis), and `valid` (1 baked, 0.5
 //!   dilated, 0 empty).
-//! - Part attributes: `lightvol.kind` = `"surface"`, `lightvol.version` (i32, 1),
-//!   `lightvol.basis` (tag, e.g. `hbasis_mod6`), `lightvol.coefficients` (i32),
+//! - Part attributes: `lightvol.kind` = `"surface"`, `lightvol.version` (i32, [`VERSION`] =
+//!   2), `lightvol.basis` (tag, e.g. `hbasis_mod6`), `lightvol.coefficients` (i32),
 //!   `lightvol.texels_per_unit` (text, f64 decimal), `lightvol.quantity` (`irradiance` or
 //!   `radiosity`), `lightvol.uv_set` (`TEXCOORD_1` or `TEXCOORD_0`), `lightvol.convention`
-//!   ([`CONVENTION`]).
+//!   ([`CONVENTION`]), and since version 2: `lightvol.lighting` (text, the
+//!   [`lighting_fingerprint`](super::lighting_fingerprint) of the bake) and the object's
+//!   [`InvalidCounts`](super::InvalidCounts) `lightvol.invalid_texels`, `lightvol.moved`,
+//!   `lightvol.dilated`, `lightvol.unfilled` (each text, a u64 in decimal: exact beyond i32
+//!   and f64 ranges).
 //!
 //! Written through a temporary file in the target directory and renamed. The reader checks
-//! every header before decoding pixels; a panic inside the `exr` decoder is caught and
+//! every header before decoding pixels and accepts only [`VERSION`] (a version-1 file lacks
+//! the lighting and counters: re-bake it); a panic inside the `exr` decoder is caught and
 //! reported as an error.
 
 use std::io::{Cursor, Write};
@@ -25,11 +30,16 @@ use exr::meta::attribute::{AttributeValue, Compression, IntegerBounds, SampleTyp
 use exr::meta::header::{ImageAttributes, LayerAttributes};
 use exr::prelude::{ReadChannels, ReadLayers, SmallVec, WritableImage};
 
-use super::map::CoefficientMap;
+use super::map::{CoefficientMap, InvalidCounts};
 use super::{Quantity, SurfaceError, UvSet};
 
-/// File format version written to `lightvol.version`.
-pub const VERSION: i32 = 1;
+/// File format version written to `lightvol.version`; the only one [`read_surface_exr`]
+/// accepts. 1: first layout; 2: adds `lightvol.lighting` and the invalid-texel counters.
+pub const VERSION: i32 = 2;
+
+/// The [`InvalidCounts`](super::InvalidCounts) attributes, in field order.
+const COUNT_KEYS: [&str; 4] =
+    ["lightvol.invalid_texels", "lightvol.moved", "lightvol.dilated", "lightvol.unfilled"];
 
 /// The tangent-space and SH conventions, stored in `lightvol.convention`.
 pub const CONVENTION: &str = "tangent space x = tangent, y = w * (normal x tangent), z = normal (MikkTSpace); \
@@ -51,6 +61,11 @@ fn channel_name(k: usize, c: usize) -> String {
 /// # Errors
 /// A message for an empty list, a map whose sizes disagree, or a name EXR cannot store.
 pub fn surface_exr_to_bytes(maps: &[CoefficientMap]) -> Result<Vec<u8>, String> {
+    to_bytes(maps, VERSION)
+}
+
+/// [`surface_exr_to_bytes`] with any `lightvol.version` (tests write foreign versions).
+fn to_bytes(maps: &[CoefficientMap], version: i32) -> Result<Vec<u8>, String> {
     if maps.is_empty() {
         return Err("no maps to write".into());
     }
@@ -83,13 +98,18 @@ pub fn surface_exr_to_bytes(maps: &[CoefficientMap]) -> Result<Vec<u8>, String> 
             Ok(())
         };
         put("lightvol.kind", AttributeValue::Text(text("surface")?))?;
-        put("lightvol.version", AttributeValue::I32(VERSION))?;
+        put("lightvol.version", AttributeValue::I32(version))?;
         put("lightvol.basis", AttributeValue::Text(text(&m.basis)?))?;
         put("lightvol.coefficients", AttributeValue::I32(m.coeffs as i32))?;
         put("lightvol.texels_per_unit", AttributeValue::Text(text(&format!("{:?}", m.texels_per_unit))?))?;
         put("lightvol.quantity", AttributeValue::Text(text(m.quantity.name())?))?;
         put("lightvol.uv_set", AttributeValue::Text(text(m.uv_set.attribute())?))?;
         put("lightvol.convention", AttributeValue::Text(text(CONVENTION)?))?;
+        put("lightvol.lighting", AttributeValue::Text(text(&m.lighting)?))?;
+        let c = m.invalid;
+        for (key, v) in COUNT_KEYS.into_iter().zip([c.invalid_texels, c.moved, c.dilated, c.unfilled]) {
+            put(key, AttributeValue::Text(text(&v.to_string())?))?;
+        }
         layers.push(Layer::new(Vec2(m.width as usize, m.height as usize), attrs, encoding, channels));
     }
     let ia = ImageAttributes::new(IntegerBounds::from_dimensions(Vec2(max_w, max_h)));
@@ -158,6 +178,8 @@ struct Declared {
     texels_per_unit: f64,
     quantity: Quantity,
     uv_set: UvSet,
+    lighting: String,
+    invalid: InvalidCounts,
 }
 
 fn declared(h: &exr::meta::header::Header) -> Result<Declared, String> {
@@ -187,8 +209,11 @@ fn declared(h: &exr::meta::header::Header) -> Result<Declared, String> {
         return Err(format!("part '{object}' is not a lightvol surface map"));
     }
     let version = int("lightvol.version")?;
-    if !(1..=VERSION).contains(&version) {
-        return Err(format!("unsupported lightvol.version {version}"));
+    if version != VERSION {
+        return Err(format!(
+            "part '{object}': lightvol.version {version} is not supported; this build reads version \
+             {VERSION} only (re-bake the maps)"
+        ));
     }
     let coeffs = usize::try_from(int("lightvol.coefficients")?).map_err(|_| "negative coefficient count")?;
     let basis = txt("lightvol.basis")?;
@@ -205,6 +230,14 @@ fn declared(h: &exr::meta::header::Header) -> Result<Declared, String> {
     if txt("lightvol.convention")? != CONVENTION {
         return Err(format!("part '{object}': convention differs from this version's"));
     }
+    let lighting = txt("lightvol.lighting")?;
+    let mut counts = [0u64; 4];
+    for (slot, key) in counts.iter_mut().zip(COUNT_KEYS) {
+        let v = txt(key)?;
+        *slot = v.parse::<u64>().map_err(|_| format!("part '{object}': {key} {v:?} is not a count"))?;
+    }
+    let [invalid_texels, moved, dilated, unfilled] = counts;
+    let invalid = InvalidCounts { invalid_texels, moved, dilated, unfilled };
     if h.deep {
         return Err(format!("part '{object}' is deep data"));
     }
@@ -220,7 +253,18 @@ fn declared(h: &exr::meta::header::Header) -> Result<Declared, String> {
     if got != want || h.channels.list.iter().any(|c| c.sample_type != SampleType::F32) {
         return Err(format!("part '{object}' has channels {got:?}; expected f32 {want:?}"));
     }
-    Ok(Declared { object, width, height, basis, coeffs, texels_per_unit, quantity, uv_set })
+    Ok(Declared {
+        object,
+        width,
+        height,
+        basis,
+        coeffs,
+        texels_per_unit,
+        quantity,
+        uv_set,
+        lighting,
+        invalid,
+    })
 }
 
 fn parse(bytes: &[u8]) -> Result<Vec<CoefficientMap>, String> {
@@ -277,6 +321,8 @@ fn parse(bytes: &[u8]) -> Result<Vec<CoefficientMap>, String> {
             uv_set: d.uv_set,
             data,
             valid,
+            lighting: d.lighting,
+            invalid: d.invalid,
         });
     }
     Ok(maps)
@@ -299,6 +345,13 @@ mod tests {
             uv_set: UvSet::Base,
             data: (0..n * 6).map(|i| [i as f32 * 0.25, -(i as f32), 1.0 / (1.0 + i as f32)]).collect(),
             valid: (0..n).map(|i| [1.0, 0.5, 0.0][i % 3]).collect(),
+            lighting: format!("lighting=1; environment=black; sun=none; punctual=0; object {name}"),
+            invalid: InvalidCounts {
+                invalid_texels: 7 + u64::from(w),
+                moved: 3,
+                dilated: 4,
+                unfilled: u64::from(h),
+            },
         }
     }
 
@@ -330,5 +383,31 @@ mod tests {
         renamed.basis = "sh4".into(); // 6 channels declared as a 4-coefficient basis
         let b = surface_exr_to_bytes(&[renamed]).unwrap();
         assert!(surface_exr_from_bytes(&b).unwrap_err().contains("does not have"));
+    }
+
+    /// Version 2 stores the lighting fingerprint and the invalid-texel counters (u64, beyond
+    /// i32 and f64's exact range too); files of any other version are refused with a message
+    /// naming the version.
+    #[test]
+    fn lighting_counts_and_version() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("v.exr");
+        let mut m = sample_map("floor", 3, 2);
+        m.invalid = InvalidCounts { invalid_texels: u64::MAX, moved: (1 << 53) + 1, dilated: 0, unfilled: 1 };
+        m.lighting = "lighting=1; environment=map 4x2 fnv1a64=0123456789abcdef; bounces=3".into();
+        write_surface_exr(&p, std::slice::from_ref(&m)).unwrap();
+        let back = read_surface_exr(&p).unwrap();
+        assert_eq!(back[0].lighting, m.lighting);
+        assert_eq!(back[0].invalid, m.invalid);
+        assert_eq!(back, vec![m.clone()]);
+        for v in [1, 3] {
+            std::fs::write(&p, to_bytes(std::slice::from_ref(&m), v).unwrap()).unwrap();
+            let e = read_surface_exr(&p).unwrap_err();
+            let text = e.to_string();
+            assert!(matches!(e, SurfaceError::Exr { .. }), "{text}");
+            assert!(
+                text.contains(&format!("lightvol.version {v} is not supported")) && text.contains("re-bake")
+            );
+        }
     }
 }

@@ -29,6 +29,28 @@ pub struct CoefficientMap {
     pub data: Vec<[f32; 3]>,
     /// Per texel: [`VALID_BAKED`], [`VALID_DILATED`] or [`VALID_EMPTY`].
     pub valid: Vec<f32>,
+    /// What lit the bake: [`lighting_fingerprint`](super::lighting_fingerprint) of the scene
+    /// and bounce count (EXR attribute `lightvol.lighting`). A renderer compares it with the
+    /// fingerprint of the scene it shades to detect maps baked under other lighting.
+    pub lighting: String,
+    /// This object's invalid-texel counters (the bake's
+    /// [`SurfaceReport`](super::SurfaceReport) sums them over objects).
+    pub invalid: InvalidCounts,
+}
+
+/// Invalid-texel counters of one object (seed 000's domain of interest applied to texels):
+/// `invalid_texels = moved + dilated + unfilled` with [`InvalidTexels::Fix`](super::InvalidTexels),
+/// `moved = dilated = unfilled = 0` with `Keep`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct InvalidCounts {
+    /// Covered texels with at least one sample point that saw a back face.
+    pub invalid_texels: u64,
+    /// Invalid texels whose samples were all re-drawn in the valid part of the footprint.
+    pub moved: u64,
+    /// Invalid texels with no valid point, filled from valid neighbours.
+    pub dilated: u64,
+    /// Invalid texels no dilation reached (left 0, `valid` = 0).
+    pub unfilled: u64,
 }
 
 /// `valid` of a texel baked from its own (in-domain) samples.
@@ -237,6 +259,8 @@ mod tests {
             uv_set: UvSet::Lightmap,
             data,
             valid,
+            lighting: String::new(),
+            invalid: InvalidCounts::default(),
         }
     }
 

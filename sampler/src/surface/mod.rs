@@ -18,7 +18,8 @@
 //! 4. [`map`]: texels with no valid point are dilated from valid neighbours; the gutter
 //!    around charts is dilated too. [`CoefficientMap::shade`] evaluates a map at a
 //!    tangent-space normal.
-//! 5. [`exr`]: one multi-part EXR per bake, one part per object.
+//! 5. [`exr`]: one multi-part EXR per bake, one part per object, with the bake's
+//!    [`lighting_fingerprint`] and the object's [`InvalidCounts`].
 //!
 //! [`reference_surface_irradiance`] path-traces the quantity the maps approximate.
 
@@ -27,6 +28,7 @@ pub mod bake;
 pub mod error;
 pub mod exr;
 pub mod geometry;
+pub mod lighting;
 pub mod map;
 pub mod reference;
 pub mod tangent;
@@ -40,7 +42,8 @@ pub use bake::{SurfaceBake, SurfaceReport, SurfaceSettings, bake_surface};
 pub use error::SurfaceError;
 pub use exr::{read_surface_exr, write_surface_exr};
 pub use geometry::{SurfaceGeometry, SurfaceObject};
-pub use map::CoefficientMap;
+pub use lighting::lighting_fingerprint;
+pub use map::{CoefficientMap, InvalidCounts};
 pub use reference::reference_surface_irradiance;
 pub use tangent::TangentFrame;
 

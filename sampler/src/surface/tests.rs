@@ -347,6 +347,34 @@ fn acceptance_3_intersecting_boxes() {
     assert_eq!(r.invalid_texels, r.moved + r.dilated + r.unfilled);
     assert!(kept.report.invalid_texels > 0);
     assert_eq!((kept.report.moved, kept.report.dilated), (0, 0));
+    // Per-object counters in the maps sum to the report; the maps carry the lighting.
+    for bake in [&fixed, &kept] {
+        let sum = bake.maps.iter().fold(InvalidCounts::default(), |a, m| InvalidCounts {
+            invalid_texels: a.invalid_texels + m.invalid.invalid_texels,
+            moved: a.moved + m.invalid.moved,
+            dilated: a.dilated + m.invalid.dilated,
+            unfilled: a.unfilled + m.invalid.unfilled,
+        });
+        let r = &bake.report;
+        assert_eq!(
+            sum,
+            InvalidCounts {
+                invalid_texels: r.invalid_texels,
+                moved: r.moved,
+                dilated: r.dilated,
+                unfilled: r.unfilled
+            }
+        );
+        for m in &bake.maps {
+            assert!(m.invalid.invalid_texels > 0, "{}: {:?}", m.object, m.invalid);
+            assert_eq!(m.lighting, lighting_fingerprint(&scene, 1));
+            assert!(m.lighting.ends_with("; bounces=1"), "{}", m.lighting);
+        }
+    }
+    for m in &fixed.maps {
+        let c = m.invalid;
+        assert_eq!(c.invalid_texels, c.moved + c.dilated + c.unfilled, "{}", m.object);
+    }
 
     let sh9 = lightvol_hemibasis::ShBasis::new(3);
     let (mut mixed, mut adjacent) = (0, 0);
@@ -809,6 +837,10 @@ fn bake_writes_and_reads_exr() {
     let p = d.path().join("m.exr");
     write_surface_exr(&p, &bake.maps).unwrap();
     assert_eq!(read_surface_exr(&p).unwrap(), bake.maps);
+    // The lighting fingerprint of the scene and the transport's bounces travel with the maps.
+    assert_eq!(bake.maps[0].lighting, lighting_fingerprint(&scene, TransportSettings::default().bounces));
+    assert!(bake.maps[0].lighting.contains("environment=uniform_sky sky=[1.0, 1.0, 1.0] ground=none"));
+    assert_eq!(bake.maps[0].invalid, InvalidCounts::default());
     let _: &dyn HemiBasis = bake.maps[0].basis().unwrap().as_ref();
 }
 

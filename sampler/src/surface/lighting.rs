@@ -1,0 +1,253 @@
+//! The lighting fingerprint: a canonical text of everything that lights a scene, stored with
+//! every coefficient map so that a renderer can tell whether the maps were baked under the
+//! scene's current lighting.
+//!
+//! The text is deterministic (the same scene and bounce count give the same bytes on every
+//! machine and thread count) and lists, separated by `"; "`:
+//! - `lighting=1`: the format version of this text;
+//! - `environment=black`, `environment=uniform_sky sky=[r, g, b] ground=none|[r, g, b]`, or
+//!   `environment=map WxH fnv1a64=HEX` (FNV-1a of the map's texels, see [`env_map_hash`];
+//!   the scene keeps no file path, so the pixels identify the map);
+//! - `sun=none` or `sun direction=[x, y, z] irradiance=[r, g, b] angular_radius=a`;
+//! - `punctual=N` followed by one entry per light (`point position=… intensity=…`,
+//!   `spot position=… axis=… intensity=… inner=… outer=…`, `directional to_light=…
+//!   irradiance=…`), in scene order; beyond [`MAX_LISTED_PUNCTUAL`] lights only the count and
+//!   an FNV-1a hash of the full list;
+//! - `emissive materials=M triangles=T emission_area=[r, g, b]`: the emissive materials used
+//!   by some triangle, the emissive triangles, and `Σ area · emission · sides` over them
+//!   (emitted flux / π, W/π in scene units; sides = 2 for double-sided materials);
+//! - `bounces=B`: the transport's bounce count before Russian roulette.
+//!
+//! Numbers are Rust's shortest round-trip `f64` text (`-0` written as `0`), so two scenes
+//! share a fingerprint exactly when these values are bit-identical.
+
+use glam::DVec3;
+
+use crate::lights::{Environment, PunctualLight};
+use crate::scene::Scene;
+
+/// Punctual lights listed one by one in the fingerprint; more are summarised by count and
+/// hash (keeps the EXR attribute small for scenes with thousands of lights).
+pub const MAX_LISTED_PUNCTUAL: usize = 16;
+
+/// FNV-1a 64-bit offset basis (Fowler, Noll, Vo; the published parameters, checked against the
+/// published test vectors in the tests).
+const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
+/// FNV-1a 64-bit prime, `2^40 + 2^8 + 0xb3`.
+const FNV_PRIME: u64 = (1 << 40) + (1 << 8) + 0xb3;
+
+/// FNV-1a 64 of `bytes`, continuing from `h` (start with the offset basis).
+fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
+    for &b in bytes {
+        h ^= u64::from(b);
+        h = h.wrapping_mul(FNV_PRIME);
+    }
+    h
+}
+
+/// `f64` as canonical text (shortest round trip, negative zero as zero).
+fn num(x: f64) -> String {
+    format!("{:?}", x + 0.0)
+}
+
+fn vec3(v: [f64; 3]) -> String {
+    format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
+}
+
+fn dvec(v: DVec3) -> String {
+    vec3(v.to_array())
+}
+
+/// FNV-1a 64 of an environment map's texels: width and height (u64 little endian), then
+/// every texel row by row (row 0 at the zenith), R, G, B as little-endian `f32` bits. The
+/// texels are read through [`EnvMap::radiance`](crate::envmap::EnvMap::radiance) at texel
+/// centres (the map is piecewise constant, nearest texel).
+#[must_use]
+pub fn env_map_hash(map: &crate::envmap::EnvMap) -> u64 {
+    let (w, h) = (map.width(), map.height());
+    let mut hash = fnv1a(FNV_OFFSET, &(w as u64).to_le_bytes());
+    hash = fnv1a(hash, &(h as u64).to_le_bytes());
+    for y in 0..h {
+        let theta = std::f64::consts::PI * (y as f64 + 0.5) / h as f64;
+        for x in 0..w {
+            let phi = 2.0 * std::f64::consts::PI * (x as f64 + 0.5) / w as f64;
+            let dir = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+            for c in map.radiance(dir) {
+                // Exact: the map stores f32.
+                hash = fnv1a(hash, &(c as f32).to_bits().to_le_bytes());
+            }
+        }
+    }
+    hash
+}
+
+fn punctual(l: &PunctualLight) -> String {
+    match *l {
+        PunctualLight::Point { position, intensity } => {
+            format!("point position={} intensity={}", dvec(position), vec3(intensity))
+        }
+        PunctualLight::Spot { position, axis, intensity, inner, outer } => format!(
+            "spot position={} axis={} intensity={} inner={} outer={}",
+            dvec(position),
+            dvec(axis),
+            vec3(intensity),
+            num(inner),
+            num(outer)
+        ),
+        PunctualLight::Directional { to_light, irradiance } => {
+            format!("directional to_light={} irradiance={}", dvec(to_light), vec3(irradiance))
+        }
+    }
+}
+
+/// The lighting fingerprint of `scene` baked with `bounces` diffuse bounces (format in the
+/// module docs). Stored in every [`CoefficientMap`](super::CoefficientMap) as `lighting` and
+/// in the EXR part attribute `lightvol.lighting`.
+#[must_use]
+pub fn lighting_fingerprint(scene: &Scene, bounces: u32) -> String {
+    let mut parts = vec!["lighting=1".to_owned()];
+    parts.push(match &scene.environment {
+        Environment::Black => "environment=black".to_owned(),
+        Environment::UniformSky { sky, ground } => format!(
+            "environment=uniform_sky sky={} ground={}",
+            vec3(*sky),
+            ground.map_or_else(|| "none".to_owned(), vec3)
+        ),
+        Environment::Map(m) => {
+            format!("environment=map {}x{} fnv1a64={:016x}", m.width(), m.height(), env_map_hash(m))
+        }
+    });
+    parts.push(match &scene.sun {
+        None => "sun=none".to_owned(),
+        Some(s) => format!(
+            "sun direction={} irradiance={} angular_radius={}",
+            dvec(s.direction),
+            vec3(s.irradiance),
+            num(s.angular_radius)
+        ),
+    });
+    let lights: Vec<String> = scene.punctual.iter().map(punctual).collect();
+    if lights.len() <= MAX_LISTED_PUNCTUAL {
+        let mut p = format!("punctual={}", lights.len());
+        for l in &lights {
+            p.push_str(" | ");
+            p.push_str(l);
+        }
+        parts.push(p);
+    } else {
+        let hash = lights.iter().fold(FNV_OFFSET, |h, l| fnv1a(fnv1a(h, l.as_bytes()), b"\n"));
+        parts.push(format!("punctual={} fnv1a64={hash:016x}", lights.len()));
+    }
+    let mut used = vec![false; scene.materials.len()];
+    let mut triangles = 0u64;
+    let mut total = [0.0f64; 3];
+    for t in &scene.triangles {
+        let Some(m) = scene.materials.get(t.material as usize) else { continue };
+        if !m.is_emissive() {
+            continue;
+        }
+        used[t.material as usize] = true;
+        triangles += 1;
+        let sides = if m.double_sided { 2.0 } else { 1.0 };
+        for (acc, e) in total.iter_mut().zip(m.emission) {
+            *acc += t.area() * e * sides;
+        }
+    }
+    let materials = used.iter().filter(|&&u| u).count();
+    parts.push(format!("emissive materials={materials} triangles={triangles} emission_area={}", vec3(total)));
+    parts.push(format!("bounces={bounces}"));
+    parts.join("; ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::envmap::EnvMap;
+    use crate::lights::Sun;
+    use crate::scene::{Material, SceneBuilder};
+    use glam::DVec2;
+
+    /// The FNV-1a 64 parameters reproduce the published test vectors ("" and "a", "foobar").
+    #[test]
+    fn fnv1a_test_vectors() {
+        assert_eq!(fnv1a(FNV_OFFSET, b""), 0xcbf2_9ce4_8422_2325);
+        assert_eq!(fnv1a(FNV_OFFSET, b"a"), 0xaf63_dc4c_8601_ec8c);
+        assert_eq!(fnv1a(FNV_OFFSET, b"foobar"), 0x8594_4171_f739_67e8);
+        assert_eq!(FNV_PRIME, 0x0000_0100_0000_01b3);
+    }
+
+    /// The environment-map hash equals FNV-1a of the texels written out independently (so
+    /// every texel is read once, at its own centre), and changes with one texel.
+    #[test]
+    fn env_map_hash_reads_every_texel() {
+        let (w, h) = (7usize, 5usize);
+        let texels: Vec<[f32; 3]> =
+            (0..w * h).map(|i| [i as f32 * 0.5, 1.0 / (1.0 + i as f32), (i % 3) as f32]).collect();
+        let mut bytes = Vec::new();
+        bytes.extend_from_slice(&(w as u64).to_le_bytes());
+        bytes.extend_from_slice(&(h as u64).to_le_bytes());
+        for t in &texels {
+            for c in t {
+                bytes.extend_from_slice(&c.to_bits().to_le_bytes());
+            }
+        }
+        let map = EnvMap::from_linear(w, h, texels.clone()).unwrap();
+        assert_eq!(env_map_hash(&map), fnv1a(FNV_OFFSET, &bytes));
+        let mut other = texels;
+        other[w * h - 1][1] += 1e-3;
+        assert_ne!(env_map_hash(&EnvMap::from_linear(w, h, other).unwrap()), env_map_hash(&map));
+    }
+
+    fn scene() -> SceneBuilder {
+        let mut b = SceneBuilder::new("l");
+        let m = b.add_material(Material::diffuse("d", [0.5; 3])).unwrap();
+        let e = b.add_material(Material::emitter("e", [0.5; 3], [2.0, 1.0, 0.5]).two_sided()).unwrap();
+        let _unused = b.add_material(Material::emitter("u", [0.5; 3], [9.0; 3])).unwrap();
+        b.add_triangle([DVec3::ZERO, DVec3::X, DVec3::Y], [DVec2::ZERO; 3], m).unwrap();
+        // Area 2 (legs 2): emission_area = 2 · (2, 1, 0.5) · 2 sides = (8, 4, 2).
+        b.add_triangle([DVec3::Z, DVec3::Z + 2.0 * DVec3::X, DVec3::Z + 2.0 * DVec3::Y], [DVec2::ZERO; 3], e)
+            .unwrap();
+        b
+    }
+
+    /// The text of a known scene, written out by hand; each lighting input changes it, the
+    /// geometry's albedo alone does not.
+    #[test]
+    fn fingerprint_text_and_sensitivity() {
+        let mut b = scene();
+        b.environment = Environment::UniformSky { sky: [1.0, 0.5, 0.25], ground: None };
+        b.sun = Some(Sun { direction: DVec3::Z, irradiance: [3.0; 3], angular_radius: 0.0 });
+        let s = b.build().unwrap();
+        let f = lighting_fingerprint(&s, 2);
+        assert_eq!(
+            f,
+            "lighting=1; environment=uniform_sky sky=[1.0, 0.5, 0.25] ground=none; \
+             sun direction=[0.0, 0.0, 1.0] irradiance=[3.0, 3.0, 3.0] angular_radius=0.0; punctual=0; \
+             emissive materials=1 triangles=1 emission_area=[8.0, 4.0, 2.0]; bounces=2"
+        );
+        assert_eq!(lighting_fingerprint(&s, 2), f, "deterministic");
+        assert_ne!(lighting_fingerprint(&s, 3), f);
+        let mut s2 = s.clone();
+        s2.sun.as_mut().unwrap().angular_radius = 0.01;
+        assert_ne!(lighting_fingerprint(&s2, 2), f);
+        let mut s3 = s.clone();
+        s3.punctual.push(PunctualLight::Point { position: DVec3::new(1.0, -0.0, 2.0), intensity: [1.0; 3] });
+        let f3 = lighting_fingerprint(&s3, 2);
+        assert!(f3.contains("punctual=1 | point position=[1.0, 0.0, 2.0] intensity=[1.0, 1.0, 1.0]"), "{f3}");
+        let mut s4 = s.clone();
+        s4.materials[1].emission[0] = 2.5;
+        assert_ne!(lighting_fingerprint(&s4, 2), f);
+        let mut s5 = s.clone();
+        s5.materials[0].albedo = [0.9; 3];
+        assert_eq!(lighting_fingerprint(&s5, 2), f);
+        // Many punctual lights: count and hash, and the hash sees each one.
+        let mut s6 = s.clone();
+        for i in 0..=MAX_LISTED_PUNCTUAL {
+            s6.punctual.push(PunctualLight::Directional { to_light: DVec3::Z, irradiance: [i as f64; 3] });
+        }
+        let f6 = lighting_fingerprint(&s6, 2);
+        assert!(f6.contains(&format!("punctual={} fnv1a64=", MAX_LISTED_PUNCTUAL + 1)), "{f6}");
+        s6.punctual[3] = PunctualLight::Directional { to_light: DVec3::Z, irradiance: [0.5; 3] };
+        assert_ne!(lighting_fingerprint(&s6, 2), f6);
+    }
+}
