@@ -39,7 +39,8 @@ pub enum Command {
     /// path-traced reference (Sloan et al. 2007).
     Proxies(crate::cmd_proxies::ProxiesArgs),
     /// Render a view shaded by a baked volume (or path-traced with --reference): the
-    /// "helicopter" view that shows leaking.
+    /// "helicopter" view that shows leaking; with --surface DIR, lightmapped surfaces shaded
+    /// from bake-surface's coefficient maps next to a path-traced reference.
     Render(crate::cmd_render::RenderArgs),
     /// List the Vulkan devices the GPU evaluator can use, and the one it selects.
     GpuInfo(crate::cmd_gpu::GpuInfoArgs),

@@ -138,7 +138,7 @@ pub struct BakeSurfaceArgs {
 }
 
 /// Error of one storage encoding, measured on the covered texels.
-#[derive(Debug, Serialize, Clone, Copy)]
+#[derive(Debug, Serialize, Clone)]
 pub struct EncodingJson {
     /// Relative RMS irradiance error over covered texels, channels and the hemisphere of
     /// normals (exact, `Δcᵀ G Δc`), against the f32 maps.
@@ -149,8 +149,12 @@ pub struct EncodingJson {
     pub max_coeff_error: f64,
     /// Values clamped: DC outside `[0, 1]`, others outside `[-range, range]`.
     pub clamped: [usize; 2],
-    /// Bytes per texel of this storage (all coefficients).
+    /// Bytes per texel of this storage (all coefficients), as named by [`Self::storage`].
     pub bytes_per_texel: f64,
+    /// The storage `bytes_per_texel` counts: `"RGB8 PNG"` (3 bytes per coefficient; also
+    /// given when no textures were written), `"RGBA8 KTX2"` (4 bytes per coefficient: the
+    /// alpha byte is stored), `"BC1 KTX2"` (0.5) or `"BC7 KTX2"` (1).
+    pub storage: String,
 }
 
 /// One object's map in the summary.
@@ -435,9 +439,23 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
         let k = basis.len();
         let mut encodings = std::collections::BTreeMap::new();
         let stored = store(basis.as_ref(), &out.maps, &enc, scale, &formats);
-        encodings.insert("rgb8".to_owned(), json_of(&stored.rgb8.0, &stored.rgb8.1, 3.0 * k as f64));
+        // The 8-bit error is the same for PNG and KTX2; the bytes are those of the file kind
+        // written (uncompressed KTX2 is RGBA8).
+        let (rgb8_storage, rgb8_bytes) = if encode == Some(EncodeFormat::Ktx2) && formats.is_empty() {
+            ("RGBA8 KTX2", 4.0)
+        } else {
+            ("RGB8 PNG", 3.0)
+        };
+        encodings.insert(
+            "rgb8".to_owned(),
+            json_of(&stored.rgb8.0, &stored.rgb8.1, rgb8_bytes * k as f64, rgb8_storage),
+        );
         for (f, _, e) in &stored.blocks {
-            encodings.insert(f.name().to_owned(), json_of(e, &stored.rgb8.1, f.bytes_per_texel() * k as f64));
+            let storage = format!("{} KTX2", f.name().to_uppercase());
+            encodings.insert(
+                f.name().to_owned(),
+                json_of(e, &stored.rgb8.1, f.bytes_per_texel() * k as f64, &storage),
+            );
         }
         let mut files = vec![format!("{tag}.exr"), format!("{tag}.json")];
         if let Some(format) = encode {
@@ -547,8 +565,9 @@ fn ensure_parent(path: &Path) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn json_of(e: &MapError, c: &ClampStats, bytes_per_texel: f64) -> EncodingJson {
+fn json_of(e: &MapError, c: &ClampStats, bytes_per_texel: f64, storage: &str) -> EncodingJson {
     EncodingJson {
+        storage: storage.to_owned(),
         rel_rms: e.rel_rms,
         rms: e.rms,
         max_coeff_error: e.max_coeff_error,

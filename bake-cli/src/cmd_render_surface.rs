@@ -15,7 +15,8 @@
 //!   "invalid_texels", "reference": {"image", "samples"}, "pixels", "normal_map"}`.
 //! `rel_rmse = sqrt(Σ (I_b - I_ref)²) / sqrt(Σ I_ref²)` over the lightmapped pixels and
 //! the three channels of the shaded radiance (albedo × irradiance / π). `bytes_per_texel`
-//! is the 8-bit storage of seed 003 §2.2.3: 3 bytes (RGB) per coefficient.
+//! is the 8-bit storage of seed 003 §2.2.3 as RGB8 (PNG): 3 bytes per coefficient (an
+//! uncompressed RGBA8 KTX2 stores 4, BC7 1, BC1 0.5; see `bake-surface`'s summary).
 //!
 //! Normal maps (`--normal-map`): `procedural[:FREQ[:SLOPE]]` (default), the height field
 //! `h = A sin(2π f u) sin(2π f v)` with `A 2π f = SLOPE` (default f = 4 cycles per UV unit,
@@ -156,7 +157,7 @@ const MIN_Z: f64 = 0.017_452_406_437_283_51; // sin(1°)
 pub struct BasisReport {
     /// Relative RMSE against the path-traced reference.
     pub rel_rmse: f64,
-    /// 8-bit storage per texel: 3 bytes per coefficient.
+    /// 8-bit storage per texel as RGB8 (PNG): 3 bytes per coefficient (RGBA8 KTX2 stores 4).
     pub bytes_per_texel: usize,
     /// Coefficients per channel.
     pub coefficients: usize,

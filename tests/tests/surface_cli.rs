@@ -207,6 +207,12 @@ fn bake_writes_maps_encodings_and_summary() {
         }
         assert!(v["encodings"]["bc7"]["rel_rms"].as_f64() < v["encodings"]["bc1"]["rel_rms"].as_f64());
         assert_eq!(v["encodings"]["bc1"]["bytes_per_texel"], 0.5 * k as f64);
+        assert_eq!(v["encodings"]["bc1"]["storage"], "BC1 KTX2");
+        assert_eq!(v["encodings"]["bc7"]["bytes_per_texel"], k as f64);
+        assert_eq!(v["encodings"]["bc7"]["storage"], "BC7 KTX2");
+        // No uncompressed textures were written: the 8-bit entry counts RGB8 as a PNG stores it.
+        assert_eq!(v["encodings"]["rgb8"]["bytes_per_texel"], 3.0 * k as f64);
+        assert_eq!(v["encodings"]["rgb8"]["storage"], "RGB8 PNG");
         // The files on disk are what was measured: decoded back, they give the reported error.
         assert_files_measured(&out, tag, "bc1", Stored::Block(BlockFormat::Bc1));
         assert_files_measured(&out, tag, "bc7", Stored::Block(BlockFormat::Bc7));
@@ -340,6 +346,11 @@ fn render_matches_maps_to_objects_and_refuses_another_scene() {
     assert_eq!(run(&bake), Ok(ExitCode::SUCCESS));
     // The uncompressed KTX2 planes (RGBA8, DC plane `_SRGB`) decode to the reported error.
     assert_files_measured(&maps, "hbasis_mod4", "rgb8", Stored::Ktx2);
+    // Uncompressed KTX2 planes are RGBA8: 4 bytes per coefficient.
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(maps.join("hbasis_mod4.json")).unwrap()).unwrap();
+    assert_eq!(v["encodings"]["rgb8"]["bytes_per_texel"], 16.0);
+    assert_eq!(v["encodings"]["rgb8"]["storage"], "RGBA8 KTX2");
     let shots = dir.path().join("shots");
     let render = [
         "render",
