@@ -83,6 +83,9 @@ pub struct Footprint {
     pub pieces: Vec<Piece>,
     /// Total area (texels²).
     pub area: f64,
+    /// UV chart of the primary triangle (see [`Atlas::build`]); dilation only crosses between
+    /// texels of one chart.
+    pub chart: u32,
 }
 
 impl Footprint {
@@ -167,6 +170,7 @@ impl Atlas {
             }
         }
         raw.sort_by_key(|(t, _)| *t); // stable: triangle order within a texel
+        let chart_of = charts(geo, obj);
         let mut footprints = Vec::new();
         let mut i = 0;
         while i < raw.len() {
@@ -186,11 +190,53 @@ impl Atlas {
                     texel: [x, y],
                 });
             }
-            footprints.push(select(geo, texel, w, h, group));
+            let mut fp = select(geo, texel, w, h, group);
+            fp.chart = chart_of(fp.pieces[0].tri);
+            footprints.push(fp);
             i = j;
         }
         Ok(Self { width: w, height: h, footprints })
     }
+}
+
+/// UV charts of an object: triangles joined by a shared UV edge (both endpoints bit-identical
+/// UVs, either direction) are in one chart. Returns the chart of a scene triangle; charts are
+/// numbered by their first triangle in face order.
+fn charts(geo: &SurfaceGeometry, obj: &SurfaceObject) -> impl Fn(u32) -> u32 {
+    fn find(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let n = obj.triangles.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    /// A UV point by its bits.
+    type Point = (u64, u64);
+    let key = |p: DVec2| -> Point { (p.x.to_bits(), p.y.to_bits()) };
+    let mut edges: std::collections::HashMap<(Point, Point), usize> = Default::default();
+    for (i, &tri) in obj.triangles.iter().enumerate() {
+        let uv = geo.triangle(tri).expect("object triangle").uv;
+        for k in 0..3 {
+            let (a, b) = (key(uv[k]), key(uv[(k + 1) % 3]));
+            let e = if a <= b { (a, b) } else { (b, a) };
+            match edges.entry(e) {
+                std::collections::hash_map::Entry::Occupied(o) => {
+                    let (ra, rb) = (find(&mut parent, i), find(&mut parent, *o.get()));
+                    // The smaller root wins: numbering by first triangle, order independent.
+                    let (lo, hi) = (ra.min(rb), ra.max(rb));
+                    parent[hi] = lo;
+                }
+                std::collections::hash_map::Entry::Vacant(v) => {
+                    v.insert(i);
+                }
+            }
+        }
+    }
+    let index: std::collections::HashMap<u32, u32> =
+        obj.triangles.iter().enumerate().map(|(i, &t)| (t, find(&mut parent, i) as u32)).collect();
+    move |tri| index[&tri]
 }
 
 /// Orders a texel's pieces primary-first and drops those facing too differently.
@@ -219,7 +265,7 @@ fn select(geo: &SurfaceGeometry, texel: u32, w: u32, h: u32, mut group: Vec<Piec
     // Keep triangle order after the primary for determinism independent of the swap.
     pieces[1..].sort_by_key(|p| p.tri);
     let area = pieces.iter().map(|p| p.area).sum();
-    Footprint { texel, pieces, area }
+    Footprint { texel, pieces, area, chart: 0 }
 }
 
 /// Smallest signed distance (texels) of `c` inside the triangle `q` (either winding);
@@ -464,7 +510,7 @@ mod tests {
                 Piece { tri, area: polygon_area(&poly[..len]), poly, len: len as u8 }
             })
             .collect();
-        let fp = Footprint { texel: 0, area: 1.0, pieces };
+        let fp = Footprint { texel: 0, area: 1.0, pieces, chart: 0 };
         let h = crate::qmc::Qmc::<3>::new(1, 2);
         let mut counts = [0u32; 2];
         let mut left = 0;

@@ -14,7 +14,7 @@ use rayon::prelude::*;
 use super::atlas::{Atlas, atlas_size};
 use super::geometry::SurfaceGeometry;
 use super::lighting::lighting_fingerprint;
-use super::map::{CoefficientMap, InvalidCounts, TexelState, dilate};
+use super::map::{CoefficientMap, InvalidCounts, TexelKey, TexelState, dilate};
 use super::texel::{TexelJob, TexelOut};
 use super::{BasisChoice, InvalidTexels, Quantity, SurfaceError, UvSet};
 use crate::bake::{BakeControl, Progress};
@@ -192,6 +192,11 @@ pub fn bake_surface_with(
         let n = atlas.width as usize * atlas.height as usize;
         let mut data = vec![[0.0f32; 3]; n * k];
         let mut state = vec![TexelState::Empty; n];
+        let mut keys: Vec<Option<TexelKey>> = vec![None; n];
+        for fp in &atlas.footprints {
+            let normal = geo.geometric_normal(fp.pieces[0].tri);
+            keys[fp.texel as usize] = Some(TexelKey { chart: fp.chart, normal });
+        }
         let mut invalid = InvalidCounts::default();
         for part in atlas.footprints.chunks(chunk) {
             let outs: Vec<Option<TexelOut>> = part
@@ -231,7 +236,7 @@ pub fn bake_surface_with(
                 p(Progress { done, total });
             }
         }
-        let d = dilate(&mut data, &mut state, [atlas.width, atlas.height], k, settings.gutter);
+        let d = dilate(&mut data, &mut state, &mut keys, [atlas.width, atlas.height], k, settings.gutter);
         invalid.dilated = d.dilated;
         invalid.unfilled = d.unfilled;
         report.invalid_texels += invalid.invalid_texels;

@@ -2,6 +2,7 @@
 //! shading at a tangent-space normal (seed 003 §2.5.1, Listing 2.2 without the 8-bit
 //! encoding).
 
+use glam::DVec3;
 use lightvol_hemibasis::HemiBasis;
 
 use super::{BasisChoice, Quantity, SurfaceError, UvSet};
@@ -83,6 +84,22 @@ impl TexelState {
     }
 }
 
+/// What a texel's value belongs to: its primary triangle's UV chart and geometric normal.
+/// Dilation only takes values from neighbours with the same chart whose normals are within
+/// [`FOOTPRINT_MIN_COS`](super::atlas::FOOTPRINT_MIN_COS) (the footprint's own rule), so an
+/// invalid or gutter texel never mixes in a chart packed beside it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct TexelKey {
+    pub chart: u32,
+    pub normal: DVec3,
+}
+
+impl TexelKey {
+    fn accepts(&self, other: &Self) -> bool {
+        self.chart == other.chart && self.normal.dot(other.normal) >= super::atlas::FOOTPRINT_MIN_COS
+    }
+}
+
 /// Counters of [`dilate`].
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub(crate) struct DilateCounts {
@@ -94,32 +111,50 @@ pub(crate) struct DilateCounts {
 /// Fills `NeedsFill` texels from neighbours that hold values, pass by pass (each pass reads
 /// only the previous pass's values: Jacobi order, deterministic), until none is left or a pass
 /// fills nothing; then `gutter` passes fill `Empty` texels the same way. A filled texel is the
-/// plain average of its (up to 8) neighbours with values.
+/// plain average of its (up to 8) neighbours with values whose [`TexelKey`] its own accepts.
+/// `keys` holds the key of every covered texel; an `Empty` texel takes the key of its first
+/// valued neighbour (edge neighbours left, right, up, down, then the diagonals) when the
+/// gutter fills it.
 pub(crate) fn dilate(
     data: &mut [[f32; 3]],
     state: &mut [TexelState],
+    keys: &mut [Option<TexelKey>],
     [w, h]: [u32; 2],
     k: usize,
     gutter: u32,
 ) -> DilateCounts {
     let mut counts = DilateCounts::default();
-    let pass = |target: TexelState, to: TexelState, data: &mut [[f32; 3]], state: &mut [TexelState]| {
-        let mut fills: Vec<(usize, Vec<[f32; 3]>)> = Vec::new();
+    let inside = |x: i64, y: i64| x >= 0 && y >= 0 && x < i64::from(w) && y < i64::from(h);
+    let idx = |x: i64, y: i64| (y * i64::from(w) + x) as usize;
+    let pass = |target: TexelState,
+                to: TexelState,
+                data: &mut [[f32; 3]],
+                state: &mut [TexelState],
+                keys: &mut [Option<TexelKey>]| {
+        let mut fills: Vec<(usize, Vec<[f32; 3]>, TexelKey)> = Vec::new();
         for y in 0..h as i64 {
             for x in 0..w as i64 {
-                let t = (y * i64::from(w) + x) as usize;
+                let t = idx(x, y);
                 if state[t] != target {
                     continue;
                 }
+                let own = keys[t].or_else(|| {
+                    [(-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, -1), (-1, 1), (1, 1)]
+                        .into_iter()
+                        .map(|(dx, dy)| (x + dx, y + dy))
+                        .filter(|&(nx, ny)| inside(nx, ny) && state[idx(nx, ny)].has_value())
+                        .find_map(|(nx, ny)| keys[idx(nx, ny)])
+                });
+                let Some(own) = own else { continue };
                 let mut acc = vec![[0.0f64; 3]; k];
                 let mut n = 0;
                 for (dx, dy) in [(-1, -1), (0, -1), (1, -1), (-1, 0), (1, 0), (-1, 1), (0, 1), (1, 1)] {
                     let (nx, ny) = (x + dx, y + dy);
-                    if nx < 0 || ny < 0 || nx >= i64::from(w) || ny >= i64::from(h) {
+                    if !inside(nx, ny) {
                         continue;
                     }
-                    let s = (ny * i64::from(w) + nx) as usize;
-                    if !state[s].has_value() {
+                    let s = idx(nx, ny);
+                    if !state[s].has_value() || !keys[s].is_some_and(|key| own.accepts(&key)) {
                         continue;
                     }
                     n += 1;
@@ -131,18 +166,19 @@ pub(crate) fn dilate(
                 }
                 if n > 0 {
                     let inv = 1.0 / f64::from(n);
-                    fills.push((t, acc.iter().map(|a| a.map(|v| (v * inv) as f32)).collect()));
+                    fills.push((t, acc.iter().map(|a| a.map(|v| (v * inv) as f32)).collect(), own));
                 }
             }
         }
-        for (t, v) in &fills {
+        for (t, v, key) in &fills {
             data[t * k..(t + 1) * k].copy_from_slice(v);
             state[*t] = to;
+            keys[*t] = Some(*key);
         }
         fills.len() as u64
     };
     loop {
-        let filled = pass(TexelState::NeedsFill, TexelState::Dilated, data, state);
+        let filled = pass(TexelState::NeedsFill, TexelState::Dilated, data, state, keys);
         counts.dilated += filled;
         if filled == 0 {
             break;
@@ -150,7 +186,7 @@ pub(crate) fn dilate(
     }
     counts.unfilled = state.iter().filter(|&&s| s == TexelState::NeedsFill).count() as u64;
     for _ in 0..gutter {
-        let filled = pass(TexelState::Empty, TexelState::Gutter, data, state);
+        let filled = pass(TexelState::Empty, TexelState::Gutter, data, state, keys);
         counts.gutter += filled;
         if filled == 0 {
             break;
@@ -304,7 +340,12 @@ mod tests {
         state[1] = NeedsFill;
         state[2] = NeedsFill;
         state[17] = NeedsFill;
-        let c = dilate(&mut data, &mut state, [w, h], 1, 1);
+        let key = Some(TexelKey { chart: 0, normal: DVec3::Z });
+        let mut keys = vec![None; 18];
+        for t in [0, 1, 2, 17] {
+            keys[t] = key;
+        }
+        let c = dilate(&mut data, &mut state, &mut keys, [w, h], 1, 1);
         assert_eq!((c.dilated, c.unfilled), (2, 1));
         assert_eq!(data[1], [2.0; 3]);
         assert_eq!(data[2], [2.0; 3]);
@@ -314,5 +355,43 @@ mod tests {
         assert_eq!(state[3], Gutter);
         assert_eq!(state[4], Empty);
         assert_eq!(state[6].valid_value(), VALID_DILATED);
+        assert_eq!(keys[3], key);
+    }
+
+    /// An invalid texel between its own chart (value 1) and another chart (value 10), or a
+    /// texel of its chart facing 90° away, takes its own chart's value only; a gutter texel
+    /// between two charts takes its first edge neighbour's chart (the left one).
+    #[test]
+    fn dilation_stays_in_its_chart() {
+        use TexelState::*;
+        let k0 = TexelKey { chart: 0, normal: DVec3::Z };
+        let k1 = TexelKey { chart: 1, normal: DVec3::Z };
+        let side = TexelKey { chart: 0, normal: DVec3::X }; // cos = 0 < FOOTPRINT_MIN_COS
+        // Row 0: Baked k0 (1) | NeedsFill k0 | Baked k1 (10) | Empty | Baked k1 (10)
+        // Row 1: Baked side (100) | Empty ...
+        let (w, h) = (5u32, 2u32);
+        let mut state = vec![Empty; 10];
+        let mut data = vec![[0.0f32; 3]; 10];
+        let mut keys = vec![None; 10];
+        for (t, st, v, key) in [
+            (0, Baked, 1.0, k0),
+            (1, NeedsFill, 0.0, k0),
+            (2, Baked, 10.0, k1),
+            (4, Baked, 10.0, k1),
+            (5, Baked, 100.0, side),
+        ] {
+            state[t] = st;
+            data[t] = [v; 3];
+            keys[t] = Some(key);
+        }
+        let c = dilate(&mut data, &mut state, &mut keys, [w, h], 1, 1);
+        assert_eq!((c.dilated, c.unfilled), (1, 0));
+        assert_eq!(data[1], [1.0; 3]);
+        // Texel 3 (Empty between charts k1 at 2 and 4): first edge neighbour is 2 (k1).
+        assert_eq!(data[3], [10.0; 3]);
+        assert_eq!(keys[3], Some(k1));
+        // Texel 6 (row 1, below texel 1): first edge neighbour is 5 (side), so it takes the
+        // side texel's key and averages only it.
+        assert_eq!(data[6], [100.0; 3]);
     }
 }

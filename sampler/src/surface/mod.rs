@@ -15,8 +15,8 @@
 //!    basis (`lightvol_hemibasis::convert::sh_to_basis_matrix`, §2.2.1-2.2.2). Sample points
 //!    that see back faces are outside the domain of interest and are replaced by points in
 //!    the valid part of the footprint.
-//! 4. [`map`]: texels with no valid point are dilated from valid neighbours; the gutter
-//!    around charts is dilated too. [`CoefficientMap::shade`] evaluates a map at a
+//! 4. [`map`]: texels with no valid point are dilated from valid neighbours of the same UV
+//!    chart and facing; the gutter around charts is dilated too. [`CoefficientMap::shade`] evaluates a map at a
 //!    tangent-space normal.
 //! 5. [`exr`]: one multi-part EXR per bake, one part per object, with the bake's
 //!    [`lighting_fingerprint`] and the object's [`InvalidCounts`].

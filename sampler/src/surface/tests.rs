@@ -757,6 +757,68 @@ fn uv_overlap_is_checked_by_area() {
     }
 }
 
+/// Dilation stays within a chart: one object with a lit floor chart (u < 3/8, facing up under
+/// the sky) and a dark chart (u > 1/2, facing down, sees only the black ground) packed one
+/// texel apart. The gutter column between them takes the floor's values only, not the
+/// average of both charts.
+#[test]
+fn gutter_dilation_does_not_cross_charts() {
+    // Monte Carlo bound of one texel's DC with 32 samples under a uniform sky: the DC of a
+    // flat receiver is exact up to the cosine-weighted sampling noise, < 5% here.
+    const MC_TOL: f64 = 0.05;
+    let mut b = SceneBuilder::new("charts");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let p = vec![
+        DVec3::new(0.0, 0.0, 0.0),
+        DVec3::new(1.0, 0.0, 0.0),
+        DVec3::new(1.0, 1.0, 0.0),
+        DVec3::new(0.0, 1.0, 0.0),
+        // Facing down (clockwise seen from above), far to the side.
+        DVec3::new(5.0, 0.0, 0.0),
+        DVec3::new(5.0, 1.0, 0.0),
+        DVec3::new(6.0, 1.0, 0.0),
+        DVec3::new(6.0, 0.0, 0.0),
+    ];
+    let uv = vec![
+        DVec2::new(0.0, 0.0),
+        DVec2::new(0.375, 0.0),
+        DVec2::new(0.375, 1.0),
+        DVec2::new(0.0, 1.0),
+        DVec2::new(0.5, 0.0),
+        DVec2::new(0.5, 1.0),
+        DVec2::new(1.0, 1.0),
+        DVec2::new(1.0, 0.0),
+    ];
+    add_object(&mut b, "Two", p, uv, &[[0, 1, 2], [0, 2, 3], [4, 5, 6], [4, 6, 7]], m);
+    b.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
+    let scene = b.build().unwrap();
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    // Charts: the floor's two triangles share a UV edge (chart 0), so do the dark quad's (chart
+    // 2, numbered by its first triangle); the charts share none.
+    let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
+    let atlas = Atlas::build(&geo, 0, [8, 8]).unwrap();
+    for fp in &atlas.footprints {
+        let x = fp.texel % 8;
+        assert_eq!(fp.chart, if x < 3 { 0 } else { 2 }, "texel {}", fp.texel);
+    }
+    assert_eq!(atlas.footprints.len(), 7 * 8);
+    let s = SurfaceSettings { samples: 32, resolution: Some([8, 8]), gutter: 1, ..settings("sh4") };
+    let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
+    let map = &bake.maps[0];
+    let dc = |x: u32, y: u32| f64::from(map.texel(x, y)[0][0]);
+    // The floor's own texels are the reference: the gutter column must equal its neighbours
+    // in the floor chart (column 2), not half of them (the average with the dark column 4).
+    for y in 0..8 {
+        assert_eq!(map.valid_at(3, y), map::VALID_DILATED);
+        assert_eq!(map.valid_at(2, y), map::VALID_BAKED);
+        assert!(dc(4, y).abs() < 1e-6, "dark chart texel (4, {y}): {}", dc(4, y));
+        let lit = dc(2, y);
+        assert!(lit > 1.0, "{lit}");
+        assert!((dc(3, y) - lit).abs() < MC_TOL * lit, "gutter (3, {y}): {} vs floor {lit}", dc(3, y));
+    }
+}
+
 /// No input panics: random UVs (with NaN, infinities, out-of-range values, degenerate and
 /// overlapping triangles) give `Ok` or an error, never a panic.
 #[test]
