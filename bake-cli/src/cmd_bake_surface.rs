@@ -187,6 +187,9 @@ pub struct SurfaceBakeJson {
     pub seed: u64,
     /// `"irradiance"` or `"radiosity"`.
     pub quantity: String,
+    /// What lit the bake (`lightvol_sampler::surface::lighting_fingerprint`, also stored in
+    /// the EXR; `render --surface` refuses maps whose lighting differs from its own).
+    pub lighting: String,
     /// Whether invalid texels were fixed (domain of interest + dilation).
     pub invalid_fix: bool,
     /// Objects and their atlas sizes.
@@ -597,6 +600,7 @@ fn summary(
         samples: args.samples,
         seed: args.seed,
         quantity: maps.first().map_or("irradiance", |m| m.quantity.name()).to_owned(),
+        lighting: maps.first().map(|m| m.lighting.clone()).unwrap_or_default(),
         invalid_fix: !args.no_invalid_fix,
         objects: maps
             .iter()

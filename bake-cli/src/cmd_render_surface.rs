@@ -9,6 +9,12 @@
 //! equals the full evaluation (`H2 … H6` vanish there); see `lightvol_hemibasis::lod` for what
 //! that value is (the 3-band SH irradiance less `sqrt(5)/(8 sqrt(π)) E_20`).
 //!
+//! The maps record what lit their bake (`lightvol_sampler::surface::lighting_fingerprint`:
+//! environment, sun, punctual lights, emitters and the bounce count). The render refuses, with
+//! one line and before writing anything, maps in `DIR` that disagree with each other (a stale
+//! file) or with its own scene and lights under the maps' bounce count; the reference is
+//! traced with that bounce count. `invalid_texels` is read from the EXR maps.
+//!
 //! `OUT/sheet.png` tiles the reference, the bases in file-name order, `lightmap` and
 //! `lightmap4`, four per row. `OUT/report.json`:
 //! `{"bases": {"<basis>": {"rel_rmse", "bytes_per_texel", "coefficients", "image"}},
@@ -33,7 +39,8 @@ use anyhow::{Context, bail};
 use lightvol_hemibasis::HemiBasis;
 use lightvol_hemibasis::lod::{Lod, eval_modified_h};
 use lightvol_sampler::surface::{
-    CoefficientMap, Quantity, SurfaceError, SurfaceGeometry, read_surface_exr, reference_surface_irradiance,
+    CoefficientMap, Quantity, SurfaceError, SurfaceGeometry, lighting_fingerprint, read_surface_exr,
+    reference_surface_irradiance,
 };
 use lightvol_sampler::{DVec3, Tracer, Transport, TransportSettings};
 use lightvol_sh::lowdisc::hash2;
@@ -179,8 +186,8 @@ pub struct ReferenceReport {
 pub struct SurfaceRenderReport {
     /// Per basis (and `lightmap` / `lightmap4`, the modified H-basis's lower levels of detail).
     pub bases: BTreeMap<String, BasisReport>,
-    /// Invalid texels reported by the bakes (largest over the bases; they share the
-    /// geometry and sample points).
+    /// Invalid texels of the bakes, read from the EXR maps (sum over objects; largest over
+    /// the bases, which share the geometry and sample points).
     pub invalid_texels: u64,
     /// The reference.
     pub reference: ReferenceReport,
@@ -192,12 +199,16 @@ pub struct SurfaceRenderReport {
 
 /// The maps of one basis found in the directory.
 struct BasisMaps {
+    /// The EXR file they came from.
+    path: PathBuf,
     tag: String,
     basis: Box<dyn HemiBasis>,
     maps: Vec<CoefficientMap>,
 }
 
-/// Reads every lightvol surface EXR in `dir` (sorted by file name).
+/// Reads every lightvol surface EXR in `dir` (sorted by file name), with the invalid texel
+/// count of the bakes (taken from the EXR files: the sum over objects, the largest over the
+/// bases, which share the geometry and sample points).
 fn read_dir_maps(dir: &Path) -> anyhow::Result<(Vec<BasisMaps>, u64)> {
     let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
         .with_context(|| format!("--surface: reading {}", dir.display()))?
@@ -226,14 +237,8 @@ fn read_dir_maps(dir: &Path) -> anyhow::Result<(Vec<BasisMaps>, u64)> {
         if out.iter().any(|b| b.tag == tag) {
             bail!("{}: a second set of {tag} maps in {}", p.display(), dir.display());
         }
-        let json = p.with_extension("json");
-        if let Ok(text) = std::fs::read_to_string(&json)
-            && let Ok(v) = serde_json::from_str::<serde_json::Value>(&text)
-            && let Some(n) = v.get("invalid_texels").and_then(serde_json::Value::as_u64)
-        {
-            invalid = invalid.max(n);
-        }
-        out.push(BasisMaps { tag, basis, maps });
+        invalid = invalid.max(maps.iter().map(|m| m.invalid.invalid_texels).sum());
+        out.push(BasisMaps { path: p, tag, basis, maps });
     }
     if out.is_empty() {
         bail!(
@@ -243,6 +248,55 @@ fn read_dir_maps(dir: &Path) -> anyhow::Result<(Vec<BasisMaps>, u64)> {
         );
     }
     Ok((out, invalid))
+}
+
+/// The first `"; "`-separated part in which two lighting fingerprints differ, as
+/// `"LA: part of a, LB: part of b"` (the whole texts when every shared part agrees).
+fn lighting_difference(a: &str, b: &str, la: &str, lb: &str) -> String {
+    let (pa, pb): (Vec<&str>, Vec<&str>) = (a.split("; ").collect(), b.split("; ").collect());
+    match pa.iter().zip(&pb).find(|(x, y)| x != y) {
+        Some((x, y)) => format!("{la}: {x}, {lb}: {y}"),
+        None => format!("{la}: {a}, {lb}: {b}"),
+    }
+}
+
+fn file_name(p: &Path) -> String {
+    p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned())
+}
+
+/// The bounce count recorded in a lighting fingerprint (`bounces=B`, its last part).
+fn fingerprint_bounces(lighting: &str) -> Option<u32> {
+    lighting.split("; ").find_map(|p| p.strip_prefix("bounces=")).and_then(|b| b.trim().parse().ok())
+}
+
+/// Checks that every map in `sets` was baked under one lighting, and that it is the lighting
+/// of `scene` with the maps' bounce count; returns that bounce count (for the reference).
+fn check_lighting(sets: &[BasisMaps], dir: &Path, scene: &lightvol_sampler::Scene) -> anyhow::Result<u32> {
+    let first = &sets[0];
+    let lighting = &first.maps[0].lighting;
+    for s in sets {
+        if let Some(m) = s.maps.iter().find(|m| &m.lighting != lighting) {
+            bail!(
+                "--surface: the maps in {} were baked under different lighting ({} vs {}: {}); re-bake or remove the stale file",
+                dir.display(),
+                first.path.display(),
+                s.path.display(),
+                lighting_difference(lighting, &m.lighting, &file_name(&first.path), &file_name(&s.path))
+            );
+        }
+    }
+    let bounces = fingerprint_bounces(lighting).with_context(|| {
+        format!("{}: the maps' lighting record has no bounce count ('{lighting}')", first.path.display())
+    })?;
+    let own = lighting_fingerprint(scene, bounces);
+    if &own != lighting {
+        bail!(
+            "--surface: the maps in {} were baked under other lighting than this render's scene and lights ({}); pass the bake's --sky/--sun/--ground or re-bake",
+            dir.display(),
+            lighting_difference(lighting, &own, "maps", "render")
+        );
+    }
+    Ok(bounces)
 }
 
 /// Equally sized images side by side (4 columns, 2-pixel black gaps), row by row.
@@ -292,6 +346,8 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
     }
     let (sets, invalid_texels) = read_dir_maps(dir)?;
     let loaded = args.scene.load()?;
+    // The reference is traced with the maps' bounce count, under the same lighting.
+    let bounces = check_lighting(&sets, dir, &loaded.scene)?;
     let uv_set = sets[0].maps[0].uv_set;
     let quantity = sets[0].maps[0].quantity;
     let geo = SurfaceGeometry::new(&loaded.scene, uv_set).context("lightmap objects of the scene")?;
@@ -328,7 +384,11 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
     // Per pixel: reference colour, then one colour per image; lightmapped flag.
     let rows = with_threads(args.threads, || -> Vec<(bool, [f32; 3], Vec<[f32; 3]>)> {
         let tracer = Tracer::new(&loaded.scene);
-        let transport = Transport::new(&loaded.scene, &tracer, TransportSettings::default());
+        let transport = Transport::new(
+            &loaded.scene,
+            &tracer,
+            TransportSettings { bounces, ..TransportSettings::default() },
+        );
         let scene = &loaded.scene;
         (0..w * h)
             .into_par_iter()

@@ -190,6 +190,7 @@ fn bake_writes_maps_encodings_and_summary() {
         assert_eq!(v["basis"], tag);
         assert_eq!(v["objects"][0]["name"], "floor");
         assert_eq!(v["invalid_texels"], 0, "an open plane has no invalid texels");
+        assert!(v["lighting"].as_str().unwrap().contains("sky=[0.25, 0.35, 0.6]"), "{}", v["lighting"]);
         let k = v["coefficients"].as_u64().unwrap() as usize;
         // One BC1 and one BC7 KTX2 per coefficient, each readable.
         for j in 0..k {
@@ -388,4 +389,82 @@ fn render_matches_maps_to_objects_and_refuses_another_scene() {
     let err = run(&r).unwrap_err();
     assert!(err.contains("do not match"), "{err}");
     assert!(!other.exists());
+}
+
+/// Runs `render --surface maps` of `scene` with `light` into `out` (tiny image).
+fn render_surface(scene: &Path, maps: &Path, out: &Path, light: &[&str]) -> Result<ExitCode, String> {
+    let mut args = vec!["render", scene.to_str().unwrap(), "--surface", maps.to_str().unwrap()];
+    args.extend_from_slice(&["--camera", "0,0,1:0,0,0:40", "--width", "8", "--height", "6"]);
+    args.extend_from_slice(&["--reference-samples", "2", "-o", out.to_str().unwrap()]);
+    args.extend_from_slice(light);
+    run(&args)
+}
+
+/// Bakes `basis` of `scene` under `light` into `out` (few samples: only the files matter).
+fn quick_bake(scene: &Path, basis: &str, out: &Path, light: &[&str]) {
+    let mut args = vec!["bake-surface", scene.to_str().unwrap(), "--basis", basis];
+    args.extend_from_slice(&["--texels-per-unit", "2", "--samples", "8", "-o", out.to_str().unwrap()]);
+    args.push("--quiet");
+    args.extend_from_slice(light);
+    assert_eq!(run(&args), Ok(ExitCode::SUCCESS));
+}
+
+#[test]
+fn render_refuses_maps_baked_under_other_lighting_and_stale_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_gltf(dir.path(), "plane.gltf", &[plane("floor")]);
+    let (maps, other) = (dir.path().join("maps"), dir.path().join("other"));
+    let sky_a = ["--sky", SKY];
+    let sky_b = ["--sky", "0.5,0.5,0.5"];
+    quick_bake(&scene, "hbasis_mod4", &maps, &sky_a);
+    // Same lighting renders; another sky is refused, naming what differs, writing nothing.
+    let ok = dir.path().join("ok");
+    assert_eq!(render_surface(&scene, &maps, &ok, &sky_a), Ok(ExitCode::SUCCESS));
+    let out = dir.path().join("refused");
+    let err = render_surface(&scene, &maps, &out, &sky_b).unwrap_err();
+    assert!(err.contains("other lighting") && err.contains("sky=[0.5, 0.5, 0.5]"), "{err}");
+    assert!(!err.contains('\n'));
+    assert!(!out.exists());
+    // A sun the bake did not have is refused too.
+    let err = render_surface(&scene, &maps, &out, &["--sky", SKY, "--sun", "0,0,1:1"]).unwrap_err();
+    assert!(err.contains("other lighting") && err.contains("sun"), "{err}");
+    assert!(!out.exists());
+    // The bounce count is part of the lighting; the render takes it from the maps (the
+    // reference is traced with the bake's bounces), so maps of another bounce count render.
+    let maps0 = dir.path().join("maps0");
+    quick_bake(&scene, "hbasis_mod4", &maps0, &["--sky", SKY, "--bounces", "0"]);
+    assert_eq!(render_surface(&scene, &maps0, &dir.path().join("ok0"), &sky_a), Ok(ExitCode::SUCCESS));
+    // A stale map baked under other lighting next to the current ones: refused, both named,
+    // whichever lighting the render uses.
+    quick_bake(&scene, "sh4", &other, &sky_b);
+    std::fs::copy(other.join("sh4.exr"), maps.join("sh4.exr")).unwrap();
+    for light in [sky_a, sky_b] {
+        let err = render_surface(&scene, &maps, &out, &light).unwrap_err();
+        assert!(err.contains("different lighting"), "{err}");
+        assert!(err.contains("hbasis_mod4.exr") && err.contains("sh4.exr"), "{err}");
+        assert!(!err.contains('\n'));
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn invalid_texels_are_read_from_the_exr_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    // A wall through the floor (x = 0, normal +X, from 0.3 below to 0.3 above it): floor
+    // sample points on its -X side see its back face.
+    let mut wall = plane("wall");
+    wall.positions = vec![[0.0, -0.3, -0.3], [0.0, 0.3, -0.3], [0.0, 0.3, 0.3], [0.0, -0.3, 0.3]];
+    let scene = write_gltf(dir.path(), "pierced.gltf", &[plane("floor"), wall]);
+    let maps = dir.path().join("maps");
+    quick_bake(&scene, "hbasis_mod4", &maps, &["--sky", SKY]);
+    let json = maps.join("hbasis_mod4.json");
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let invalid = v["invalid_texels"].as_u64().unwrap();
+    assert!(invalid > 0, "the pierced floor has invalid texels");
+    std::fs::remove_file(&json).unwrap();
+    let out = dir.path().join("shots");
+    assert_eq!(render_surface(&scene, &maps, &out, &["--sky", SKY]), Ok(ExitCode::SUCCESS));
+    let r: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(r["invalid_texels"], invalid, "the sidecar JSON is gone; the EXR keeps the count");
 }
