@@ -1,7 +1,7 @@
 //! Adaptive bakes (Oat, *Irradiance Volumes for Games*, seed 002, "Adaptive Octree
 //! Subdivision" to "Adaptive Subdivision"): the three subdivision heuristics and the
 //! domain-of-interest bake of each level, driving lightvol-volume's
-//! [`build_adaptive`](lightvol_volume::build_adaptive).
+//! [`lightvol_volume::build_adaptive`].
 //!
 //! ## Levels
 //! Level 0 is the ordinary [`bake`] of the base grid (with lightvol-volume's zero-weight
@@ -16,9 +16,9 @@
 //! 1. **Gradient**: the change of the field across the cell, `corner_change` (the largest
 //!    coefficient difference along the cell's 12 edges relative to the volume's value
 //!    scale, i.e. `|∇c|·h`), is at least `gradient_threshold`.
-//! 2. **Geometry inside the voxel** [Greger]: a scene triangle overlaps the closed cell box,
+//! 2. **Geometry inside the voxel** \[Greger\]: a scene triangle overlaps the closed cell box,
 //!    decided exactly by the separating-axis test ([`triangle_box_overlap`]; 13 axes).
-//! 3. **Harmonic mean of scene depth** [Pharr]: from each corner, `depth_rays` seeded
+//! 3. **Harmonic mean of scene depth** \[Pharr\]: from each corner, `depth_rays` seeded
 //!    uniform rays; `H = N / Σ 1/d_i` (misses contribute 0); the cell splits when its edge
 //!    exceeds `depth_ratio_threshold · H` at some corner ("if the neighboring irradiance
 //!    samples are further away than this upper-bound, their voxels should be subdivided").

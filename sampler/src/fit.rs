@@ -337,10 +337,10 @@ pub fn finalize_least_squares(acc: &Accumulator, mut values: Vec<f64>) -> (Irrad
 }
 
 /// A whole or sharded bake that also accumulates the [`MassMatrix`] of its kept samples
-/// (the input of [`solve_least_squares`]); the accumulator is exactly [`crate::bake`]'s.
+/// (the input of [`solve_least_squares`]); the accumulator is exactly [`crate::bake()`]'s.
 ///
 /// # Errors
-/// As [`crate::bake`].
+/// As [`crate::bake()`].
 pub fn bake_with_mass(
     transport: &Transport<'_>,
     grid: &GridSpec,
@@ -353,10 +353,10 @@ pub fn bake_with_mass(
 }
 
 /// A whole (unsharded) bake with the chosen [`Fit`]. For [`Method::Point`] or
-/// [`Fit::Average`] this is [`crate::bake`] followed by `finish`.
+/// [`Fit::Average`] this is [`crate::bake()`] followed by `finish`.
 ///
 /// # Errors
-/// As [`crate::bake`].
+/// As [`crate::bake()`].
 pub fn bake_fitted(
     transport: &Transport<'_>,
     grid: &GridSpec,

@@ -12,7 +12,7 @@
 //!   `radiosity`), `lightvol.uv_set` (`TEXCOORD_1` or `TEXCOORD_0`), `lightvol.convention`
 //!   ([`CONVENTION`]), and since version 2: `lightvol.lighting` (text, the
 //!   [`lighting_fingerprint`](super::lighting_fingerprint) of the bake) and the object's
-//!   [`InvalidCounts`](super::InvalidCounts) `lightvol.invalid_texels`, `lightvol.moved`,
+//!   [`super::InvalidCounts`] `lightvol.invalid_texels`, `lightvol.moved`,
 //!   `lightvol.dilated`, `lightvol.unfilled` (each text, a u64 in decimal: exact beyond i32
 //!   and f64 ranges).
 //!
