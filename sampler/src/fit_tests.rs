@@ -51,11 +51,10 @@ fn reconstruct(grid: &GridSpec, values: &[f64], p: [f64; 3]) -> f64 {
     (0..8).map(|c| w[c] * values[nodes[c] * 12]).sum()
 }
 
-/// The mass matrix of uniform samples over the grid converges to `∫ b_i b_j`: per axis
-/// `h/3` on the diagonal of an interior node... Checked through ratios that do not depend
-/// on the sample count: for an interior node `M_ii / m_i = (2/3)³` (per axis
-/// `∫ b² / ∫ b = (2h/3) / h`), and a face neighbour has `M_ij / M_ii = 1/4` (one axis
-/// `(h/6) / (2h/3)`).
+/// The mass matrix of uniform samples over the grid converges to `∫ b_i b_j`. Checked through
+/// ratios that do not depend on the sample count: for an interior node
+/// `M_ii / m_i = (2/3)³` (per axis `∫ b² / ∫ b = (2h/3) / h`), a face neighbour has
+/// `M_ij / M_ii = 1/4` (one axis `(h/6) / (2h/3)`), and a corner neighbour `(1/4)³`.
 #[test]
 fn mass_matrix_matches_the_analytic_integrals() {
     let g = grid();
