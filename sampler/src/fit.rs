@@ -24,7 +24,7 @@
 //! 27 non-zeros per row and is solved per coefficient by Jacobi-preconditioned conjugate
 //! gradients, in a fixed order (deterministic for any thread count).
 
-use lightvol_volume::fill::{FillReport, fill_empty_nodes};
+use lightvol_volume::FillReport;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
@@ -202,7 +202,7 @@ impl MassMatrix {
 /// What the least-squares solve did.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct FitReport {
-    /// Nodes solved for (those with a positive Eq. 6 denominator).
+    /// Nodes solved for (a positive, finite Eq. 6 denominator and finite sums).
     pub active_nodes: usize,
     /// Largest number of conjugate-gradient iterations over the coefficient channels.
     pub max_iterations: usize,
@@ -230,7 +230,7 @@ pub fn solve_least_squares(
     let k = acc.coeffs() * 3;
     let den = acc.denominator();
     let num = acc.numerator();
-    let active: Vec<bool> = (0..n).map(|i| den[i] > 0.0 && den[i].is_finite()).collect();
+    let active = active_nodes(acc);
     let diag: Vec<f64> = (0..n)
         .map(
             |i| if active[i] { mass.rows[i][offset_slot([0, 0, 0])] + lambda * mass.row_sum(i) } else { 1.0 },
@@ -313,27 +313,30 @@ fn conjugate_gradient(
     (x, it, res)
 }
 
-/// Turns the least-squares node values into a volume: weights as in
-/// [`Accumulator::finalize`], zero-weight nodes filled the same way (the report says how
-/// many).
+/// The nodes the least-squares system solves for: a positive, finite Eq. 6 denominator and
+/// finite sums (a NaN radiance from a broken scene must not spread through the solve).
+fn active_nodes(acc: &Accumulator) -> Vec<bool> {
+    let k = acc.coeffs() * 3;
+    let (den, num) = (acc.denominator(), acc.numerator());
+    (0..den.len())
+        .map(|i| den[i] > 0.0 && den[i].is_finite() && num[i * k..(i + 1) * k].iter().all(|v| v.is_finite()))
+        .collect()
+}
+
+/// Turns the least-squares node values into a volume exactly as
+/// [`Accumulator::finalize`] does for Eq. 6 (same weights, same zeroing of non-finite
+/// values, same fill of nodes without an estimate). Nodes left out of the solve keep their
+/// Eq. 6 values, so a NaN sum is zeroed and counted as it would be there.
 #[must_use]
 pub fn finalize_least_squares(acc: &Accumulator, mut values: Vec<f64>) -> (IrradianceVolume, FillReport) {
-    let (lumped, lumped_report) = acc.finalize();
-    let weights: Vec<f64> = lumped.weights().iter().map(|&w| f64::from(w)).collect();
+    let (average, weights, non_finite) = acc.estimates();
     let k = acc.coeffs() * 3;
-    let den = acc.denominator();
-    // Nodes without samples get zero weight and the lightvol-volume fill.
-    let fill_weights: Vec<f64> = (0..weights.len())
-        .map(|i| if den[i] > 0.0 { weights[i].max(f64::MIN_POSITIVE) } else { 0.0 })
-        .collect();
-    let report = fill_empty_nodes(acc.spec(), k, &mut values, &fill_weights);
-    let report = FillReport { non_finite_zeroed: lumped_report.non_finite_zeroed, ..report };
-    let data: Vec<f32> = values.iter().map(|&v| v as f32).collect();
-    let w32: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
-    let volume = IrradianceVolume::new(acc.spec().clone(), acc.coeffs(), data, w32)
-        .expect("consistent parts")
-        .with_metadata(lumped.metadata().clone());
-    (volume, report)
+    for (i, active) in active_nodes(acc).into_iter().enumerate() {
+        if !active {
+            values[i * k..(i + 1) * k].copy_from_slice(&average[i * k..(i + 1) * k]);
+        }
+    }
+    acc.volume_from(values, &weights, non_finite)
 }
 
 /// A whole or sharded bake that also accumulates the [`MassMatrix`] of its kept samples

@@ -172,6 +172,26 @@ fn fitted_bake_is_deterministic() {
     assert_ne!(avg.data(), one.data());
 }
 
+/// A NaN radiance sample (a broken scene) must neither panic nor spread through the solve:
+/// its node is left out of the system and zeroed and counted as `finalize` does for Eq. 6;
+/// every other node stays finite.
+#[test]
+fn a_nan_sample_is_zeroed_not_spread() {
+    let g = grid();
+    let (mut acc, mass) = feed(&g, 20_000, |_| true, |p| 1.0 + p[0]);
+    let bad = g.node_index(2, 1, 1);
+    acc.add(bad, 0.5, [f64::NAN, 1.0, 1.0], &[1.0, 0.0, 0.0, 0.0]);
+    let (values, report) = solve_least_squares(&mass, &acc, DEFAULT_LAMBDA).unwrap();
+    assert_eq!(report.active_nodes, g.node_count() - 1);
+    assert!(values.iter().all(|v| v.is_finite()));
+    let (volume, fill) = finalize_least_squares(&acc, values);
+    let (_, average_fill) = acc.finalize();
+    assert_eq!(fill.non_finite_zeroed, average_fill.non_finite_zeroed);
+    assert!(fill.non_finite_zeroed >= 1);
+    assert_eq!(volume.node(bad)[0], 0.0);
+    assert!(volume.data().iter().all(|v| v.is_finite()));
+}
+
 #[test]
 fn fit_names_parse() {
     assert_eq!("average".parse::<Fit>(), Ok(Fit::Average));

@@ -221,12 +221,20 @@ impl Accumulator {
     /// inside fractions described in the module docs.
     #[must_use]
     pub fn finalize(&self) -> (IrradianceVolume, FillReport) {
+        let (values, weights, non_finite) = self.estimates();
+        self.volume_from(values, &weights, non_finite)
+    }
+
+    /// The two halves of [`Self::finalize`], first: Eq. 6's node values (`[node][coeff][rgb]`,
+    /// zero where the denominator is zero or not finite), the nodes' domain weights (module
+    /// docs; zero for nodes without an estimate) and the number of non-finite denominators
+    /// and weights met (a non-finite weight becomes 1).
+    #[must_use]
+    pub fn estimates(&self) -> (Vec<f64>, Vec<f64>, usize) {
         let n = self.spec.node_count();
         let k = self.coeffs * 3;
         let mut values = vec![0.0f64; n * k];
         let mut weights = vec![0.0f64; n];
-        // Non-finite sums (a NaN radiance or weight from a broken scene) must not poison the
-        // volume: they are counted and zeroed *before* the fill, so they cannot spread.
         let mut non_finite = 0usize;
         for node in 0..n {
             let d = self.denominator[node];
@@ -237,12 +245,7 @@ impl Accumulator {
             if d > 0.0 {
                 for (out, num) in values[node * k..(node + 1) * k].iter_mut().zip(&self.numerator[node * k..])
                 {
-                    let v = num / d;
-                    if v.is_finite() && v.abs() <= f64::from(f32::MAX) {
-                        *out = v;
-                    } else {
-                        non_finite += 1;
-                    }
+                    *out = num / d;
                 }
                 let w = d / (d + self.outside[node]);
                 weights[node] = if w.is_finite() {
@@ -253,7 +256,39 @@ impl Accumulator {
                 };
             }
         }
-        let report = fill_empty_nodes(&self.spec, k, &mut values, &weights);
+        (values, weights, non_finite)
+    }
+
+    /// The second half of [`Self::finalize`], for Eq. 6's values or any other node values
+    /// over this grid (e.g. a least-squares fit): values that are not finite or exceed the
+    /// f32 range are zeroed and counted *before* the fill, so they cannot spread (a NaN
+    /// radiance or weight from a broken scene must not poison the volume); then nodes with
+    /// weight 0 are filled ([`crate::fill`]) and everything is converted to f32.
+    /// `non_finite` (from [`Self::estimates`]) is added to the report's count.
+    ///
+    /// # Panics
+    /// If `values` or `weights` do not have one entry per node (and coefficient channel).
+    #[must_use]
+    pub fn volume_from(
+        &self,
+        mut values: Vec<f64>,
+        weights: &[f64],
+        non_finite: usize,
+    ) -> (IrradianceVolume, FillReport) {
+        let n = self.spec.node_count();
+        let k = self.coeffs * 3;
+        assert!(
+            values.len() == n * k && weights.len() == n,
+            "one value per node and channel, one weight per node"
+        );
+        let mut non_finite = non_finite;
+        for v in &mut values {
+            if !(v.is_finite() && v.abs() <= f64::from(f32::MAX)) {
+                *v = 0.0;
+                non_finite += 1;
+            }
+        }
+        let report = fill_empty_nodes(&self.spec, k, &mut values, weights);
         let report = FillReport { non_finite_zeroed: non_finite, ..report };
         let data: Vec<f32> = values.iter().map(|&v| v as f32).collect();
         let weights: Vec<f32> = weights.iter().map(|&w| w as f32).collect();
