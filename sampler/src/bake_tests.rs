@@ -154,14 +154,14 @@ fn city_doi_has_no_dark_leaks_point_does() {
     assert!(dark(&point) >= probes.len() / 4, "point ratios {point:?}");
 }
 
-/// The real Cornell box (shared/data): with a grid whose outer nodes lie behind the
+/// The real Cornell box (data/scenes/cornell_box): with a grid whose outer nodes lie behind the
 /// single-sided walls, `point` darkens the room next to the walls and `doi` does not.
 /// Probes 30 mm in front of the back, left and right walls face into the room.
 #[test]
 fn cornell_box_walls_do_not_leak_with_doi() {
     let p = std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
-        "/../../shared/data/cornell_box/cornell_box.obj"
+        "/../data/scenes/cornell_box/cornell_box.obj"
     ));
     let scene = crate::load_scene(p, &crate::LoadOptions::default()).unwrap();
     let tracer = Tracer::new(&scene);

@@ -273,7 +273,7 @@ mod tests {
 
         let p = std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../../shared/data/cornell_box/cornell_box.obj"
+            "/../data/scenes/cornell_box/cornell_box.obj"
         ));
         let s = load_scene(p, &LoadOptions::default()).unwrap();
         let tr = Tracer::new(&s);

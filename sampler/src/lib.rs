@@ -40,12 +40,12 @@ mod cornell_tests {
     use super::*;
     use std::path::Path;
 
-    /// The Cornell box in `shared/data` loads: 8 objects, 18 quads = 36 triangles; the light
+    /// The vendored Cornell box (`data/scenes/cornell_box`) loads: 8 objects, 18 quads = 36 triangles; the light
     /// emits (17, 12, 4); +Y-up millimetres become +Z up.
     #[test]
     fn cornell_box_loads() {
         let p =
-            Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/cornell_box/cornell_box.obj"));
+            Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/cornell_box/cornell_box.obj"));
         let s = load_scene(p, &LoadOptions::default()).unwrap();
         assert_eq!(s.triangles.len(), 36);
         assert!(s.report.warnings.is_empty(), "{:?}", s.report.warnings);

@@ -59,7 +59,7 @@ fn flipped_triangle_is_reported_and_clean_meshes_pass() {
     std::fs::write(&flipped, cube_obj(true)).unwrap();
     assert_eq!(lint(&clean), ExitCode::SUCCESS);
     assert_eq!(lint(&flipped), ExitCode::from(2));
-    let cornell = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/cornell_box/cornell_box.obj");
+    let cornell = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/cornell_box/cornell_box.obj");
     let code = lightvol::run_from_args(["lightvol", "lint", cornell, "--up", "y"]).unwrap();
     assert_eq!(code, ExitCode::SUCCESS);
 }

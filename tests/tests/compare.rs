@@ -144,7 +144,7 @@ fn interior_doi_beats_point_sampling() {
 fn cornell_box_blocks_do_not_darken_the_room() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
-    let obj = concat!(env!("CARGO_MANIFEST_DIR"), "/../../shared/data/cornell_box/cornell_box.obj");
+    let obj = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/cornell_box/cornell_box.obj");
     run(&[
         "compare",
         obj,
