@@ -11,6 +11,10 @@
 //!
 //! Intersection runs in f32 (obvhs' Möller-Trumbore). Hit data returned to callers is f64,
 //! recomputed on the scene's f64 triangle where that is more accurate (normal, position).
+//!
+//! Alpha-tested and transparent materials are decided inside the traversal
+//! ([`crate::alpha`]): a candidate hit that is no surface is rejected before it can become
+//! the closest hit or block a shadow ray.
 
 use std::time::Duration;
 
@@ -22,6 +26,7 @@ use obvhs::ray::{Ray, RayHit};
 use obvhs::rt_triangle::RtTriangle;
 use obvhs::triangle::Triangle as ObTriangle;
 
+use crate::alpha::{AlphaTable, ray_key};
 use crate::scene::Scene;
 
 /// A closest hit.
@@ -69,6 +74,8 @@ pub struct Tracer {
     single_sided: Vec<bool>,
     /// Scene triangles (f64) for brute-force reference queries.
     scene_tris: Vec<[DVec3; 3]>,
+    /// Alpha decisions for `MASK`/`BLEND` triangles.
+    alpha: AlphaTable,
 }
 
 impl std::fmt::Debug for Tracer {
@@ -120,7 +127,35 @@ impl Tracer {
         let single_sided =
             scene.triangles.iter().map(|t| !scene.materials[t.material as usize].double_sided).collect();
         let scene_tris = scene.triangles.iter().map(|t| t.v).collect();
-        Self { bvh, tris, order, normals, single_sided, scene_tris }
+        Self { bvh, tris, order, normals, single_sided, scene_tris, alpha: AlphaTable::new(scene) }
+    }
+
+    /// Number of triangles whose hits need an alpha decision (`MASK` or `BLEND`).
+    #[must_use]
+    pub fn alpha_triangles(&self) -> usize {
+        self.alpha.len()
+    }
+
+    /// The BLEND key of a ray (0 when the scene has no alpha triangles).
+    #[inline]
+    fn key(&self, origin: DVec3, dir: DVec3) -> u64 {
+        if self.alpha.is_empty() { 0 } else { ray_key(origin, dir) }
+    }
+
+    /// The primitive test of BVH slot `slot`, with the alpha decision: `f32::INFINITY`
+    /// (no hit) for a candidate that is no surface.
+    #[inline]
+    fn intersect(&self, r: &Ray, slot: usize, key: u64) -> f32 {
+        let t = self.tris[slot].intersect(r);
+        if self.alpha.is_empty() || t == f32::INFINITY {
+            return t;
+        }
+        let tri = self.order[slot];
+        if !self.alpha.needs_test(tri) {
+            return t;
+        }
+        let b = self.tris[slot].compute_barycentric(r);
+        if self.alpha.is_surface(tri, f64::from(b.x), f64::from(b.y), key) { t } else { f32::INFINITY }
     }
 
     /// Number of triangles.
@@ -161,7 +196,8 @@ impl Tracer {
     pub fn closest_hit(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
         let ray = make_ray(origin, dir, tmin, tmax);
         let mut hit = RayHit::none();
-        if !self.bvh.ray_traverse(ray, &mut hit, |r, id| self.tris[id].intersect(r)) {
+        let key = self.key(origin, dir);
+        if !self.bvh.ray_traverse(ray, &mut hit, |r, id| self.intersect(r, id, key)) {
             return None;
         }
         let slot = hit.primitive_id as usize;
@@ -174,7 +210,8 @@ impl Tracer {
     #[must_use]
     pub fn occluded(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> bool {
         let ray = make_ray(origin, dir, tmin, tmax);
-        !self.bvh.ray_traverse_miss(ray, |r, id| self.tris[id].intersect(r))
+        let key = self.key(origin, dir);
+        !self.bvh.ray_traverse_miss(ray, |r, id| self.intersect(r, id, key))
     }
 
     /// Reference closest hit: the same f32 primitive test over every triangle in scene
@@ -184,8 +221,9 @@ impl Tracer {
         let ray = make_ray(origin, dir, tmin, tmax);
         // Same acceptance rule as `CwBvh::ray_traverse`: strictly closer than the current tmax.
         let mut best: Option<(usize, f32)> = None;
-        for (slot, t) in self.tris.iter().enumerate() {
-            let d = t.intersect(&ray);
+        let key = self.key(origin, dir);
+        for slot in 0..self.tris.len() {
+            let d = self.intersect(&ray, slot, key);
             if d < best.map_or(ray.tmax, |b| b.1) {
                 best = Some((slot, d));
             }
@@ -200,10 +238,12 @@ impl Tracer {
     #[must_use]
     pub fn closest_hit_f64(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
         let mut best: Option<(u32, f64, [f64; 2])> = None;
+        let key = self.key(origin, dir);
         for (i, v) in self.scene_tris.iter().enumerate() {
             if let Some((t, u, w)) = intersect_f64(v, origin, dir)
                 && t >= tmin
                 && t <= best.map_or(tmax, |b| b.1)
+                && self.alpha.is_surface(i as u32, u, w, key)
             {
                 best = Some((i as u32, t, [u, w]));
             }
@@ -262,7 +302,7 @@ mod tests {
         b.build().unwrap()
     }
 
-    /// Acceptance 1: the BVH agrees with a brute-force loop over all triangles on random
+    /// The BVH agrees with a brute-force loop over all triangles on random
     /// rays — hit/miss, triangle, t and the back-face flag.
     #[test]
     fn bvh_matches_brute_force() {

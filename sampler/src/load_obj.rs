@@ -143,7 +143,15 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
             b.add_triangle(v, [uv(tri[0]), uv(tri[1]), uv(tri[2])], mat)?;
         }
     }
-    b.build()
+    {
+        let r = b.report_mut();
+        r.up = opts.up;
+        r.instances = models.len();
+    }
+    let mut scene = b.build()?;
+    // OBJ has no instancing: every kept triangle is unique.
+    scene.report.unique_triangles = scene.triangles.len();
+    Ok(scene)
 }
 
 #[cfg(test)]

@@ -13,6 +13,37 @@ use crate::error::SceneError;
 use crate::lights::{Environment, PunctualLight, Sun};
 use crate::texture::Texture;
 
+/// How a material's base-colour alpha affects rays (glTF 2.0 §3.9.4 `alphaMode`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha is ignored: every hit is a surface.
+    #[default]
+    Opaque,
+    /// Alpha-tested: a hit whose base-colour alpha (factor × texture at the hit's UV) is
+    /// below `cutoff` is no surface, for every ray query (closest hit, occlusion, and so the
+    /// domain-of-interest back-face test).
+    Mask {
+        /// `alphaCutoff` (glTF default 0.5).
+        cutoff: f64,
+    },
+    /// Stochastic transparency: a hit is a surface with probability alpha, decided by a
+    /// hash of the triangle and the ray, so results stay bit-identical across runs and
+    /// thread counts (see [`crate::alpha`]).
+    Blend,
+}
+
+impl AlphaMode {
+    /// The glTF name (`OPAQUE`, `MASK`, `BLEND`).
+    #[must_use]
+    pub fn gltf_name(self) -> &'static str {
+        match self {
+            Self::Opaque => "OPAQUE",
+            Self::Mask { .. } => "MASK",
+            Self::Blend => "BLEND",
+        }
+    }
+}
+
 /// A diffuse material (Kontkanen & Laine 2006 Algorithm 2's `brdf`, Lambertian only).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
@@ -29,13 +60,25 @@ pub struct Material {
     /// Double-sided materials have no back face: both sides reflect and emit, and hitting
     /// them never marks a point as outside the domain of interest.
     pub double_sided: bool,
+    /// Alpha handling of ray hits.
+    pub alpha_mode: AlphaMode,
+    /// Base-colour alpha factor (`baseColorFactor[3]`), multiplied by the texture's alpha.
+    pub alpha: f64,
 }
 
 impl Material {
     /// A single-sided diffuse material.
     #[must_use]
     pub fn diffuse(name: &str, albedo: [f64; 3]) -> Self {
-        Self { name: name.to_owned(), albedo, albedo_texture: None, emission: [0.0; 3], double_sided: false }
+        Self {
+            name: name.to_owned(),
+            albedo,
+            albedo_texture: None,
+            emission: [0.0; 3],
+            double_sided: false,
+            alpha_mode: AlphaMode::Opaque,
+            alpha: 1.0,
+        }
     }
 
     /// A single-sided emitter with the given albedo.
@@ -155,6 +198,29 @@ pub struct LoadReport {
     pub degenerate_skipped: usize,
     /// Human-readable warnings (missing MTL or texture, unsupported features).
     pub warnings: Vec<String>,
+    /// Triangles of the file's unique meshes, each mesh counted once however often it is
+    /// instanced (equals the scene's triangle count for files without instancing).
+    pub unique_triangles: usize,
+    /// Mesh instances placed by the file (glTF node meshes and `EXT_mesh_gpu_instancing`
+    /// instances; one per object for OBJ).
+    pub instances: usize,
+    /// The file's axis that points up (the loader's [`UpAxis`]).
+    pub up: UpAxis,
+    /// The extensions the file uses or requires, and what the loader did with each.
+    pub extensions: Vec<ExtensionReport>,
+}
+
+/// One glTF extension the file names, and how the loader treated it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ExtensionReport {
+    /// The extension's name.
+    pub name: String,
+    /// Listed in `extensionsRequired`.
+    pub required: bool,
+    /// Where it appears (e.g. `materials`, `nodes`, `textures`), in first-seen order.
+    pub used_in: Vec<String>,
+    /// What the loader did: `supported`, or why it was ignored.
+    pub treatment: String,
 }
 
 /// The axis that points up in a source file. The world frame is always +Z up.
@@ -206,6 +272,25 @@ pub struct Scene {
     /// triangles that belong to no object). Code that edits [`Scene::triangles`] must keep it
     /// in step (or clear it).
     pub triangle_refs: Vec<Option<TriangleRef>>,
+    /// Cameras from the file (glTF `cameras` placed by nodes), in the world frame.
+    pub cameras: Vec<SceneCamera>,
+}
+
+/// A perspective camera from the scene file (glTF 2.0 §3.10), placed in the world frame.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneCamera {
+    /// The camera's name, or `cameraN` after its index in the file.
+    pub name: String,
+    /// Eye position.
+    pub position: DVec3,
+    /// Unit view direction (the node's local -Z).
+    pub forward: DVec3,
+    /// Unit up direction (the node's local +Y).
+    pub up: DVec3,
+    /// Vertical field of view in radians (`yfov`).
+    pub yfov: f64,
+    /// Width / height (`aspectRatio`), when the file gives one.
+    pub aspect: Option<f64>,
 }
 
 impl Scene {
@@ -247,6 +332,21 @@ impl Scene {
         }
     }
 
+    /// Base-colour alpha of triangle `tri` at barycentrics `(u, v)`: factor × texture alpha
+    /// (glTF 2.0 §3.9.4); 1 for materials whose texture has no alpha channel.
+    #[must_use]
+    pub fn alpha(&self, tri: u32, u: f64, v: f64) -> f64 {
+        let t = &self.triangles[tri as usize];
+        let m = &self.materials[t.material as usize];
+        match m.albedo_texture {
+            Some(tex) => {
+                let uv = t.uv_at(u, v);
+                m.alpha * self.textures[tex as usize].sample_alpha([uv.x, uv.y])
+            }
+            None => m.alpha,
+        }
+    }
+
     /// The material of triangle `tri`.
     #[must_use]
     #[inline]
@@ -268,6 +368,8 @@ pub struct SceneBuilder {
     report: LoadReport,
     meshes: Vec<MeshAttributes>,
     triangle_refs: Vec<Option<TriangleRef>>,
+    /// Cameras to attach.
+    pub cameras: Vec<SceneCamera>,
     /// Lights to attach.
     pub environment: Environment,
     /// Sun to attach.
@@ -304,6 +406,11 @@ impl SceneBuilder {
     /// Records a warning.
     pub fn warn(&mut self, w: String) {
         self.report.warnings.push(w);
+    }
+
+    /// The loader notes so far, to fill in counts and extension reports.
+    pub fn report_mut(&mut self) -> &mut LoadReport {
+        &mut self.report
     }
 
     /// Number of materials so far.
@@ -454,6 +561,7 @@ impl SceneBuilder {
             report: self.report,
             meshes: self.meshes,
             triangle_refs: self.triangle_refs,
+            cameras: self.cameras,
         })
     }
 }
