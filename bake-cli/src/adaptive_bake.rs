@@ -1,4 +1,4 @@
-//! `lightvol bake --adaptive`: an adaptive octree volume (seed 002, "Adaptive Octree
+//! `lightvol bake --adaptive`: an adaptive octree volume (\[Oat05\], "Adaptive Octree
 //! Subdivision", "Subdivision Heuristics"), baked by lightvol-sampler's `bake_adaptive`
 //! over the grid options' grid as level 0, written to the native EXR's adaptive extension.
 
@@ -16,9 +16,9 @@ use serde_json::json;
 use crate::cmd_bake::{BakeArgs, RaysJson, progress_bar, scene_hash};
 use crate::setup::{LoadedScene, parse_method, with_threads};
 
-/// Options of `bake --adaptive` (each heuristic with its threshold, seed 002). Defaults
-/// are lightvol-sampler's `AdaptiveSettings::default()`; giving any of them without
-/// `--adaptive` is an error.
+/// Options of `bake --adaptive` (each heuristic with its threshold, Oat 2005, "Subdivision
+/// Heuristics"). Defaults are lightvol-sampler's `AdaptiveSettings::default()`; giving any
+/// of them without `--adaptive` is an error.
 #[derive(Debug, Clone, Args)]
 pub struct AdaptiveArgs {
     /// Bake an adaptive octree volume: the grid options give level 0, cells split by the

@@ -1,4 +1,4 @@
-//! Adaptive (octree) volume files in the file verbs (seed 002, "Adaptive Octree
+//! Adaptive (octree) volume files in the file verbs (\[Oat05\], "Adaptive Octree
 //! Subdivision"): what `info` prints about them, how `export` writes them, and why `merge`
 //! refuses them.
 //!
@@ -38,8 +38,8 @@ pub fn read(path: &Path) -> anyhow::Result<AdaptiveVolume> {
     read_adaptive_exr(path).with_context(|| format!("reading {}", path.display()))
 }
 
-/// Run-time bytes of the uniform grid at the finest level's resolution (seed 002's 3 n²
-/// floats per node), for comparison in `info`.
+/// Run-time bytes of the uniform grid at the finest level's resolution (3 n² floats per
+/// node, \[Oat05\] "GPU Memory Requirements (Constant Store)"), for comparison in `info`.
 #[must_use]
 pub fn finest_uniform_bytes(vol: &AdaptiveVolume) -> usize {
     let res = vol.finest_res();

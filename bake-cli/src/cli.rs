@@ -22,7 +22,7 @@ pub enum Command {
     /// Bake an irradiance volume from a glTF/OBJ scene or a built-in scene.
     Bake(crate::cmd_bake::BakeArgs),
     /// Bake coefficient maps for lightmapped, normal-mapped surfaces in a hemispherical basis
-    /// (seed 003 §2.2), with optional 8-bit / BC1 / BC7 textures.
+    /// (Ishmukhametov 2011 §2.2), with optional 8-bit / BC1 / BC7 textures.
     BakeSurface(crate::cmd_bake_surface::BakeSurfaceArgs),
     /// Bake every method at equal sample budget and measure leakage on a plate against a
     /// path-traced reference (Kontkanen & Laine 2006 Fig. 6).
@@ -44,7 +44,8 @@ pub enum Command {
     Render(crate::cmd_render::RenderArgs),
     /// List the Vulkan devices the GPU evaluator can use, and the one it selects.
     GpuInfo(crate::cmd_gpu::GpuInfoArgs),
-    /// Reproduce the IMSE comparison of hemispherical bases (seed 003 Table 3.1, Fig. 3.1).
+    /// Reproduce the IMSE comparison of hemispherical bases (Ishmukhametov 2011, Table 3.1
+    /// and Fig. 3.1).
     Imse(crate::cmd_imse::ImseArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),

@@ -45,12 +45,12 @@ pub struct BakeArgs {
     /// can later be merged with more samples (e.g. another seed).
     #[arg(long)]
     pub keep_accumulator: bool,
-    /// Also bake per-node SH irradiance gradients (seed 002) and store them in the EXR:
+    /// Also bake per-node SH irradiance gradients (Oat 2005) and store them in the EXR:
     /// `basis` (default; from the bake's own samples, no extra rays; prefilter/doi) or
     /// `central` (six extra point projections per node at 1/16 cell).
     #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1, default_missing_value = "basis")]
     pub gradients: Option<GradientEstimator>,
-    /// Adaptive octree (seed 002).
+    /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
     #[command(flatten)]
     pub adaptive: crate::adaptive_bake::AdaptiveArgs,
     /// Output volume (native multi-part EXR).

@@ -1,6 +1,6 @@
-//! `lightvol bake-surface`: coefficient maps for lightmapped, normal-mapped surfaces (seed
-//! 003 §2.2): per texel, incident radiance over the tangent-space hemisphere is path traced,
-//! projected to SH, convolved with the clamped cosine and converted to a hemispherical
+//! `lightvol bake-surface`: coefficient maps for lightmapped, normal-mapped surfaces
+//! (\[Ish11\] §2.2): per texel, incident radiance over the tangent-space hemisphere is path
+//! traced, projected to SH, convolved with the clamped cosine and converted to a hemispherical
 //! basis (lightvol-sampler's `surface` module).
 //!
 //! Output in `DIR` (created after the bake succeeded; nothing is written when anything
@@ -9,7 +9,7 @@
 //! - `<basis>.json`: the summary printed by `--json` (texel counts, invalid texels, the
 //!   irradiance error of each storage encoding, bytes per texel, files);
 //! - with `--encode png|ktx2` (and/or `--compress bc1|bc7`): `<basis>/<object>_cKK.png|ktx2`,
-//!   one 8-bit texture per coefficient as seed 003 Listing 2.2 samples them: the DC
+//!   one 8-bit texture per coefficient as \[Ish11\] Listing 2.2 samples them: the DC
 //!   coefficient through the sRGB curve (KTX2: an `_SRGB` format, decoded by the sampler),
 //!   the others range-compressed by `--range` (0.75, §2.2.3). Coefficients are scaled by
 //!   `encode_scale` first (recorded in the JSON and in each KTX2 file's `lightvol.plane`
@@ -51,7 +51,7 @@ pub enum EncodeFormat {
 /// Block compression for `--compress`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum CompressFormat {
-    /// BC1 (DXT1), 0.5 bytes per texel and coefficient (seed 003 §2.2.4).
+    /// BC1 (DXT1), 0.5 bytes per texel and coefficient (Ishmukhametov 2011 §2.2.4).
     Bc1,
     /// BC7, 1 byte per texel and coefficient.
     Bc7,
@@ -86,7 +86,7 @@ pub struct BakeSurfaceArgs {
     /// Lightmap UV set: 1 = TEXCOORD_1 (default), 0 = TEXCOORD_0.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=1))]
     pub uv: u8,
-    /// Also write 8-bit textures (seed 003 §2.2.3 encoding).
+    /// Also write 8-bit textures (Ishmukhametov 2011 §2.2.3 encoding).
     #[arg(long, value_enum)]
     pub encode: Option<EncodeFormat>,
     /// Block-compress the 8-bit textures (KTX2 containers; implies `--encode ktx2`); a
@@ -101,10 +101,10 @@ pub struct BakeSurfaceArgs {
     #[arg(long)]
     pub encode_scale: Option<f64>,
     /// What the maps hold: `irradiance` (`E`, a sky of radiance L gives π L) or `radiosity`
-    /// (`E / π`, seed 003 Eq. 2.3's normalised convolution).
+    /// (`E / π`, Ishmukhametov 2011 Eq. 2.3's normalised convolution).
     #[arg(long, value_parser = ["irradiance", "radiosity"], default_value = "irradiance")]
     pub quantity: String,
-    /// SH bands of the intermediate hemisphere projection (seed 003 §2.2.1 uses 3).
+    /// SH bands of the intermediate hemisphere projection (Ishmukhametov 2011 §2.2.1 uses 3).
     #[arg(long, default_value_t = 3)]
     pub sh_bands: usize,
     /// Dilation passes into empty atlas texels around the charts.

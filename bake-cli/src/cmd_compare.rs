@@ -44,9 +44,9 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = 128)]
     pub plate_res: u32,
     /// Methods to compare: `point`, `prefilter`, `doi` (trilinear lookup), or
-    /// `BASE+LOOKUP` for a bake with SH gradients (seed 002) read by `taylor` (nearest node,
+    /// `BASE+LOOKUP` for a bake with SH gradients (Oat 2005) read by `taylor` (nearest node,
     /// first-order Taylor), `gtrilinear` (gradient-extrapolated corners, trilinear) or
-    /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`; `adaptive` for seed 002's
+    /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`; `adaptive` for Oat's
     /// octree baked to the uniform grid's memory (finest level 2 below half the grid's
     /// resolution; `adaptive1` stops one level earlier); `BASE+lsq[:λ]` or `BASE+average` for
     /// a bake finalized with that node fit instead of `--fit`'s.
@@ -264,7 +264,7 @@ pub fn plate_metrics(plate: &PlateData, estimate: &[[f64; 3]]) -> Metrics {
     compute(&pts)
 }
 
-/// Bright green for points outside the domain of interest (seed 000 Fig. 6).
+/// Bright green for points outside the domain of interest (\[KL06\] Fig. 6).
 const INVALID_GREEN: [f32; 3] = [0.0, 4.0, 0.0];
 
 /// Writes the Fig. 6-style panel (method | reference) and the signed error heat map.

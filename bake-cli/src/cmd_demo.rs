@@ -43,12 +43,12 @@ struct Level {
     memory_scales: &'static [f64],
 }
 
-/// Scenes of the error-vs-memory study (issue 9: `city` and `interior`).
+/// Scenes of the error-vs-memory study (`city` and `interior`).
 const MEMORY_SWEEP_SCENES: [&str; 2] = ["city", "interior"];
 
 /// Entries added to every scene's comparison besides point, prefilter and doi: doi with
-/// the least-squares node fit, the doi bake read through seed 002's gradient lookups, and
-/// seed 002's octree at doi's memory (finest level 2 and 1).
+/// the least-squares node fit, the doi bake read through \[Oat05\]'s gradient lookups, and
+/// \[Oat05\]'s octree at doi's memory (finest level 2 and 1).
 const EXTRA_ENTRIES: [&str; 5] = ["doi+lsq", "doi+taylor", "doi+hermite", "adaptive", "adaptive1"];
 
 const QUICK: Level = Level {
@@ -141,7 +141,7 @@ fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
 
 /// The error-vs-memory section: plot and numbers per scene (from `memory_sweep.json`).
 fn memory_html(s: &mut String, sweeps: &[(String, serde_json::Value)]) {
-    s.push_str("<h2>Error vs memory (seed 002: uniform, uniform with SH gradients, adaptive octree)</h2>\n<p>One doi bake per resolution (same samples per cell), read by trilinear interpolation (uniform) or through the gradient lookups; memory is the run-time f32 data (27 floats per node, 108 with gradients). The adaptive octree is baked to each uniform grid's memory (its own count includes weights, keys and split bitmaps).</p>\n");
+    s.push_str("<h2>Error vs memory (uniform, uniform with SH gradients, adaptive octree; Oat 2005)</h2>\n<p>One doi bake per resolution (same samples per cell), read by trilinear interpolation (uniform) or through the gradient lookups; memory is the run-time f32 data (27 floats per node, 108 with gradients). The adaptive octree is baked to each uniform grid's memory (its own count includes weights, keys and split bitmaps).</p>\n");
     for (scene, r) in sweeps {
         let _ = writeln!(
             s,

@@ -1,4 +1,4 @@
-//! `lightvol imse`: the IMSE comparison of hemispherical bases (Ishmukhametov, seed 003
+//! `lightvol imse`: the IMSE comparison of hemispherical bases (\[Ish11\] §3.1,
 //! Table 3.1 and Fig. 3.1), reproduced with exact quadrature.
 
 use std::path::PathBuf;

@@ -1,5 +1,5 @@
-//! `lightvol info`: describe a volume file (uniform, with or without seed 002's SH
-//! gradients, or adaptive: see [`crate::adaptive_files`]).
+//! `lightvol info`: describe a volume file (uniform, with or without the SH gradients
+//! of \[Oat05\], or adaptive: see [`crate::adaptive_files`]).
 
 use std::path::Path;
 use std::process::ExitCode;
@@ -39,7 +39,7 @@ pub fn describe(path: &Path) -> anyhow::Result<Value> {
         "memory": { "floats_per_node": floats, "bytes_per_node": floats * 4,
                     "runtime_bytes": uniform_memory_bytes(&vol, has_grads),
                     "gradient_bytes": grads.as_ref().map_or(0, |g| g.memory_bytes()),
-                    "seed002_floats_per_sample": floats_table(vol.bands()) },
+                    "floats_per_sample_by_order": floats_table(vol.bands()) },
     }))
 }
 
@@ -92,7 +92,7 @@ fn print_text(info: &Value) {
     let has_grads = info["gradients"].as_bool().unwrap_or(false);
     println!(
         "gradients   {}",
-        if has_grads { "yes (per-node world gradient of every coefficient, seed 002)" } else { "no" }
+        if has_grads { "yes (per-node world gradient of every coefficient, [Oat05])" } else { "no" }
     );
     let mem = &info["memory"];
     println!(
@@ -103,8 +103,8 @@ fn print_text(info: &Value) {
         if has_grads { ", SH and gradients" } else { ", SH" },
         info["memory_bytes"].as_u64().unwrap_or(0) + mem["gradient_bytes"].as_u64().unwrap_or(0)
     );
-    println!("seed 002    floats per sample: order | SH | SH + gradients");
-    for r in mem["seed002_floats_per_sample"].as_array().into_iter().flatten() {
+    println!("[Oat05]     floats per sample: order | SH | SH + gradients");
+    for r in mem["floats_per_sample_by_order"].as_array().into_iter().flatten() {
         println!(
             "                                 {:>5} | {:>2} | {:>3}",
             r["order"], r["floats"], r["floats_with_gradients"]

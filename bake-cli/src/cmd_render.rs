@@ -55,7 +55,7 @@ pub struct RenderArgs {
     pub output: PathBuf,
     /// Shade lightmapped surfaces from the coefficient maps that `bake-surface` wrote to this
     /// directory, one image per basis next to a path-traced reference, with `report.json`
-    /// (seed 003 Fig. 3.5).
+    /// (Ishmukhametov 2011 Fig. 3.5).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["volume", "reference"])]
     pub surface: Option<PathBuf>,
     /// Normal map for --surface: `procedural[:FREQ[:SLOPE]]` (default), `flat` or an RGB PNG.

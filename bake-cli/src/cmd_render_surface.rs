@@ -1,13 +1,14 @@
-//! `lightvol render SCENE --surface DIR -o OUT`: seed 003 Fig. 3.5. Every visible
+//! `lightvol render SCENE --surface DIR -o OUT`: \[Ish11\] Fig. 3.5. Every visible
 //! lightmapped surface is shaded from the coefficient maps in `DIR` (one image per basis,
 //! each map evaluated at the normal-mapped tangent-space normal), next to a path-traced
 //! reference of the same quantity (`reference_surface_irradiance`: the same normal, light
 //! from below the tangent-space hemisphere excluded, as the maps). With a modified H-basis
-//! map present, its lower levels of detail (Listing 2.2's stop points) get images of their
-//! own: `lightmap` (`H1` only, i.e. plain light mapping, on which the normal map has no
-//! effect) and `lightmap4` (`H1 … H4`, the linear band). At the geometric normal every level
-//! equals the full evaluation (`H2 … H6` vanish there); see `lightvol_hemibasis::lod` for what
-//! that value is (the 3-band SH irradiance less `sqrt(5)/(8 sqrt(π)) E_20`).
+//! map present, its lower levels of detail (\[Ish11\] Listing 2.2's stop points) get images
+//! of their own: `lightmap` (`H1` only, i.e. plain light mapping, on which the normal map
+//! has no effect) and `lightmap4` (`H1 … H4`, the linear band). At the geometric normal
+//! every level equals the full evaluation (`H2 … H6` vanish there); see
+//! `lightvol_hemibasis::lod` for what that value is (the 3-band SH irradiance less
+//! `sqrt(5)/(8 sqrt(π)) E_20`).
 //!
 //! The maps record what lit their bake (`lightvol_sampler::surface::lighting_fingerprint`:
 //! environment, sun, punctual lights, emitters and the bounce count). The render refuses, with
@@ -21,7 +22,7 @@
 //!   "invalid_texels", "reference": {"image", "samples"}, "pixels", "normal_map"}`.
 //! `rel_rmse = sqrt(Σ (I_b - I_ref)²) / sqrt(Σ I_ref²)` over the lightmapped pixels and
 //! the three channels of the shaded radiance (albedo × irradiance / π). `bytes_per_texel`
-//! is the 8-bit storage of seed 003 §2.2.3 as RGB8 (PNG): 3 bytes per coefficient (an
+//! is the 8-bit storage of \[Ish11\] §2.2.3 as RGB8 (PNG): 3 bytes per coefficient (an
 //! uncompressed RGBA8 KTX2 stores 4, BC7 1, BC1 0.5; see `bake-surface`'s summary).
 //!
 //! Normal maps (`--normal-map`): `procedural[:FREQ[:SLOPE]]` (default), the height field

@@ -1,9 +1,9 @@
-//! The entries of `lightvol compare` beyond seed 000's three bakes: a uniform bake read
-//! through one of seed 002's gradient lookups (`doi+taylor`, `doi+gtrilinear`,
-//! `doi+hermite`, any base method), and `adaptive`, seed 002's octree.
+//! The entries of `lightvol compare` beyond the three bakes of \[KL06\] §4-6: a uniform bake
+//! read through one of \[Oat05\]'s gradient lookups (`doi+taylor`, `doi+gtrilinear`,
+//! `doi+hermite`, any base method), and `adaptive`, \[Oat05\]'s octree.
 //!
 //! Every entry reports `memory_bytes`, the run-time bytes of what a renderer would keep:
-//! for a uniform grid seed 002's accounting (RGB SH floats per node, ×4 with gradients,
+//! for a uniform grid \[Oat05\]'s accounting (RGB SH floats per node, ×4 with gradients,
 //! f32; bake weights not counted, see [`uniform_memory_bytes`]); for the octree
 //! `AdaptiveVolume::memory_bytes` (coefficients, base weights, an 8-byte key per fine
 //! node, split bitmaps).
@@ -38,14 +38,14 @@ use crate::setup::{LoadedScene, parse_method};
 /// One `--methods` entry.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Entry {
-    /// A uniform bake read by trilinear interpolation (seed 000 Fig. 6).
+    /// A uniform bake read by trilinear interpolation (\[KL06\] Fig. 6).
     Uniform(Method),
-    /// A uniform bake with per-node gradients, read by a gradient lookup (seed 002).
+    /// A uniform bake with per-node gradients, read by a gradient lookup (\[Oat05\]).
     Gradient(Method, GradientLookup),
     /// A uniform bake finalized with another node fit than `--fit`: `BASE+average` or
     /// `BASE+lsq[:λ]` (lightvol-sampler's `fit` module).
     Fitted(Method, Fit),
-    /// Seed 002's adaptive octree at the uniform grid's memory, with this finest level
+    /// \[Oat05\]'s adaptive octree at the uniform grid's memory, with this finest level
     /// (module docs). Named `adaptive` (level 2) or `adaptiveL`.
     Adaptive(u32),
 }
@@ -334,9 +334,9 @@ mod tests {
         assert!(parse_entry("bogus+taylor").is_err());
     }
 
-    /// Seed 002's accounting for a 16×16×7 order-3 grid: 27 floats × 4 bytes per node.
+    /// \[Oat05\]'s accounting for a 16×16×7 order-3 grid: 27 floats × 4 bytes per node.
     #[test]
-    fn uniform_memory_is_seed_002_floats() {
+    fn uniform_memory_is_27_floats_per_node() {
         let g = GridSpec::new([0.0; 3], [1.0; 3], [16, 16, 7]).unwrap();
         assert_eq!(uniform_extra(&g, 9)["memory_bytes"], json!(16 * 16 * 7 * 27 * 4));
     }

@@ -1,7 +1,7 @@
-//! SH irradiance gradients in the CLI (Oat, *Irradiance Volumes for Games*, GDC 2005 — seed
-//! 002): which estimator bakes them (`bake --gradients`), which lookup uses them
-//! (`compare --methods doi+taylor,...`), and seed 002's memory accounting as `info` prints
-//! it.
+//! SH irradiance gradients in the CLI (Oat, *Irradiance Volumes for Games*, GDC 2005 —
+//! \[Oat05\], "Spherical Harmonic Irradiance Gradients"): which estimator bakes them
+//! (`bake --gradients`), which lookup uses them (`compare --methods doi+taylor,...`), and
+//! \[Oat05\]'s memory accounting as `info` prints it.
 //!
 //! The estimators and lookups themselves live in lightvol-sampler (`gradients`) and
 //! lightvol-volume (`gradient`); this module only chooses between them.
@@ -20,7 +20,7 @@ use crate::cmd_bake::progress_bar;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum GradientEstimator {
-    /// Seed 002's central differences: six extra point projections per node at 1/16 of a
+    /// Oat 2005's central differences: six extra point projections per node at 1/16 of a
     /// cell (common random numbers); costs 6 × samples extra directions per node.
     Central,
     /// Petrov-Galerkin estimate from the bake's own kept samples (trilinear basis gradients
@@ -134,7 +134,7 @@ pub fn bake_with(
     Ok(result)
 }
 
-/// Parses a lookup name: `taylor` (seed 002's first-order Taylor expansion from the nearest
+/// Parses a lookup name: `taylor` (\[Oat05\]'s first-order Taylor expansion from the nearest
 /// node), `gtrilinear` (each corner extrapolated, then trilinear) or `hermite` (tricubic
 /// Hermite from values and gradients).
 pub fn parse_lookup(s: &str) -> anyhow::Result<GradientLookup> {
@@ -156,7 +156,7 @@ pub fn lookup_name(l: GradientLookup) -> &'static str {
     }
 }
 
-/// Runtime bytes of a uniform volume in seed 002's accounting ("Memory Requirements"): the
+/// Runtime bytes of a uniform volume in \[Oat05\]'s accounting ("GPU Memory Requirements"): the
 /// RGB SH floats of every node ([`floats_per_sample`]), with or without gradients, f32.
 /// The bake weights are not counted (a renderer does not read them).
 #[must_use]
@@ -164,7 +164,7 @@ pub fn uniform_memory_bytes(vol: &IrradianceVolume, gradients: bool) -> usize {
     vol.spec().node_count() * floats_per_sample(vol.bands(), gradients) * 4
 }
 
-/// One row of seed 002's floats-per-sample table.
+/// One row of \[Oat05\]'s floats-per-sample table.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct FloatsRow {
     /// SH order (bands).
@@ -175,7 +175,7 @@ pub struct FloatsRow {
     pub floats_with_gradients: usize,
 }
 
-/// Seed 002's "Memory Requirements" rows for orders 3 and 6, and for `extra_order` (the
+/// \[Oat05\]'s "GPU Memory Requirements" rows for orders 3 and 6, and for `extra_order` (the
 /// file's), computed from [`floats_per_sample`].
 #[must_use]
 pub fn floats_table(extra_order: usize) -> Vec<FloatsRow> {
@@ -197,7 +197,7 @@ pub fn floats_table(extra_order: usize) -> Vec<FloatsRow> {
 mod tests {
     use super::*;
 
-    /// Seed 002's table, from its definition: RGB SH of order n has 3 n² floats, and every
+    /// \[Oat05\]'s table, from its definition: RGB SH of order n has 3 n² floats, and every
     /// coefficient's gradient adds 3 more per float (4 × in all). Order 3: 27 / 108;
     /// order 6: 108 / 432.
     #[test]

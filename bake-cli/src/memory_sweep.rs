@@ -1,20 +1,20 @@
-//! The error-vs-memory study of issue 9 (`compare --memory-sweep`, and `demo` on `city` and
+//! The error-vs-memory study (`compare --memory-sweep`, and `demo` on `city` and
 //! `interior`): on one plate and one path-traced reference, the relative RMSE of
 //!
-//! - `uniform`: a `doi` bake read by trilinear interpolation (seed 000),
+//! - `uniform`: a `doi` bake (\[KL06\] §5-6) read by trilinear interpolation (Eq. 2),
 //! - `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`: the same bake with per-node
-//!   SH gradients (seed 002; the `basis` estimator from the bake's own samples, or the one
+//!   SH gradients (\[Oat05\]; the `basis` estimator from the bake's own samples, or the one
 //!   `--gradient-estimator` names) read by the gradient lookups,
 //!
-//! - `adaptive`, `adaptive1`: seed 002's octree baked to the memory of each uniform grid,
+//! - `adaptive`, `adaptive1`: \[Oat05\]'s octree baked to the memory of each uniform grid,
 //!   finest level 2 or 1 (the `adaptive[L]` entries of `compare`, see
 //!   [`crate::compare_entries`]; `res` is its finest level's, `nodes` its stored nodes),
 //!
 //! at several grid resolutions (the grid's cell counts scaled by `--sweep-scales`, same
-//! bounds), against the run-time memory of each (seed 002's accounting: `3 n²` f32 per node,
-//! `4 · 3 n²` with gradients; the octree's own count with its weights and index). Every
-//! bake takes `--samples` per cell; every uniform volume is the Eq. 6 average (no `--fit`),
-//! so the uniform series differ only in resolution and lookup.
+//! bounds), against the run-time memory of each (\[Oat05\]'s accounting: `3 n²` f32 per
+//! node, `4 · 3 n²` with gradients; the octree's own count with its weights and index).
+//! Every bake takes `--samples` per cell; every uniform volume is the \[KL06\] Eq. 6
+//! average (no `--fit`), so the uniform series differ only in resolution and lookup.
 
 use std::path::Path;
 
@@ -43,7 +43,7 @@ pub struct SweepPoint {
     pub res: [u32; 3],
     /// Stored nodes.
     pub nodes: usize,
-    /// Run-time bytes (seed 002 accounting).
+    /// Run-time bytes (\[Oat05\]'s accounting).
     pub memory_bytes: usize,
     /// Relative RMSE on the plate's valid points.
     pub rel_rmse: f64,

@@ -1,4 +1,4 @@
-//! The leakage metrics of `lightvol compare` (seed 000 §7-8, Fig. 6), computed over the
+//! The leakage metrics of `lightvol compare` (\[KL06\] §7-8, Fig. 6), computed over the
 //! *valid* plate points (points that see no back faces).
 //!
 //! With `E` the method's irradiance and `T` the path-traced reference (luminance):

@@ -1,4 +1,4 @@
-//! Proxy shading frame time on the Vulkan device (issue 8's target: 256×256 receivers and
+//! Proxy shading frame time on the Vulkan device (the target: 256×256 receivers and
 //! 32 proxies in under 1 ms on a real GPU), with lightvol-proxies' CPU passes measured in the
 //! same run as the baseline.
 //!

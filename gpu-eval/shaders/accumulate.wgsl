@@ -1,4 +1,4 @@
-// Kernel 2a: proxy accumulation (Sloan et al. 2007, seed 004: Eq. 4 log visibility, Eq. 8
+// Kernel 2a: proxy accumulation ([SGNS07] §3-5: Eq. 4 log visibility, Eq. 8
 // ZH rotation, Eq. 12 and 15 averaged indirect light) for one receiver per invocation, over
 // the proxies binned into the receiver's screen tile.
 //

@@ -1,5 +1,5 @@
-// Kernel 2b: the exponentiation pass (Sloan et al. 2007, seed 004: Eq. 9 SHEXP by HYB,
-// Ren et al. 2006; Eq. 12 indirect normalisation) for one receiver per invocation, reading
+// Kernel 2b: the exponentiation pass ([SGNS07] §4: Eq. 9 SHEXP by HYB,
+// [Ren06]; Eq. 12 indirect normalisation) for one receiver per invocation, reading
 // the accumulators kernel 2a wrote.
 //
 // Mirrors `lightvol_proxies::kernel::Kernel::finish` and `Kernel::exp_hyb` operation by

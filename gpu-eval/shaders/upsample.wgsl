@@ -1,5 +1,5 @@
 // Kernel 2c: bilateral upsampling of the receivers' incident radiance to display resolution
-// (Sloan et al. 2007, seed 004, §4.2, Eq. 11), one invocation per display pixel, reading
+// ([SGNS07] §4.2, Eq. 11), one invocation per display pixel, reading
 // kernel 2b's output on the device.
 //
 // Mirrors `lightvol_proxies::upsample::bilateral_upsample` with K = 27 values

@@ -499,7 +499,7 @@ mod tests {
 
     /// The messenger counts what the layer reports: inject one error and one warning
     /// through `vkSubmitDebugUtilsMessageEXT` (valid API use) and read the counters back.
-    /// This is what makes `validation_errors() == 0` in the acceptance test meaningful.
+    /// This is what makes `validation_errors() == 0` in the validation tests meaningful.
     #[test]
     fn messenger_counts_injected_messages() {
         let Some(_plain) = gpu_or_skip() else { return };

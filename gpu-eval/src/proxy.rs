@@ -1,5 +1,5 @@
 //! Kernel 2: proxy accumulation and exponentiation on the GPU (Sloan, Govindaraju,
-//! Nowrouzezahrai & Snyder 2007, seed 004), two dispatches per frame:
+//! Nowrouzezahrai & Snyder 2007, \[SGNS07\] §4), two dispatches per frame:
 //!
 //! - **2a, accumulation** (`shaders/accumulate.wgsl`, Eq. 4, 8, 12, 15): the GPU twin of
 //!   [`lightvol_proxies::pipeline::accumulate_pass`]. One invocation per receiver of a

@@ -1,6 +1,6 @@
-//! The skip / require paths of the GPU test harness (issue 8, acceptance 1), checked by
-//! re-running this test binary with the Vulkan driver list pointed at a file that does
-//! not exist, so the loader finds no device on any machine.
+//! The skip / require paths of the GPU test harness (no device: skip, or fail when a device
+//! is required), checked by re-running this test binary with the Vulkan driver list pointed
+//! at a file that does not exist, so the loader finds no device on any machine.
 
 use std::process::Command;
 

@@ -1,10 +1,11 @@
-//! GPU volume lookup against lightvol-volume's CPU lookup (issue 8, acceptance 2 and 4).
+//! GPU volume lookup against lightvol-volume's CPU lookup (agreement to 1e-5 relative), and
+//! a validation-clean run under the Khronos validation layer.
 //!
 //! Every test gets its device from `lightvol_gpu::gpu_or_skip()`: without Vulkan it prints
 //! `skipped: no Vulkan device (...)` and passes, unless `LIGHTVOL_REQUIRE_GPU=1`.
 //!
 //! **Test volumes.** [`TEST_VOLUME`] picks the volume the comparisons run on:
-//! [`TestVolume::BakedCity`] (default, acceptance 2) bakes lightvol-sampler's built-in
+//! [`TestVolume::BakedCity`] (default) bakes lightvol-sampler's built-in
 //! city on a small grid with the paper's domain-of-interest method (a few seconds);
 //! [`TestVolume::Synthetic`] uses smooth seeded random coefficients
 //! (`lightvol_gpu::synthetic::smooth_random_volume`), whose irradiance is positive and
@@ -33,7 +34,7 @@ enum TestVolume {
 
 const TEST_VOLUME: TestVolume = TestVolume::BakedCity;
 
-/// Acceptance 2: GPU within 1e-5 relative of the CPU lookup. Both sides are f32 with the
+/// GPU within 1e-5 relative of the CPU lookup. Both sides are f32 with the
 /// same operations in the same order; the differences come from FMA contraction by the
 /// driver and are a few f32 ulps (6e-8) of the sum of the absolute terms.
 const GPU_VS_CPU_REL: f64 = 1e-5;
@@ -191,7 +192,7 @@ fn compare_all(source: TestVolume) {
     }
 }
 
-/// Acceptance 2 on [`TEST_VOLUME`] (the baked city): 4, 9 and 16 coefficients, with and
+/// GPU vs CPU lookup on [`TEST_VOLUME`] (the baked city): 4, 9 and 16 coefficients, with and
 /// without a placement, irradiance and radiance.
 #[test]
 fn gpu_lookup_matches_cpu_for_all_orders_and_placements() {
@@ -267,7 +268,7 @@ fn bad_inputs_are_errors() {
     assert!(matches!(lookup.irradiance(&[[0.0; 3]; 2], &[[0.0, 0.0, 1.0]]), Err(GpuError::Invalid(_))));
 }
 
-/// Acceptance 4: the Khronos validation layer reports no errors for context creation,
+/// The Khronos validation layer reports no errors for context creation,
 /// uploads, pipeline creation, dispatches and readbacks.
 #[test]
 fn validation_layer_reports_no_errors() {

@@ -1,5 +1,5 @@
 //! GPU proxy shading against lightvol-proxies' CPU passes on the default proxies scene
-//! (issue 8, acceptance 3, at receiver-buffer resolution): accumulation (kernel 2a) and
+//! (at receiver-buffer resolution): accumulation (kernel 2a) and
 //! exponentiation (kernel 2b), then bilateral upsampling to display resolution (kernel 2c).
 
 use lightvol_gpu::{ProxyShading, gpu_or_skip};
@@ -165,7 +165,7 @@ fn gpu_proxy_shading_matches_cpu_on_default_scene_9() {
     check::<9>(&ctx);
 }
 
-/// Acceptance 4 for kernel 2: no validation errors.
+/// Kernel 2 under the Khronos validation layer: no validation errors.
 #[test]
 fn proxy_shading_is_validation_clean() {
     let Some(ctx) = lightvol_gpu::testing::validated_context_or_skip() else { return };

@@ -47,7 +47,7 @@ fn conversion_matrices() -> usize {
     table_bases().iter().map(|b| b.sh_irradiance_matrix(3).rows()).sum()
 }
 
-/// Encodes a 64 × 64 SH9 map to 8-bit planes (seed 003 §2.2.3).
+/// Encodes a 64 × 64 SH9 map to 8-bit planes ([Ish11] §2.2.3).
 #[divan::bench]
 fn encode_map_64(bencher: Bencher<'_, '_>) {
     let basis = lightvol_hemibasis::ShBasis::new(3);

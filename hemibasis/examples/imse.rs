@@ -1,4 +1,4 @@
-//! Reproduces seed 003 Table 3.1 / Fig. 3.1 (mean IMSE of each hemispherical basis).
+//! Reproduces [Ish11] Table 3.1 / Fig. 3.1 (mean IMSE of each hemispherical basis).
 //!
 //! ```text
 //! cargo run --release -p lightvol-hemibasis --example imse -- [--signals N] [--seed S] [--json] [--svg PATH] [--investigate]

@@ -1,4 +1,4 @@
-//! Measures the irradiance error that 8-bit encoding (seed 003 §2.2.3), BC1 and BC7 add to
+//! Measures the irradiance error that 8-bit encoding ([Ish11] §2.2.3), BC1 and BC7 add to
 //! a realistic coefficient map, for every basis of Table 3.1 that is compiled in.
 //!
 //! ```text

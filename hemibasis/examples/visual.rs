@@ -1,4 +1,4 @@
-//! Visual comparison like seed 003 Fig. 3.3 / 3.4: every compiled-in basis's reconstruction
+//! Visual comparison like [Ish11] Fig. 3.3 / 3.4: every compiled-in basis's reconstruction
 //! of the irradiance of an HDR sky with a grazing sun, as hemisphere disk PNGs plus a contact
 //! sheet.
 //!

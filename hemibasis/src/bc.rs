@@ -1,4 +1,4 @@
-//! Block compression of encoded coefficient planes: BC1 (DXT1, seed 003 §2.2.4) and BC7.
+//! Block compression of encoded coefficient planes: BC1 (DXT1, \[Ish11\] §2.2.4) and BC7.
 //!
 //! Both go through the pure-Rust `block_compression` crate (a CPU port of Intel's ISPC
 //! texture compressor kernels), which also decodes them; round trips here use that crate
@@ -7,7 +7,7 @@
 //! cropped after decoding.
 //!
 //! Storage per texel and coefficient: BC1 0.5 bytes (6:1 against RGB8, 8:1 against RGBA8),
-//! BC7 1 byte. Seed 003 §2.2.4 warns that the errors of several compressed planes add up
+//! BC7 1 byte. \[Ish11\] §2.2.4 warns that the errors of several compressed planes add up
 //! in the sum `Σ c_j H_j(n)`; [`crate::map::map_error`] measures exactly that sum's error.
 
 use block_compression::decode::decompress_blocks_as_rgba8;

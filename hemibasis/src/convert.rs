@@ -4,7 +4,7 @@
 //! `E = Σ e_j y_j` restricted to `z >= 0` is fitted by `c = G⁻¹ C e` with
 //! `C_ij = ∫_H B_i y_j dω`. The matrix `M = G⁻¹ C` is derived by quadrature
 //! ([`HemiRule::for_orders`], exact to rounding for every basis here; see [`crate::quad`]).
-//! This replaces typed-in constant tables such as the thesis's Listing 2.1 (seed 003 §2.3),
+//! This replaces typed-in constant tables such as the thesis's Listing 2.1 (\[Ish11\] §2.3),
 //! whose constants the tests recover from `M` for the modified H-basis.
 
 use crate::basis::HemiBasis;

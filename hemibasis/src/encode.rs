@@ -1,4 +1,4 @@
-//! Storage encoding of coefficient maps (seed 003 §2.2.3, Listings 2.1-2.2).
+//! Storage encoding of coefficient maps (\[Ish11\] §2.2.3, Listings 2.1-2.2).
 //!
 //! The lightmap-like coefficient ([`HemiBasis::dc_index`], the constant term) is stored
 //! through a transfer curve ([`DcTransfer`]): the thesis's gamma 2.2, `v = c^(1/2.2)`
@@ -10,7 +10,7 @@
 //! 0.75), decoded by `c = 2r v - r` (Listing 2.2's `2*0.75*tex - 0.75`). Stored values are clamped to `[0, 1]`; with 8-bit textures they are
 //! also quantised to `k/255`.
 //!
-//! Correction to seed 003 Listing 2.1: its compression line `modHc[] + 0.75/(2*0.75)` lost
+//! Correction to \[Ish11\] Listing 2.1: its compression line `modHc[] + 0.75/(2*0.75)` lost
 //! its parentheses; the inverse of Listing 2.2's decode is `(modHc[] + 0.75) / (2*0.75)`.
 //!
 //! [`encoding_error`] measures what the round trip costs in irradiance, integrated exactly
@@ -65,7 +65,7 @@ impl DcTransfer {
     }
 }
 
-/// The encoding parameters (seed 003 §2.2.3).
+/// The encoding parameters (\[Ish11\] §2.2.3).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Encoding {
     /// Range-compression factor `r`: non-DC coefficients in `[-r, r]` map to `[0, 1]`.
@@ -169,7 +169,7 @@ pub struct EncodingError {
     pub clamped: ClampStats,
 }
 
-/// Encodes and decodes `coeffs` with `enc` and reports the error (seed 003 §2.2.3).
+/// Encodes and decodes `coeffs` with `enc` and reports the error (\[Ish11\] §2.2.3).
 #[must_use]
 pub fn encoding_error(basis: &dyn HemiBasis, coeffs: &[[f64; 3]], enc: &Encoding) -> EncodingError {
     let (stored, clamped) = enc.encode(basis, coeffs);

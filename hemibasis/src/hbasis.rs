@@ -1,6 +1,6 @@
-//! The H-basis (Habel & Wimmer 2010) and the modified H-basis (seed 003 §1.8.7).
+//! The H-basis (Habel & Wimmer 2010) and the modified H-basis (\[Ish11\] §1.8.7).
 //!
-//! H-basis (Habel & Wimmer 2010, "Efficient Irradiance Normal Mapping", I3D; seed 003
+//! H-basis (Habel & Wimmer 2010, "Efficient Irradiance Normal Mapping", I3D; \[Ish11\]
 //! Eq. 1.52-1.57), orthonormal on the upper hemisphere:
 //!
 //! ```text
@@ -8,16 +8,16 @@
 //! H4 = sqrt(3/(2π)) x        H5 = sqrt(15/(2π)) xy      H6 = ½ sqrt(15/(2π)) (x² - y²)
 //! ```
 //!
-//! The modified H-basis (seed 003 Eq. 1.58) replaces `H3` by `sqrt(3/(2π)) (1 - z)`, so that
+//! The modified H-basis (\[Ish11\] Eq. 1.58) replaces `H3` by `sqrt(3/(2π)) (1 - z)`, so that
 //! `H1` alone evaluates the lightmap at the unperturbed normal. It spans the same space as the
 //! H-basis but is not orthogonal: its Gram matrix is the identity except
 //! `G_13 = G_31 = sqrt(3)/2` (`∫_H (1 - z) dω = π`), and projection uses `G⁻¹`.
 //!
-//! Seed 003 Listing 2.1's SH → modified-H constants all agree with the matrix derived here
+//! \[Ish11\] Listing 2.1's SH → modified-H constants all agree with the matrix derived here
 //! (test `sh_to_modified_h_matrix_matches_listing_2_1`); in Listing 2.2 `1.54509` is
 //! `sqrt(15/(2π)) = 1.5450968…` truncated (correctly rounded: 1.54510).
 //!
-//! Correction to seed 003 §1.8.6: Eq. 1.53 prints `sqrt(3/(2π) y)`; the root covers only
+//! Correction to \[Ish11\] §1.8.6: Eq. 1.53 prints `sqrt(3/(2π) y)`; the root covers only
 //! `3/(2π)`. Eq. 1.56's middle form `½ sqrt(15/(2π)) sin 2φ sin²θ` equals `sqrt(15/(2π)) xy`
 //! because `sin 2φ sin²θ = 2xy`; both are right.
 
@@ -73,7 +73,7 @@ impl HBasis {
         }
     }
 
-    /// Slow evaluation from angles (seed 003 Eq. 1.52-1.58, middle forms), for tests.
+    /// Slow evaluation from angles (\[Ish11\] Eq. 1.52-1.58, middle forms), for tests.
     #[must_use]
     pub fn reference(&self, dir: [f64; 3]) -> Vec<f64> {
         let theta = dir[2].clamp(-1.0, 1.0).acos();
@@ -175,7 +175,7 @@ mod tests {
         }
     }
 
-    /// Seed 003 Listing 2.1's SH-irradiance → modified-H constants, `(row, sh index, printed)`.
+    /// \[Ish11\] Listing 2.1's SH-irradiance → modified-H constants, `(row, sh index, printed)`.
     #[allow(clippy::approx_constant, reason = "the thesis's printed values, compared on purpose")]
     const LISTING_2_1: &[(usize, usize, f64)] = &[
         (0, 0, 0.70711),

@@ -1,6 +1,6 @@
 //! The Half-Life 2 basis (McTaggart 2004, "Half-Life 2 / Valve Source Shading").
 //!
-//! Three cosine lobes around the orthonormal directions (seed 003 Eq. 1.18-1.20)
+//! Three cosine lobes around the orthonormal directions (\[Ish11\] Eq. 1.18-1.20)
 //!
 //! ```text
 //! h1 = (-1/sqrt6, -1/sqrt2, 1/sqrt3),  h2 = (-1/sqrt6, 1/sqrt2, 1/sqrt3),  h3 = (sqrt(2/3), 0, 1/sqrt3)
@@ -16,7 +16,7 @@ use lightvol_sh::Real;
 use crate::basis::{HemiBasis, forward_eval};
 use crate::shader::{Expr, Program};
 
-/// The three Half-Life 2 basis directions `h_i` (seed 003 Eq. 1.18-1.20).
+/// The three Half-Life 2 basis directions `h_i` (\[Ish11\] Eq. 1.18-1.20).
 #[must_use]
 pub fn directions() -> [[f64; 3]; 3] {
     let (s6, s2, s3) = (6f64.sqrt(), 2f64.sqrt(), 3f64.sqrt());

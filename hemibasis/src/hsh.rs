@@ -14,7 +14,7 @@
 //! `(z(1-z))^{m/2} cos(mφ) = (z/(1+z))^{m/2} Re (x+iy)^m`, which is what [`Hsh`] evaluates
 //! (the shared separable form of the private `sep` module).
 //!
-//! Corrections to seed 003 §1.8.3 (Eq. 1.22-1.32), each checked in this module's tests:
+//! Corrections to \[Ish11\] §1.8.3 (Eq. 1.22-1.32), each checked in this module's tests:
 //! - Eq. 1.26: the square root covers only `30/π`: `H_2^-2 = 2 sqrt(30/π) · xyz/(1+z)`
 //!   (the OCR'd form puts `xyz/(1+z)` under the root).
 //! - Eq. 1.28: likewise `H_2^-1 = sqrt(30/π) · y (2z-1) sqrt(z/(1+z))`.
@@ -143,7 +143,7 @@ mod tests {
         }
     }
 
-    /// The corrected Cartesian forms of seed 003 Eq. 1.22-1.32 (see the module docs).
+    /// The corrected Cartesian forms of \[Ish11\] Eq. 1.22-1.32 (see the module docs).
     #[test]
     fn corrected_thesis_closed_forms() {
         let h = Hsh::new(3);

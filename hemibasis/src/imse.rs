@@ -1,4 +1,4 @@
-//! The IMSE comparison of seed 003 §3.1 (Table 3.1, Fig. 3.1), reproduced.
+//! The IMSE comparison of \[Ish11\] §3.1 (Table 3.1, Fig. 3.1), reproduced.
 //!
 //! Protocol (the thesis does not state one; this one reproduces its numbers):
 //! 1. per signal, draw 9 radiance SH coefficients uniform in `[-1, 1]` from a SplitMix64
@@ -33,7 +33,7 @@ use crate::project::{Matrix, basis_table, cross_gram, gram};
 use crate::quad::HemiRule;
 use crate::sh_basis::ShBasis;
 
-/// Table 3.1 of seed 003, as printed: `(basis name, coefficient count, mean IMSE)`.
+/// \[Ish11\] Table 3.1, as printed: `(basis name, coefficient count, mean IMSE)`.
 /// The thesis has one row "H-basis (modified H-basis)"; both names get its values.
 pub const THESIS_TABLE: &[(&str, usize, f64)] = &[
     ("sh", 4, 0.02748),
@@ -277,7 +277,7 @@ impl ImseReport {
         s
     }
 
-    /// A grouped bar chart like seed 003 Fig. 3.1 as a standalone SVG: bars are this run,
+    /// A grouped bar chart like \[Ish11\] Fig. 3.1 as a standalone SVG: bars are this run,
     /// black ticks the thesis values, grouped by coefficient count.
     #[must_use]
     pub fn svg(&self) -> String {
@@ -304,7 +304,7 @@ impl ImseReport {
         );
         let _ = writeln!(
             s,
-            "<text x=\"{}\" y=\"18\" text-anchor=\"middle\">Mean IMSE over {} signals (bars) vs. seed 003 Table 3.1 (black ticks)</text>",
+            "<text x=\"{}\" y=\"18\" text-anchor=\"middle\">Mean IMSE over {} signals (bars) vs. [Ish11] Table 3.1 (black ticks)</text>",
             w / 2.0,
             self.signals
         );

@@ -1,4 +1,4 @@
-//! Level of detail for the modified H-basis (seed 003 Listing 2.2, §3.2).
+//! Level of detail for the modified H-basis (\[Ish11\] Listing 2.2, §3.2).
 //!
 //! The modified H-basis is built so that its first function alone is a lightmap: every
 //! function but `H1 = 1/sqrt(2π)` vanishes at the unperturbed normal `n = (0, 0, 1)`
@@ -19,7 +19,7 @@ use crate::HemiBasis;
 use crate::encode::Encoding;
 use crate::hbasis::HBasis;
 
-/// How many modified H-basis coefficients to evaluate (seed 003 Listing 2.2's stop points).
+/// How many modified H-basis coefficients to evaluate (\[Ish11\] Listing 2.2's stop points).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Lod {
     /// `H1` only: a plain lightmap (the normal map has no effect).
@@ -58,7 +58,7 @@ impl Lod {
 }
 
 /// Evaluates modified H-basis RGB coefficients (4 or 6 of them, coefficient-major) at the
-/// tangent-space normal `n`, summing only the first [`Lod::coefficients`] terms (seed 003
+/// tangent-space normal `n`, summing only the first [`Lod::coefficients`] terms (\[Ish11\]
 /// Listing 2.2 with decoded coefficients).
 ///
 /// # Panics
@@ -78,7 +78,7 @@ pub fn eval_modified_h(coeffs: &[[f64; 3]], n: [f64; 3], lod: Lod) -> [f64; 3] {
     out
 }
 
-/// Seed 003 Listing 2.2 as written: decodes stored texel values (`tex2D` results in
+/// \[Ish11\] Listing 2.2 as written: decodes stored texel values (`tex2D` results in
 /// `[0, 1]`, coefficient-major RGB) with `enc` and evaluates the first
 /// [`Lod::coefficients`] terms at `n`. Only the coefficients the level reads are decoded,
 /// as a shader that stops early samples only those textures.

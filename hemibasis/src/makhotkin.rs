@@ -12,10 +12,10 @@
 //! normalisation follows from the Jacobi norm
 //! `h_n = 2^{α+β+1} (n+α)! (n+β)! / ((2n+α+β+1) (n+α+β)! n!)`:
 //! `N = 1 / sqrt(c_φ h_n / 4)`, `c_φ = 2π` for `m = 0`, `π` otherwise. For `l <= 2` these
-//! are exactly the unsimplified forms of seed 003 Eq. 1.33-1.45 (checked in the tests); the
+//! are exactly the unsimplified forms of \[Ish11\] Eq. 1.33-1.45 (checked in the tests); the
 //! thesis and this crate ship 4 and 9 functions, and higher orders are the same family.
 //!
-//! Corrections to seed 003 §1.8.4 (each checked in this module's tests):
+//! Corrections to \[Ish11\] §1.8.4 (each checked in this module's tests):
 //! - Eq. 1.33: the Cartesian form is `sqrt(z)/sqrt(π)`, not `z/sqrt(π)`.
 //! - Eq. 1.42: `4(2 cos θ - 2) = 8(z - 1)`, not `16(z - 1)`:
 //!   `M_2^0 = sqrt(3/π) sqrt(z) (10z² - 12z + 3)`; the square root covers only `3/π`.
@@ -208,7 +208,7 @@ mod tests {
         }
     }
 
-    /// The corrected Cartesian forms of seed 003 Eq. 1.33-1.45 (module docs).
+    /// The corrected Cartesian forms of \[Ish11\] Eq. 1.33-1.45 (module docs).
     #[test]
     fn corrected_thesis_closed_forms() {
         let h = Makhotkin::new(3);

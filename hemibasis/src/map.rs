@@ -1,9 +1,9 @@
-//! Coefficient maps: a texture of basis coefficients, its 8-bit planes (seed 003 §2.2.3)
+//! Coefficient maps: a texture of basis coefficients, its 8-bit planes (\[Ish11\] §2.2.3)
 //! and the irradiance error that storing it costs.
 //!
 //! A [`CoeffMap`] holds `width × height` texels of `K` RGB coefficients, texel-major
 //! (`data[(y·width + x)·K + j]`). [`Encoding::encode_map`] turns it into `K` [`Plane`]s, one
-//! RGBA8 texture per coefficient as in seed 003 Listing 2.2 (`h1 … h6`; alpha is 255), which
+//! RGBA8 texture per coefficient as in \[Ish11\] Listing 2.2 (`h1 … h6`; alpha is 255), which
 //! [`crate::bc`] can block-compress; [`Encoding::decode_map`] reads them back. [`map_error`]
 //! measures any round trip in irradiance: per texel the exact hemispherical RMS
 //! `sqrt(Δcᵀ G Δc / 2π)` (as [`crate::encode::encoding_error`]), aggregated over texels and
@@ -87,7 +87,7 @@ impl Plane {
 }
 
 impl Encoding {
-    /// Encodes every coefficient of `map` into one RGBA8 plane per coefficient (seed 003
+    /// Encodes every coefficient of `map` into one RGBA8 plane per coefficient (\[Ish11\]
     /// §2.2.3: coefficient `basis.dc_index()` through the DC transfer, the others
     /// range-compressed), with the counts of clamped values.
     ///
@@ -117,7 +117,7 @@ impl Encoding {
     }
 
     /// Decodes planes written by [`Self::encode_map`] (or their block-compressed round trip)
-    /// back to a coefficient map (seed 003 Listing 2.2's decode).
+    /// back to a coefficient map (\[Ish11\] Listing 2.2's decode).
     ///
     /// # Panics
     /// If the plane count differs from `basis.len()` or the planes differ in size.
@@ -195,11 +195,11 @@ pub fn map_error(basis: &dyn HemiBasis, original: &CoeffMap, stored: &CoeffMap) 
 }
 
 /// A realistic `width × height` coefficient map in `basis` for measuring storage errors:
-/// seed 003's grazing-sun sky ([`Sky::grazing_sun`]) with the sun's azimuth sweeping 0-360°
-/// along x and its elevation 2-60° along y, the sun hidden (a hard shadow edge) inside a
-/// disk of radius `0.3·min(w, h)` centred in the map, 3-band SH irradiance converted to the
-/// basis (Listing 2.1), and scaled so the largest DC value is `dc_peak` of the encodable
-/// `[0, 1]` (the thesis's assumption for the range compression, §2.2.3).
+/// the grazing-sun sky of \[Ish11\] §3.2 ([`Sky::grazing_sun`]) with the sun's azimuth
+/// sweeping 0-360° along x and its elevation 2-60° along y, the sun hidden (a hard shadow
+/// edge) inside a disk of radius `0.3·min(w, h)` centred in the map, 3-band SH irradiance
+/// converted to the basis (Listing 2.1), and scaled so the largest DC value is `dc_peak` of
+/// the encodable `[0, 1]` (the thesis's assumption for the range compression, §2.2.3).
 #[must_use]
 pub fn sky_test_map(basis: &dyn HemiBasis, width: usize, height: usize, dc_peak: f64) -> CoeffMap {
     let base = Sky::grazing_sun();

@@ -1,4 +1,4 @@
-//! Visual comparison like seed 003 Fig. 3.3 / 3.4: each basis's reconstruction of the
+//! Visual comparison like \[Ish11\] Fig. 3.3 / 3.4: each basis's reconstruction of the
 //! irradiance of an HDR sky with the sun at a grazing angle, drawn as hemisphere disk images.
 //!
 //! - [`Sky`]: an analytic sky (linear zenith-to-horizon gradient, constant ground, and a
@@ -45,7 +45,7 @@ pub struct Sky {
 }
 
 impl Sky {
-    /// A clear sky with the sun 5° above the horizon (the worst case of seed 003 §3.2).
+    /// A clear sky with the sun 5° above the horizon (the worst case of \[Ish11\] §3.2).
     #[must_use]
     pub fn grazing_sun() -> Self {
         let (elev, azim) = (5f64.to_radians(), 30f64.to_radians());
@@ -246,7 +246,7 @@ pub struct Panel {
 /// Renders the reference irradiance of `sky` and every compiled-in basis of Table 3.1.
 ///
 /// With `thesis_pipeline` the bases are converted from the 9-coefficient SH irradiance, as in
-/// seed 003 Listing 2.1; otherwise each is the least-squares fit of the reference irradiance
+/// \[Ish11\] Listing 2.1; otherwise each is the least-squares fit of the reference irradiance
 /// (the best the basis can do).
 #[must_use]
 pub fn visual_comparison(sky: &Sky, size: usize, proj: DiskProjection, thesis_pipeline: bool) -> Vec<Panel> {

@@ -253,7 +253,7 @@ pub(crate) fn factorial(n: u32) -> f64 {
 
 /// The polynomial part `P̄_l^m(v)` of the associated Legendre function
 /// `P_l^m(v) = P̄_l^m(v) (1 - v²)^{m/2}` (no Condon-Shortley phase), as coefficients in `v`,
-/// by the recurrences of seed 003 §1.8.1 (rules 1-3) run on polynomials.
+/// by the recurrences of \[Ish11\] §1.8.1 (rules 1-3) run on polynomials.
 pub(crate) fn legendre_poly(l: u32, m: u32) -> Poly {
     let mut pmm = Poly::constant((1..=m).map(|k| f64::from(2 * k - 1)).product());
     if l == m {

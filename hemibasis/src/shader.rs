@@ -10,7 +10,7 @@
 //! (e.g. `lv_hsh9`):
 //! - `lv_TAG_basis(n)`: the `K` basis values at the unit tangent-space normal `n`;
 //! - `lv_TAG_irradiance(n, c)`: `Σ c[i] B_i(n)` for RGB coefficients `c`;
-//! - `lv_TAG_irradiance_stored(n, t, count, range, inv_scale)`: seed 003 Listing 2.2 on
+//! - `lv_TAG_irradiance_stored(n, t, count, range, inv_scale)`: \[Ish11\] Listing 2.2 on
 //!   sampled 8-bit texels `t` (see [`crate::encode`]): the DC texel (coefficient
 //!   [`HemiBasis::dc_index`]) is used as sampled, i.e. linearised by an `_SRGB` texture
 //!   format ([`crate::encode::DcTransfer::Srgb`]), every other one is decoded by

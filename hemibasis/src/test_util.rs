@@ -16,10 +16,10 @@ pub(crate) const TEST_DIRS: &[[f64; 3]] = &[
     [-0.6, 0.8, 0.0],
 ];
 
-/// Issue 6 acceptance 2: `|G - I| < 1e-10` by the exact Gauss-Legendre × uniform-φ rule.
+/// Orthonormality: `|G - I| < 1e-10` by the exact Gauss-Legendre × uniform-φ rule.
 /// The Gram integrands of every basis here are polynomials in `z` per azimuthal order (see
-/// `crate::quad`), so the rule is exact and only rounding remains (~1e-15); 1e-10 is the
-/// issue's bound.
+/// `crate::quad`), so the rule is exact and only rounding remains (~1e-15); 1e-10 leaves
+/// room for that rounding.
 pub(crate) const GRAM_TOL: f64 = 1e-10;
 
 /// The Gram matrix by lightvol-sh's plain hemisphere rule (independent of `crate::quad`).

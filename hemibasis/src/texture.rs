@@ -1,4 +1,4 @@
-//! KTX2 containers for coefficient planes: one 2D texture per coefficient, as seed 003
+//! KTX2 containers for coefficient planes: one 2D texture per coefficient, as \[Ish11\]
 //! Listing 2.2 samples them (`h1 … h6`).
 //!
 //! The DC plane is tagged sRGB (`R8G8B8A8_SRGB`, `BC1_RGB_SRGB_BLOCK`, `BC7_SRGB_BLOCK`) so

@@ -12,7 +12,7 @@
 //! for `n = 0..=order`, `m = -n, -n+2, …, n` (index `n(n+1)/2 + (m+n)/2`): 3 functions up to
 //! `n = 1`, 6 up to `n = 2`. In Cartesian form `ρ^m cos(mφ) = Re (x+iy)^m / (1+z)^{m/2}`.
 //!
-//! Corrections to seed 003 §1.8.5 (each checked in this module's tests):
+//! Corrections to \[Ish11\] §1.8.5 (each checked in this module's tests):
 //! - Eq. 1.48: `Z_1^1 = +sqrt(2/π) x / sqrt(1+z)` (the Cartesian form has a stray minus; the
 //!   angle form `(2/sqrt(π)) cos φ sin(θ/2)` is right).
 //! - Eq. 1.49: the Cartesian form `-2 sqrt(3/π) xy/(1+z)` keeps the angle form's minus sign;
@@ -167,7 +167,7 @@ mod tests {
         }
     }
 
-    /// The corrected Cartesian forms of seed 003 Eq. 1.46-1.51 (module docs).
+    /// The corrected Cartesian forms of \[Ish11\] Eq. 1.46-1.51 (module docs).
     #[test]
     fn corrected_thesis_closed_forms() {
         let h = Zernike::new(2);

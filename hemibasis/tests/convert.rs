@@ -1,4 +1,4 @@
-//! Issue 6 acceptance 4: converting SH irradiance to each basis equals the least-squares
+//! Converting SH irradiance to each basis equals the least-squares
 //! projection of the SH irradiance function, checked by quadrature; plus f32/f64 agreement
 //! and the RGB variants.
 

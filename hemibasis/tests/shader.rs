@@ -1,4 +1,4 @@
-//! Issue 6 acceptance 5: the generated WGSL and GLSL snippets compile (naga front end +
+//! The generated WGSL and GLSL snippets compile (naga front end +
 //! validator), and the shader programs compute what the Rust evaluation computes.
 
 use lightvol_hemibasis::imse::table_bases;

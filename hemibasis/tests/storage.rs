@@ -1,4 +1,4 @@
-//! Issue 10 acceptance 4: 8-bit encoding (seed 003 §2.2.3), BC1 and BC7 round trips of a
+//! 8-bit encoding ([Ish11] §2.2.3), BC1 and BC7 round trips of a
 //! realistic coefficient map stay within their stated irradiance errors. The map is
 //! `map::sky_test_map` (grazing sun sweeping azimuth and elevation, a hard shadow, DC peak
 //! 0.8); errors are the exact hemispherical RMS irradiance error over all texels relative
@@ -23,7 +23,7 @@ const EIGHT_BIT_REL_TOL: f64 = 0.025;
 const BC7_REL_TOL: f64 = 0.025;
 /// Stated BC1 error (including the 8-bit step): measured 3.6-9.1%, largest for the
 /// modified H-basis whose non-orthogonal `H1`/`H3` pair adds the two planes' block errors
-/// (seed 003 §2.2.4 warns that compressed planes add up).
+/// ([Ish11] §2.2.4 warns that compressed planes add up).
 const BC1_REL_TOL: f64 = 0.12;
 /// f32 storage of the coefficients adds up to ~1e-7 (values below 1, 24-bit mantissa).
 const F32_SLACK: f64 = 1e-7;

@@ -1,4 +1,4 @@
-//! Seed 004 Fig. 5 (top left) reproduced: Frobenius error of the point-sampled (Eq. 13) and
+//! [SGNS07] Fig. 5 (top left) reproduced: Frobenius error of the point-sampled (Eq. 13) and
 //! averaged (Eq. 15) indirect operators against the exact one (Eq. 16-17) as functions of
 //! `sin θ`, at SH orders 3 and 4; plus the Fig. 4 fit errors of `D_1` and `D_2`.
 //!
@@ -33,7 +33,7 @@ fn svg(rows3: &[OperatorError], rows4: &[OperatorError]) -> String {
     let _ = writeln!(s, r#"<rect width="{w}" height="{h}" fill="white"/>"#);
     let _ = writeln!(
         s,
-        r#"<text x="{}" y="24" text-anchor="middle" font-size="14">Indirect operator error vs exact (Frobenius), seed 004 Fig. 5</text>"#,
+        r#"<text x="{}" y="24" text-anchor="middle" font-size="14">Indirect operator error vs exact (Frobenius), [SGNS07] Fig. 5</text>"#,
         w / 2.0
     );
     // Axes and ticks.

@@ -1,5 +1,5 @@
 //! Per-receiver accumulation in f64: the slow, readable reference for the image-space
-//! pipeline's f32 kernels (seed 004 §3-§5, Eq. 4, 8-10, 12-17).
+//! pipeline's f32 kernels (\[SGNS07\] §3-§5, Eq. 4, 8-10, 12-17).
 //!
 //! For a receiver at `p` with unit normal `N_p` and proxies `i`:
 //! 1. each proxy is seen through the replacement rule ([`crate::proxy::view_from`]);
@@ -31,7 +31,7 @@ use crate::operators::d_paper_fit;
 use crate::proxy::{SphereProxy, view_from};
 use crate::tables::{MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, Table, rotate_zh, table_alpha};
 
-/// How the indirect radiance of one proxy is computed (seed 004 §5).
+/// How the indirect radiance of one proxy is computed (\[SGNS07\] §5).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum IndirectMethod {
     /// No indirect light.
@@ -231,8 +231,9 @@ pub fn shade_receiver<const N: usize>(
     Shade { unshadowed, shadowed, indirect, occlusion: o, xi }
 }
 
-/// `exp(f)` evaluated for a single blocker straight from the exact cap visibility (Eq. 9 with
-/// `m = 1`): `(1 - rot(V(α), d̂)) * L`, dotted with `H`. The oracle of acceptance test 2.
+/// `exp(f)` evaluated for a single blocker straight from the exact cap visibility (Eq. 9
+/// with `m = 1`): `(1 - rot(V(α), d̂)) * L`, dotted with `H`. The oracle of the
+/// single-proxy shadow test.
 #[must_use]
 pub fn single_blocker_exact<const N: usize>(
     alpha: f64,

@@ -1,5 +1,5 @@
 //! The f32 kernels of [`crate::kernel`] run on [`LANES`] receivers at once (struct of
-//! arrays), so that the compiler vectorises across receivers: proxy accumulation (seed 004
+//! arrays), so that the compiler vectorises across receivers: proxy accumulation (\[SGNS07\]
 //! Eq. 4, 8, 12, 15) and the HYB exponentiation pass (Eq. 9).
 //!
 //! Every lane performs exactly the f32 operations of the one-receiver kernels

@@ -1,6 +1,6 @@
 //! Renders a scene with the pipeline in three variants — no proxies, shadows, shadows plus
 //! indirect — and with the path-traced reference, and measures each variant's relative RMSE
-//! against the reference on the receivers (the `proxies` command; acceptance test 4).
+//! against the reference on the receivers (the `proxies` command and `tests/compare.rs`).
 
 use rayon::prelude::*;
 

@@ -1,7 +1,7 @@
 //! Fitting a few sphere proxies to a closed triangle mesh: k-means on the mesh's volume.
 //!
-//! (Seed 004 cites variational sphere sets [Wang et al. 2006] for this; this is the simple
-//! alternative the issue allows.)
+//! (\[SGNS07\] §2 cites variational sphere sets, \[Wan06\], for this; this is a simpler
+//! alternative.)
 //!
 //! 1. Sample `samples` points of the mesh's bounding box with a scrambled Halton sequence
 //!    and keep those inside the mesh (ray-parity test along a fixed, slightly tilted axis).

@@ -1,5 +1,5 @@
 //! The light the proxies shadow and reflect: radiance `L` as an RGB SH vector that may vary
-//! with the receiver position (seed 004 Eq. 9 uses one distant `L`).
+//! with the receiver position (\[SGNS07\] Eq. 9 uses one distant `L`).
 //!
 //! [`LightField`] is the interface; [`DistantLight`] is the paper's distant environment,
 //! [`FnLight`] wraps a closure, and [`VolumeLight`] reads the local radiance SH of a baked
@@ -34,7 +34,7 @@ pub trait LightField<const N: usize>: Sync {
     }
 }
 
-/// A distant environment: the same `L` everywhere (seed 004 §3).
+/// A distant environment: the same `L` everywhere (\[SGNS07\] §3).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DistantLight<const N: usize>(pub ShRgb<f64, N>);
 

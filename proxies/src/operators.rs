@@ -1,4 +1,4 @@
-//! The indirect-light operators of a canonical proxy (seed 004 §5): the averaged operator
+//! The indirect-light operators of a canonical proxy (\[SGNS07\] §5): the averaged operator
 //! `D(θ)` (Eq. 14), its analytic order-3 form and the paper's polynomial fits, the exact
 //! operator `M(θ)` (Eq. 16), and their Frobenius comparison (Fig. 5).
 //!

@@ -1,4 +1,4 @@
-//! The coverage oracle (seed 004 §4.1): each proxy influences only receivers within `η r`
+//! The coverage oracle (\[SGNS07\] §4.1): each proxy influences only receivers within `η r`
 //! of its centre, i.e. with `α = r/d > 1/η`. `η` is derived here by computation for a
 //! shading tolerance, under the paper's conservative configuration:
 //!
@@ -182,7 +182,7 @@ pub fn shadow_difference_for_light<const N: usize>(light: &ShRgb<f64, N>, alpha:
     worst / peak
 }
 
-/// `η` for shadows under a specific light (seed 004 §4.1, "specialized to the actual lighting
+/// `η` for shadows under a specific light (\[SGNS07\] §4.1, "specialized to the actual lighting
 /// environment").
 #[must_use]
 pub fn shadow_eta_for_light<const N: usize>(light: &ShRgb<f64, N>, tolerance: f64) -> EtaDerivation {

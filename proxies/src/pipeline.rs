@@ -1,4 +1,4 @@
-//! The image-space pipeline on the CPU (seed 004 §4, Fig. 2), rayon-parallel and
+//! The image-space pipeline on the CPU (\[SGNS07\] §4, Fig. 2), rayon-parallel and
 //! deterministic (each receiver sums its proxies in scene order; no shared accumulators):
 //!
 //! 1. receiver setup: a [`ReceiverBuffer`] at 1/2 or 1/4 of display resolution;

@@ -1,4 +1,4 @@
-//! Sphere proxies (Sloan et al. 2007, seed 004 §3) and the geometry of one proxy as seen from
+//! Sphere proxies (Sloan et al. 2007, \[SGNS07\] §3) and the geometry of one proxy as seen from
 //! one receiver: direction, `α = sin θ` (Eq. 1), solid angle (Eq. 2), and the
 //! self-shadowing replacement rule for spheres that contain the receiver or cross its
 //! tangent plane.
@@ -43,7 +43,7 @@ impl ProxyView {
     }
 }
 
-/// Solid angle of a sphere with `sin θ = alpha` (seed 004 Eq. 2).
+/// Solid angle of a sphere with `sin θ = alpha` (\[SGNS07\] Eq. 2).
 #[must_use]
 #[inline]
 pub fn solid_angle(alpha: f64) -> f64 {
@@ -53,8 +53,8 @@ pub fn solid_angle(alpha: f64) -> f64 {
 }
 
 /// The sphere a receiver at `p` with unit normal `n` actually accumulates for `proxy`
-/// (the self-shadowing replacement rule, seed 004 §3 citing Ren et al. 2006; this is our
-/// own continuous variant, documented here because the cited rule is not in the seed).
+/// (the self-shadowing replacement rule, \[SGNS07\] §3 citing \[Ren06\]; this is our own
+/// continuous variant, documented here because \[SGNS07\] does not state the cited rule).
 ///
 /// Let `h = (c - p)·n` be the height of the centre above the tangent plane.
 /// - `h >= r`: the sphere lies above the plane and is used as is.

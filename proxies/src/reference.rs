@@ -1,6 +1,6 @@
 //! A small, seeded, deterministic path tracer in which the proxies are real spheres: the
-//! ground truth for the proxies' shadows and bounce light (acceptance test 4, the
-//! `proxies` example).
+//! ground truth for the proxies' shadows and bounce light (`tests/compare.rs`,
+//! the `proxies` example).
 //!
 //! What it computes, per receiver `p` with normal `N`: the irradiance
 //! `E(p) = ∫ L_in(s) max(0, N·s) ds`, where a ray that escapes brings the environment

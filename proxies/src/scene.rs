@@ -1,6 +1,6 @@
 //! The receiver scene of the `proxies` command: rectangles (ground and walls) that receive,
 //! a sphere-set character that casts, a sky/sun light and a pinhole camera; and the
-//! receiver buffer (seed 004 §4: per pixel the receiver point `p`, normal `N_p` and eye
+//! receiver buffer (\[SGNS07\] §4: per pixel the receiver point `p`, normal `N_p` and eye
 //! depth `z_p = (p - e)·E`).
 
 use crate::error::ProxyError;
@@ -138,7 +138,7 @@ impl CameraFrame {
     }
 }
 
-/// Per-pixel receiver data (seed 004 §4). Pixels that see no receiver have `depth = ∞`.
+/// Per-pixel receiver data (\[SGNS07\] §4). Pixels that see no receiver have `depth = ∞`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ReceiverBuffer {
     /// Width in pixels.

@@ -1,4 +1,4 @@
-//! Per-proxy tables as functions of `α = sin θ` (seed 004 §3, §4.1, §5), computed at
+//! Per-proxy tables as functions of `α = sin θ` (\[SGNS07\] §3, §4.1, §5), computed at
 //! start-up from exact integrals, never typed in:
 //!
 //! - `V(α)`: ZH of the proxy's visibility cap (Eq. 3), closed form
@@ -195,7 +195,7 @@ pub fn locate(alpha: f64) -> (usize, f64) {
     (i, (a * a - a0 * a0) / (a1 * a1 - a0 * a0))
 }
 
-/// Smooth clamping of a proxy's sphere of influence (seed 004 §4.1): table entries are
+/// Smooth clamping of a proxy's sphere of influence (\[SGNS07\] §4.1): table entries are
 /// re-weighted by `w(α_i)` ([`SmoothClamp::weight`]), 0 at and below `1/η` and rising
 /// smoothly to 1 over the next four entries, so a proxy's contribution fades to 0
 /// continuously and is exactly 0 outside its sphere of influence `|p - c| >= η r`.
@@ -234,7 +234,7 @@ impl SmoothClamp {
     }
 }
 
-/// Rotates a ZH to `axis` (seed 004 Eq. 8): `rot(g, z')_lm = sqrt(4π/(2l+1)) g_l y_lm(z')`.
+/// Rotates a ZH to `axis` (\[SGNS07\] Eq. 8): `rot(g, z')_lm = sqrt(4π/(2l+1)) g_l y_lm(z')`.
 /// `N` is 9 or 16. (lightvol-sh's `Zh::rotate_to` needs the band count as a type parameter;
 /// this is the same formula for a runtime-sized ZH. TODO(sh): a `Zh::rotate_to` for
 /// `[T; B]` with `B >= sqrt(N)` would make this helper unnecessary.)

@@ -1,4 +1,4 @@
-//! Bilateral upsampling of coarse receiver-buffer results to display resolution (seed 004
+//! Bilateral upsampling of coarse receiver-buffer results to display resolution (\[SGNS07\]
 //! §4.2, Eq. 11): each display pixel blends its 2×2 coarse neighbours with
 //! `w̃_i = w_b · (N_p · N_i)^32 · ε / (ε + |z_p - z_i|)`, normalised.
 //!

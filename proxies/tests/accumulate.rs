@@ -1,4 +1,5 @@
-//! Per-receiver accumulation (seed 004 Eq. 4, 9, 10, 12-17) and acceptance test 2.
+//! Per-receiver accumulation ([SGNS07] Eq. 4, 9, 10, 12-17), and one proxy's shadow against
+//! the exact projection of its cap.
 
 use lightvol_proxies::accumulate::{
     ExpMethod, IndirectMethod, ShadeOptions, shade_receiver, single_blocker_exact,
@@ -21,7 +22,7 @@ fn proxy_at(dir: [f64; 3], alpha: f64) -> SphereProxy {
     SphereProxy::new(dir, alpha, [0.6, 0.5, 0.4])
 }
 
-/// Acceptance 2: one proxy's shadow equals the exact projection of its cap visibility times
+/// One proxy's shadow equals the exact projection of its cap visibility times
 /// `L` (Eq. 9 with m = 1), to table precision, relative to the unshadowed shading. Measured
 /// worst: 1.2e-5 (order 3) and 4.1e-5 (order 4) with the reference exponential, where the
 /// table's log is exact (α <= 0.75); with HYB 5.9e-4 and 1.1e-3.

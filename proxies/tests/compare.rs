@@ -1,4 +1,4 @@
-//! Acceptance 4: against a path-traced reference with the spheres as real geometry, on the
+//! Against a path-traced reference with the spheres as real geometry, on the
 //! default scene, shadows and shadows plus indirect light reduce the receivers' relative
 //! RMSE compared with no proxies.
 

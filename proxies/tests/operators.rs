@@ -1,6 +1,6 @@
-//! The indirect operators (seed 004 §5): the analytic order-3 `D` against quadrature, the
+//! The indirect operators ([SGNS07] §5): the analytic order-3 `D` against quadrature, the
 //! paper's polynomial fits (Fig. 4) and their stated errors, `M` against an independent
-//! geometric quadrature, and Fig. 5's ordering of the operator errors (acceptance 3).
+//! geometric quadrature, and Fig. 5's ordering of the operator errors.
 
 use std::f64::consts::PI;
 

@@ -1,4 +1,4 @@
-//! Acceptance 6: the expansion factor η, derived by computation (seed 004 §4.1).
+//! The expansion factor η, derived by computation ([SGNS07] §4.1).
 //!
 //! Reported figures (tolerance 1/256, conservative configuration, see `oracle.rs` docs):
 //! - shadows, order 4: η = 28.14 (θ = 2.04°). The paper's η = 15 (3.8°) gives a shading

@@ -1,4 +1,4 @@
-//! Splatting (seed 004 §4.1): a proxy's tile bins cover every receiver inside its sphere of
+//! Splatting ([SGNS07] §4.1): a proxy's tile bins cover every receiver inside its sphere of
 //! influence, so binning never drops a contribution.
 
 use lightvol_proxies::pipeline::bin_proxies;

@@ -1,4 +1,4 @@
-//! Acceptance 1 (the proxy-table part): the tables' round trip `exp(O^log(α)) = 1 - V(α)`,
+//! The proxy tables: their round trip `exp(O^log(α)) = 1 - V(α)`,
 //! zonality of the log, interpolation error, and HYB on the tables.
 
 use lightvol_proxies::accumulate::shared_ol_table;

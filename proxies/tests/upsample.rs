@@ -1,4 +1,4 @@
-//! Acceptance 5: bilateral upsampling does not blur across a depth discontinuity.
+//! Bilateral upsampling does not blur across a depth discontinuity.
 
 use lightvol_proxies::upsample::{Geometry, bilateral_upsample, bilinear_upsample};
 

@@ -1,6 +1,6 @@
-//! Surface bake of two intersecting boxes (issue 10, acceptance 3 scene) with the
-//! domain-of-interest treatment on (`fix`) against off (`keep`) at equal samples per texel:
-//! wall time per bake; the reports (rays by kind, invalid texels) are printed once.
+//! Surface bake of two intersecting boxes (the scene of the surface tests' dark-leak check)
+//! with the domain-of-interest treatment on (`fix`) against off (`keep`) at equal samples per
+//! texel: wall time per bake; the reports (rays by kind, invalid texels) are printed once.
 
 use divan::Bencher;
 use lightvol_sampler::surface::{BasisChoice, InvalidTexels, SurfaceSettings, bake_surface};

@@ -1,4 +1,4 @@
-//! Adaptive bakes (Oat, *Irradiance Volumes for Games*, seed 002, "Adaptive Octree
+//! Adaptive bakes (Oat, *Irradiance Volumes for Games*, \[Oat05\], "Adaptive Octree
 //! Subdivision" to "Adaptive Subdivision"): the three subdivision heuristics and the
 //! domain-of-interest bake of each level, driving lightvol-volume's
 //! [`lightvol_volume::build_adaptive`].
@@ -11,23 +11,25 @@
 //! sums a full bake of that grid would give it, bit for bit. A node with no sample in the
 //! domain of interest keeps the coarser levels' interpolation.
 //!
-//! ## Heuristics (seed 002, "Subdivision Heuristics"), each with a threshold
+//! ## Heuristics (\[Oat05\], "Subdivision Heuristics"), each with a threshold
 //! A leaf cell of level `l` is split when any enabled heuristic fires:
 //! 1. **Gradient**: the change of the field across the cell, `corner_change` (the largest
 //!    coefficient difference along the cell's 12 edges relative to the volume's value
 //!    scale, i.e. `|∇c|·h`), is at least `gradient_threshold`.
-//! 2. **Geometry inside the voxel** \[Greger\]: a scene triangle overlaps the closed cell box,
-//!    decided exactly by the separating-axis test ([`triangle_box_overlap`]; 13 axes).
-//! 3. **Harmonic mean of scene depth** \[Pharr\]: from each corner, `depth_rays` seeded
-//!    uniform rays; `H = N / Σ 1/d_i` (misses contribute 0); the cell splits when its edge
-//!    exceeds `depth_ratio_threshold · H` at some corner ("if the neighboring irradiance
-//!    samples are further away than this upper-bound, their voxels should be subdivided").
+//! 2. **Geometry inside the voxel** (\[Oat05\] citing \[GSHG98\]): a scene triangle overlaps the
+//!    closed cell box, decided exactly by the separating-axis test ([`triangle_box_overlap`];
+//!    13 axes).
+//! 3. **Harmonic mean of scene depth** (\[Oat05\] citing \[PH04\]): from each corner,
+//!    `depth_rays` seeded uniform rays; `H = N / Σ 1/d_i` (misses contribute 0); the cell
+//!    splits when its edge exceeds `depth_ratio_threshold · H` at some corner ("if the
+//!    neighboring irradiance samples are further away than this upper-bound, their voxels
+//!    should be subdivided").
 //!    Corners inside solids (more than half of their rays meet back faces, Kontkanen &
 //!    Laine 2006 §5) do not vote: they are outside the domain of interest.
 //!
 //! The split score handed to the builder is `1 + gradient_ratio` for a cell that splits and
 //! 0 otherwise. A memory budget is met afterwards by lightvol-volume, which raises the cull
-//! tolerance until the tree fits (seed 002's "discard redundant samples"; see
+//! tolerance until the tree fits (\[Oat05\]'s "discard redundant samples"; see
 //! `lightvol_volume::adaptive_build`).
 //!
 //! **Determinism**: every ray is seeded per (level, node, ray), every bake per cell, and all
@@ -52,8 +54,8 @@ use crate::qmc::Qmc;
 use crate::stats::{BakeStats, RayCounts};
 use crate::transport::Transport;
 
-/// Settings of an adaptive bake (seed 002: "Specify a Min and Max level of subdivision",
-/// "Allow thresholds to be specified for each subdivision heuristic").
+/// Settings of an adaptive bake (\[Oat05\], "Adaptive Subdivision": "Specify a Min and Max
+/// level of subdivision", "Allow thresholds to be specified for each subdivision heuristic").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AdaptiveSettings {
     /// Every cell of the levels below is split.

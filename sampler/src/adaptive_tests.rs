@@ -279,7 +279,7 @@ fn rel_rmse(plate: &Plate, f: impl Fn([f32; 3]) -> [f32; 3]) -> f64 {
     (d2 / n).sqrt() / (st / n)
 }
 
-/// Issue 9, acceptance 4 in miniature (the CLI's `compare` asserts the full version): on
+/// Equal memory, adaptive beats uniform (the CLI's `compare` asserts the full version): on
 /// city's two plates, an adaptive volume baked to the memory of the recommended uniform
 /// grid (16 × 16 × 7 nodes, 64 samples per cell) has a lower rel_rmse than that grid. The
 /// adaptive one starts from 11 × 11 × 5 nodes and refines one level (21 × 21 × 9 at the

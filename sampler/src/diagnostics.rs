@@ -216,7 +216,7 @@ mod tests {
         s
     }
 
-    /// Acceptance 7: one flipped triangle in otherwise closed meshes is the top suspect of
+    /// One flipped triangle in otherwise closed meshes is the top suspect of
     /// both diagnostics; the clean scene yields no suspects.
     #[test]
     fn flipped_triangle_is_reported_by_both() {

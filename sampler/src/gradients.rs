@@ -1,9 +1,9 @@
 //! Two estimators of the per-node SH irradiance gradients that lightvol-volume's
-//! [`VolumeGradients`] stores (Oat, *Irradiance Volumes for Games*, GDC 2005 — seed 002,
+//! [`VolumeGradients`] stores (Oat, *Irradiance Volumes for Games*, GDC 2005 — \[Oat05\],
 //! slides "Spherical Harmonic Irradiance Gradients" and "Central Differencing").
 //!
-//! **(a) Central differencing** ([`central_difference_gradients`], seed 002): at every node
-//! `x_i`, six extra point projections (Eq. 4 of Kontkanen & Laine 2006) at `x_i ± h e_a`
+//! **(a) Central differencing** ([`central_difference_gradients`], \[Oat05\]): at every node
+//! `x_i`, six extra point projections (\[KL06\] Eq. 4) at `x_i ± h e_a`
 //! along the world axes, and `∂c/∂x_a ≈ (c(x_i + h e_a) − c(x_i − h e_a)) / 2h` per
 //! coefficient. All seven projections of a node share one direction set and one path
 //! random stream (common random numbers), so where the visible scene is the same from the
@@ -82,7 +82,7 @@ pub fn default_offset(grid: &GridSpec) -> f64 {
     DEFAULT_OFFSET_FRACTION * cell_edges(grid).iter().map(|e| e.length()).fold(f64::INFINITY, f64::min)
 }
 
-/// Seed 002's central differencing with any point projector: `project(node, x)` returns the
+/// \[Oat05\]'s central differencing with any point projector: `project(node, x)` returns the
 /// `3 · coeffs` coefficients `[coeff][rgb]` at world point `x` (it should use the same random
 /// numbers for all calls with the same `node`). Returns the gradient array
 /// `[node][coeff][rgb][xyz]`, nodes in parallel, bit-identical for any thread count.

@@ -1,4 +1,5 @@
-//! Tests of the two gradient estimators (issue 9, acceptance 1).
+//! Tests of the two gradient estimators: convergence to the exact gradient on analytic
+//! fields and on a scene.
 
 use super::*;
 use crate::bvh::Tracer;
@@ -74,7 +75,7 @@ fn max_error(grid: &GridSpec, est: &[f32], pick: impl Fn(usize) -> bool) -> (f64
     (err, scale)
 }
 
-/// Acceptance 1, estimator (a): central differences of QMC point projections (common random
+/// Estimator (a): central differences of QMC point projections (common random
 /// numbers, h = Δ/16) converge to the finite-difference gradient of the exact field as the
 /// direction count grows. Measured max abs error over all 27 nodes and 81 components
 /// (largest component 1.355): 1.6e-1, 8.3e-3, 5.6e-4 at 64, 1024, 16384 directions.
@@ -125,7 +126,7 @@ fn basis_direction_exact(grid: &GridSpec, positions: u32, seed: u64) -> Vec<f32>
     g.data().to_vec()
 }
 
-/// Acceptance 1, estimator (b), in its two parts. (i) Bias: with the directions integrated
+/// Estimator (b), in its two parts. (i) Bias: with the directions integrated
 /// exactly, the estimate (a `b_i`-weighted support average of the gradient) converges to the
 /// finite-difference gradient of the exact field at interior nodes like O(Δ²). (ii) Noise:
 /// on a fixed grid the bake's single-direction samples converge to that limit as the samples
@@ -239,7 +240,7 @@ fn plate_dc(p: DVec3) -> f64 {
     0.5 / std::f64::consts::PI.sqrt() * (4.0 * std::f64::consts::PI - plate_solid_angle(p))
 }
 
-/// Acceptance 1 on a scene: a uniform sky (radiance 1) and a single black, single-sided
+/// Both estimators on a scene: a uniform sky (radiance 1) and a single black, single-sided
 /// occluding plate 2 m above the compared nodes. Both estimators' DC gradients against the
 /// finite-difference gradient of the exact (closed-form solid angle) field, at two sample
 /// counts; numbers printed with `--nocapture`. Also: the bake with gradients is

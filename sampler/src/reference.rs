@@ -55,7 +55,7 @@ pub fn reference_irradiance_many(
 
 #[cfg(test)]
 mod tests {
-    //! Acceptance 2: light transport against analytic answers.
+    //! Light transport against analytic answers.
     use super::*;
     use crate::bvh::Tracer;
     use crate::lights::{Environment, Sun};

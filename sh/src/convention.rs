@@ -1,10 +1,10 @@
 //! Conversion between this crate's convention and the Condon-Shortley one.
 //!
 //! lightvol uses real SH *without* the Condon-Shortley phase: `y_1,-1 ∝ +y`, `y_10 ∝ z`,
-//! `y_11 ∝ +x` (as in Ramamoorthi & Hanrahan 2001 and the seed tables). Google's
-//! `spherical-harmonics` library, Sloan's papers and D3DX include the phase `(-1)^m`, which
-//! flips the sign of every coefficient with odd `|m|` (e.g. their `y_11 = -sqrt(3/4π) x`).
-//! The map is its own inverse.
+//! `y_11 ∝ +x` (as in Ramamoorthi & Hanrahan 2001, \[KL06\] Table 1 and
+//! \[Ish11\] Eq. 1.9-1.17). Google's `spherical-harmonics` library, Sloan's papers and D3DX
+//! include the phase `(-1)^m`, which flips the sign of every coefficient with odd `|m|`
+//! (e.g. their `y_11 = -sqrt(3/4π) x`). The map is its own inverse.
 
 use crate::index::sh_lm;
 use crate::real::Real;

@@ -15,7 +15,7 @@
 //! - [`RhMatrix`]: Ramamoorthi-Hanrahan's 4×4 quadratic form `E(n) = nᵀ M n`, `n = (x, y, z, 1)`
 //!   (their Eq. 12);
 //! - [`PackedIrradiance`]: the seven `float4` shader constants `cAr … cC` of Oat's "SH
-//!   Evaluation With Normal" slide (seed 002, from the DirectX SDK).
+//!   Evaluation With Normal" slide (\[Oat05\], from the DirectX SDK).
 //!
 //! Tests check that all three agree and that they equal brute-force quadrature.
 //!
@@ -144,7 +144,7 @@ impl RhMatrix {
     }
 }
 
-/// Oat's packed shader constants (seed 002, "SH Evaluation With Normal"; DirectX SDK):
+/// Oat's packed shader constants (\[Oat05\], "SH Evaluation With Normal"; DirectX SDK):
 ///
 /// ```text
 /// x1.r = dot(cAr, n)                    with n = (x, y, z, 1)

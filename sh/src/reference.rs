@@ -1,6 +1,6 @@
 //! The slow, obviously-correct reference evaluation of the real SH basis.
 //!
-//! Textbook form (Ishmukhametov, seed 003 §1.8.1, Eq. 1.6-1.8, without the Condon-Shortley
+//! Textbook form (Ishmukhametov, \[Ish11\] §1.8.1, Eq. 1.6-1.8, without the Condon-Shortley
 //! phase that the thesis's rule 2 includes):
 //!
 //! - spherical coordinates `(x, y, z) = (sin θ cos φ, sin θ sin φ, cos θ)`;
@@ -21,7 +21,7 @@ use std::f64::consts::PI;
 use crate::index::sh_index;
 
 /// Unnormalised associated Legendre function `P_l^m(x)` without the Condon-Shortley phase,
-/// by the three recurrences of seed 003 §1.8.1.
+/// by the three recurrences of \[Ish11\] §1.8.1.
 #[must_use]
 pub fn legendre_p(l: u32, m: u32, x: f64) -> f64 {
     assert!(m <= l, "legendre_p needs m <= l");
@@ -56,14 +56,14 @@ fn factorial(n: u32) -> f64 {
     (1..=n).map(f64::from).product()
 }
 
-/// Normalisation `K_l^m` of seed 003 Eq. 1.8.
+/// Normalisation `K_l^m` of \[Ish11\] Eq. 1.8.
 #[must_use]
 pub fn k_norm(l: u32, m: i32) -> f64 {
     let am = m.unsigned_abs();
     ((2 * l + 1) as f64 * factorial(l - am) / (4.0 * PI * factorial(l + am))).sqrt()
 }
 
-/// One real SH basis function `y_lm(θ, φ)` (seed 003 Eq. 1.7, no Condon-Shortley phase).
+/// One real SH basis function `y_lm(θ, φ)` (\[Ish11\] Eq. 1.7, no Condon-Shortley phase).
 #[must_use]
 pub fn sh_reference_angles(l: u32, m: i32, theta: f64, phi: f64) -> f64 {
     let am = m.unsigned_abs();
@@ -106,7 +106,7 @@ mod tests {
 
     #[test]
     fn low_order_closed_forms() {
-        // The closed forms of seed 003 Eq. 1.9-1.17, with the xy typo (1/2 not 1/4 sin 2φ) fixed.
+        // The closed forms of [Ish11] Eq. 1.9-1.17, with the xy typo (1/2 not 1/4 sin 2φ) fixed.
         let d = [0.3_f64, -0.5, 0.0];
         let n = (d[0] * d[0] + d[1] * d[1] + 0.6_f64 * 0.6).sqrt();
         let (x, y, z) = (d[0] / n, d[1] / n, 0.6 / n);

@@ -1,6 +1,6 @@
 //! SH exponentiation and logarithm (Ren et al. 2006, "Real-time Soft Shadows in Dynamic
-//! Scenes using Spherical Harmonic Exponentiation", as used by Sloan et al. 2007, seed 004
-//! Eq. 4).
+//! Scenes using Spherical Harmonic Exponentiation", as used by Sloan et al. 2007,
+//! \[SGNS07\] Eq. 4).
 //!
 //! With the truncated SH product `f * g` ([`crate::gaunt::product`]), the SH exponential is
 //! the series `exp(f) = 1 + f + f*f/2! + …`. Since `f * g = M_f g` with the symmetric product

@@ -1,9 +1,9 @@
 //! Zonal harmonics (ZH): functions symmetric about the z axis, one coefficient per band.
 //!
 //! A ZH `g(s) = Σ_l g_l y_l0(s)` can be
-//! - rotated to any axis `z'` (Sloan et al. 2007, seed 004 Eq. 8):
+//! - rotated to any axis `z'` (Sloan et al. 2007, \[SGNS07\] Eq. 8):
 //!   `rot(g, z')_lm = sqrt(4π/(2l+1)) g_l y_lm(z')`;
-//! - used as a convolution kernel (seed 004 Eq. 7):
+//! - used as a convolution kernel (\[SGNS07\] Eq. 7):
 //!   `(f * g)_lm = sqrt(4π/(2l+1)) f_lm g_l`.
 //!
 //! Analytic ZH of the clamped cosine `max(0, cos θ)` and of a spherical cap are provided in
@@ -22,7 +22,7 @@ use crate::reference::legendre_p;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Zh<T, const B: usize>(pub [T; B]);
 
-/// `sqrt(4π / (2l + 1))`, the factor of seed 004 Eq. 7-8.
+/// `sqrt(4π / (2l + 1))`, the factor of \[SGNS07\] Eq. 7-8.
 #[must_use]
 #[inline]
 pub fn zh_scale(l: u32) -> f64 {
@@ -30,7 +30,7 @@ pub fn zh_scale(l: u32) -> f64 {
 }
 
 impl<T: Real, const B: usize> Zh<T, B> {
-    /// Rotates the ZH so that its axis points along the unit vector `axis` (seed 004 Eq. 8).
+    /// Rotates the ZH so that its axis points along the unit vector `axis` (\[SGNS07\] Eq. 8).
     /// `N` must be `B²` (checked at compile time).
     #[must_use]
     #[inline]
@@ -44,7 +44,7 @@ impl<T: Real, const B: usize> Zh<T, B> {
         Sh(y)
     }
 
-    /// Convolves `f` with this kernel (seed 004 Eq. 7). Bands of `f` beyond `B` are zeroed.
+    /// Convolves `f` with this kernel (\[SGNS07\] Eq. 7). Bands of `f` beyond `B` are zeroed.
     #[must_use]
     pub fn convolve<const N: usize>(&self, f: &Sh<T, N>) -> Sh<T, N> {
         let mut out = *f;

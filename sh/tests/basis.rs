@@ -1,4 +1,4 @@
-//! Acceptance tests 1-3 of the lightvol-sh issue: orthonormality by quadrature, the fast path
+//! The SH basis: orthonormality by quadrature, the fast path
 //! against the slow reference, and values against an independent mpmath oracle.
 
 use lightvol_sh::eval::{MAX_FAST_BANDS, eval_basis, eval_into};
@@ -8,7 +8,7 @@ use lightvol_sh::reference::sh_reference;
 use proptest::prelude::*;
 
 /// Gram matrix entries are sums of ~300 products of O(1) values computed by an exact rule:
-/// f64 rounding alone, far below the 1e-12 the issue asks for.
+/// f64 rounding alone, far below the 1e-12 allowed here.
 const GRAM_TOL: f64 = 1e-12;
 /// Fast vs reference in f64: both are exact formulas; differences are rounding (~1e-15).
 const F64_TOL: f64 = 1e-12;
@@ -23,7 +23,7 @@ fn unit(v: [f64; 3]) -> [f64; 3] {
     [v[0] / n, v[1] / n, v[2] / n]
 }
 
-/// Acceptance 1: every entry of G - I below 1e-12, all bands up to l = 8, exact quadrature.
+/// Every entry of G - I below 1e-12, all bands up to l = 8, exact quadrature.
 #[test]
 fn orthonormal_up_to_l8() {
     let bands = 9;
@@ -48,7 +48,8 @@ fn orthonormal_up_to_l8() {
     }
 }
 
-/// The reference itself is orthonormal too (a check on the oracle side of test 2).
+/// The reference itself is orthonormal too (a check on the oracle of
+/// `fast_matches_reference`).
 #[test]
 fn reference_is_orthonormal_up_to_l4() {
     let quad = SphereQuadrature::exact_for_degree(10);
@@ -95,7 +96,7 @@ fn check_fast_against_reference(dir: [f64; 3]) {
 proptest! {
     #![proptest_config(ProptestConfig { cases: 512, rng_seed: proptest::test_runner::RngSeed::Fixed(0x5EED), ..ProptestConfig::default() })]
 
-    /// Acceptance 2: fast path vs slow reference at random directions, every band it covers.
+    /// Fast path vs slow reference at random directions, every band it covers.
     #[test]
     fn fast_matches_reference(x in -1.0f64..1.0, y in -1.0f64..1.0, z in -1.0f64..1.0) {
         let r2 = x * x + y * y + z * z;
@@ -125,7 +126,7 @@ fn fixed_size_api_agrees() {
     assert_eq!(&all[..36], &y36[..]);
 }
 
-/// Acceptance 3: values against the mpmath oracle (`tests/data/gen_sh_oracle.py`), l <= 8.
+/// Values against the mpmath oracle (`tests/data/gen_sh_oracle.py`), l <= 8.
 #[test]
 fn matches_mpmath_oracle() {
     let text = include_str!("data/sh_oracle.txt");

@@ -1,4 +1,6 @@
-//! Acceptance 5 of the lightvol-sh issue: irradiance.
+//! Irradiance: the clamped-cosine factors `A_l` against quadrature, the [RH01] Eq. 12
+//! constants, the three 9-coefficient evaluators, a directional light's truncation error and
+//! the printed digits of [KL06] Table 1.
 
 use std::f64::consts::PI;
 
@@ -14,7 +16,7 @@ use lightvol_sh::sampling::{Frame, sample_uniform_sphere};
 
 /// Exact quadrature of polynomial integrands: f64 rounding over a few hundred terms.
 const EXACT: f64 = 1e-12;
-/// The issue's bound between the three 9-coefficient evaluators; the packed form runs in f32.
+/// The bound between the three 9-coefficient evaluators; the packed form runs in f32.
 const EVALUATORS_AGREE: f64 = 1e-6;
 
 fn random_sh<const N: usize>(rng: &mut SplitMix64) -> Sh<f64, N> {
@@ -110,11 +112,11 @@ fn directional_light_truncation_error_is_three_32nds() {
     assert!((worst - 3.0 / 32.0).abs() < EXACT, "max error {worst}");
 }
 
-/// Seed 000 Table 1 prints wrong digits; the derivations give the right ones. This test pins
+/// [KL06] Table 1 prints wrong digits; the derivations give the right ones. This test pins
 /// both, so nobody "fixes" a constant back to the printed value.
 #[test]
-#[allow(clippy::approx_constant, reason = "the printed digits of seed 000 are the subject of this test")]
-fn seed000_table1_errata() {
+#[allow(clippy::approx_constant, reason = "the printed digits of [KL06] are the subject of this test")]
+fn kl06_table1_printed_digits_against_derivations() {
     let y0 = 0.5 / PI.sqrt();
     assert!((y0 - 0.282095).abs() < 5e-7, "Y_0 = 1/(2 sqrt pi) = {y0}");
     assert!((y0 - 0.282209).abs() > 1e-4, "the printed 0.282209 is wrong");

@@ -1,4 +1,4 @@
-//! Acceptance 6 of the lightvol-sh issue: Gaunt coefficients and SH products.
+//! Gaunt coefficients and SH products.
 
 use lightvol_sh::coeffs::Sh;
 use lightvol_sh::gaunt::{GauntTable, product, product_matrix, real_gaunt};

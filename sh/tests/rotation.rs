@@ -1,4 +1,4 @@
-//! Acceptance 4 of the lightvol-sh issue: rotations.
+//! Rotations.
 
 use glam::{DMat3, DQuat, DVec3};
 use lightvol_sh::coeffs::Sh;
@@ -79,7 +79,7 @@ proptest! {
         }
     }
 
-    /// The ZH rotation of seed 004 Eq. 8 equals the full rotation of the ZH.
+    /// The ZH rotation of [SGNS07] Eq. 8 equals the full rotation of the ZH.
     #[test]
     fn zh_rotation_equals_full_rotation(q in arb_quat()) {
         let zh = Zh::<f64, 6>::cap(0.8);

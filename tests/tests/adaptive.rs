@@ -1,7 +1,6 @@
-//! Issue 9, adaptive octree volumes through the CLI: bake --adaptive → info → export round
-//! trip (acceptance 5: formats that cannot hold an octree resample to a stated uniform
-//! resolution), merge refusing octrees, bad options, and the equal-memory comparison on
-//! `city` (acceptance 4).
+//! Adaptive octree volumes through the CLI: bake --adaptive → info → export round trip
+//! (formats that cannot hold an octree resample to a stated uniform resolution), merge
+//! refusing octrees, bad options, and the equal-memory comparison on `city`.
 
 use std::path::Path;
 
@@ -31,7 +30,7 @@ const BAKE: [&str; 12] = [
     "--adaptive",
 ];
 
-/// Acceptance 5: bake --adaptive → info → export json/ktx2/dds/bevy. KTX2 at the default
+/// Bake --adaptive → info → export json/ktx2/dds/bevy. KTX2 at the default
 /// resolution (the finest level's) reproduces the octree's lookup at every texel to f16
 /// precision; `--res` states another resolution, which the file then has.
 #[test]
@@ -193,7 +192,7 @@ fn bad_adaptive_options_are_refused() {
     assert!(!k.exists());
 }
 
-/// Issue 9 acceptance 4: at equal memory the adaptive octree's relative RMSE on the `city`
+/// At equal memory the adaptive octree's relative RMSE on the `city`
 /// plate is lower than the uniform grid's, through `lightvol compare` at reduced settings
 /// (64 samples per cell, a 40-point plate, 128 reference samples; the recommended 16x16x7
 /// grid). The octree (level 0 at half the grid's cell counts, finest level 2 at half its

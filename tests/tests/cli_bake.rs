@@ -1,5 +1,5 @@
-//! The CLI's bake pipeline end to end (acceptance 4 and 5 of the CLI issue): bake → info →
-//! export → merge, sharded bakes merged against the whole bake, and bad input.
+//! The CLI's bake pipeline end to end: bake → info → export → merge, sharded bakes merged
+//! against the whole bake, and bad input.
 
 use lightvol_volume::exr_io::read_exr;
 
@@ -54,7 +54,7 @@ fn bake_info_export_and_sharded_merge() {
     assert_eq!(read_exr(&again).unwrap().data(), w.data());
 }
 
-/// Acceptance 5: every kind of bad input is one clear line, an error (no panic: a panic
+/// Every kind of bad input is one clear line, an error (no panic: a panic
 /// fails this test), and leaves no output file behind.
 #[test]
 fn bad_input_is_refused_cleanly() {

@@ -1,4 +1,4 @@
-//! Acceptance 6 of the CLI issue: `lightvol demo --quick` writes index.html, the PNG panels,
+//! `lightvol demo --quick` writes index.html, the PNG panels,
 //! the plot and a report.json per scene that follows the documented schema.
 
 use serde_json::Value;
@@ -64,7 +64,7 @@ fn demo_quick_writes_everything() {
         assert!(out.join(f).metadata().unwrap().len() > 100, "{f}");
     }
     assert!(std::fs::read_to_string(out.join("sweep.svg")).unwrap().contains("<polyline"));
-    // Issue 9: the error-vs-memory study on city and interior (plot, numbers, index.html),
+    // The error-vs-memory study on city and interior (plot, numbers, index.html),
     // and the gradient and adaptive entries in every report with their memory.
     for scene in ["city", "interior"] {
         let text =
@@ -89,7 +89,7 @@ fn demo_quick_writes_everything() {
             assert!(rep["methods"][m]["memory_bytes"].as_u64().is_some(), "{scene}: {m}.memory_bytes");
         }
         let mem = |m: &str| rep["methods"][m]["memory_bytes"].as_u64().unwrap();
-        assert_eq!(mem("doi+hermite"), 4 * mem("doi"), "seed 002: gradients quadruple the floats");
+        assert_eq!(mem("doi+hermite"), 4 * mem("doi"), "[Oat05]: gradients quadruple the floats");
         assert!(mem("adaptive") <= mem("doi") && mem("adaptive1") <= mem("doi"), "{scene}: equal memory");
     }
 }

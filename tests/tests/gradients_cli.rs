@@ -1,7 +1,7 @@
-//! Issue 9 through the CLI: `bake --gradients` writes seed 002's SH irradiance gradients into
-//! the native EXR, `info` reports them with seed 002's memory accounting, the Taylor lookup
-//! reads them back consistently, and `compare` reports the gradient lookups with their
-//! memory. Bad options are refused with one line and no output file.
+//! SH gradients through the CLI: `bake --gradients` writes [Oat05]'s SH irradiance
+//! gradients into the native EXR, `info` reports them with [Oat05]'s memory accounting, the
+//! Taylor lookup reads them back consistently, and `compare` reports the gradient lookups
+//! with their memory. Bad options are refused with one line and no output file.
 
 use lightvol_volume::exr_io::{read_exr, read_exr_with_gradients};
 use lightvol_volume::gradient::{GradientLookup, coeffs_at};
@@ -92,7 +92,7 @@ fn bake_gradients_round_trip_and_taylor_lookup() {
     // change of the field: the central difference of neighbouring node values. Pooled over
     // every interior node and the three axes (DC coefficient, red), the two correlate.
     // Measured at these settings: 0.85 (per layer and axis 0.55-0.97; the horizontal
-    // gradients in open air are small and noisy). Seed 002's central differences at h = cell/16
+    // gradients in open air are small and noisy). [Oat05]'s central differences at h = cell/16
     // measure the *local* derivative instead, which near shadow edges and walls is an order
     // of magnitude larger than the cell-scale change; they are not compared here.
     let [nx, ny, nz] = spec.res();
@@ -120,14 +120,14 @@ fn bake_gradients_round_trip_and_taylor_lookup() {
     println!("basis gradient vs node differences: correlation {corr:.3}");
     assert!(corr > MIN_CORRELATION, "basis gradient vs node differences: correlation {corr}");
 
-    // info reports the gradients and seed 002's floats per sample (order 3: 27 SH floats,
+    // info reports the gradients and [Oat05]'s floats per sample (order 3: 27 SH floats,
     // 108 with gradients; order 6: 108 and 432), and the run-time bytes they imply.
     ok(&["info", s(&basis)]);
     let info = lightvol::cmd_info::describe(&basis).unwrap();
     assert_eq!(info["gradients"], Value::Bool(true));
     assert_eq!(info["memory"]["floats_per_node"].as_u64(), Some(108));
     assert_eq!(info["memory"]["runtime_bytes"].as_u64(), Some(10 * 10 * 5 * 108 * 4));
-    let table = info["memory"]["seed002_floats_per_sample"].as_array().unwrap();
+    let table = info["memory"]["floats_per_sample_by_order"].as_array().unwrap();
     let row = |order: u64| table.iter().find(|r| r["order"].as_u64() == Some(order)).unwrap();
     assert_eq!((row(3)["floats"].as_u64(), row(3)["floats_with_gradients"].as_u64()), (Some(27), Some(108)));
     assert_eq!((row(6)["floats"].as_u64(), row(6)["floats_with_gradients"].as_u64()), (Some(108), Some(432)));
@@ -137,7 +137,7 @@ fn bake_gradients_round_trip_and_taylor_lookup() {
 }
 
 /// `compare` with gradient lookups: one bake serves every lookup (same rays), each entry
-/// reports its run-time memory in seed 002's accounting (27 floats per node, 108 with
+/// reports its run-time memory in [Oat05]'s accounting (27 floats per node, 108 with
 /// gradients), and the memory sweep writes its numbers and plot.
 #[test]
 fn compare_reports_gradient_lookups_with_memory() {

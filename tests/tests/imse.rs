@@ -1,4 +1,4 @@
-//! Issue 6 acceptance 3: the IMSE reproduction of seed 003 Table 3.1 at 10,000 signals.
+//! The IMSE reproduction of [Ish11] Table 3.1 at 10,000 signals.
 //! Runs in the workspace `tests/` crate, with every basis feature enabled.
 
 use lightvol_hemibasis::imse::{self, ImseEvaluator, expected_imse, signal, table_bases};
@@ -6,7 +6,7 @@ use lightvol_hemibasis::imse::{self, ImseEvaluator, expected_imse, signal, table
 const SIGNALS: usize = 10_000;
 const SEED: u64 = 0;
 
-/// The issue's bound: every entry within 3% of the thesis.
+/// Every entry within 3% of the thesis.
 const THESIS_REL_TOL: f64 = 0.03;
 
 /// An exact least-squares fit of a signal by its own basis leaves only rounding (squared).

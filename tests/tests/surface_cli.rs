@@ -1,4 +1,4 @@
-//! `lightvol bake-surface` and `lightvol render --surface` end to end (issue 10).
+//! `lightvol bake-surface` and `lightvol render --surface` end to end.
 
 mod surface_util;
 
@@ -97,7 +97,7 @@ fn read_plane(dir: &Path, stem: &str, how: Stored) -> (Plane, Option<bool>) {
 }
 
 /// Decodes every written plane of `tag` in `out`, rebuilds the coefficient maps (the
-/// shader's decode, seed 003 Listing 2.2: DC through the sRGB curve, others `2 r v - r`),
+/// shader's decode, [Ish11] Listing 2.2: DC through the sRGB curve, others `2 r v - r`),
 /// and returns `map_error` over the covered texels against the EXR's maps scaled by the
 /// JSON's `encode_scale` (what the CLI reports as `rel_rms`).
 fn error_of_files(out: &Path, tag: &str, how: Stored) -> f64 {
@@ -152,7 +152,7 @@ fn assert_files_measured(out: &Path, tag: &str, key: &str, how: Stored) {
     );
 }
 
-/// The grazing light of seed 003 §3.2 in lightvol's +Z-up frame: a sun 5.7° above the
+/// The grazing light of [Ish11] §3.2 in lightvol's +Z-up frame: a sun 5.7° above the
 /// horizon (irradiance 5 on a facing surface) and a blue sky.
 const SUN: &str = "1,0.2,0.1:5";
 const SKY: &str = "0.25,0.35,0.6";

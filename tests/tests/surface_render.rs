@@ -1,7 +1,6 @@
-//! Issue 10 acceptance 2 (seed 003 §3.2, Fig. 3.5): on a normal-mapped plane under a grazing
-//! sun and sky, the 6-coefficient H-basis is within 1.5× the relative RMSE of 9-coefficient
-//! SH against the path-traced reference, and Half-Life 2 (3 coefficients) is worse than
-//! both.
+//! [Ish11] §3.2, Fig. 3.5: on a normal-mapped plane under a grazing sun and sky, the
+//! 6-coefficient H-basis is within 1.5× the relative RMSE of 9-coefficient SH against the
+//! path-traced reference, and Half-Life 2 (3 coefficients) is worse than both.
 
 mod surface_util;
 
@@ -117,7 +116,7 @@ const SUN_ONLY_TOL: f64 = 1e-5;
 /// is still below the sun case's 1/64 offset.
 const SKY_ONLY_MC_TOL: f64 = 0.012;
 
-/// Issue 10 / seed 003 Listing 2.2: the levels of detail of the modified H-basis at the
+/// [Ish11] Listing 2.2: the levels of detail of the modified H-basis at the
 /// geometric normal. `H2 … H6` vanish at `n = (0, 0, 1)`, so `lightmap` (1 coefficient),
 /// `lightmap4` (4) and `hbasis_mod6` (6) shade identically there; the value is the 3-band SH
 /// irradiance at the normal less `sqrt(5)/(8 sqrt(π)) E_20` (`lightvol_hemibasis::lod`), and

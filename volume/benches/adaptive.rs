@@ -1,4 +1,5 @@
-//! Lookup cost of an adaptive octree volume against a uniform volume (issue 9).
+//! Lookup cost of an adaptive octree volume against a uniform volume ([Oat05], "Adaptive
+//! Octree Subdivision").
 //!
 //! `cargo bench -p lightvol-volume --bench adaptive` prints divan's table: the f32 hashed
 //! lookup (`AdaptiveVolume::irradiance`), the f64 reference, and the uniform lookup of the

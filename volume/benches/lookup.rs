@@ -1,4 +1,4 @@
-//! Lookup throughput of a 64³, 9-coefficient RGB volume (issue 3, "Performance"), and a
+//! Lookup throughput of a 64³, 9-coefficient RGB volume (README, "Performance"), and a
 //! roofline estimate measured in the same run.
 //!
 //! `cargo bench -p lightvol-volume` prints divan's table (lookups/s as items/s):

@@ -308,7 +308,7 @@ mod tests {
 
     /// Agreement of two f64 sums of the same ~10^3 terms in different orders, relative to
     /// the largest sum (individual sums may cancel toward zero; their rounding error scales
-    /// with the terms, not with the result). Acceptance 5 of issue 3.
+    /// with the terms, not with the result).
     const MERGE_REL_TOL: f64 = 1e-12;
 
     fn spec() -> GridSpec {
@@ -327,7 +327,7 @@ mod tests {
     }
 
     #[test]
-    fn acceptance_5_merge_equals_single_pass_and_commutes() {
+    fn merge_equals_single_pass_and_commutes() {
         let mut all = Accumulator::new(spec(), 9).unwrap();
         let mut a = Accumulator::new(spec(), 9).unwrap();
         let mut b = Accumulator::new(spec(), 9).unwrap();

@@ -1,4 +1,4 @@
-//! The adaptive octree volume of Oat, *Irradiance Volumes for Games* (seed 002, "Adaptive
+//! The adaptive octree volume of Oat, *Irradiance Volumes for Games* (\[Oat05\], "Adaptive
 //! Octree Subdivision" to "Trilinear Interpolation"), stored as hierarchical surpluses on
 //! nested grids.
 //!
@@ -17,24 +17,26 @@
 //! surpluses, with absent nodes counting as 0. A lookup at `x` is
 //!
 //! `L(x) = Σ_l I_l(x)`: for each level, the 8 corners of the level-`l` cell containing `x`,
-//! weighted by their trilinear weights (Kontkanen & Laine 2006 Eq. 2), summed.
+//! weighted by their trilinear weights (\[KL06\] Eq. 2), summed.
 //!
 //! Every term is a sum of continuous tent functions, so `L` is continuous (C0) everywhere,
 //! in particular where a coarse leaf meets subdivided neighbours. This is the "continue
-//! using samples from subdivided neighbors for interpolation" rule of seed 002: the fine
-//! nodes on the face between a coarse leaf and its split neighbour (the T-junction samples)
-//! keep contributing inside the coarse leaf, over half a fine cell, so an object moving from
-//! the fine to the coarse side sees no sample "suddenly ignored". Seed 002 suggests
-//! pointers from each octree node to the samples on its faces; the surplus sum reaches the
-//! same samples through the fine level's node table instead, with no per-face bookkeeping.
-//! Where a region is fully refined to level `L` the sum equals the uniform level-`L`
-//! trilinear interpolant of the baked values (the coarse tents are trilinear inside each
-//! fine cell and the surpluses make the sum hit the baked value at every fine node).
+//! using samples from subdivided neighbors for interpolation" rule of \[Oat05\] ("Trilinear
+//! Interpolation"): the fine nodes on the face between a coarse leaf and its split
+//! neighbour (the T-junction samples) keep contributing inside the coarse leaf, over half a
+//! fine cell, so an object moving from the fine to the coarse side sees no sample "suddenly
+//! ignored". \[Oat05\] suggests pointers from each octree node to the samples on its faces;
+//! the surplus sum reaches the same samples through the fine level's node table instead,
+//! with no per-face bookkeeping. Where a region is fully refined to level `L` the sum
+//! equals the uniform level-`L` trilinear interpolant of the baked values (the coarse tents
+//! are trilinear inside each fine cell and the surpluses make the sum hit the baked value
+//! at every fine node).
 //!
 //! ## Culling
-//! Seed 002: "if a voxel has been subdivided and its children don't differ enough from the
-//! parent, these samples may be culled". Here a node is dropped when its surplus (its
-//! difference from the parent levels' interpolation) is small in irradiance:
+//! \[Oat05\], "Adaptive Subdivision": "if a voxel has been subdivided and its children don't
+//! differ enough from the parent, these samples may be culled". Here a node is dropped when
+//! its surplus (its difference from the parent levels' interpolation) is small in
+//! irradiance:
 //! [`surplus_measure`]`(s) ≤ cull_tolerance · value_scale`, with
 //! [`AdaptiveVolume::value_scale`] the mean over weighted base nodes of `max_rgb |c_00|`.
 //! Dropping a node changes the irradiance near it by at most that (L2 norm over normals,
@@ -88,8 +90,9 @@ pub fn unpack_key(key: u64) -> [u32; 3] {
     ]
 }
 
-/// Refinement and culling parameters of an adaptive volume (seed 002: "Specify a Min and
-/// Max level of subdivision", culling of redundant samples, plus a memory budget).
+/// Refinement and culling parameters of an adaptive volume (\[Oat05\], "Adaptive
+/// Subdivision": "Specify a Min and Max level of subdivision", culling of redundant samples,
+/// plus a memory budget).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct OctreeParams {
     /// Every cell of the levels below `min_level` is split; nodes of levels `≤ min_level`

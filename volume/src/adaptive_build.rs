@@ -1,4 +1,4 @@
-//! Building an [`AdaptiveVolume`] level by level (seed 002, "Adaptive Subdivision": min and
+//! Building an [`AdaptiveVolume`] level by level (\[Oat05\], "Adaptive Subdivision": min and
 //! max levels, a threshold per heuristic, culling of redundant children).
 //!
 //! [`build_adaptive`] is tracer-agnostic: it takes the finished base volume and two
@@ -16,10 +16,10 @@
 //! cells below `min_level`); bake the level-`l+1` nodes the splits create; store each node's
 //! surplus unless it is culled (see [`crate::adaptive`]).
 //!
-//! **Memory budget.** Seed 002's brute-force scheme: "super-sample, then discard redundant
-//! voxels using some error tolerance". When the tree the heuristics grew exceeds
-//! `memory_budget` (as [`AdaptiveVolume::memory_bytes`] counts it), a second, L2-weighted
-//! cull threshold is raised by bisection until it fits: a node is kept only if
+//! **Memory budget.** \[Oat05\]'s brute-force scheme ("Adaptive Subdivision"): "super-sample,
+//! then discard redundant voxels using some error tolerance". When the tree the heuristics
+//! grew exceeds `memory_budget` (as [`AdaptiveVolume::memory_bytes`] counts it), a second,
+//! L2-weighted cull threshold is raised by bisection until it fits: a node is kept only if
 //! `max |s| · 2^(-3l/2)` (its surplus times the L2 norm of its tent relative to level 0)
 //! exceeds it. The surpluses are recomputed level by level from the baked values for each
 //! trial, so the nodes kept are, across all levels, those whose removal would change the
@@ -105,7 +105,7 @@ impl Candidates<'_> {
     }
 
     /// The change of the field across cell `i`: the largest `|c_a − c_b|` over the cell's 12
-    /// edges, all coefficients and RGB, divided by [`Self::value_scale`]. This is seed 002's
+    /// edges, all coefficients and RGB, divided by [`Self::value_scale`]. This is \[Oat05\]'s
     /// "large gradient" heuristic as `|∇c| · h` (the gradient times the cell size, i.e. what
     /// linear interpolation across the cell has to bridge), estimated by corner differences.
     #[must_use]
@@ -393,7 +393,7 @@ fn rebuild(vol: &mut AdaptiveVolume, baked: &[Baked], cull_abs: f64, l2_abs: f64
 const BUDGET_STEPS: u32 = 48;
 
 /// Finds, by bisection, the smallest L2 tolerance `l2_abs` (see [`level_surpluses`]) with
-/// which `memory_bytes() ≤ budget`, and leaves `vol` rebuilt with it: the seed's
+/// which `memory_bytes() ≤ budget`, and leaves `vol` rebuilt with it: \[Oat05\]'s
 /// "super-sample, then discard redundant samples", keeping across all levels the nodes whose
 /// removal would change the field most in the L2 sense (`|s|` times the L2 norm of the
 /// node's tent, the standard thresholding of hierarchical bases). Returns the tolerance

@@ -1,5 +1,5 @@
 //! Tests of the adaptive octree volume: exactness, continuity across every leaf boundary
-//! (issue 9, acceptance 3), f32 vs f64 lookups, budget, culling, resampling.
+//! (f32 lookup), f32 vs f64 lookups, budget, culling, resampling.
 
 use super::*;
 use crate::adaptive_build::{LevelSamples, build_adaptive};
@@ -172,9 +172,9 @@ fn boundary_pairs(v: &AdaptiveVolume, eps: f64) -> Vec<([f64; 3], [f64; 3])> {
     out
 }
 
-/// The popping lookup seed 002 warns about: trilinear interpolation of the 8 corners of the
-/// leaf containing `p` only (fine neighbours ignored). Used to show that the walk detects
-/// jumps.
+/// The popping lookup \[Oat05\] warns about ("Trilinear Interpolation"): trilinear
+/// interpolation of the 8 corners of the leaf containing `p` only (fine neighbours
+/// ignored). Used to show that the walk detects jumps.
 fn leaf_only_lookup(v: &AdaptiveVolume, p: [f64; 3]) -> Vec<f64> {
     let mut l = 0;
     let (mut cell, _) = v.base().spec().locate(p);
@@ -226,12 +226,12 @@ fn step_volume_refines_along_the_step_and_culls() {
     }
 }
 
-/// Issue 9, acceptance 3: the f32 lookup is continuous across every leaf boundary. The
+/// The f32 lookup is continuous across every leaf boundary. The
 /// tolerance is the f32 rounding of two lookups ([`f32_lookup_tol`]) plus the field's
 /// Lipschitz bound times the 2·eps step; the popping leaf-only lookup exceeds it by orders
 /// of magnitude on the same walk.
 #[test]
-fn acceptance_3_lookup_is_continuous_across_every_leaf_boundary() {
+fn lookup_is_continuous_across_every_leaf_boundary() {
     let v = step_volume();
     // A few f32 ulps of the coordinates (≤ 3 here, ulp ≤ 2.4e-7) yet small against the cell.
     let eps = 1e-5 * finest_cell(&v);

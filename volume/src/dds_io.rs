@@ -1,7 +1,7 @@
 //! Engine export: a DDS volume texture (`ddsfile`), RGBA16F with a DX10 header
 //! (`DXGI_FORMAT_R16G16B16A16_FLOAT`, `D3D10_RESOURCE_DIMENSION_TEXTURE3D`), in the
 //! coefficient-slab layout of [`crate::slab`] (width `nx`, height `ny`, depth `coeffs·nz`,
-//! weight in alpha) — the 3D-texture route of seed 003 §2.3.
+//! weight in alpha) — the 3D-texture route of \[Ish11\] §2.3.
 //!
 //! DDS has no room for metadata, so [`write_dds`] also writes the JSON sidecar beside the
 //! texture (`name.dds.json`, [`crate::sidecar::sidecar_path`]) and [`read_dds`] requires it;

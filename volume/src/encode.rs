@@ -7,7 +7,7 @@
 //! | [`Encoding::Srgb8`] | 27 | DC: largest half-step of 8-bit sRGB × scale; others: `range · scale / 255` |
 //! | [`Encoding::DcNormalized8`] | 30 | `R_l (|Δc₀| + |c₀'| / 255)` |
 //!
-//! **sRGB-DC with range compression** (Ishmukhametov, seed 003 §2.2.3 and Listing 2.1): each
+//! **sRGB-DC with range compression** (Ishmukhametov, \[Ish11\] §2.2.3 and Listing 2.1): each
 //! colour channel is divided by a global scale `s_c` (the largest DC coefficient of that
 //! channel), so the DC term lies in `[0, 1]`; it is stored in 8-bit sRGB (this crate uses the
 //! exact IEC 61966-2-1 curve that sRGB texture formats decode in hardware, where the thesis
@@ -42,7 +42,7 @@ use lightvol_sh::sampling::sample_uniform_sphere;
 use crate::error::VolumeError;
 use crate::volume::IrradianceVolume;
 
-/// Default range-compression factor of [`Encoding::Srgb8`] (seed 003 §2.2.3: "a rule of thumb
+/// Default range-compression factor of [`Encoding::Srgb8`] (\[Ish11\] §2.2.3: "a rule of thumb
 /// is that the other coefficients do not exceed the range of [-0.75..0.75]").
 pub const DEFAULT_RANGE: f32 = 0.75;
 
@@ -54,7 +54,7 @@ pub enum Encoding {
     F32,
     /// IEEE half float.
     F16,
-    /// 8-bit: DC in sRGB, the rest range-compressed by `range` (seed 003 §2.2.3).
+    /// 8-bit: DC in sRGB, the rest range-compressed by `range` (\[Ish11\] §2.2.3).
     Srgb8 {
         /// Range-compression factor `f`: non-DC coefficients map `[-f s, f s]` to `[0, 255]`.
         range: f32,
@@ -64,7 +64,7 @@ pub enum Encoding {
 }
 
 impl Encoding {
-    /// Seed 003's scheme with the default range 0.75.
+    /// \[Ish11\]'s scheme (§2.2.3) with the default range 0.75.
     pub const SRGB8: Self = Self::Srgb8 { range: DEFAULT_RANGE };
 
     /// A short stable name (`f32`, `f16`, `srgb8`, `dc_normalized8`).

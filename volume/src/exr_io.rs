@@ -17,7 +17,7 @@
 //!
 //! Samples are f32 (bit-exact round trip) or f16 ([`ExrSample`]); compression is lossless.
 //!
-//! ## Optional gradient parts (seed 002 SH gradients)
+//! ## Optional gradient parts (SH gradients of \[Oat05\])
 //! [`write_exr_with_gradients`] adds, after the `weight` part, one part per coefficient
 //! named `grad00`, `grad01`, … with nine f32 channels `R.x R.y R.z G.x … B.z` (the world
 //! gradient of that coefficient, [`VolumeGradients`] layout), in the same slice layout, and

@@ -1,5 +1,5 @@
 //! Spherical-harmonic irradiance gradients and the lookups that use them (Oat, *Irradiance
-//! Volumes for Games*, GDC 2005 — seed 002, slides "Spherical Harmonic Irradiance
+//! Volumes for Games*, GDC 2005 — \[Oat05\], slides "Spherical Harmonic Irradiance
 //! Gradients", "Central Differencing", "First-Order Taylor Expansion", "Using Gradients for
 //! Interpolation", "Tricubic Interpolation" and the two "Memory Requirements" slides).
 //!
@@ -11,7 +11,7 @@
 //! Three lookups, all in f64, all returning the `3 · coeffs` coefficients `[coeff][rgb]`
 //! at a world point (clamped into the box first, like [`IrradianceVolume::coeffs_reference`]):
 //!
-//! - [`GradientLookup::Taylor`]: seed 002's first-order Taylor expansion
+//! - [`GradientLookup::Taylor`]: \[Oat05\]'s first-order Taylor expansion
 //!   `I'_i = I_i + ∇I_i · d` from the **nearest** node, `d` the (non-unit) vector from the
 //!   node to the point. Exact for fields linear in x, y, z. Continuous across cell faces
 //!   (the nearest node on a face is the same from both sides), but it jumps half-way
@@ -41,7 +41,7 @@
 //!   patch and its normal derivative depend only on that face's four corners).
 //!
 //! All three agree with plain trilinear interpolation at the nodes (they return the node's
-//! value there). [`floats_per_sample`] and [`sample_bytes`] give seed 002's memory
+//! value there). [`floats_per_sample`] and [`sample_bytes`] give \[Oat05\]'s memory
 //! accounting: `3 n²` floats of SH per sample for order (bands) `n`, and `3 · 3 n²` more
 //! for the gradients.
 
@@ -54,7 +54,7 @@ use crate::grid::{GridSpec, corner_weights};
 use crate::volume::IrradianceVolume;
 
 /// Per-node world-space gradients of every SH coefficient of an [`IrradianceVolume`]
-/// (seed 002, "Spherical Harmonic Irradiance Gradients"), f32, `[node][coeff][rgb][xyz]`.
+/// (\[Oat05\], "Spherical Harmonic Irradiance Gradients"), f32, `[node][coeff][rgb][xyz]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VolumeGradients {
     nodes: usize,
@@ -166,7 +166,7 @@ impl VolumeGradients {
     }
 }
 
-/// Which gradient-using lookup (seed 002's three).
+/// Which gradient-using lookup (\[Oat05\]'s three).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum GradientLookup {
     /// First-order Taylor expansion from the nearest node.
@@ -177,7 +177,7 @@ pub enum GradientLookup {
     Hermite,
 }
 
-/// SH floats per sample in seed 002's "Memory Requirements" accounting: `3 n²` for RGB SH of
+/// SH floats per sample in \[Oat05\]'s "Memory Requirements" accounting: `3 n²` for RGB SH of
 /// order (bands) `n`, times 4 with gradients (each coefficient adds a 3-vector).
 #[must_use]
 pub const fn floats_per_sample(bands: usize, gradients: bool) -> usize {

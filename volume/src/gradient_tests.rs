@@ -77,7 +77,7 @@ fn max_diff(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
 }
 
-/// Acceptance 2 (linear part): all three lookups reproduce fields linear in x, y, z, under
+/// Linear fields: all three lookups reproduce fields linear in x, y, z, under
 /// a rotated, anisotropically scaled placement (which exercises Hermite's chain rule).
 #[test]
 fn linear_fields_are_exact() {
@@ -104,7 +104,7 @@ fn separable_cubic(x: [f64; 3], m: usize) -> (f64, [f64; 3]) {
     (p(x[0], 0) + p(x[1], 1) + p(x[2], 2), [dp(x[0], 0), dp(x[1], 1), dp(x[2], 2)])
 }
 
-/// Acceptance 2 (cubic part): Hermite reproduces every additively separable cubic
+/// Separable cubics: Hermite reproduces every additively separable cubic
 /// `p(x) + q(y) + r(z)` (hence every cubic in x alone); the first-order lookups do not.
 #[test]
 fn hermite_is_exact_for_separable_cubics() {
@@ -248,10 +248,10 @@ fn mismatched_gradients_error() {
     );
 }
 
-/// Seed 002's memory tables against the formula `3 n² (1 + 3)`: per-sample figures (GPU
+/// \[Oat05\]'s memory tables against the formula `3 n² (1 + 3)`: per-sample figures (GPU
 /// constant store slide) and the system-memory slide's totals. Reports which agree.
 #[test]
-fn memory_accounting_matches_seed_002() {
+fn floats_per_sample_matches_the_printed_memory_tables() {
     // "GPU Memory Requirements": 6th order 108 + 324 = 432; 3rd order 27 + 81 = 108.
     assert_eq!(floats_per_sample(6, false), 108);
     assert_eq!(floats_per_sample(6, true) - floats_per_sample(6, false), 324);

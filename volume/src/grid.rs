@@ -1,6 +1,6 @@
 //! The node grid of an irradiance volume and its trilinear weights.
 //!
-//! Kontkanen & Laine 2006 (seed 000), §3: the SH coefficient functions `L_j(x)` are
+//! Kontkanen & Laine 2006, \[KL06\] §3: the SH coefficient functions `L_j(x)` are
 //! discretised on a regular 3D grid and reconstructed by trilinear interpolation,
 //! `L_j(x) ≈ Σ_{i∈B(x)} c_ij b_i(x)` (Eq. 2), with `b_i` the standard trilinear "tent"
 //! weight of node `i` (Table 1). Nodes sit at the cell corners: node `i` along an axis with

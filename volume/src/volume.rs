@@ -1,6 +1,6 @@
 //! The baked irradiance volume: RGB SH radiance coefficients and a weight per node.
 //!
-//! Kontkanen & Laine 2006 (seed 000), §3: each node `i` stores the coefficients `c_ij` of
+//! Kontkanen & Laine 2006, \[KL06\] §3: each node `i` stores the coefficients `c_ij` of
 //! the incident *radiance* `L(x_i, ω) ≈ Σ_j c_ij Y_j(ω)` (Eq. 2), from which irradiance is
 //! reconstructed at run time (Eq. 1 and 3; see [`crate::lookup`]). The per-node weight is
 //! the fraction of the node's trilinear support that lies in the domain of interest (the
@@ -16,7 +16,7 @@ use crate::grid::GridSpec;
 use crate::lookup::LookupParams;
 
 /// The default SH coefficient count per colour channel: 3 bands, the nine coefficients that
-/// capture irradiance to a few percent (Ramamoorthi & Hanrahan 2001; seed 000 §3).
+/// capture irradiance to a few percent (Ramamoorthi & Hanrahan 2001; \[KL06\] §3).
 pub const DEFAULT_COEFFS: usize = 9;
 
 /// The SH coefficient counts per colour channel this crate supports (2, 3 and 4 bands).
@@ -252,7 +252,7 @@ impl IrradianceVolume {
         self
     }
 
-    /// Bytes of coefficient and weight storage at f32 (seed 002's memory figure: 9 RGB
+    /// Bytes of coefficient and weight storage at f32 (\[Oat05\]'s memory figure: 9 RGB
     /// coefficients are 108 bytes per node).
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
@@ -289,8 +289,9 @@ mod tests {
     }
 
     #[test]
-    fn memory_matches_seed_002_per_node_figure() {
-        // Seed 002: "3rd order SH approximation for R, G, and B: 27 floats" per sample.
+    fn memory_is_27_floats_per_node_at_order_3() {
+        // [Oat05], "GPU Memory Requirements (Constant Store)": "3rd order SH approximation
+        // for R, G, and B: 27 floats" per sample.
         let spec = GridSpec::new([0.0; 3], [1.0; 3], [17, 17, 17]).unwrap();
         let v = IrradianceVolume::zeros(spec, 9).unwrap();
         assert_eq!(v.data().len(), 17 * 17 * 17 * 27);

@@ -1,4 +1,4 @@
-//! Issue 3 acceptance 6: random byte mutations and truncations of valid files give an
+//! Random byte mutations and truncations of valid files give an
 //! `Err`, never a panic — and never a silently different volume.
 //!
 //! For every format, a small valid file is damaged by proptest (fixed RNG seed, so the

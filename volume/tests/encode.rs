@@ -1,4 +1,4 @@
-//! Issue 3 acceptance 3: each encoding round-trips within its stated error bound.
+//! Each encoding round-trips within its stated error bound.
 
 mod common;
 
@@ -12,7 +12,7 @@ const ENCODINGS: [Encoding; 5] =
     [Encoding::F32, Encoding::F16, Encoding::SRGB8, Encoding::Srgb8 { range: 0.5 }, Encoding::DcNormalized8];
 
 #[test]
-fn acceptance_3_round_trip_within_stated_bounds() {
+fn every_encoding_round_trips_within_its_stated_bound() {
     for coeffs in [4, 9, 16] {
         let vol = common::physical_volume(coeffs, [5, 4, 3], 40 + coeffs as u64);
         for enc in ENCODINGS {

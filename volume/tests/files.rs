@@ -1,4 +1,4 @@
-//! Issue 3 acceptance 4: EXR, KTX2 and DDS round trips (read back with the same crates),
+//! EXR, KTX2 and DDS round trips (read back with the same crates),
 //! and the Bevy export reproduces E(±axis) at every voxel to f16 precision.
 
 mod common;
@@ -17,7 +17,7 @@ fn f16_close(a: f32, b: f32) -> bool {
 }
 
 #[test]
-fn acceptance_4_exr_f32_round_trip_is_bit_exact() {
+fn exr_f32_round_trip_is_bit_exact() {
     let dir = tempfile::tempdir().unwrap();
     for coeffs in [4, 9, 16] {
         let vol = common::random_volume(coeffs, [5, 3, 4], 7 + coeffs as u64);
@@ -113,7 +113,7 @@ mod ktx2_dds_bevy {
     }
 
     #[test]
-    fn acceptance_4_ktx2_round_trip_and_ktx2_crate_reads_it() {
+    fn ktx2_round_trip_and_ktx2_crate_reads_it() {
         let dir = tempfile::tempdir().unwrap();
         for coeffs in [4, 9, 16] {
             let vol = common::random_volume(coeffs, [4, 3, 5], coeffs as u64);
@@ -143,7 +143,7 @@ mod ktx2_dds_bevy {
     }
 
     #[test]
-    fn acceptance_4_dds_round_trip_and_ddsfile_reads_it() {
+    fn dds_round_trip_and_ddsfile_reads_it() {
         let dir = tempfile::tempdir().unwrap();
         let vol = common::random_volume(9, [3, 4, 2], 77);
         let path = dir.path().join("v.dds");
@@ -183,7 +183,7 @@ mod ktx2_dds_bevy {
     }
 
     #[test]
-    fn acceptance_4_bevy_export_reproduces_axis_irradiance() {
+    fn bevy_export_reproduces_axis_irradiance() {
         let dir = tempfile::tempdir().unwrap();
         let vol = common::physical_volume(9, [4, 3, 5], 12);
         let path = dir.path().join("bevy.ktx2");

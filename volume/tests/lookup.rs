@@ -1,4 +1,4 @@
-//! Issue 3 acceptance 1 and 2: the lookup is exact for linear fields, its weights sum to
+//! The lookup is exact for linear fields, its weights sum to
 //! one, the batched path equals the scalar path bit for bit (any thread count), and the
 //! irradiance at a node equals lightvol-sh's irradiance of that node's coefficients.
 
@@ -51,7 +51,7 @@ fn random_points(n: usize, seed: u64, lo: [f64; 3], hi: [f64; 3]) -> Vec<[f64; 3
 }
 
 #[test]
-fn acceptance_1_lookup_is_exact_for_linear_fields() {
+fn lookup_is_exact_for_linear_fields() {
     for coeffs in [4, 9, 16] {
         let vol = linear_volume(coeffs, grid());
         let (lo, hi) = vol.spec().bounds();
@@ -78,7 +78,7 @@ fn acceptance_1_lookup_is_exact_for_linear_fields() {
 }
 
 #[test]
-fn acceptance_1_trilinear_weights_sum_to_one() {
+fn trilinear_weights_sum_to_one() {
     let spec = grid().with_placement(
         Placement::new([[0.0, 1.5, 0.0, 3.0], [-1.0, 0.0, 0.0, 0.0], [0.2, 0.0, 2.0, -1.0]]).unwrap(),
     );
@@ -107,7 +107,7 @@ fn queries(n: usize, seed: u64, lo: [f64; 3], hi: [f64; 3]) -> (Vec<[f32; 3]>, V
 }
 
 #[test]
-fn acceptance_1_batched_equals_scalar_bit_for_bit() {
+fn batched_equals_scalar_bit_for_bit() {
     let placed = grid().with_placement(
         Placement::new([[0.0, 1.5, 0.0, 3.0], [-1.0, 0.0, 0.0, 0.0], [0.2, 0.0, 2.0, -1.0]]).unwrap(),
     );
@@ -198,7 +198,7 @@ fn radiance_at_a_node_is_the_sh_expansion() {
 }
 
 #[test]
-fn acceptance_2_irradiance_at_a_node_agrees_with_lightvol_sh() {
+fn irradiance_at_a_node_agrees_with_lightvol_sh() {
     let vol = random_volume(9, grid(), 21);
     let spec = vol.spec().clone();
     let mut rng = SplitMix64::new(4);

@@ -1,4 +1,4 @@
-//! Issue 3 acceptance 5 as a property: for any split of a sample set into shards, merging
+//! Shard merging, as a property: for any split of a sample set into shards, merging
 //! the shards' accumulators equals accumulating all samples at once to f64 rounding, and
 //! merging is commutative bit for bit.
 
@@ -10,7 +10,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
 /// Two f64 sums of the same ≤ 400 terms in different orders differ by at most a few
-/// hundred ulps of the largest partial sum; 1e-12 of the largest sum is the issue's bound.
+/// hundred ulps of the largest partial sum; 1e-12 of the largest sum leaves room for that.
 const MERGE_REL_TOL: f64 = 1e-12;
 
 fn spec() -> GridSpec {
@@ -30,7 +30,7 @@ proptest! {
     #![proptest_config(Config { cases: 48, rng_seed: RngSeed::Fixed(5), failure_persistence: None, ..Config::default() })]
 
     #[test]
-    fn acceptance_5_any_shard_split_merges_to_the_whole(
+    fn any_shard_split_merges_to_the_whole(
         shard_of in prop::collection::vec(0usize..4, 1..400),
     ) {
         let mut whole = Accumulator::new(spec(), 9).unwrap();

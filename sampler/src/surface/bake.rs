@@ -1,4 +1,4 @@
-//! The surface bake: every lightmap object's atlas, texel by texel (seed 003 §2.2).
+//! The surface bake: every lightmap object's atlas, texel by texel (\[Ish11\] §2.2).
 //!
 //! **Determinism.** Each texel's random streams depend only on `(seed, object, texel)`;
 //! texels are integrated in parallel in chunks and their results stored by index, and the
@@ -37,7 +37,7 @@ pub struct SurfaceSettings {
     /// At most `max_candidates_factor × samples` candidate points are drawn per texel while
     /// looking for valid ones.
     pub max_candidates_factor: u32,
-    /// SH bands of the intermediate projection (3 = 9 coefficients, seed 003 §2.2.1).
+    /// SH bands of the intermediate projection (3 = 9 coefficients, \[Ish11\] §2.2.1).
     pub sh_bands: usize,
     /// Irradiance or radiosity.
     pub quantity: Quantity,

@@ -13,7 +13,7 @@ pub enum SurfaceError {
         "the scene has no lightmap objects (load a glTF file, or build meshes with SceneBuilder::add_mesh)"
     )]
     NoLightmapObjects,
-    /// An object lacks the requested UV set (seed 003 §2.1.1: lightmap UVs must be authored;
+    /// An object lacks the requested UV set (\[Ish11\] §2.1.1: lightmap UVs must be authored;
     /// none are generated).
     #[error("mesh '{mesh}' has no {set} (lightmap UVs must be authored; lightvol does not generate them)")]
     MissingUvSet {

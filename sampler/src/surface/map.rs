@@ -1,5 +1,5 @@
 //! Coefficient maps: storage, dilation of texels without valid samples, bilinear lookup and
-//! shading at a tangent-space normal (seed 003 §2.5.1, Listing 2.2 without the 8-bit
+//! shading at a tangent-space normal (\[Ish11\] §2.5.1, Listing 2.2 without the 8-bit
 //! encoding).
 
 use glam::DVec3;
@@ -39,7 +39,7 @@ pub struct CoefficientMap {
     pub invalid: InvalidCounts,
 }
 
-/// Invalid-texel counters of one object (seed 000's domain of interest applied to texels):
+/// Invalid-texel counters of one object (\[KL06\] §5's domain of interest applied to texels):
 /// `invalid_texels = moved + dilated + unfilled` with [`InvalidTexels::Fix`](super::InvalidTexels),
 /// `moved = dilated = unfilled = 0` with `Keep`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -272,7 +272,7 @@ impl CoefficientMap {
 
     /// Irradiance (or radiosity, per [`quantity`](Self::quantity)) at lightmap UV `uv` for a
     /// tangent-space normal `n_tangent` (unit, `z` = surface normal): [`lookup`](Self::lookup)
-    /// then `Σ c_i B_i(n)` (seed 003 Listing 2.2). `basis` must be [`basis`](Self::basis)'s.
+    /// then `Σ c_i B_i(n)` (\[Ish11\] Listing 2.2). `basis` must be [`basis`](Self::basis)'s.
     #[must_use]
     pub fn shade(&self, basis: &dyn HemiBasis, uv: [f64; 2], n_tangent: [f64; 3]) -> [f64; 3] {
         basis.reconstruct_rgb_f64(&self.lookup(uv), n_tangent)

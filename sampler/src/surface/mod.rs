@@ -1,7 +1,7 @@
 //! Surface coefficient maps: lightmaps whose texels store irradiance in a hemispherical basis,
 //! so that normal-mapped surfaces still shade correctly (Ishmukhametov, *Irradiance Normal
-//! Mapping*, seed 003 §2.2), with the domain-of-interest treatment of invalid texels
-//! (Kontkanen & Laine 2006, seed 000 §5).
+//! Mapping*, \[Ish11\] §2.2), with the domain-of-interest treatment of invalid texels
+//! (Kontkanen & Laine 2006, \[KL06\] §5).
 //!
 //! Pipeline ([`bake_surface`]):
 //! 1. [`SurfaceGeometry`]: per lightmap object (a glTF mesh instance) the lightmap UVs
@@ -10,7 +10,7 @@
 //! 2. [`atlas`]: the atlas size from the texel density, the conservative rasterization of
 //!    every triangle into texel footprints and the overlap check by area within each texel.
 //! 3. [`texel`]: per texel, sample points on its footprint, incident radiance over the
-//!    tangent-space hemisphere by path tracing, projected to SH over the hemisphere (seed 003
+//!    tangent-space hemisphere by path tracing, projected to SH over the hemisphere (\[Ish11\]
 //!    Eq. 2.1-2.2), convolved with the clamped cosine (Eq. 2.3) and fitted to the chosen
 //!    basis (`lightvol_hemibasis::convert::sh_to_basis_matrix`, §2.2.1-2.2.2). Sample points
 //!    that see back faces are outside the domain of interest and are replaced by points in
@@ -95,7 +95,7 @@ pub enum Quantity {
     #[default]
     Irradiance,
     /// `E / π`, the exit radiance of a white Lambertian surface, with the normalised factors
-    /// `1, 2/3, 1/4` of seed 003 Eq. 2.3 (the thesis's convention; a sky `L` gives `L`).
+    /// `1, 2/3, 1/4` of \[Ish11\] Eq. 2.3 (the thesis's convention; a sky `L` gives `L`).
     Radiosity,
 }
 
@@ -132,8 +132,8 @@ impl Quantity {
 /// How texels whose sample points see back faces are treated.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum InvalidTexels {
-    /// Seed 000's domain of interest: samples are re-drawn in the valid part of the texel's
-    /// footprint; texels with no valid part are dilated from valid neighbours.
+    /// The domain of interest of \[KL06\] §5: samples are re-drawn in the valid part of the
+    /// texel's footprint; texels with no valid part are dilated from valid neighbours.
     #[default]
     Fix,
     /// No treatment (ablation): invalid points keep their dark samples.
@@ -196,8 +196,8 @@ impl std::str::FromStr for BasisChoice {
     }
 }
 
-/// The basis names of issue 10, all of which parse when every lightvol-hemibasis feature is on.
-pub const ISSUE_BASES: [&str; 13] = [
+/// The surface basis names, all of which parse when every lightvol-hemibasis feature is on.
+pub const BASIS_NAMES: [&str; 13] = [
     "sh4",
     "sh9",
     "hl2",

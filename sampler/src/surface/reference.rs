@@ -16,7 +16,7 @@ use crate::transport::{PathRng, SHADOW_MARGIN, Transport};
 /// The quantity a coefficient map approximates at a surface point: with `F` the tangent frame
 /// at `(tri, bary)` and `n = F.to_world(n_tangent)`,
 /// `E = ∫ L(ω) max(0, n·ω) [F.n·ω > 0] dω`: light from below the tangent-space hemisphere
-/// counts zero, as in seed 003 Eq. 2.1 (the maps cannot represent it). Scaled by `quantity`
+/// counts zero, as in \[Ish11\] Eq. 2.1 (the maps cannot represent it). Scaled by `quantity`
 /// (`1/π` for radiosity).
 ///
 /// Estimator: `samples` cosine-weighted directions about `n` (dimensions 0-1 of a scrambled

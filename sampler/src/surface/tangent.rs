@@ -1,7 +1,7 @@
 //! Tangent frames: glTF `TANGENT` when the file has it, else MikkTSpace (Mikkelsen 2008,
 //! through `bevy_mikktspace`, a byte-identical safe port of the reference implementation),
 //! computed with the base texture coordinates so the lightmap's tangent space is the normal
-//! map's (seed 003 §2.2.2).
+//! map's (\[Ish11\] §2.2.2).
 //!
 //! Convention (glTF 2.0 §3.7.2.1, MikkTSpace): `t` follows `dP/du`, the bitangent is
 //! `b = w · n × t` with the handedness `w = ±1`; tangent space is `(x, y, z) = (t, b, n)`.

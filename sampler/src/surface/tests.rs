@@ -1,6 +1,6 @@
-//! Acceptance tests of issue 10 (surface coefficient maps): 1 (uniform sky on a plane),
-//! 3 (intersecting boxes, dark leaks with and without the domain-of-interest treatment),
-//! 5 (lightmap UV errors), plus determinism across thread counts and the reference.
+//! Tests of the surface coefficient maps: a uniform sky on a plane, intersecting boxes (dark
+//! leaks with and without the domain-of-interest treatment), lightmap UV errors, plus
+//! determinism across thread counts and the reference.
 
 use std::f64::consts::PI;
 
@@ -57,14 +57,14 @@ fn settings(basis: &str) -> SurfaceSettings {
 }
 
 /// Exact irradiance of a flat receiver under a uniform sky `L` for a tangent-space normal
-/// `n` when light from below the surface's hemisphere is masked (seed 003 Eq. 2.1): the
+/// `n` when light from below the surface's hemisphere is masked (\[Ish11\] Eq. 2.1): the
 /// cosine lobe about `n` clipped to `z > 0`, `E = π L (1 + n_z) / 2` (the classic sky-dome
 /// form factor of a tilted plane).
 fn masked_sky_irradiance(l: f64, n: [f64; 3]) -> f64 {
     PI * l * (1.0 + n[2]) / 2.0
 }
 
-/// Acceptance 1. A plane under a uniform sky `L`: for every basis of the issue and every
+/// A plane under a uniform sky `L`: for every basis of `BASIS_NAMES` and every
 /// texel, every coefficient equals the least-squares fit of the exact irradiance function
 /// within a stated Monte Carlo bound, and so does the reconstruction at the normal, which is
 /// exactly `π L` for the bases whose span holds `1` and `z` (SH, HSH, H-basis, modified
@@ -90,7 +90,7 @@ fn masked_sky_irradiance(l: f64, n: [f64; 3]) -> f64 {
 /// normal within `Σ_j |Σ_i B_i(N) M_ij| A_l · 4σ_j` — tiny, because only the zonal `j`
 /// survive at the pole.
 #[test]
-fn acceptance_1_uniform_sky_plane() {
+fn uniform_sky_plane_matches_the_least_squares_fits() {
     const L: [f64; 3] = [1.0, 0.5, 0.25];
     const K: u32 = 1024;
     const SIGMAS: f64 = 4.0;
@@ -106,7 +106,7 @@ fn acceptance_1_uniform_sky_plane() {
     let sigma = |j: usize, ch: usize| if j == 0 { 0.0 } else { L[ch] * (PI / f64::from(K)).sqrt() };
     let a = |j: usize| lightvol_sh::irradiance::cosine_lobe_factor(j.isqrt() as u32);
     let pole = [0.0, 0.0, 1.0];
-    for name in ISSUE_BASES {
+    for name in BASIS_NAMES {
         let s = SurfaceSettings { samples: K, resolution: Some([4, 4]), ..settings(name) };
         let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
         assert_eq!(bake.report.texels_covered, 16);
@@ -255,7 +255,7 @@ fn deterministic_across_thread_counts() {
 }
 
 // ---------------------------------------------------------------------------------------
-// Acceptance 3: intersecting boxes.
+// Intersecting boxes.
 
 /// Box A `[-1, 1]² × [0, 1.5]` and box B `[0.3, 1.8] × [-0.5, 0.5] × [0, 1]`, which pierces
 /// A's +X face; both without bottoms, on a ground plane (not baked), under a uniform sky.
@@ -317,7 +317,7 @@ fn strictly_inside((lo, hi): (DVec3, DVec3), p: DVec3) -> bool {
     (0..3).all(|i| p[i] > lo[i] + MARGIN && p[i] < hi[i] - MARGIN)
 }
 
-/// Acceptance 3. Texels *near the intersection* are those whose footprint has both visible and
+/// Texels *near the intersection* are those whose footprint has both visible and
 /// buried points (a 4 × 4 grid of footprint points, classified analytically: a point of box A
 /// strictly inside box B is buried, and vice versa — ground truth independent of the bake's
 /// ray-based classification), and the wholly buried texels beside them (4-neighbours), which
@@ -326,7 +326,7 @@ fn strictly_inside((lo, hi): (DVec3, DVec3), p: DVec3) -> bool {
 /// centroid of the visible grid points of the straddling texel. With the domain-of-interest
 /// treatment no such texel leaks; without it both kinds do.
 #[test]
-fn acceptance_3_intersecting_boxes() {
+fn intersecting_boxes_do_not_leak_dark_with_domain_of_interest() {
     const DARK: f64 = 0.5;
     let scene = boxes_scene();
     let tracer = Tracer::new(&scene);
@@ -500,7 +500,7 @@ fn bary_of(v: &[DVec3; 3], p: DVec3) -> [f64; 2] {
 }
 
 // ---------------------------------------------------------------------------------------
-// Acceptance 5: lightmap UV errors from glTF files.
+// Lightmap UV errors from glTF files.
 
 fn base64(data: &[u8]) -> String {
     const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
@@ -590,10 +590,10 @@ fn load(p: &std::path::Path) -> Scene {
         .unwrap()
 }
 
-/// Acceptance 5: a missing lightmap UV set, overlapping UV triangles, out-of-range and
+/// A missing lightmap UV set, overlapping UV triangles, out-of-range and
 /// degenerate UVs are clear errors naming the mesh (and faces); `--uv 0` uses TEXCOORD_0.
 #[test]
-fn acceptance_5_uv_errors() {
+fn lightmap_uv_errors_name_the_mesh() {
     let d = tempfile::tempdir().unwrap();
     let good = [[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
     // Missing TEXCOORD_1.
@@ -646,7 +646,7 @@ fn acceptance_5_uv_errors() {
     assert!(BasisChoice::parse("").is_err() && BasisChoice::parse("9").is_err());
 }
 
-/// Acceptance 5, overlap by area (review of the centre-only check): a decal triangle whose UVs
+/// UV overlap by area (not only at texel centres): a decal triangle whose UVs
 /// lie inside the floor's chart without covering a texel centre, two identical small UV
 /// triangles, and a thin sliver overlap along a shared diagonal are errors naming the mesh
 /// and faces; a sliver below [`atlas::UV_OVERLAP_AREA_TOLERANCE`] and a finely triangulated
@@ -936,13 +936,13 @@ fn conservative_rasterization_covers_centreless_texels() {
 
 /// How each basis's coefficients give the irradiance at the geometric normal `N = (0, 0, 1)`:
 /// `E(N) = Σ_i c_i B_i(N)`. Printed per basis; for the modified H-basis only the first
-/// function is non-zero at the pole, `B_0 = 1/sqrt(2π)` (seed 003 Listing 2.2's `0.39894`):
+/// function is non-zero at the pole, `B_0 = 1/sqrt(2π)` (\[Ish11\] Listing 2.2's `0.39894`):
 /// its DC coefficient is `E(N) · sqrt(2π)` (a plain lightmap times sqrt(2π)), and under a
 /// uniform sky `π L · sqrt(2π)`.
 #[test]
 fn irradiance_at_the_normal_per_basis() {
     const TOL: f64 = 1e-12;
-    for name in ISSUE_BASES {
+    for name in BASIS_NAMES {
         let b = BasisChoice::parse(name).unwrap().basis();
         let mut v = vec![0.0; b.len()];
         b.eval_f64([0.0, 0.0, 1.0], &mut v);
@@ -988,11 +988,11 @@ fn instanced_meshes_are_separate_objects() {
     }
 }
 
-/// The thesis's ranking at the bake level (issue 10 acceptance 2 measures it on rendered
-/// images, in the CLI): a plane under a grazing sun (10° elevation) and a sky, shaded at 48
-/// perturbed tangent-space normals (tilt up to 50°) against the path-traced reference:
-/// SH9 < H-basis 6 < Half-Life 2 in relative RMSE, and the H-basis and the modified H-basis
-/// (same span) give the same shading.
+/// The thesis's ranking at the bake level (`tests/tests/surface_render.rs` measures it on
+/// rendered images, in the CLI): a plane under a grazing sun (10° elevation) and a sky,
+/// shaded at 48 perturbed tangent-space normals (tilt up to 50°) against the path-traced
+/// reference: SH9 < H-basis 6 < Half-Life 2 in relative RMSE, and the H-basis and the
+/// modified H-basis (same span) give the same shading.
 ///
 /// Measured (relative RMSE sh9 / hbasis6 / hl2): sun 10°, tilt ≤ 50°: 0.055 / 0.083 / 0.285
 /// (hbasis6 = 1.50 × sh9); sun 10°, tilt ≤ 30°: 0.064 / 0.103 / 0.417 (1.61 ×); sun 20°,

@@ -1,6 +1,6 @@
 //! One texel's coefficients: sample points on the texel's footprint, restricted to the domain
 //! of interest (Kontkanen & Laine 2006 §5-6, Algorithm 2 adapted to a texel footprint), and the
-//! incident radiance over each point's tangent-space hemisphere projected to SH (seed 003
+//! incident radiance over each point's tangent-space hemisphere projected to SH (\[Ish11\]
 //! Eq. 2.1-2.2), convolved with the clamped cosine (Eq. 2.3) and fitted to the basis.
 //!
 //! **Estimator.** Candidate `i` of a texel takes its footprint point from dimensions 0-2 and
