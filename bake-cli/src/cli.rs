@@ -49,6 +49,10 @@ pub enum Command {
     Imse(crate::cmd_imse::ImseArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
+    /// Describe what the loader understood of a scene file: triangles (unique and
+    /// instanced), objects, materials with alpha mode and sidedness, extensions and their
+    /// treatment, lights, cameras, bounds in the file's and the internal frame, warnings.
+    Inspect(crate::cmd_inspect::InspectArgs),
     /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).
     Export(ExportArgs),
 }

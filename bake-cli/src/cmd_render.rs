@@ -25,16 +25,18 @@ pub struct RenderArgs {
     /// The baked volume to shade with (required unless --reference).
     #[arg(long)]
     pub volume: Option<PathBuf>,
-    /// Camera `EYE_X,EYE_Y,EYE_Z:TARGET_X,TARGET_Y,TARGET_Z[:FOV_DEG]` (default: a view from
-    /// above one corner of the scene bounds, looking at their centre).
+    /// Camera `EYE_X,EYE_Y,EYE_Z:TARGET_X,TARGET_Y,TARGET_Z[:FOV_DEG]`, or `gltf:NAME` /
+    /// `gltf:INDEX` for a camera of the scene file (its yfov, and its aspect ratio unless
+    /// --height is given; `lightvol inspect` lists them). Default: a view from above one
+    /// corner of the scene bounds, looking at their centre.
     #[arg(long, allow_hyphen_values = true)]
     pub camera: Option<String>,
     /// Image width.
     #[arg(long, default_value_t = 480)]
     pub width: u32,
-    /// Image height.
-    #[arg(long, default_value_t = 320)]
-    pub height: u32,
+    /// Image height (default 320, or width / aspect ratio of a file camera that has one).
+    #[arg(long)]
+    pub height: Option<u32>,
     /// Shade by path tracing instead of the volume (the ground truth for the same view).
     #[arg(long)]
     pub reference: bool,
@@ -73,7 +75,53 @@ pub struct Camera {
     tan_half: f64,
 }
 
+/// Default image height when neither --height nor a file camera's aspect ratio sets it.
+pub const DEFAULT_HEIGHT: u32 = 320;
+
+impl RenderArgs {
+    /// The image size: `--width`, and `--height`, else `width / aspect` (rounded, at least
+    /// 1) for a camera with an aspect ratio, else [`DEFAULT_HEIGHT`]. Refuses empty images
+    /// and images over 64 Mpixels.
+    pub fn size(&self, aspect: Option<f64>) -> anyhow::Result<(u32, u32)> {
+        let h = match (self.height, aspect) {
+            (Some(h), _) => h,
+            (None, Some(a)) => ((f64::from(self.width) / a).round() as u32).max(1),
+            (None, None) => DEFAULT_HEIGHT,
+        };
+        if self.width == 0 || h == 0 || u64::from(self.width) * u64::from(h) > 64 << 20 {
+            bail!("image size {}x{h} must be positive and at most 64 Mpixels", self.width);
+        }
+        Ok((self.width, h))
+    }
+}
+
 impl Camera {
+    /// A camera of the scene file (`SceneCamera`, already in the internal frame).
+    pub fn from_scene(c: &lightvol_sampler::SceneCamera) -> anyhow::Result<Self> {
+        let forward = c.forward.try_normalize().context("file camera has no view direction")?;
+        let right = forward.cross(c.up).try_normalize().context("file camera's up is parallel to its view")?;
+        let up = right.cross(forward);
+        Ok(Self { eye: c.position, forward, right, up, tan_half: (c.yfov / 2.0).tan() })
+    }
+
+    /// Resolves `--camera`: `gltf:NAME|INDEX` against the scene's cameras, else
+    /// [`parse`](Self::parse). Returns the camera and the file camera's aspect ratio.
+    pub fn resolve(s: &str, scene: &lightvol_sampler::Scene) -> anyhow::Result<(Self, Option<f64>)> {
+        let Some(key) = s.strip_prefix("gltf:") else { return Ok((Self::parse(s)?, None)) };
+        let found = match key.parse::<usize>() {
+            Ok(i) => scene.cameras.get(i),
+            Err(_) => scene.cameras.iter().find(|c| c.name == key),
+        };
+        let Some(c) = found else {
+            let names: Vec<String> = scene.cameras.iter().enumerate().map(|(i, c)| format!("{i} '{}'", c.name)).collect();
+            if names.is_empty() {
+                bail!("--camera {s}: the scene file has no perspective camera");
+            }
+            bail!("--camera {s}: no such camera (the file has {})", names.join(", "));
+        };
+        Ok((Self::from_scene(c)?, c.aspect))
+    }
+
     /// Looks from `eye` at `target` with vertical field of view `fov_deg`, +Z up.
     pub fn look_at(eye: DVec3, target: DVec3, fov_deg: f64) -> anyhow::Result<Self> {
         let forward = (target - eye).try_normalize().context("camera eye and target coincide")?;
@@ -159,9 +207,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.surface {
         return crate::cmd_render_surface::run(args, dir, args.normal_map.as_deref().unwrap_or("procedural"));
     }
-    if args.width == 0 || args.height == 0 || u64::from(args.width) * u64::from(args.height) > 64 << 20 {
-        bail!("image size {}x{} must be positive and at most 64 Mpixels", args.width, args.height);
-    }
+    args.size(None)?;
     let loaded = args.scene.load()?;
     let vol = match (&args.volume, args.reference) {
         (Some(p), _) if crate::adaptive_files::is_adaptive(p) => {
@@ -173,8 +219,8 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         (None, true) => None,
         (None, false) => bail!("render needs --volume V.exr (or --reference for the path-traced view)"),
     };
-    let cam = match &args.camera {
-        Some(c) => Camera::parse(c)?,
+    let (cam, aspect) = match &args.camera {
+        Some(c) => Camera::resolve(c, &loaded.scene)?,
         None => {
             // Frame the volume (or the built-in's recommended grid), else the scene.
             let grid = vol.as_ref().map(|v| v.spec().clone()).or_else(|| loaded.grid.clone());
@@ -185,10 +231,10 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                 }
                 _ => loaded.scene.bounds(),
             };
-            Camera::overview(lo, hi)?
+            (Camera::overview(lo, hi)?, None)
         }
     };
-    let (w, h) = (args.width, args.height);
+    let (w, h) = args.size(aspect)?;
     // With --reference the volume (if given) only frames the view.
     let shade_vol = if args.reference { None } else { vol.as_ref() };
     let img = with_threads(args.threads, || -> Rgb32 {

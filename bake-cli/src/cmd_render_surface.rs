@@ -329,9 +329,7 @@ enum PixelHit {
 
 /// Runs `lightvol render --surface`.
 pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<ExitCode> {
-    if args.width == 0 || args.height == 0 || u64::from(args.width) * u64::from(args.height) > 64 << 20 {
-        bail!("image size {}x{} must be positive and at most 64 Mpixels", args.width, args.height);
-    }
+    args.size(None)?;
     if args.reference_samples == 0 {
         bail!("--reference-samples must be at least 1");
     }
@@ -363,14 +361,14 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
             );
         }
     }
-    let cam = match &args.camera {
-        Some(c) => Camera::parse(c)?,
+    let (cam, aspect) = match &args.camera {
+        Some(c) => Camera::resolve(c, &loaded.scene)?,
         None => {
             let (lo, hi) = loaded.scene.bounds();
-            Camera::overview(lo, hi)?
+            (Camera::overview(lo, hi)?, None)
         }
     };
-    let (w, h) = (args.width, args.height);
+    let (w, h) = args.size(aspect)?;
     // Radiance leaving a Lambertian surface: albedo · E / π (irradiance maps) or albedo · B.
     let to_radiance = match quantity {
         Quantity::Irradiance => std::f64::consts::FRAC_1_PI,

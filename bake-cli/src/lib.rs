@@ -12,6 +12,7 @@ mod cmd_export;
 pub mod cmd_gpu;
 pub mod cmd_imse;
 pub mod cmd_info;
+pub mod cmd_inspect;
 pub mod cmd_lint;
 pub mod cmd_merge;
 pub mod cmd_proxies;
@@ -73,6 +74,7 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::GpuInfo(a) => cmd_gpu::run_info(&a),
         cli::Command::Imse(a) => cmd_imse::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
+        cli::Command::Inspect(a) => cmd_inspect::run(&a),
         cli::Command::Lint(a) => cmd_lint::run(&a),
         cli::Command::Merge(a) => cmd_merge::run(&a),
         cli::Command::Proxies(a) => cmd_proxies::run(&a),

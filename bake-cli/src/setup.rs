@@ -150,8 +150,18 @@ pub fn parse_sun(s: &str) -> anyhow::Result<Sun> {
 }
 
 impl SceneArgs {
-    /// Loads (or builds) the scene and applies the light options.
+    /// Loads (or builds) the scene and applies the light options; loader warnings go to
+    /// standard error.
     pub fn load(&self) -> anyhow::Result<LoadedScene> {
+        let loaded = self.load_quiet()?;
+        for w in &loaded.scene.report.warnings {
+            eprintln!("warning: {w}");
+        }
+        Ok(loaded)
+    }
+
+    /// As [`load`](Self::load), leaving the warnings in the scene's report only.
+    pub fn load_quiet(&self) -> anyhow::Result<LoadedScene> {
         let up = if self.up == "z" { UpAxis::Z } else { UpAxis::Y };
         let mut loaded = if let Some(name) = self.scene.strip_prefix("builtin:") {
             let b = builtin(name).with_context(|| {
@@ -171,9 +181,6 @@ impl SceneArgs {
             let path = Path::new(&self.scene);
             let opts = LoadOptions { up, scale: self.scale, ..LoadOptions::default() };
             let scene = load_scene(path, &opts).with_context(|| format!("loading {}", path.display()))?;
-            for w in &scene.report.warnings {
-                eprintln!("warning: {w}");
-            }
             LoadedScene {
                 scene,
                 grid: None,
