@@ -1,4 +1,4 @@
-//! Tests of the bake: determinism (acceptance 5), the city leak test (acceptance 6),
+//! Tests of the bake: determinism across threads and shards, the city leak test,
 //! progress and cancellation.
 
 use super::*;
@@ -16,7 +16,7 @@ fn run(threads: usize, f: impl FnOnce() -> BakeOutput + Send) -> BakeOutput {
     rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap().install(f)
 }
 
-/// Acceptance 5: 1 and 2 threads give bit-identical sums for every method; shards merged in
+/// 1 and 2 threads give bit-identical sums for every method; shards merged in
 /// any order equal the whole bake within 1e-12 relative.
 #[test]
 fn deterministic_across_threads_and_shards() {
@@ -90,7 +90,7 @@ fn progress_and_cancellation() {
     ));
 }
 
-/// Acceptance 6: on the built-in city (its recommended grid and lights), `point` leaves
+/// On the built-in city (its recommended grid and lights), `point` leaves
 /// dark nodes inside buildings that darken the street just outside the walls; `doi` does
 /// not. Checked with volume irradiance at points 0.3 m outside each wall, 1 m up, facing
 /// away from the wall, against path-traced reference irradiance.

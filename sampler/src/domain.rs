@@ -187,7 +187,7 @@ mod tests {
         s
     }
 
-    /// Acceptance 3, Fig. 3 (a)-(d): a kept sample outside a solid survives the re-test, a
+    /// \[KL06\] Fig. 3 (a)-(d): a kept sample outside a solid survives the re-test, a
     /// candidate inside is dropped and creates a back-face point, a later candidate inside is
     /// rejected by a query ray without tracing its sampling ray.
     #[test]
@@ -209,7 +209,7 @@ mod tests {
         assert_eq!((c.rays.sampling, c.rays.query), (3, 3));
     }
 
-    /// Acceptance 3: an earlier sample whose own ray escaped is removed when a later
+    /// \[KL06\] Alg. 2: an earlier sample whose own ray escaped is removed when a later
     /// back-face point is visible from it (inside an open-topped box).
     #[test]
     fn earlier_samples_are_retested() {
@@ -225,7 +225,7 @@ mod tests {
         assert_eq!(c.rejected.iter().map(|r| r.0).collect::<Vec<_>>(), vec![1, 0]);
     }
 
-    /// Acceptance 3: a cell that sees no back face traces no query rays at all.
+    /// A cell that sees no back face traces no query rays at all (\[KL06\] §6).
     #[test]
     fn clean_cells_trace_no_query_rays() {
         let s = solid_box(DVec3::ZERO, DVec3::ONE, false);
@@ -261,7 +261,7 @@ mod tests {
         assert_eq!(printed.kept.len(), 0);
     }
 
-    /// Acceptance 4: inside closed boxes and behind single-sided walls is outside the
+    /// Point classification (\[KL06\] §5): inside closed boxes and behind single-sided walls is outside the
     /// domain; open space is inside. On the real Cornell box: the room is inside, the blocks
     /// and the space behind the walls are outside.
     #[test]

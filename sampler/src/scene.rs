@@ -154,7 +154,7 @@ impl Triangle {
     }
 }
 
-/// Vertex attributes of one lightmap object (a glTF node's mesh instance, seed 003 §2.1.1:
+/// Vertex attributes of one lightmap object (a glTF node's mesh instance, \[Ish11\] §2.1.1:
 /// every static object gets its own coefficient maps). Arrays are vertex-indexed and in world
 /// space; [`TriangleRef::vertices`] index them.
 #[derive(Clone, Debug, Default, PartialEq)]

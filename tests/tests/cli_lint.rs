@@ -1,4 +1,4 @@
-//! `lightvol lint` finds a flipped triangle in an otherwise closed mesh (seed 000 §7) and
+//! `lightvol lint` finds a flipped triangle in an otherwise closed mesh ([KL06] §7) and
 //! passes the clean mesh and the Cornell box.
 
 use std::process::ExitCode;

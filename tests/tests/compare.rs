@@ -1,4 +1,4 @@
-//! The central claim of seed 000 (Kontkanen & Laine 2006, Fig. 6), reproduced through the
+//! The central claim of Kontkanen & Laine 2006 ([KL06] §8, Fig. 6), reproduced through the
 //! CLI: at equal sample budget, domain-of-interest sampling removes the dark leaks of point
 //! sampling, measured against a path-traced reference on horizontal plates.
 //!
@@ -48,7 +48,7 @@ fn summary(r: &Value) -> String {
         .join("\n")
 }
 
-/// Acceptance 2, city: doi removes at least 90% of point sampling's near-surface dark
+/// City: doi removes at least 90% of point sampling's near-surface dark
 /// points, cuts the relative RMSE by at least 20%, and traces at most 1.25x the rays.
 #[test]
 fn city_doi_beats_point_sampling() {
@@ -110,7 +110,7 @@ fn interior(height: &str, fit: &str) -> Value {
     r
 }
 
-/// Acceptance 2, interior (Fig. 6c): the recommended grid has node layers inside the walls,
+/// Interior ([KL06] Fig. 6c): the recommended grid has node layers inside the walls,
 /// floor and ceiling, and the plates are crossed by the sun patch under the window.
 ///
 /// - With the least-squares node fit (`--fit lsq`, lightvol-sampler's `fit` module), doi has
@@ -138,7 +138,7 @@ fn interior_doi_beats_point_sampling() {
     assert!(metric(&r, "doi", "too_dark") < metric(&r, "point", "too_dark"));
 }
 
-/// Acceptance 2, Cornell box (real data): nodes inside the two blocks and behind the
+/// Cornell box (real data): nodes inside the two blocks and behind the
 /// single-sided walls must not darken the valid space around the blocks.
 #[test]
 fn cornell_box_blocks_do_not_darken_the_room() {
@@ -173,7 +173,7 @@ fn cornell_box_blocks_do_not_darken_the_room() {
     assert!(metric(&r, "doi", "too_dark") < 0.05);
 }
 
-/// Acceptance 3: the reference itself. A plate above a ground plane under a uniform sky
+/// The path-traced reference itself. A plate above a ground plane under a uniform sky
 /// of radiance L sees only the sky: E = π L exactly. The per-point estimates' scatter gives
 /// the Monte Carlo error of their mean; the mean must lie within 4 standard errors (plus
 /// f32 storage rounding) of π L, and the bias must be below 1%. (The reference samples
