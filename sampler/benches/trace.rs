@@ -105,3 +105,64 @@ fn closest_hit_by_build(bencher: Bencher<'_, '_>, quality: &str) {
         rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, 0.0, f64::INFINITY).is_some()).count()
     });
 }
+
+/// Rays per iteration of the alpha benchmark.
+const ALPHA_RAYS: usize = 100_000;
+
+/// A canopy of 20,000 random leaf quads (40,000 triangles) with a disc-shaped alpha mask
+/// (about 21% of each quad transparent), as `OPAQUE`, `MASK` and `BLEND` (alpha 0.5)
+/// versions of the same geometry, plus rays from below into it.
+fn canopy(mode: &str) -> (Tracer, Vec<(DVec3, DVec3)>) {
+    use lightvol_sampler::AlphaMode;
+    use lightvol_sampler::texture::Texture;
+    let n = 64u32;
+    let alpha: Vec<f32> = (0..n * n)
+        .map(|i| {
+            let (x, y) = (f64::from(i % n) + 0.5 - 32.0, f64::from(i / n) + 0.5 - 32.0);
+            if x * x + y * y < 32.0 * 32.0 { 1.0 } else { 0.0 }
+        })
+        .collect();
+    let tex = Texture::from_linear(n, n, vec![[0.2, 0.6, 0.2]; (n * n) as usize]).unwrap().with_alpha(alpha).unwrap();
+    let mut b = SceneBuilder::new("canopy");
+    let t = b.add_texture(tex);
+    let mut m = Material::diffuse("leaf", [1.0; 3]).two_sided();
+    m.albedo_texture = Some(t);
+    m.alpha_mode = match mode {
+        "mask" => AlphaMode::Mask { cutoff: 0.5 },
+        "blend" => AlphaMode::Blend,
+        _ => AlphaMode::Opaque,
+    };
+    if mode == "blend" {
+        m.alpha = 0.5;
+    }
+    let m = b.add_material(m).unwrap();
+    let mut rng = SplitMix64::new(7);
+    let uv = [DVec2::new(0.0, 0.0), DVec2::new(1.0, 0.0), DVec2::new(1.0, 1.0), DVec2::new(0.0, 1.0)];
+    for _ in 0..20_000 {
+        let c = DVec3::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0), rng.range(4.0, 8.0));
+        let u = DVec3::from_array(sample_uniform_sphere([rng.next_f64(), rng.next_f64()])) * 0.3;
+        let v = u.any_orthonormal_vector() * 0.3;
+        let q = [c - u - v, c + u - v, c + u + v, c - u + v];
+        b.add_triangle([q[0], q[1], q[2]], [uv[0], uv[1], uv[2]], m).unwrap();
+        b.add_triangle([q[0], q[2], q[3]], [uv[0], uv[2], uv[3]], m).unwrap();
+    }
+    let s = b.build().unwrap();
+    let rays = (0..ALPHA_RAYS)
+        .map(|_| {
+            let o = DVec3::new(rng.range(-8.0, 8.0), rng.range(-8.0, 8.0), 0.0);
+            let d = DVec3::from_array(sample_uniform_sphere([rng.next_f64(), rng.next_f64()]));
+            (o, DVec3::new(d.x, d.y, d.z.abs()))
+        })
+        .collect();
+    (Tracer::new(&s), rays)
+}
+
+/// Closest hits into a leaf canopy, one thread: the cost of the alpha test against the same
+/// geometry traced opaque (compare the `opaque`, `mask` and `blend` rows).
+#[divan::bench(args = ["opaque", "mask", "blend"], sample_count = 5, sample_size = 1)]
+fn alpha(bencher: Bencher<'_, '_>, mode: &str) {
+    let (tracer, rays) = canopy(mode);
+    bencher.counter(ItemsCount::new(ALPHA_RAYS)).bench(|| {
+        rays.iter().filter(|(o, d)| tracer.closest_hit(*o, *d, 0.0, f64::INFINITY).is_some()).count()
+    });
+}
