@@ -220,13 +220,15 @@ impl SceneArgs {
     }
 }
 
-/// Bytes a bake of this grid needs: the f64 accumulator (numerators, denominators,
-/// outside sums) plus the finalized f32 volume and weights.
+/// Bytes a bake of this grid needs: the exact accumulator (numerators, denominators,
+/// outside sums; 16-byte fixed-point values plus a 1-byte poison flag each, see
+/// `lightvol_volume::fixed`), the f64 estimates the finalizer divides into, and the
+/// finalized f32 volume and weights.
 #[must_use]
 pub fn bake_memory_bytes(res: [u64; 3], coeffs: usize) -> u128 {
     let nodes = u128::from(res[0]) * u128::from(res[1]) * u128::from(res[2]);
     let k = coeffs as u128 * 3;
-    nodes * ((k + 2) * 8 + (k + 1) * 4)
+    nodes * ((k + 2) * 17 + (k + 1) * 8 + (k + 1) * 4)
 }
 
 fn available_memory_bytes() -> u128 {

@@ -29,6 +29,8 @@ use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::bands_of;
 use lightvol_sh::lowdisc::hash2;
 use lightvol_sh::sampling::sample_uniform_sphere;
+use lightvol_volume::accumulator::add_terms;
+use lightvol_volume::fixed::FixedSums;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
@@ -253,9 +255,9 @@ struct SparseSums {
     k: usize,
     slot: std::collections::HashMap<usize, usize>,
     nodes: Vec<usize>,
-    numerator: Vec<f64>,
-    denominator: Vec<f64>,
-    outside: Vec<f64>,
+    numerator: FixedSums,
+    denominator: FixedSums,
+    outside: FixedSums,
 }
 
 impl SparseSums {
@@ -264,9 +266,9 @@ impl SparseSums {
         let s = *self.slot.entry(node).or_insert(next);
         if s == next {
             self.nodes.push(node);
-            self.numerator.extend(std::iter::repeat_n(0.0, self.k));
-            self.denominator.push(0.0);
-            self.outside.push(0.0);
+            self.numerator.extend_zeros(self.k);
+            self.denominator.extend_zeros(1);
+            self.outside.extend_zeros(1);
         }
         s
     }
@@ -277,12 +279,9 @@ impl SparseSums {
         let k = self.k;
         SubsetSums {
             nodes: order.iter().map(|&i| self.nodes[i]).collect(),
-            numerator: order
-                .iter()
-                .flat_map(|&i| self.numerator[i * k..(i + 1) * k].iter().copied())
-                .collect(),
-            denominator: order.iter().map(|&i| self.denominator[i]).collect(),
-            outside: order.iter().map(|&i| self.outside[i]).collect(),
+            numerator: order.iter().flat_map(|&i| (i * k..(i + 1) * k).map(|j| self.numerator.get(j))).collect(),
+            denominator: order.iter().map(|&i| self.denominator.get(i)).collect(),
+            outside: order.iter().map(|&i| self.outside.get(i)).collect(),
         }
     }
 }
@@ -290,20 +289,13 @@ impl SparseSums {
 impl NodeSums for SparseSums {
     fn add(&mut self, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
         let s = self.slot(node);
-        let k = self.k;
-        let num = &mut self.numerator[s * k..(s + 1) * k];
-        // The arithmetic of Accumulator::add, operation for operation.
-        let r = [b * radiance_over_pdf[0], b * radiance_over_pdf[1], b * radiance_over_pdf[2]];
-        for (j, &y) in basis.iter().enumerate() {
-            num[3 * j] += r[0] * y;
-            num[3 * j + 1] += r[1] * y;
-            num[3 * j + 2] += r[2] * y;
-        }
-        self.denominator[s] += b;
+        // The arithmetic of Accumulator::add, term for term.
+        add_terms(&mut self.numerator, s * self.k, b, radiance_over_pdf, basis);
+        self.denominator.add(s, b);
     }
     fn add_outside(&mut self, node: usize, b: f64) {
         let s = self.slot(node);
-        self.outside[s] += b;
+        self.outside.add(s, b);
     }
 }
 
@@ -340,9 +332,9 @@ pub fn bake_units(
         k: settings.coeffs * 3,
         slot: std::collections::HashMap::new(),
         nodes: Vec::new(),
-        numerator: Vec::new(),
-        denominator: Vec::new(),
-        outside: Vec::new(),
+        numerator: FixedSums::default(),
+        denominator: FixedSums::default(),
+        outside: FixedSums::default(),
     };
     let stats =
         run_units(transport, grid, settings, control, units.len(), |i| units[i], &mut sums, &mut |_| {})?;

@@ -1,4 +1,4 @@
-//! The bake's working form: f64 numerators and denominators per node (Kontkanen & Laine
+//! The bake's working form: exact numerators and denominators per node (Kontkanen & Laine
 //! 2006, Eq. 5-6).
 //!
 //! Eq. 6 estimates each coefficient as a ratio of two Monte Carlo sums over the samples
@@ -6,10 +6,12 @@
 //!
 //! `c_ij ≈ 4π Σ_s L(x_s, ω_s) Y_j(ω_s) b_i(x_s) / Σ_s b_i(x_s)`.
 //!
-//! The accumulator keeps both sums separately, per node, in f64: `numerator[node][j][c]`
-//! and `denominator[node]`. Because they are plain sums, bakes over disjoint sample sets
-//! (shards, resumed runs, threads) combine exactly by [`Accumulator::merge`], which adds
-//! them. [`Accumulator::finalize`] divides and yields an [`IrradianceVolume`].
+//! The accumulator keeps both sums separately, per node: `numerator[node][j][c]` and
+//! `denominator[node]`, in the fixed point of [`crate::fixed`] (each term rounded once to a
+//! multiple of 2^-64, then added as integers). Integer addition is associative, so bakes
+//! over disjoint sample sets (shards, resumed runs, threads) combine by
+//! [`Accumulator::merge`] into bit-identical sums whatever the grouping and order.
+//! [`Accumulator::finalize`] divides and yields an [`IrradianceVolume`].
 //!
 //! The caller passes `radiance / pdf(ω)` (which is `4π L` for uniform sphere directions)
 //! and the node's trilinear weight `b = b_i(x_s)`; point sampling (Eq. 4) uses `b = 1`.
@@ -28,24 +30,25 @@
 
 use crate::error::VolumeError;
 use crate::fill::{FillReport, fill_empty_nodes};
+use crate::fixed::FixedSums;
 use crate::grid::GridSpec;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 
-/// Per-node f64 sums of Kontkanen & Laine 2006 Eq. 6 (see the module docs).
+/// Per-node exact sums of Kontkanen & Laine 2006 Eq. 6 (see the module docs).
 #[derive(Clone, PartialEq)]
 pub struct Accumulator {
     spec: GridSpec,
     coeffs: usize,
-    numerator: Vec<f64>,
-    denominator: Vec<f64>,
-    outside: Vec<f64>,
+    numerator: FixedSums,
+    denominator: FixedSums,
+    outside: FixedSums,
     contributions: u64,
 }
 
 /// A summary, not the sums themselves.
 impl std::fmt::Debug for Accumulator {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let empty = self.denominator.iter().filter(|&&d| d <= 0.0).count();
+        let empty = (0..self.denominator.len()).filter(|&i| self.denominator.get(i) <= 0.0).count();
         f.debug_struct("Accumulator")
             .field("spec", &self.spec)
             .field("coeffs", &self.coeffs)
@@ -63,16 +66,57 @@ impl Accumulator {
         Ok(Self {
             spec,
             coeffs,
-            numerator: vec![0.0; n * coeffs * 3],
-            denominator: vec![0.0; n],
-            outside: vec![0.0; n],
+            numerator: FixedSums::zeros(n * coeffs * 3),
+            denominator: FixedSums::zeros(n),
+            outside: FixedSums::zeros(n),
             contributions: 0,
         })
     }
 
-    /// Rebuilds an accumulator from its sums (e.g. read back from a shard file by
-    /// [`crate::accumulator_io`]); errors if the lengths do not fit the grid or a sum is not
-    /// finite.
+    /// Rebuilds an accumulator from its raw fixed-point sums ([`crate::fixed`]), as a shard
+    /// file stores them; errors if the lengths do not fit the grid.
+    pub fn from_fixed_parts(
+        spec: GridSpec,
+        coeffs: usize,
+        numerator: Vec<i128>,
+        denominator: Vec<i128>,
+        outside: Vec<i128>,
+        contributions: u64,
+    ) -> Result<Self, VolumeError> {
+        check_coeffs(coeffs)?;
+        let n = spec.node_count();
+        if numerator.len() != n * coeffs * 3 || denominator.len() != n || outside.len() != n {
+            return Err(VolumeError::Mismatch(format!(
+                "accumulator arrays of {}, {}, {} values for {n} nodes x {coeffs} coeffs",
+                numerator.len(),
+                denominator.len(),
+                outside.len()
+            )));
+        }
+        Ok(Self {
+            spec,
+            coeffs,
+            numerator: FixedSums::from_raw(numerator),
+            denominator: FixedSums::from_raw(denominator),
+            outside: FixedSums::from_raw(outside),
+            contributions,
+        })
+    }
+
+    /// The raw fixed-point sums `(numerator, denominator, outside)`, or the name and index of
+    /// the first poisoned sum (a non-finite or unrepresentable term reached the bake).
+    pub fn fixed_parts(&self) -> Result<[&[i128]; 3], (&'static str, usize)> {
+        for (what, v) in [("numerator", &self.numerator), ("denominator", &self.denominator), ("outside", &self.outside)] {
+            if let Some(i) = v.first_poisoned() {
+                return Err((what, i));
+            }
+        }
+        Ok([self.numerator.raw(), self.denominator.raw(), self.outside.raw()])
+    }
+
+    /// Rebuilds an accumulator from f64 sums (each rounded to the fixed point once, as a
+    /// term would be; version-1 shard files stored f64); errors if the lengths do not fit
+    /// the grid or a sum is not representable.
     pub fn from_parts(
         spec: GridSpec,
         coeffs: usize,
@@ -91,12 +135,20 @@ impl Accumulator {
                 outside.len()
             )));
         }
-        for (what, v) in [("numerator", &numerator), ("denominator", &denominator), ("outside", &outside)] {
-            if let Some(index) = v.iter().position(|x| !x.is_finite()) {
-                return Err(VolumeError::NonFinite { what, index });
-            }
-        }
-        Ok(Self { spec, coeffs, numerator, denominator, outside, contributions })
+        let conv = |what: &'static str, v: &[f64]| -> Result<Vec<i128>, VolumeError> {
+            v.iter()
+                .enumerate()
+                .map(|(index, &x)| crate::fixed::to_fixed(x).ok_or(VolumeError::NonFinite { what, index }))
+                .collect()
+        };
+        Self::from_fixed_parts(
+            spec,
+            coeffs,
+            conv("numerator", &numerator)?,
+            conv("denominator", &denominator)?,
+            conv("outside", &outside)?,
+            contributions,
+        )
     }
 
     /// The grid.
@@ -117,22 +169,22 @@ impl Accumulator {
         self.contributions
     }
 
-    /// The numerator sums, `[node][coeff][rgb]`.
+    /// The numerator sums as f64, `[node][coeff][rgb]` (NaN where a term was not finite).
     #[must_use]
-    pub fn numerator(&self) -> &[f64] {
-        &self.numerator
+    pub fn numerator(&self) -> Vec<f64> {
+        self.numerator.to_f64()
     }
 
-    /// The denominator sums `Σ b`, one per node.
+    /// The denominator sums `Σ b` as f64, one per node.
     #[must_use]
-    pub fn denominator(&self) -> &[f64] {
-        &self.denominator
+    pub fn denominator(&self) -> Vec<f64> {
+        self.denominator.to_f64()
     }
 
-    /// The sums `Σ b` of rejected (outside-domain) candidates, one per node.
+    /// The sums `Σ b` of rejected (outside-domain) candidates as f64, one per node.
     #[must_use]
-    pub fn outside(&self) -> &[f64] {
-        &self.outside
+    pub fn outside(&self) -> Vec<f64> {
+        self.outside.to_f64()
     }
 
     /// Adds one sample to one node: `numerator[node][j][c] += b · radiance_over_pdf[c] ·
@@ -145,14 +197,9 @@ impl Accumulator {
     pub fn add(&mut self, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
         assert_eq!(basis.len(), self.coeffs, "basis length must equal coeffs");
         let k = self.coeffs * 3;
-        let num = &mut self.numerator[node * k..(node + 1) * k];
-        let s = [b * radiance_over_pdf[0], b * radiance_over_pdf[1], b * radiance_over_pdf[2]];
-        for (j, &y) in basis.iter().enumerate() {
-            num[3 * j] += s[0] * y;
-            num[3 * j + 1] += s[1] * y;
-            num[3 * j + 2] += s[2] * y;
-        }
-        self.denominator[node] += b;
+        assert!(node < self.denominator.len(), "node {node} out of range");
+        add_terms(&mut self.numerator, node * k, b, radiance_over_pdf, basis);
+        self.denominator.add(node, b);
         self.contributions += 1;
     }
 
@@ -175,13 +222,13 @@ impl Accumulator {
     /// If `node` is out of range.
     #[inline]
     pub fn add_outside(&mut self, node: usize, b: f64) {
-        self.outside[node] += b;
+        self.outside.add(node, b);
     }
 
-    /// Adds a disjoint sample set (another shard, thread or resumed run). Addition is
-    /// commutative, so `a.merge(b)` and `b.merge(a)` give bit-identical sums; merging
-    /// several shards in a fixed order gives results independent of how they were
-    /// produced. Errors if the grids or coefficient counts differ.
+    /// Adds a disjoint sample set (another shard, thread or resumed run). The sums are
+    /// exact integers, so any grouping and order of merges gives bit-identical sums, equal
+    /// to those of one pass over all the samples. Errors if the grids or coefficient counts
+    /// differ.
     pub fn merge(&mut self, other: &Accumulator) -> Result<(), VolumeError> {
         if !self.spec.same_nodes(&other.spec) {
             return Err(VolumeError::Mismatch("cannot merge accumulators over different grids".into()));
@@ -192,15 +239,9 @@ impl Accumulator {
                 self.coeffs, other.coeffs
             )));
         }
-        for (a, b) in self.numerator.iter_mut().zip(&other.numerator) {
-            *a += b;
-        }
-        for (a, b) in self.denominator.iter_mut().zip(&other.denominator) {
-            *a += b;
-        }
-        for (a, b) in self.outside.iter_mut().zip(&other.outside) {
-            *a += b;
-        }
+        self.numerator.merge(&other.numerator);
+        self.denominator.merge(&other.denominator);
+        self.outside.merge(&other.outside);
         self.contributions += other.contributions;
         Ok(())
     }
@@ -209,10 +250,10 @@ impl Accumulator {
     /// or `None` if the node received no weight.
     #[must_use]
     pub fn node_estimate(&self, node: usize) -> Option<Vec<f64>> {
-        let d = self.denominator[node];
+        let d = self.denominator.get(node);
         (d > 0.0).then(|| {
             let k = self.coeffs * 3;
-            self.numerator[node * k..(node + 1) * k].iter().map(|v| v / d).collect()
+            (node * k..(node + 1) * k).map(|i| self.numerator.get(i) / d).collect()
         })
     }
 
@@ -237,17 +278,16 @@ impl Accumulator {
         let mut weights = vec![0.0f64; n];
         let mut non_finite = 0usize;
         for node in 0..n {
-            let d = self.denominator[node];
+            let d = self.denominator.get(node);
             if !d.is_finite() {
                 non_finite += 1;
                 continue;
             }
             if d > 0.0 {
-                for (out, num) in values[node * k..(node + 1) * k].iter_mut().zip(&self.numerator[node * k..])
-                {
-                    *out = num / d;
+                for (i, out) in values[node * k..(node + 1) * k].iter_mut().enumerate() {
+                    *out = self.numerator.get(node * k + i) / d;
                 }
-                let w = d / (d + self.outside[node]);
+                let w = d / (d + self.outside.get(node));
                 weights[node] = if w.is_finite() {
                     w.clamp(0.0, 1.0)
                 } else {
@@ -299,6 +339,19 @@ impl Accumulator {
     }
 }
 
+/// Adds one sample's numerator terms `b · r[c] · y_j` to `sums[at + 3j + c]`: the exact
+/// arithmetic of [`Accumulator::add`], shared with sparse accumulators of node subsets so
+/// that both round every term identically.
+#[inline]
+pub fn add_terms(sums: &mut FixedSums, at: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
+    let s = [b * radiance_over_pdf[0], b * radiance_over_pdf[1], b * radiance_over_pdf[2]];
+    for (j, &y) in basis.iter().enumerate() {
+        sums.add(at + 3 * j, s[0] * y);
+        sums.add(at + 3 * j + 1, s[1] * y);
+        sums.add(at + 3 * j + 2, s[2] * y);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -340,21 +393,33 @@ mod tests {
         ab.merge(&b).unwrap();
         let mut ba = b.clone();
         ba.merge(&a).unwrap();
-        // Commutative: bit-identical.
+        // Exact: any grouping equals the single pass, bit for bit.
         assert_eq!(ab, ba);
+        assert_eq!(ab, all);
         assert_eq!(ab.contributions(), all.contributions());
-        let scale = all.numerator().iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        for (x, y) in ab.numerator().iter().zip(all.numerator()) {
-            assert!((x - y).abs() <= MERGE_REL_TOL * scale, "{x} vs {y}");
-        }
-        for (x, y) in ab.denominator().iter().zip(all.denominator()) {
-            assert!((x - y).abs() <= MERGE_REL_TOL * y.abs());
-        }
-        // And so do the finalized coefficients, to f32 rounding of equal f64 ratios.
         let (va, _) = ab.finalize();
         let (vb, _) = all.finalize();
-        for (x, y) in va.data().iter().zip(vb.data()) {
-            assert!((x - y).abs() <= 1e-6 * (1.0 + y.abs()), "{x} vs {y}");
+        assert_eq!(va.data(), vb.data());
+        // And the exact sums agree with a plain f64 single pass to f64 rounding of the
+        // ~10^3 terms (relative to the largest sum).
+        let mut plain = vec![0.0f64; all.numerator().len()];
+        for s in 0..3000 {
+            let (p, l, y) = sample(11, s);
+            let (nodes, w) = spec().trilinear(p);
+            for c in 0..8 {
+                if w[c] > 0.0 {
+                    for j in 0..9 {
+                        for ch in 0..3 {
+                            plain[nodes[c] * 27 + 3 * j + ch] += w[c] * l[ch] * y[j];
+                        }
+                    }
+                }
+            }
+        }
+        let num = all.numerator();
+        let scale = num.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for (x, y) in num.iter().zip(&plain) {
+            assert!((x - y).abs() <= MERGE_REL_TOL * scale, "{x} vs {y}");
         }
     }
 

@@ -4,15 +4,18 @@
 //! ## Format (little-endian)
 //! | bytes | content |
 //! | --- | --- |
-//! | 8 | magic `LVACC\0`, then the format version as u16 (1) |
+//! | 8 | magic `LVACC\0`, then the format version as u16 (2) |
 //! | 4 | length `h` of the JSON header |
 //! | h | JSON header: grid (as in the sidecar), coefficient count, contribution count, bake metadata |
-//! | 8·(n·3c + 2n) | f64 numerator `[node][coeff][rgb]`, denominator `[node]`, outside `[node]` |
+//! | 16·(n·3c + 2n) | i128 fixed-point sums ([`crate::fixed`], units of 2^-64): numerator `[node][coeff][rgb]`, denominator `[node]`, outside `[node]` |
 //! | 8 | FNV-1a 64 of every preceding byte |
 //!
-//! The reader verifies the checksum first (any damaged byte is an error), then the magic,
-//! version, header, and that the file size equals what the header's grid requires, before it
-//! allocates the arrays; non-finite sums are rejected. f64 values round-trip bit-exactly.
+//! Version 1 stored the same sums as f64 (8 bytes each); it is still read, each sum rounded
+//! to the fixed point once. The reader verifies the checksum first (any damaged byte is an
+//! error), then the magic, version, header, and that the file size equals what the header's
+//! grid requires, before it allocates the arrays. The sums round-trip bit-exactly, and the
+//! bytes are a function of the sums and the metadata alone (no time or host), so equal bakes
+//! give equal files.
 
 use std::path::Path;
 
@@ -29,7 +32,7 @@ use crate::volume::{BakeMetadata, check_coeffs};
 /// First six bytes of a shard file.
 pub const ACC_MAGIC: &[u8; 6] = b"LVACC\0";
 /// Current shard-file version.
-pub const ACC_VERSION: u16 = 1;
+pub const ACC_VERSION: u16 = 2;
 /// Largest JSON header accepted (1 MiB; real headers are well under 1 KiB).
 const MAX_HEADER: usize = 1 << 20;
 const F: FileFormat = FileFormat::Shard;
@@ -59,14 +62,9 @@ pub fn accumulator_to_bytes(acc: &Accumulator, meta: &BakeMetadata) -> Result<Ve
         bake: meta.clone(),
     };
     let json = serde_json::to_vec(&header).expect("plain data");
-    let arrays = [acc.numerator(), acc.denominator(), acc.outside()];
-    for (what, v) in ["numerator", "denominator", "outside"].into_iter().zip(arrays) {
-        if let Some(index) = v.iter().position(|x| !x.is_finite()) {
-            return Err(VolumeError::NonFinite { what, index });
-        }
-    }
+    let arrays = acc.fixed_parts().map_err(|(what, index)| VolumeError::NonFinite { what, index })?;
     let values: usize = arrays.iter().map(|a| a.len()).sum();
-    let mut out = Vec::with_capacity(8 + 4 + json.len() + 8 * values + 8);
+    let mut out = Vec::with_capacity(8 + 4 + json.len() + 16 * values + 8);
     out.extend_from_slice(ACC_MAGIC);
     out.extend_from_slice(&ACC_VERSION.to_le_bytes());
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
@@ -110,15 +108,24 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
     let n = spec.node_count();
     let k = header.coeffs * 3;
     let data = &body[12 + h..];
-    if data.len() as u64 != 8 * (n as u64 * k as u64 + 2 * n as u64) {
-        return Err(bad(format!("{} data bytes, the grid needs {}", data.len(), 8 * (n * k + 2 * n))));
+    let width: u64 = if version == 1 { 8 } else { 16 };
+    let need = width * (n as u64 * k as u64 + 2 * n as u64);
+    if data.len() as u64 != need {
+        return Err(bad(format!("{} data bytes, the grid needs {need}", data.len())));
     }
-    let mut vals = data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")));
-    let numerator: Vec<f64> = vals.by_ref().take(n * k).collect();
-    let denominator: Vec<f64> = vals.by_ref().take(n).collect();
-    let outside: Vec<f64> = vals.collect();
-    let acc =
-        Accumulator::from_parts(spec, header.coeffs, numerator, denominator, outside, header.contributions)?;
+    let acc = if version == 1 {
+        let mut vals = data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")));
+        let numerator: Vec<f64> = vals.by_ref().take(n * k).collect();
+        let denominator: Vec<f64> = vals.by_ref().take(n).collect();
+        let outside: Vec<f64> = vals.collect();
+        Accumulator::from_parts(spec, header.coeffs, numerator, denominator, outside, header.contributions)?
+    } else {
+        let mut vals = data.chunks_exact(16).map(|c| i128::from_le_bytes(c.try_into().expect("16 bytes")));
+        let numerator: Vec<i128> = vals.by_ref().take(n * k).collect();
+        let denominator: Vec<i128> = vals.by_ref().take(n).collect();
+        let outside: Vec<i128> = vals.collect();
+        Accumulator::from_fixed_parts(spec, header.coeffs, numerator, denominator, outside, header.contributions)?
+    };
     if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
         return Err(bad(format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
     }

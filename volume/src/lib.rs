@@ -13,6 +13,7 @@ pub mod encode;
 pub mod error;
 pub mod exr_io;
 pub mod fill;
+pub mod fixed;
 pub mod gradient;
 pub mod grid;
 pub mod io_util;

@@ -1,0 +1,244 @@
+//! Exact, order-free sums: fixed-point integers for the bake's Eq. 6 sums.
+//!
+//! Floating-point addition is not associative, so a bake split over shards or threads and
+//! summed in another grouping differs from the whole bake in the last bits. The
+//! [`Accumulator`](crate::Accumulator) therefore rounds every term once to a multiple of
+//! 2^-[`FRAC_BITS`] and adds integers: integer addition is associative and commutative, so
+//! every grouping — any shard count, shard order or thread count — gives the same bits.
+//!
+//! **Range.** Terms are rounded to the nearest multiple of 2^-64 ≈ 5.4e-20 (absolute).
+//! A term of magnitude [`MAX_TERM`] (2^60 ≈ 1.15e18) or more, or a non-finite term, cannot be
+//! represented and poisons its sum (it reads back as NaN, which the finalizer zeroes and
+//! counts, as it does for a NaN radiance). Sums are exact while their true value stays
+//! below 2^63 ≈ 9.2e18 in magnitude (i128 has 127 value bits, 64 of them fractional);
+//! additions wrap modulo 2^128, which is itself associative, so intermediate overflow in
+//! any order cannot change a final sum that is in range.
+
+/// Fractional bits of the fixed-point sums.
+pub const FRAC_BITS: i32 = 64;
+
+/// Terms at or beyond this magnitude (2^60) are not representable (see the module docs).
+pub const MAX_TERM: f64 = 1_152_921_504_606_846_976.0;
+
+/// 2^FRAC_BITS as f64 (exact: a power of two).
+const SCALE: f64 = 18_446_744_073_709_551_616.0;
+
+/// A term in fixed point: the nearest multiple of 2^-64 (ties away from zero), or `None`
+/// when it is not finite or not below [`MAX_TERM`].
+#[must_use]
+#[inline]
+pub fn to_fixed(x: f64) -> Option<i128> {
+    // x · 2^64 is exact in f64 (a power-of-two scale); `round` and the cast are exact for
+    // |x · 2^64| < 2^124.
+    if x.abs() < MAX_TERM { Some((x * SCALE).round() as i128) } else { None }
+}
+
+/// A fixed-point sum as f64 (correctly rounded to nearest).
+#[must_use]
+#[inline]
+pub fn from_fixed(v: i128) -> f64 {
+    v as f64 / SCALE
+}
+
+/// One fixed-point sum with its poison flag.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FixedSum {
+    /// The sum in units of 2^-64.
+    pub value: i128,
+    /// A term could not be represented (non-finite or too large).
+    pub poisoned: bool,
+}
+
+impl FixedSum {
+    /// Adds a term.
+    #[inline]
+    pub fn add(&mut self, x: f64) {
+        match to_fixed(x) {
+            Some(v) => self.value = self.value.wrapping_add(v),
+            None => self.poisoned = true,
+        }
+    }
+
+    /// Adds another sum (exact, associative, commutative).
+    #[inline]
+    pub fn merge(&mut self, o: FixedSum) {
+        self.value = self.value.wrapping_add(o.value);
+        self.poisoned |= o.poisoned;
+    }
+
+    /// The sum as f64; NaN when poisoned.
+    #[must_use]
+    #[inline]
+    pub fn get(self) -> f64 {
+        if self.poisoned { f64::NAN } else { from_fixed(self.value) }
+    }
+}
+
+/// An array of fixed-point sums with their poison flags (17 bytes per sum).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct FixedSums {
+    value: Vec<i128>,
+    poisoned: Vec<bool>,
+}
+
+impl FixedSums {
+    /// `n` zero sums.
+    #[must_use]
+    pub fn zeros(n: usize) -> Self {
+        Self { value: vec![0; n], poisoned: vec![false; n] }
+    }
+
+    /// From raw values (no sum poisoned).
+    #[must_use]
+    pub fn from_raw(value: Vec<i128>) -> Self {
+        let poisoned = vec![false; value.len()];
+        Self { value, poisoned }
+    }
+
+    /// Number of sums.
+    #[must_use]
+    pub fn len(&self) -> usize {
+        self.value.len()
+    }
+
+    /// True when there are none.
+    #[must_use]
+    pub fn is_empty(&self) -> bool {
+        self.value.is_empty()
+    }
+
+    /// Appends `n` zero sums.
+    pub fn extend_zeros(&mut self, n: usize) {
+        self.value.resize(self.value.len() + n, 0);
+        self.poisoned.resize(self.poisoned.len() + n, false);
+    }
+
+    /// Adds term `x` to sum `i`.
+    ///
+    /// # Panics
+    /// If `i` is out of range.
+    #[inline]
+    pub fn add(&mut self, i: usize, x: f64) {
+        match to_fixed(x) {
+            Some(v) => self.value[i] = self.value[i].wrapping_add(v),
+            None => self.poisoned[i] = true,
+        }
+    }
+
+    /// Adds another array element-wise (exact).
+    ///
+    /// # Panics
+    /// If the lengths differ.
+    pub fn merge(&mut self, o: &FixedSums) {
+        assert_eq!(self.len(), o.len(), "fixed-sum arrays of different lengths");
+        for (a, b) in self.value.iter_mut().zip(&o.value) {
+            *a = a.wrapping_add(*b);
+        }
+        for (a, b) in self.poisoned.iter_mut().zip(&o.poisoned) {
+            *a |= *b;
+        }
+    }
+
+    /// Sum `i` as f64 (NaN when poisoned).
+    #[must_use]
+    #[inline]
+    pub fn get(&self, i: usize) -> f64 {
+        if self.poisoned[i] { f64::NAN } else { from_fixed(self.value[i]) }
+    }
+
+    /// Every sum as f64 (NaN where poisoned).
+    #[must_use]
+    pub fn to_f64(&self) -> Vec<f64> {
+        (0..self.len()).map(|i| self.get(i)).collect()
+    }
+
+    /// The raw values (units of 2^-64).
+    #[must_use]
+    pub fn raw(&self) -> &[i128] {
+        &self.value
+    }
+
+    /// The first poisoned sum, if any.
+    #[must_use]
+    pub fn first_poisoned(&self) -> Option<usize> {
+        self.poisoned.iter().position(|&p| p)
+    }
+
+    /// The sums at `indices`, in that order (for sparse subsets).
+    #[must_use]
+    pub fn gather(&self, indices: impl Iterator<Item = usize>) -> Self {
+        let mut out = Self::default();
+        for i in indices {
+            out.value.push(self.value[i]);
+            out.poisoned.push(self.poisoned[i]);
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The constants are the powers of two they claim to be.
+    #[test]
+    fn constants_are_powers_of_two() {
+        assert_eq!(SCALE, 2f64.powi(FRAC_BITS));
+        assert_eq!(MAX_TERM, 2f64.powi(60));
+    }
+
+    /// Round trip: dyadic values are exact; others are within half a unit (2^-65).
+    #[test]
+    fn round_trip_and_rounding() {
+        for x in [0.0, 1.0, -0.5, 3.25, 1e-19 * 0.0, 2f64.powi(59)] {
+            assert_eq!(from_fixed(to_fixed(x).unwrap()), x);
+        }
+        for x in [0.1, -1.0 / 3.0, std::f64::consts::PI, 1e-12] {
+            let e = (from_fixed(to_fixed(x).unwrap()) - x).abs();
+            assert!(e <= 2f64.powi(-65) + x.abs() * f64::EPSILON, "{x}: {e}");
+        }
+        assert_eq!(to_fixed(f64::NAN), None);
+        assert_eq!(to_fixed(MAX_TERM), None);
+        assert_eq!(to_fixed(-f64::INFINITY), None);
+    }
+
+    /// Any grouping and order of the same terms gives the same bits, where f64 sums differ.
+    #[test]
+    fn sums_are_order_free() {
+        let terms: Vec<f64> = (0..1000).map(|i| ((i as f64) * 0.618_033_988_75).sin() * 10f64.powi(i % 7 - 3)).collect();
+        let mut fwd = FixedSum::default();
+        terms.iter().for_each(|&t| fwd.add(t));
+        let mut rev = FixedSum::default();
+        terms.iter().rev().for_each(|&t| rev.add(t));
+        let (mut a, mut b) = (FixedSum::default(), FixedSum::default());
+        for (i, &t) in terms.iter().enumerate() {
+            if i % 3 == 0 { a.add(t) } else { b.add(t) }
+        }
+        b.merge(a);
+        assert_eq!(fwd, rev);
+        assert_eq!(fwd, b);
+        let f64_fwd: f64 = terms.iter().sum();
+        let f64_rev: f64 = terms.iter().rev().sum();
+        assert_ne!(f64_fwd, f64_rev, "the f64 sums should differ for this test to mean anything");
+        assert!((fwd.get() - f64_fwd).abs() < 1e-12);
+        let mut p = FixedSum::default();
+        p.add(f64::NAN);
+        p.add(1.0);
+        assert!(p.get().is_nan());
+    }
+
+    /// Wrapping intermediate overflow does not change an in-range final sum.
+    #[test]
+    fn wrapping_is_harmless_for_in_range_results() {
+        let big = 2f64.powi(59);
+        let mut s = FixedSum::default();
+        for _ in 0..20 {
+            s.add(big); // 20 · 2^59 · 2^64 > 2^127: wraps
+        }
+        for _ in 0..20 {
+            s.add(-big);
+        }
+        s.add(0.25);
+        assert_eq!(s.get(), 0.25);
+    }
+}
