@@ -17,7 +17,7 @@ use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
 use serde::Serialize;
 
 use crate::gradients::{GradientEstimator, bake_with};
-use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, parse_shard, with_threads};
+use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, with_threads};
 
 /// `lightvol bake`.
 #[derive(Debug, Args)]
@@ -36,11 +36,17 @@ pub struct BakeArgs {
     #[arg(long, default_value = "doi")]
     /// Method name.
     pub method: String,
-    /// Bake only shard K of N (by cells, or nodes for point sampling). The shard's exact f64
-    /// sums are written beside the output as `<stem>.lvacc`; `lightvol merge` combines
-    /// shards into the volume the whole bake would give.
-    #[arg(long, value_name = "K/N")]
+    /// Bake only shard K of N (by cells, or nodes for point sampling), or `auto`: the shard
+    /// from the job scheduler (Slurm array variables, Kubernetes `JOB_COMPLETION_INDEX` or
+    /// AWS Batch `AWS_BATCH_JOB_ARRAY_INDEX` with --shards, or `LIGHTVOL_SHARD=K/N`). The
+    /// shard's exact sums are written beside the output as `<stem>.lvacc`; `lightvol merge`
+    /// combines shards into the volume the whole bake gives, bit for bit.
+    #[arg(long, value_name = "K/N|auto")]
     pub shard: Option<String>,
+    /// Number of shards, for `--shard auto` with Kubernetes or AWS Batch indices (checked
+    /// against the Slurm array or `LIGHTVOL_SHARD` where those give it).
+    #[arg(long, value_name = "N")]
+    pub shards: Option<u32>,
     /// Also write the exact accumulator (`<stem>.lvacc`) for an unsharded bake, so that it
     /// can later be merged with more samples (e.g. another seed).
     #[arg(long)]
@@ -296,7 +302,18 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     if args.sampling.samples == 0 {
         anyhow::bail!("--samples must be at least 1");
     }
-    let shard = args.shard.as_deref().map(parse_shard).transpose()?.unwrap_or((0, 1));
+    let shard = match args.shard.as_deref() {
+        None if args.shards.is_some() => bail!("--shards N needs --shard auto (or use `lightvol slurm` / `lightvol k8s`)"),
+        None => (0, 1),
+        Some("auto") => lightvol_sampler::shard::shard_from_env(|k| std::env::var(k).ok(), args.shards)?,
+        Some(s) => {
+            let (k, n) = lightvol_sampler::shard::parse_shard("--shard", s)?;
+            if args.shards.is_some_and(|m| m != n) {
+                bail!("--shards {} disagrees with --shard {s}", args.shards.unwrap_or(n));
+            }
+            (k, n)
+        }
+    };
     let settings = BakeSettings {
         method,
         samples: args.sampling.samples,
@@ -366,7 +383,17 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         shard_count: shard.1,
         scene_hash: scene_hash(
             &loaded,
-            &format!("{:?} {:?} {} {}", grid.bounds(), grid.res(), method_label, settings.samples),
+            &format!(
+                "{:?} {:?} {} {} coeffs={} bounces={} {} lightvol={}",
+                grid.bounds(),
+                grid.res(),
+                method_label,
+                settings.samples,
+                settings.coeffs,
+                args.sampling.bounces,
+                lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, args.sampling.bounces),
+                env!("CARGO_PKG_VERSION")
+            ),
         ),
         units: "relative".into(),
     };

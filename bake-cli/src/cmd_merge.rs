@@ -10,9 +10,9 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use lightvol_volume::accumulator_io::read_accumulator;
+use lightvol_volume::accumulator_io::{merge_accumulator_file, read_accumulator_metadata};
 use lightvol_volume::exr_io::{ExrOptions, write_exr};
-use lightvol_volume::{Accumulator, BakeMetadata};
+use lightvol_volume::BakeMetadata;
 
 /// `lightvol merge`.
 #[derive(Debug, Args)]
@@ -26,6 +26,10 @@ pub struct MergeArgs {
     /// Also write the merged accumulator (`<stem>.lvacc`) for further merging.
     #[arg(long)]
     pub keep_accumulator: bool,
+    /// Merge an incomplete set (missing shards leave their cells unsampled) instead of
+    /// refusing it.
+    #[arg(long)]
+    pub allow_partial: bool,
 }
 
 fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
@@ -54,25 +58,26 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
 
 /// Runs `lightvol merge`.
 pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
-    let mut parts: Vec<(Accumulator, BakeMetadata, PathBuf)> = Vec::new();
+    // Headers first: the whole set is checked before any sum is read or anything written.
+    let mut parts: Vec<(BakeMetadata, PathBuf)> = Vec::new();
     for p in &args.inputs {
         let ap = accumulator_path(p)?;
-        let (acc, meta) = read_accumulator(&ap).with_context(|| format!("reading {}", ap.display()))?;
-        parts.push((acc, meta, ap));
+        let meta = read_accumulator_metadata(&ap).with_context(|| format!("reading {}", ap.display()))?;
+        parts.push((meta, ap));
     }
-    // Deterministic order: by shard index, then by input order.
-    parts.sort_by_key(|(_, m, _)| m.shard_index);
-    let first = &parts[0].1;
-    for (_, m, p) in &parts[1..] {
+    // Deterministic order (the sums are exact, so it changes no bit; it fixes the messages).
+    parts.sort_by(|a, b| (a.0.shard_index, &a.1).cmp(&(b.0.shard_index, &b.1)));
+    let (first, p0) = (&parts[0].0, &parts[0].1);
+    for (m, p) in &parts[1..] {
         if m.method != first.method
             || m.shard_count != first.shard_count
             || m.seed != first.seed
             || m.scene_hash != first.scene_hash
         {
             bail!(
-                "{} does not belong to the same bake as {} (method {} vs {}, seed {} vs {}, shards {} vs {}, scene {} vs {})",
+                "{} does not belong to the same bake as {} (method {} vs {}, seed {} vs {}, shards {} vs {}, scene and settings {} vs {})",
                 p.display(),
-                parts[0].2.display(),
+                p0.display(),
                 m.method,
                 first.method,
                 m.seed,
@@ -85,33 +90,45 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         }
     }
     for w in parts.windows(2) {
-        if w[0].1.shard_index == w[1].1.shard_index && first.shard_count > 1 {
+        if w[0].0.shard_index == w[1].0.shard_index && first.shard_count > 1 {
             bail!(
                 "shard {} of {} given twice ({} and {})",
-                w[0].1.shard_index,
+                w[0].0.shard_index,
                 first.shard_count,
-                w[0].2.display(),
-                w[1].2.display()
+                w[0].1.display(),
+                w[1].1.display()
             );
         }
     }
-    let mut iter = parts.into_iter();
-    let (mut acc, mut meta, p0) = iter.next().context("no inputs")?;
-    let mut have = vec![meta.shard_index];
-    for (a, m, p) in iter {
-        acc.merge(&a).with_context(|| format!("merging {} into {}", p.display(), p0.display()))?;
-        meta.samples += m.samples;
-        have.push(m.shard_index);
-    }
-    let missing: Vec<u32> = (0..meta.shard_count).filter(|k| !have.contains(k)).collect();
-    if !missing.is_empty() {
-        eprintln!(
-            "warning: shards {missing:?} of {} are missing; the volume covers only part of the grid's cells",
-            meta.shard_count
+    let have: Vec<u32> = parts.iter().map(|(m, _)| m.shard_index).collect();
+    let missing: Vec<u32> = (0..first.shard_count).filter(|k| !have.contains(k)).collect();
+    if !missing.is_empty() && !args.allow_partial {
+        bail!(
+            "incomplete set: shards {} of {} are missing (have {}); nothing written (--allow-partial merges what is there)",
+            list(&missing),
+            first.shard_count,
+            list(&have)
         );
-    } else {
+    }
+    // Stream the sums in: one accumulator in memory whatever the number of shards.
+    let mut acc = None;
+    let mut meta = first.clone();
+    meta.samples = 0;
+    for (m, p) in &parts {
+        let (a, _) = merge_accumulator_file(acc.take(), p).with_context(|| format!("merging {}", p.display()))?;
+        acc = Some(a);
+        meta.samples += m.samples;
+    }
+    let acc = acc.context("no inputs")?;
+    if missing.is_empty() {
         meta.shard_index = 0;
         meta.shard_count = 1;
+    } else {
+        eprintln!(
+            "warning: shards {} of {} are missing; the volume covers only part of the grid's cells",
+            list(&missing),
+            meta.shard_count
+        );
     }
     if args.keep_accumulator {
         let ap = args.output.with_extension("lvacc");
@@ -119,6 +136,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("writing {}", ap.display()))?;
     }
     let (vol, fill) = acc.finalize();
+    drop(acc);
     let vol = vol.with_metadata(meta);
     write_exr(&args.output, &vol, &ExrOptions::default())
         .with_context(|| format!("writing {}", args.output.display()))?;
@@ -129,4 +147,9 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         fill.filled
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// `0, 3, 5`.
+fn list(v: &[u32]) -> String {
+    v.iter().map(u32::to_string).collect::<Vec<_>>().join(", ")
 }

@@ -6,6 +6,7 @@ pub mod cli;
 pub mod cmd_bake;
 pub mod cmd_bake_surface;
 pub mod cmd_bench;
+pub mod cmd_cluster;
 pub mod cmd_compare;
 pub mod cmd_demo;
 mod cmd_export;
@@ -37,6 +38,8 @@ where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
 {
+    let args: Vec<OsString> = args.into_iter().map(Into::into).collect();
+    let argv: Vec<String> = args.iter().skip(2).map(|a| a.to_string_lossy().into_owned()).collect();
     let cli = match cli::Cli::try_parse_from(args) {
         Ok(cli) => cli,
         Err(e)
@@ -60,10 +63,15 @@ where
             ));
         }
     };
-    run(cli)
+    match cli.command {
+        cli::Command::Slurm(a) => cmd_cluster::run_slurm(&a, &argv),
+        cli::Command::K8s(a) => cmd_cluster::run_k8s(&a, &argv),
+        _ => run(cli),
+    }
 }
 
-/// Runs a parsed command.
+/// Runs a parsed command. (`slurm` and `k8s` need the raw command line: use
+/// [`run_from_args`] for them.)
 pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
     match args.command {
         cli::Command::Bake(a) => cmd_bake::run(&a),
@@ -80,6 +88,9 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::Proxies(a) => cmd_proxies::run(&a),
         cli::Command::Render(a) => cmd_render::run(&a),
         cli::Command::Export(a) => cmd_export::run(&a),
+        cli::Command::Slurm(_) | cli::Command::K8s(_) => {
+            anyhow::bail!("the slurm and k8s verbs need the command line: call run_from_args")
+        }
     }
 }
 

@@ -316,24 +316,16 @@ impl GridArgs {
     }
 }
 
-/// Parses `K/N`.
-pub fn parse_shard(s: &str) -> anyhow::Result<(u32, u32)> {
-    let (k, n) = s.split_once('/').with_context(|| format!("--shard: expected K/N, got '{s}'"))?;
-    let k: u32 = k.trim().parse().with_context(|| format!("--shard: '{k}' is not a whole number"))?;
-    let n: u32 = n.trim().parse().with_context(|| format!("--shard: '{n}' is not a whole number"))?;
-    if n == 0 || k >= n {
-        bail!("--shard: need 0 <= K < N, got {k}/{n}");
-    }
-    Ok((k, n))
-}
 
 /// Parses a method name.
 pub fn parse_method(s: &str) -> anyhow::Result<Method> {
     s.parse::<Method>().map_err(|e| anyhow::anyhow!(e))
 }
 
-/// Runs `f` on a rayon pool of `threads` threads (or the global pool).
+/// Runs `f` on a rayon pool of `threads` threads, else of `SLURM_CPUS_PER_TASK` threads
+/// when the scheduler sets it, else on the global pool (all cores).
 pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
+    let threads = threads.or_else(|| lightvol_sampler::shard::threads_from_env(|k| std::env::var(k).ok()));
     match threads {
         None => Ok(f()),
         Some(0) => bail!("--threads must be at least 1"),

@@ -18,6 +18,7 @@ pub mod load_obj;
 pub mod qmc;
 pub mod reference;
 pub mod scene;
+pub mod shard;
 pub mod stats;
 pub mod surface;
 pub mod texture;

@@ -103,6 +103,28 @@ impl Accumulator {
         })
     }
 
+    /// Adds raw fixed-point value `v` to the sum at flat index `i` of the concatenation
+    /// numerator ‖ denominator ‖ outside (the shard-file order), and counts `contributions`
+    /// when `i` is the last index. Used to merge shard files as they stream in.
+    ///
+    /// # Panics
+    /// If `i` is out of range.
+    pub fn add_raw_at(&mut self, i: usize, v: i128) {
+        let (a, b) = (self.numerator.len(), self.denominator.len());
+        if i < a {
+            self.numerator.add_raw(i, v);
+        } else if i < a + b {
+            self.denominator.add_raw(i - a, v);
+        } else {
+            self.outside.add_raw(i - a - b, v);
+        }
+    }
+
+    /// Adds `n` to the contribution count (for a merged shard file).
+    pub fn add_contributions(&mut self, n: u64) {
+        self.contributions += n;
+    }
+
     /// The raw fixed-point sums `(numerator, denominator, outside)`, or the name and index of
     /// the first poisoned sum (a non-finite or unrepresentable term reached the bake).
     pub fn fixed_parts(&self) -> Result<[&[i128]; 3], (&'static str, usize)> {

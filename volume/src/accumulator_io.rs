@@ -132,6 +132,131 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
     Ok((acc, header.bake))
 }
 
+/// Merges a shard file into `into` (or into a new accumulator when `None`) as it streams
+/// from disk: memory stays at one accumulator plus a 64 KiB buffer however large the file,
+/// so merging N shards needs the memory of one. The same checks as
+/// [`accumulator_from_bytes`] apply (the checksum is verified at the end: on any error the
+/// partly merged accumulator is dropped, so nothing half-merged escapes). Errors if the
+/// file's grid or coefficient count differs from `into`'s.
+pub fn merge_accumulator_file(into: Option<Accumulator>, path: &Path) -> Result<(Accumulator, BakeMetadata), VolumeError> {
+    use std::io::Read;
+    let io = |e: std::io::Error| VolumeError::io(path, e);
+    let bad = |r: String| VolumeError::malformed(F, r);
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    let mut r = std::io::BufReader::with_capacity(1 << 16, std::fs::File::open(path).map_err(io)?);
+    let mut hash = crate::checksum::Fnv1a::default();
+    let mut read = |buf: &mut [u8], hash: &mut crate::checksum::Fnv1a| -> Result<(), VolumeError> {
+        r.read_exact(buf).map_err(|e| bad(format!("truncated ({e})")))?;
+        hash.write(buf);
+        Ok(())
+    };
+    if len < 8 + 4 + 8 {
+        return Err(bad(format!("{len} bytes is too short")));
+    }
+    let mut head = [0u8; 12];
+    read(&mut head, &mut hash)?;
+    if &head[..6] != ACC_MAGIC {
+        return Err(bad("not a lightvol accumulator (bad magic)".into()));
+    }
+    let version = u16::from_le_bytes([head[6], head[7]]);
+    if version == 0 || version > ACC_VERSION {
+        return Err(VolumeError::unsupported(F, format!("version {version}")));
+    }
+    let h = u32::from_le_bytes(head[8..12].try_into().expect("4 bytes")) as usize;
+    if h > MAX_HEADER || 12 + h as u64 + 8 > len {
+        return Err(bad(format!("header length {h} does not fit the file")));
+    }
+    let mut json = vec![0u8; h];
+    read(&mut json, &mut hash)?;
+    let header: AccHeader = serde_json::from_slice(&json).map_err(|e| bad(e.to_string()))?;
+    check_coeffs(header.coeffs)?;
+    let mut spec = GridSpec::new(header.grid.min, header.grid.max, header.grid.res)?;
+    if let Some(m) = header.grid.to_world {
+        spec = spec.with_placement(Placement::new(m)?);
+    }
+    let n = spec.node_count() as u64;
+    let k = header.coeffs as u64 * 3;
+    let width: u64 = if version == 1 { 8 } else { 16 };
+    let total = n * k + 2 * n;
+    if len != 12 + h as u64 + width * total + 8 {
+        return Err(bad(format!("{} data bytes, the grid needs {}", len - 12 - h as u64 - 8, width * total)));
+    }
+    if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
+        return Err(bad(format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
+    }
+    let mut acc = match into {
+        Some(a) => {
+            if !a.spec().same_nodes(&spec) {
+                return Err(VolumeError::Mismatch("cannot merge accumulators over different grids".into()));
+            }
+            if a.coeffs() != header.coeffs {
+                return Err(VolumeError::Mismatch(format!(
+                    "cannot merge accumulators with {} and {} coefficients",
+                    a.coeffs(),
+                    header.coeffs
+                )));
+            }
+            a
+        }
+        None => Accumulator::new(spec, header.coeffs)?,
+    };
+    const CHUNK: u64 = 4096;
+    let mut buf = vec![0u8; (CHUNK * width) as usize];
+    let mut i = 0u64;
+    while i < total {
+        let m = CHUNK.min(total - i);
+        let b = &mut buf[..(m * width) as usize];
+        read(b, &mut hash)?;
+        for (j, c) in b.chunks_exact(width as usize).enumerate() {
+            let v = if width == 8 {
+                let x = f64::from_le_bytes(c.try_into().expect("8 bytes"));
+                crate::fixed::to_fixed(x).ok_or(VolumeError::NonFinite { what: "sum", index: (i as usize) + j })?
+            } else {
+                i128::from_le_bytes(c.try_into().expect("16 bytes"))
+            };
+            acc.add_raw_at(i as usize + j, v);
+        }
+        i += m;
+    }
+    let mut tail = [0u8; 8];
+    r.read_exact(&mut tail).map_err(|e| bad(format!("truncated ({e})")))?;
+    if hash.finish() != u64::from_le_bytes(tail) {
+        return Err(bad("checksum mismatch: the file is damaged or truncated".into()));
+    }
+    acc.add_contributions(header.contributions);
+    Ok((acc, header.bake))
+}
+
+/// Reads only the bake metadata of a shard file (its JSON header), for checking a set of
+/// shards before merging them. The checksum is not verified here (that needs the whole
+/// file); [`merge_accumulator_file`] verifies it.
+pub fn read_accumulator_metadata(path: &Path) -> Result<BakeMetadata, VolumeError> {
+    use std::io::Read;
+    let io = |e: std::io::Error| VolumeError::io(path, e);
+    let bad = |r: String| VolumeError::malformed(F, r);
+    let mut f = std::fs::File::open(path).map_err(io)?;
+    let mut head = [0u8; 12];
+    f.read_exact(&mut head).map_err(|e| bad(format!("truncated ({e})")))?;
+    if &head[..6] != ACC_MAGIC {
+        return Err(bad("not a lightvol accumulator (bad magic)".into()));
+    }
+    let version = u16::from_le_bytes([head[6], head[7]]);
+    if version == 0 || version > ACC_VERSION {
+        return Err(VolumeError::unsupported(F, format!("version {version}")));
+    }
+    let h = u32::from_le_bytes(head[8..12].try_into().expect("4 bytes")) as usize;
+    if h > MAX_HEADER {
+        return Err(bad(format!("header length {h} is too large")));
+    }
+    let mut json = vec![0u8; h];
+    f.read_exact(&mut json).map_err(|e| bad(format!("truncated ({e})")))?;
+    let header: AccHeader = serde_json::from_slice(&json).map_err(|e| bad(e.to_string()))?;
+    if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
+        return Err(bad(format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
+    }
+    Ok(header.bake)
+}
+
 /// Writes a shard file atomically.
 pub fn write_accumulator(path: &Path, acc: &Accumulator, meta: &BakeMetadata) -> Result<(), VolumeError> {
     write_atomic(path, &accumulator_to_bytes(acc, meta)?)
@@ -166,6 +291,32 @@ mod tests {
         let (b, m) = read_accumulator(&p).unwrap();
         assert_eq!(b, a);
         assert_eq!(m, meta);
+    }
+
+    /// Streaming merges equal in-memory merges, in any order, and refuse damage.
+    #[test]
+    fn streaming_merge_equals_in_memory_merge() {
+        let a = acc();
+        let mut b = acc();
+        b.add_sample([0.9, 0.1, 0.2], [5.0, 1.0, 0.5], &[0.4, -0.1, 0.2, 0.3]);
+        let dir = tempfile::tempdir().unwrap();
+        let (pa, pb) = (dir.path().join("a.lvacc"), dir.path().join("b.lvacc"));
+        write_accumulator(&pa, &a, &BakeMetadata { shard_index: 0, shard_count: 2, ..BakeMetadata::default() }).unwrap();
+        write_accumulator(&pb, &b, &BakeMetadata { shard_index: 1, shard_count: 2, ..BakeMetadata::default() }).unwrap();
+        let (ab, _) = merge_accumulator_file(Some(merge_accumulator_file(None, &pa).unwrap().0), &pb).unwrap();
+        let (ba, m) = merge_accumulator_file(Some(merge_accumulator_file(None, &pb).unwrap().0), &pa).unwrap();
+        let mut want = a.clone();
+        want.merge(&b).unwrap();
+        assert_eq!(ab, want);
+        assert_eq!(ba, want);
+        assert_eq!(m.shard_index, 0);
+        let mut bytes = std::fs::read(&pb).unwrap();
+        let mid = bytes.len() / 2;
+        bytes[mid] ^= 1;
+        std::fs::write(&pb, &bytes).unwrap();
+        assert!(merge_accumulator_file(None, &pb).unwrap_err().to_string().contains("checksum"));
+        std::fs::write(&pb, &bytes[..bytes.len() - 9]).unwrap();
+        assert!(merge_accumulator_file(None, &pb).is_err());
     }
 
     #[test]

@@ -139,6 +139,15 @@ impl FixedSums {
         }
     }
 
+    /// Adds a raw fixed-point value to sum `i` (exact).
+    ///
+    /// # Panics
+    /// If `i` is out of range.
+    #[inline]
+    pub fn add_raw(&mut self, i: usize, v: i128) {
+        self.value[i] = self.value[i].wrapping_add(v);
+    }
+
     /// Sum `i` as f64 (NaN when poisoned).
     #[must_use]
     #[inline]

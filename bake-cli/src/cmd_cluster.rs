@@ -1,0 +1,441 @@
+//! `lightvol slurm` and `lightvol k8s`: a sharded bake as cluster jobs.
+//!
+//! Both write job files that run `lightvol bake ... --shard auto --shards N` once per
+//! shard (the shard index comes from the scheduler's array variables, see
+//! `lightvol_sampler::shard`) and then one `lightvol merge` of the shards' exact sums, which
+//! equals the whole bake bit for bit.
+//!
+//! - `slurm` writes `bake.sbatch` (a job array), `merge.sbatch` and `submit.sh` into the
+//!   work folder. `--submit` submits them (the merge with `--dependency=afterok:ARRAY
+//!   --kill-on-invalid-dep=yes`, so a failed shard cancels it instead of leaving it pending
+//!   forever) and prints the job ids; `--wait` then polls `scontrol` until the merge ends,
+//!   exits with its status, and names any failed array task.
+//! - `k8s` writes `bake-job.yaml` (an Indexed Job) and `merge-job.yaml`; Kubernetes has no
+//!   job dependencies, so the merge is applied after `kubectl wait` (printed).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command as Proc, ExitCode};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, bail};
+use clap::Args;
+
+use crate::cmd_bake::BakeArgs;
+
+/// Options the cluster verbs share, after the bake's own options.
+#[derive(Debug, Args)]
+pub struct JobArgs {
+    /// Work folder for the job files, shard outputs and logs (default: the output's path
+    /// with the extension `.slurm` or `.k8s`).
+    #[arg(long)]
+    pub workdir: Option<PathBuf>,
+    /// The lightvol executable the jobs run (default: this one).
+    #[arg(long)]
+    pub lightvol: Option<PathBuf>,
+}
+
+/// `lightvol slurm`.
+#[derive(Debug, Args)]
+pub struct SlurmArgs {
+    /// The bake (scene, grid, sampling, method; `-o` is the merged volume). `--shards N` is
+    /// required; `--shard` is set by the jobs.
+    #[command(flatten)]
+    pub bake: BakeArgs,
+    /// Job files.
+    #[command(flatten)]
+    pub job: JobArgs,
+    /// Slurm partition (`--partition`).
+    #[arg(long)]
+    pub partition: Option<String>,
+    /// Time limit per shard (`--time`, e.g. `2:00:00`).
+    #[arg(long)]
+    pub time: Option<String>,
+    /// CPUs per shard (`--cpus-per-task`; the bake uses that many threads).
+    #[arg(long)]
+    pub cpus: Option<u32>,
+    /// Memory per shard (`--mem`, e.g. `4G`).
+    #[arg(long)]
+    pub mem: Option<String>,
+    /// Submit the jobs with sbatch and print their ids.
+    #[arg(long)]
+    pub submit: bool,
+    /// With --submit: wait for the merge and exit with its status.
+    #[arg(long, requires = "submit")]
+    pub wait: bool,
+}
+
+/// `lightvol k8s`.
+#[derive(Debug, Args)]
+pub struct K8sArgs {
+    /// The bake, as for `slurm`. Paths must be valid inside the container.
+    #[command(flatten)]
+    pub bake: BakeArgs,
+    /// Job files.
+    #[command(flatten)]
+    pub job: JobArgs,
+    /// Container image with `lightvol` on its PATH.
+    #[arg(long)]
+    pub image: String,
+    /// PersistentVolumeClaim mounted at --mount in every pod (scene, shards and output).
+    #[arg(long, default_value = "lightvol-data")]
+    pub pvc: String,
+    /// Where the claim is mounted.
+    #[arg(long, default_value = "/data")]
+    pub mount: String,
+    /// CPU request per shard pod.
+    #[arg(long, default_value_t = 1)]
+    pub cpus: u32,
+}
+
+/// Options of the cluster verbs that the shard jobs' `bake` must not see, with whether
+/// they take a value.
+const JOB_ONLY: &[(&str, bool)] = &[
+    ("--workdir", true),
+    ("--lightvol", true),
+    ("--partition", true),
+    ("--time", true),
+    ("--cpus", true),
+    ("--mem", true),
+    ("--submit", false),
+    ("--wait", false),
+    ("--image", true),
+    ("--pvc", true),
+    ("--mount", true),
+    ("--shards", true),
+    ("--output", true),
+    ("-o", true),
+];
+
+/// The bake's own arguments from the verb's command line (`argv` without the program and
+/// verb): every job-only option (`--opt V`, `--opt=V`, `-oV`) removed.
+#[must_use]
+pub fn bake_arguments(argv: &[String]) -> Vec<String> {
+    let mut out = Vec::new();
+    let mut i = 0;
+    while i < argv.len() {
+        let a = &argv[i];
+        let hit = JOB_ONLY.iter().find(|(name, _)| {
+            a == name || a.starts_with(&format!("{name}=")) || (*name == "-o" && a.starts_with("-o") && a.len() > 2 && !a.starts_with("--"))
+        });
+        match hit {
+            Some((name, true)) if a == name => i += 2,
+            Some(_) => i += 1,
+            None => {
+                out.push(a.clone());
+                i += 1;
+            }
+        }
+    }
+    out
+}
+
+/// POSIX shell single-quoting.
+#[must_use]
+pub fn sh_quote(s: &str) -> String {
+    if !s.is_empty() && s.bytes().all(|b| b.is_ascii_alphanumeric() || b"-_./=:,+@%".contains(&b)) {
+        return s.to_owned();
+    }
+    format!("'{}'", s.replace('\'', r"'\''"))
+}
+
+fn absolute(p: &Path) -> anyhow::Result<PathBuf> {
+    if p.is_absolute() {
+        Ok(p.to_owned())
+    } else {
+        Ok(std::env::current_dir().context("current folder")?.join(p))
+    }
+}
+
+/// Checks what both verbs need and returns (shards, work folder, merged output, lightvol).
+fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, PathBuf, PathBuf, PathBuf)> {
+    let Some(n) = bake.shards else { bail!("give the number of shards with --shards N") };
+    if n == 0 {
+        bail!("--shards must be at least 1");
+    }
+    if bake.shard.is_some() {
+        bail!("--shard is set by the jobs (--shard auto); give only --shards N");
+    }
+    if bake.adaptive.adaptive || bake.gradients.is_some() || bake.sampling.fit != lightvol_sampler::fit::Fit::Average {
+        bail!("--adaptive, --gradients and --fit lsq bakes cannot be sharded yet; use a whole bake");
+    }
+    let out = absolute(&bake.output)?;
+    let work = absolute(&job.workdir.clone().unwrap_or_else(|| out.with_extension(ext)))?;
+    let exe = match &job.lightvol {
+        Some(p) => absolute(p)?,
+        None => std::env::current_exe().context("locating the lightvol executable")?,
+    };
+    Ok((n, work, out, exe))
+}
+
+/// Runs `lightvol slurm`; `argv` is the verb's command line after `slurm`.
+pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
+    let (n, work, out, exe) = common(&args.bake, &args.job, "slurm")?;
+    // The scene and lights must load here, so that a typo fails now, not on the cluster.
+    args.bake.scene.load_quiet().context("checking the scene before writing jobs")?;
+    let bake = bake_arguments(argv);
+    let q = |p: &Path| sh_quote(&p.to_string_lossy());
+    let mut head = vec![
+        "#!/bin/bash".to_owned(),
+        "#SBATCH --job-name=lightvol-bake".to_owned(),
+        format!("#SBATCH --array=0-{}", n - 1),
+        format!("#SBATCH --output={}", q(&work.join("logs/bake-%A_%a.log"))),
+    ];
+    if let Some(c) = args.cpus {
+        head.push(format!("#SBATCH --cpus-per-task={c}"));
+    }
+    for (k, v) in [("partition", &args.partition), ("time", &args.time), ("mem", &args.mem)] {
+        if let Some(v) = v {
+            head.push(format!("#SBATCH --{k}={}", sh_quote(v)));
+        }
+    }
+    let bake_cmd: Vec<String> =
+        [q(&exe), "bake".to_owned()].into_iter().chain(bake.iter().map(|a| sh_quote(a))).chain(quiet(&bake)).collect();
+    let bake_script = format!(
+        "{}\n# Written by `lightvol slurm`: one array task per shard. `--shard auto` maps the task's\n# SLURM_ARRAY_TASK_ID (with _MIN/_MAX/_STEP) to a dense shard index.\nset -euo pipefail\nexec {} --shard auto --shards {n} -o {}\"$SLURM_ARRAY_TASK_ID\".exr\n",
+        head.join("\n"),
+        bake_cmd.join(" "),
+        q(&work.join("shards/shard-"))
+    );
+    let mut mhead = vec![
+        "#!/bin/bash".to_owned(),
+        "#SBATCH --job-name=lightvol-merge".to_owned(),
+        format!("#SBATCH --output={}", q(&work.join("logs/merge-%j.log"))),
+    ];
+    for (k, v) in [("partition", &args.partition), ("time", &args.time), ("mem", &args.mem)] {
+        if let Some(v) = v {
+            mhead.push(format!("#SBATCH --{k}={}", sh_quote(v)));
+        }
+    }
+    let merge_script = format!(
+        "{}\n# Written by `lightvol slurm`: merges the shards' exact sums (refuses an incomplete set).\nset -euo pipefail\nexec {} merge {}/*.lvacc -o {}\n",
+        mhead.join("\n"),
+        q(&exe),
+        q(&work.join("shards")),
+        q(&out)
+    );
+    let submit_script = format!(
+        "#!/bin/bash\n# Written by `lightvol slurm`: submits the shard array, then the merge, which runs only\n# if every shard succeeds and is cancelled if one fails.\nset -euo pipefail\nbake=$(sbatch --parsable {})\nbake=${{bake%%;*}}\nmerge=$(sbatch --parsable --dependency=afterok:\"$bake\" --kill-on-invalid-dep=yes {})\nmerge=${{merge%%;*}}\necho \"bake array $bake, merge $merge\"\n",
+        q(&work.join("bake.sbatch")),
+        q(&work.join("merge.sbatch"))
+    );
+    for d in ["shards", "logs"] {
+        std::fs::create_dir_all(work.join(d)).with_context(|| format!("creating {}", work.join(d).display()))?;
+    }
+    for (name, body) in [("bake.sbatch", &bake_script), ("merge.sbatch", &merge_script), ("submit.sh", &submit_script)] {
+        let p = work.join(name);
+        crate::imaging::write_atomic(&p, body.as_bytes()).with_context(|| format!("writing {}", p.display()))?;
+        make_executable(&p)?;
+    }
+    eprintln!("wrote {}/{{bake.sbatch,merge.sbatch,submit.sh}} ({n} shards → {})", work.display(), out.display());
+    if !args.submit {
+        println!("{}", work.join("submit.sh").display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let bake_id = sbatch(&[s(&work.join("bake.sbatch"))])?;
+    let merge_id = sbatch(&[&format!("--dependency=afterok:{bake_id}"), "--kill-on-invalid-dep=yes", s(&work.join("merge.sbatch"))])?;
+    println!("bake array {bake_id}, merge {merge_id}");
+    if !args.wait {
+        return Ok(ExitCode::SUCCESS);
+    }
+    let state = wait_for(&merge_id)?;
+    if state.state == "COMPLETED" && state.exit_code.starts_with("0:") {
+        eprintln!("merge {merge_id} completed: {}", out.display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let failed: Vec<String> = job_lines(&bake_id)?
+        .into_iter()
+        .filter(|j| j.state != "COMPLETED")
+        .map(|j| format!("array task {} ({}) {} exit {}", j.task.as_deref().unwrap_or("?"), j.id, j.state, j.exit_code))
+        .collect();
+    let logs = work.join("logs");
+    if failed.is_empty() {
+        bail!("merge {merge_id} ended {} (exit {}); see {}", state.state, state.exit_code, logs.display());
+    }
+    bail!("{}; merge {merge_id} {} ({}); logs in {}", failed.join(", "), state.state, state.reason, logs.display());
+}
+
+/// `--quiet` for the shard jobs (no progress bars in their logs), unless already given.
+fn quiet(bake: &[String]) -> Option<String> {
+    (!bake.iter().any(|a| a == "--quiet")).then(|| "--quiet".to_owned())
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap_or_default()
+}
+
+#[cfg(unix)]
+fn make_executable(p: &Path) -> anyhow::Result<()> {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o755)).with_context(|| format!("chmod {}", p.display()))
+}
+
+#[cfg(not(unix))]
+fn make_executable(_: &Path) -> anyhow::Result<()> {
+    Ok(())
+}
+
+/// Submits with `sbatch --parsable`, returning the job id.
+fn sbatch(args: &[&str]) -> anyhow::Result<String> {
+    let o = Proc::new("sbatch").arg("--parsable").args(args).output().context("running sbatch (is Slurm installed and SLURM_CONF set?)")?;
+    if !o.status.success() {
+        bail!("sbatch {}: {}", args.join(" "), String::from_utf8_lossy(&o.stderr).trim());
+    }
+    let id = String::from_utf8_lossy(&o.stdout).trim().split(';').next().unwrap_or("").to_owned();
+    if id.is_empty() || !id.bytes().all(|b| b.is_ascii_digit()) {
+        bail!("sbatch printed no job id ({:?})", String::from_utf8_lossy(&o.stdout));
+    }
+    Ok(id)
+}
+
+/// One job (or array task) as `scontrol -o show job` prints it.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct JobLine {
+    /// `JobId`.
+    pub id: String,
+    /// `ArrayTaskId`, for array tasks.
+    pub task: Option<String>,
+    /// `JobState`.
+    pub state: String,
+    /// `ExitCode` (`code:signal`).
+    pub exit_code: String,
+    /// `Reason`.
+    pub reason: String,
+}
+
+/// Parses `scontrol -o show job` output (one job per line, `Key=Value` fields).
+#[must_use]
+pub fn parse_job_lines(text: &str) -> Vec<JobLine> {
+    text.lines()
+        .filter(|l| l.contains("JobId="))
+        .map(|l| {
+            let field = |k: &str| {
+                l.split_whitespace().find_map(|f| f.strip_prefix(&format!("{k}="))).map(str::to_owned)
+            };
+            JobLine {
+                id: field("JobId").unwrap_or_default(),
+                task: field("ArrayTaskId"),
+                state: field("JobState").unwrap_or_default(),
+                exit_code: field("ExitCode").unwrap_or_default(),
+                reason: field("Reason").unwrap_or_default(),
+            }
+        })
+        .collect()
+}
+
+fn job_lines(id: &str) -> anyhow::Result<Vec<JobLine>> {
+    let o = Proc::new("scontrol").args(["-o", "show", "job", id]).output().context("running scontrol")?;
+    if !o.status.success() {
+        bail!("scontrol show job {id}: {}", String::from_utf8_lossy(&o.stderr).trim());
+    }
+    Ok(parse_job_lines(&String::from_utf8_lossy(&o.stdout)))
+}
+
+/// Job states after which a job never runs again.
+const FINAL: &[&str] =
+    &["COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "OUT_OF_MEMORY", "NODE_FAIL", "PREEMPTED", "BOOT_FAIL", "DEADLINE"];
+
+/// Polls `scontrol` once a second (`sbatch --wait` backs off to 32 s) until job `id` ends.
+fn wait_for(id: &str) -> anyhow::Result<JobLine> {
+    let start = Instant::now();
+    loop {
+        if let Some(j) = job_lines(id)?.into_iter().next()
+            && FINAL.contains(&j.state.as_str())
+        {
+            return Ok(j);
+        }
+        if start.elapsed() > Duration::from_secs(7 * 24 * 3600) {
+            bail!("gave up waiting for job {id} after a week");
+        }
+        std::thread::sleep(Duration::from_millis(500));
+    }
+}
+
+/// Runs `lightvol k8s`.
+pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
+    let Some(n) = args.bake.shards else { bail!("give the number of shards with --shards N") };
+    if n == 0 {
+        bail!("--shards must be at least 1");
+    }
+    if args.bake.shard.is_some() {
+        bail!("--shard is set by the jobs (--shard auto); give only --shards N");
+    }
+    if args.bake.adaptive.adaptive || args.bake.gradients.is_some() || args.bake.sampling.fit != lightvol_sampler::fit::Fit::Average {
+        bail!("--adaptive, --gradients and --fit lsq bakes cannot be sharded yet; use a whole bake");
+    }
+    let work = absolute(&args.job.workdir.clone().unwrap_or_else(|| args.bake.output.with_extension("k8s")))?;
+    let out = args.bake.output.to_string_lossy().into_owned();
+    let raw = bake_arguments(argv);
+    let bake: Vec<String> = raw.iter().map(|a| sh_quote(a)).chain(quiet(&raw)).collect();
+    let shards = format!("{}/shards", args.mount.trim_end_matches('/'));
+    let bake_cmd = format!(
+        "mkdir -p {shards} && exec lightvol bake {} --shard auto --shards {n} -o {shards}/shard-\"$JOB_COMPLETION_INDEX\".exr",
+        bake.join(" ")
+    );
+    let merge_cmd = format!("exec lightvol merge {shards}/*.lvacc -o {}", sh_quote(&out));
+    let volume = serde_json::json!([{"name": "data", "persistentVolumeClaim": {"claimName": args.pvc}}]);
+    let mounts = serde_json::json!([{"name": "data", "mountPath": args.mount}]);
+    let job = |name: &str, cmd: &str, indexed: bool| {
+        let mut spec = serde_json::json!({
+            "backoffLimit": 0,
+            "template": {"spec": {
+                "restartPolicy": "Never",
+                "containers": [{"name": name, "image": args.image, "command": ["sh", "-c", cmd],
+                    "resources": {"requests": {"cpu": args.cpus.to_string()}},
+                    "env": [{"name": "RAYON_NUM_THREADS", "value": args.cpus.to_string()}],
+                    "volumeMounts": mounts}],
+                "volumes": volume}}
+        });
+        if indexed {
+            spec["completions"] = n.into();
+            spec["parallelism"] = n.into();
+            spec["completionMode"] = "Indexed".into();
+        }
+        serde_json::json!({"apiVersion": "batch/v1", "kind": "Job", "metadata": {"name": format!("lightvol-{name}")}, "spec": spec})
+    };
+    std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
+    // JSON is YAML (YAML 1.2 is a superset), and kubectl reads either.
+    let header = "# Written by `lightvol k8s`. Apply the bake, wait for it, then apply the merge:\n#   kubectl apply -f bake-job.yaml\n#   kubectl wait --for=condition=complete --timeout=24h job/lightvol-bake\n#   kubectl apply -f merge-job.yaml\n";
+    for (file, j) in [("bake-job.yaml", job("bake", &bake_cmd, true)), ("merge-job.yaml", job("merge", &merge_cmd, false))] {
+        let p = work.join(file);
+        let body = format!("{header}{}\n", serde_json::to_string_pretty(&j).expect("plain data"));
+        crate::imaging::write_atomic(&p, body.as_bytes()).with_context(|| format!("writing {}", p.display()))?;
+    }
+    println!("{}", work.display());
+    eprintln!(
+        "wrote {0}/bake-job.yaml and {0}/merge-job.yaml; run: kubectl apply -f {0}/bake-job.yaml && kubectl wait --for=condition=complete --timeout=24h job/lightvol-bake && kubectl apply -f {0}/merge-job.yaml",
+        work.display()
+    );
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn v(s: &[&str]) -> Vec<String> {
+        s.iter().map(|x| (*x).to_owned()).collect()
+    }
+
+    #[test]
+    fn job_only_options_are_removed_in_every_spelling() {
+        let argv = v(&["builtin:city", "--shards", "4", "--samples", "8", "-o", "v.exr", "--partition=gpu", "--submit", "--wait", "--time", "1:00", "-ox.exr", "--output=y.exr", "--res", "4,4,4"]);
+        assert_eq!(bake_arguments(&argv), v(&["builtin:city", "--samples", "8", "--res", "4,4,4"]));
+    }
+
+    #[test]
+    fn shell_quoting() {
+        assert_eq!(sh_quote("a/b.exr"), "a/b.exr");
+        assert_eq!(sh_quote("it's here"), r"'it'\''s here'");
+        assert_eq!(sh_quote(""), "''");
+    }
+
+    #[test]
+    fn scontrol_lines_parse() {
+        let t = "JobId=12 ArrayJobId=11 ArrayTaskId=1 JobName=lightvol-bake JobState=FAILED Reason=NonZeroExitCode Dependency=(null) ExitCode=1:0\nJobId=13 JobName=m JobState=CANCELLED Reason=DependencyNeverSatisfied ExitCode=0:0\n";
+        let j = parse_job_lines(t);
+        assert_eq!(j.len(), 2);
+        assert_eq!(j[0].task.as_deref(), Some("1"));
+        assert_eq!((j[0].state.as_str(), j[0].exit_code.as_str()), ("FAILED", "1:0"));
+        assert_eq!(j[1].reason, "DependencyNeverSatisfied");
+    }
+}

@@ -1,0 +1,193 @@
+//! The binary on a cluster: `--shard auto` from the scheduler's variables, `lightvol k8s`
+//! manifests, and — on a real Slurm (`ci/slurm-up.sh`) — `lightvol slurm --submit --wait`
+//! producing the whole bake's file byte for byte, an `--array=1-8:2` job array with
+//! `--shard auto`, and a failing shard that cancels the merge.
+//!
+//! The Slurm tests need `sbatch` and a configured cluster (`SLURM_CONF`). Without them
+//! they say so in one loud line and pass, unless `LIGHTVOL_REQUIRE_SLURM=1` (set by
+//! `.ci/run`), which turns the missing cluster into a failure.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+const BIN: &str = env!("CARGO_BIN_EXE_lightvol");
+
+/// The bake every case shares: small and quick, 4 × 5 × 3 nodes of the city.
+const BAKE: [&str; 7] = ["--res", "5,5,3", "--samples", "6", "--bounces", "1", "--quiet"];
+
+fn lightvol(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut c = Command::new(BIN);
+    c.args(args);
+    for v in ["SLURM_ARRAY_TASK_ID", "JOB_COMPLETION_INDEX", "AWS_BATCH_JOB_ARRAY_INDEX", "LIGHTVOL_SHARD"] {
+        c.env_remove(v);
+    }
+    for (k, v) in env {
+        c.env(k, v);
+    }
+    c.output().expect("run lightvol")
+}
+
+fn ok(args: &[&str], env: &[(&str, &str)]) -> Output {
+    let o = lightvol(args, env);
+    assert!(o.status.success(), "lightvol {}: {}", args.join(" "), String::from_utf8_lossy(&o.stderr));
+    o
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Byte-for-byte equality, reported without dumping the bytes.
+fn same_file(a: &Path, b: &Path) {
+    let (x, y) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
+    let first = x.iter().zip(&y).position(|(p, q)| p != q);
+    assert!(x.len() == y.len() && first.is_none(), "{} and {} differ: {} vs {} bytes, first difference at {first:?}", a.display(), b.display(), x.len(), y.len());
+}
+
+fn whole_bake(dir: &Path) -> PathBuf {
+    let whole = dir.join("whole.exr");
+    let mut a = vec!["bake", "builtin:city", "-o", s(&whole)];
+    a.extend_from_slice(&BAKE);
+    ok(&a, &[]);
+    whole
+}
+
+/// `--shard auto` reads Slurm's array variables (`--array=1-7:2` task 5 is shard 2 of 4),
+/// Kubernetes' and AWS's indices with `--shards`, and `LIGHTVOL_SHARD`; with none it is
+/// one line naming what it looked for.
+#[test]
+fn shard_auto_reads_the_scheduler() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let bake = |name: &str, extra: &[&str], env: &[(&str, &str)]| -> PathBuf {
+        let out = d.join(name);
+        let mut a = vec!["bake", "builtin:city", "-o", s(&out)];
+        a.extend_from_slice(&BAKE);
+        a.extend_from_slice(extra);
+        ok(&a, env);
+        std::fs::read(out.with_extension("lvacc")).unwrap();
+        out.with_extension("lvacc")
+    };
+    let explicit = std::fs::read(bake("explicit.exr", &["--shard", "2/4"], &[])).unwrap();
+    let slurm = [("SLURM_ARRAY_TASK_ID", "5"), ("SLURM_ARRAY_TASK_MIN", "1"), ("SLURM_ARRAY_TASK_MAX", "7"), ("SLURM_ARRAY_TASK_STEP", "2"), ("SLURM_ARRAY_TASK_COUNT", "4")];
+    assert_eq!(std::fs::read(bake("slurm.exr", &["--shard", "auto"], &slurm)).unwrap(), explicit);
+    let k8s = [("JOB_COMPLETION_INDEX", "2")];
+    assert_eq!(std::fs::read(bake("k8s.exr", &["--shard", "auto", "--shards", "4"], &k8s)).unwrap(), explicit);
+    let aws = [("AWS_BATCH_JOB_ARRAY_INDEX", "2")];
+    assert_eq!(std::fs::read(bake("aws.exr", &["--shard", "auto", "--shards", "4"], &aws)).unwrap(), explicit);
+    assert_eq!(std::fs::read(bake("env.exr", &["--shard", "auto"], &[("LIGHTVOL_SHARD", "2/4")])).unwrap(), explicit);
+    let o = lightvol(&["bake", "builtin:city", "--shard", "auto", "-o", s(&d.join("none.exr"))], &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(err.lines().count() == 1 && err.contains("SLURM_ARRAY_TASK_ID") && err.contains("LIGHTVOL_SHARD"), "{err}");
+    let o = lightvol(&["bake", "builtin:city", "--shard", "auto", "-o", s(&d.join("k.exr"))], &k8s);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--shards N"));
+}
+
+/// `lightvol k8s` writes an Indexed Job of N completions running `--shard auto --shards N`
+/// and a merge Job, as YAML that is also JSON.
+#[test]
+fn k8s_writes_an_indexed_job_and_a_merge_job() {
+    let dir = tempfile::tempdir().unwrap();
+    let work = dir.path().join("jobs");
+    let mut a = vec!["k8s", "builtin:city", "--shards", "3", "--image", "registry.example/lightvol:1", "--workdir", s(&work), "-o", "/data/city.exr"];
+    a.extend_from_slice(&BAKE);
+    ok(&a, &[]);
+    let read = |f: &str| -> serde_json::Value {
+        let t = std::fs::read_to_string(work.join(f)).unwrap();
+        let body: String = t.lines().filter(|l| !l.starts_with('#')).collect::<Vec<_>>().join("\n");
+        serde_json::from_str(&body).unwrap()
+    };
+    let bake = read("bake-job.yaml");
+    assert_eq!(bake["kind"], "Job");
+    assert_eq!(bake["spec"]["completionMode"], "Indexed");
+    assert_eq!(bake["spec"]["completions"], 3);
+    let cmd = bake["spec"]["template"]["spec"]["containers"][0]["command"][2].as_str().unwrap();
+    assert!(cmd.contains("lightvol bake builtin:city") && cmd.contains("--shard auto --shards 3") && cmd.contains("$JOB_COMPLETION_INDEX") && cmd.contains("--samples 6"), "{cmd}");
+    assert!(!cmd.contains("--image") && !cmd.contains("/data/city.exr"), "{cmd}");
+    let merge = read("merge-job.yaml");
+    let mcmd = merge["spec"]["template"]["spec"]["containers"][0]["command"][2].as_str().unwrap();
+    assert!(mcmd.contains("merge /data/shards/*.lvacc -o /data/city.exr"), "{mcmd}");
+}
+
+/// Whether a usable Slurm is here; otherwise one loud line, and a failure when
+/// `LIGHTVOL_REQUIRE_SLURM=1`.
+fn slurm_available(test: &str) -> bool {
+    let ok = Command::new("sinfo").arg("-h").output().is_ok_and(|o| o.status.success());
+    if !ok {
+        let msg = format!("SLURM TESTS NOT RUN ({test}): no working sinfo/sbatch (start one with ci/slurm-up.sh and source its env)");
+        assert!(std::env::var("LIGHTVOL_REQUIRE_SLURM").as_deref() != Ok("1"), "{msg}, and LIGHTVOL_REQUIRE_SLURM=1");
+        // Straight to the process's stderr, past the test harness's capture, so that a run
+        // without a cluster says so.
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), "\n!!!!! {msg} !!!!!\n");
+    }
+    ok
+}
+
+/// `lightvol slurm --shards 4 --submit --wait` gives the whole bake's file, byte for byte.
+#[test]
+fn slurm_submit_wait_equals_the_whole_bake() {
+    if !slurm_available("slurm_submit_wait_equals_the_whole_bake") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let whole = whole_bake(d);
+    let merged = d.join("cluster.exr");
+    let mut a = vec!["slurm", "builtin:city", "--shards", "4", "--submit", "--wait", "-o", s(&merged), "--lightvol", BIN];
+    a.extend_from_slice(&BAKE);
+    let o = ok(&a, &[]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("bake array"));
+    same_file(&merged, &whole);
+    assert_eq!(std::fs::read_dir(d.join("cluster.slurm/shards")).unwrap().filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "lvacc")).count(), 4);
+}
+
+/// A hand-written sparse array (`--array=1-8:2`: tasks 1, 3, 5, 7) with `--shard auto`,
+/// merged, gives the whole bake too.
+#[test]
+fn slurm_sparse_array_with_shard_auto() {
+    if !slurm_available("slurm_sparse_array_with_shard_auto") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let whole = whole_bake(d);
+    let wrap = format!("{BIN} bake builtin:city {} --shard auto -o {}/s-$SLURM_ARRAY_TASK_ID.exr", BAKE.join(" "), s(d));
+    let o = Command::new("sbatch").args(["--parsable", "--wait", "--array=1-8:2", "--output", &format!("{}/log-%a.txt", s(d)), "--wrap", &wrap]).output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let shards: Vec<String> = [1, 3, 5, 7].iter().map(|t| format!("{}/s-{t}.lvacc", s(d))).collect();
+    let merged = d.join("m.exr");
+    let mut a: Vec<&str> = vec!["merge"];
+    a.extend(shards.iter().map(String::as_str));
+    a.extend(["-o", s(&merged)]);
+    ok(&a, &[]);
+    same_file(&merged, &whole);
+}
+
+/// A shard that exits non-zero cancels the merge; the CLI exits non-zero and names the
+/// failed array task; no merged volume appears.
+#[test]
+fn slurm_failed_shard_cancels_the_merge() {
+    if !slurm_available("slurm_failed_shard_cancels_the_merge") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    // A lightvol that fails as array task 2.
+    let fake = d.join("flaky-lightvol");
+    std::fs::write(&fake, format!("#!/bin/sh\nif [ \"${{SLURM_ARRAY_TASK_ID:-}}\" = 2 ]; then echo 'shard 2 broke' >&2; exit 3; fi\nexec {BIN} \"$@\"\n")).unwrap();
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let merged = d.join("never.exr");
+    let mut a = vec!["slurm", "builtin:city", "--shards", "4", "--submit", "--wait", "-o", s(&merged), "--lightvol", s(&fake)];
+    a.extend_from_slice(&BAKE);
+    let o = lightvol(&a, &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("array task 2") && err.contains("FAILED") && err.contains("CANCELLED"), "{err}");
+    assert!(!merged.exists());
+}
