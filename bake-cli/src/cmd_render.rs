@@ -79,9 +79,9 @@ pub struct Camera {
 pub const DEFAULT_HEIGHT: u32 = 320;
 
 impl RenderArgs {
-    /// The image size: `--width`, and `--height`, else `width / aspect` (rounded, at least
-    /// 1) for a camera with an aspect ratio, else [`DEFAULT_HEIGHT`]. Refuses empty images
-    /// and images over 64 Mpixels.
+    /// The image size: `--width`, and `--height`, else `width / aspect` rounded (and at
+    /// least one pixel) for a camera with an aspect ratio, else [`DEFAULT_HEIGHT`]. Refuses
+    /// empty images and images over 64 Mpixels.
     pub fn size(&self, aspect: Option<f64>) -> anyhow::Result<(u32, u32)> {
         let h = match (self.height, aspect) {
             (Some(h), _) => h,
