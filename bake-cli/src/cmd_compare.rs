@@ -345,7 +345,9 @@ pub fn write_plate_exr(
         .non_parallel()
         .to_buffered(&mut bytes)
         .map_err(|e| anyhow::anyhow!("encoding plate.exr: {e}"))?;
-    write_atomic(path, &bytes.into_inner())
+    let mut bytes = bytes.into_inner();
+    lightvol_volume::exr_io::canonical_attribute_order(&mut bytes)?;
+    write_atomic(path, &bytes)
 }
 
 /// One method's bake and evaluation.

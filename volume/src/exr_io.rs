@@ -17,6 +17,11 @@
 //!
 //! Samples are f32 (bit-exact round trip) or f16 ([`ExrSample`]); compression is lossless.
 //!
+//! Every header lists its attributes in a fixed order: the standard EXR ones as the `exr`
+//! crate writes them, then the `lightvol.*` ones sorted by name
+//! ([`canonical_attribute_order`]). With the single-threaded encoder, equal volumes give
+//! byte-identical files, run after run.
+//!
 //! ## Optional gradient parts (SH gradients of \[Oat05\])
 //! [`write_exr_with_gradients`] adds, after the `weight` part, one part per coefficient
 //! named `grad00`, `grad01`, … with nine f32 channels `R.x R.y R.z G.x … B.z` (the world
@@ -261,7 +266,8 @@ pub(crate) fn base_layers(
 /// One part of a native file.
 pub(crate) type ExrLayer = Layer<AnyChannels<FlatSamples>>;
 
-/// Encodes parts into EXR bytes.
+/// Encodes parts into EXR bytes, attributes in the canonical order
+/// ([`canonical_attribute_order`]).
 pub(crate) fn encode_image(ia: ImageAttributes, layers: Vec<ExrLayer>) -> Result<Vec<u8>, VolumeError> {
     let image = Image::from_layers(ia, layers);
     let mut out = Cursor::new(Vec::new());
@@ -270,7 +276,128 @@ pub(crate) fn encode_image(ia: ImageAttributes, layers: Vec<ExrLayer>) -> Result
         .non_parallel()
         .to_buffered(&mut out)
         .map_err(|e| VolumeError::InvalidData(format!("EXR encoder: {e}")))?;
-    Ok(out.into_inner())
+    let mut bytes = out.into_inner();
+    canonical_attribute_order(&mut bytes)?;
+    Ok(bytes)
+}
+
+/// Puts the attributes of every header of an EXR file in a fixed order, in place, so that
+/// equal images give equal bytes.
+///
+/// The `exr` crate keeps custom attributes in a `std` `HashMap`
+/// (`ImageAttributes::other`, `LayerAttributes::other`) and writes them in that map's
+/// iteration order, which the randomly seeded hasher makes differ from map to map and from
+/// run to run: two writes of the same volume came out with the same attributes in different
+/// orders. Here every header keeps the standard attributes (the names of
+/// `exr::meta::header::standard_names`) first, in the order the crate wrote them (fixed by
+/// its code), and the custom ones follow, sorted by name (bytewise). Attributes only move
+/// within their header and every header keeps its length, so the offset tables, which hold
+/// absolute file positions, stay valid and the pixel data is untouched.
+///
+/// Every writer of EXR files in lightvol (volumes, adaptive volumes, surface maps, plates)
+/// calls this on the encoder's output. Errors (leaving `bytes` unchanged) if `bytes` is not
+/// an EXR file whose headers parse.
+pub fn canonical_attribute_order(bytes: &mut [u8]) -> Result<(), VolumeError> {
+    for header in header_layout(bytes)? {
+        let name = |a: &RawAttribute| &bytes[a.name.clone()];
+        let whole = |a: &RawAttribute| &bytes[a.bytes.clone()];
+        let (standard, mut custom): (Vec<&RawAttribute>, Vec<&RawAttribute>) =
+            header.attributes.iter().partition(|a| is_standard_attribute(name(a)));
+        // By name; by the whole attribute if a (malformed) header repeats a name.
+        custom.sort_by(|a, b| name(a).cmp(name(b)).then_with(|| whole(a).cmp(whole(b))));
+        let mut ordered = Vec::with_capacity(header.bytes.len());
+        for a in standard.into_iter().chain(custom) {
+            ordered.extend_from_slice(whole(a));
+        }
+        debug_assert_eq!(ordered.len(), header.bytes.len(), "a header's attributes fill it exactly");
+        bytes[header.bytes].copy_from_slice(&ordered);
+    }
+    Ok(())
+}
+
+/// The attribute names of every header of an EXR file, in file order (what
+/// [`canonical_attribute_order`] arranges); errors if the headers do not parse.
+pub fn header_attribute_names(bytes: &[u8]) -> Result<Vec<Vec<String>>, VolumeError> {
+    Ok(header_layout(bytes)?
+        .into_iter()
+        .map(|h| {
+            h.attributes
+                .iter()
+                .map(|a| String::from_utf8_lossy(&bytes[a.name.clone()]).into_owned())
+                .collect()
+        })
+        .collect())
+}
+
+/// Whether `name` is one of the attribute names the OpenEXR standard defines.
+fn is_standard_attribute(name: &[u8]) -> bool {
+    exr::meta::header::standard_names::ALL.contains(&name)
+}
+
+/// One attribute of a header: its bytes (name, type, size, value) and its name's bytes.
+struct RawAttribute {
+    bytes: std::ops::Range<usize>,
+    name: std::ops::Range<usize>,
+}
+
+/// One header: the bytes of its attributes (without the terminating zero byte) and each
+/// attribute.
+struct RawHeader {
+    bytes: std::ops::Range<usize>,
+    attributes: Vec<RawAttribute>,
+}
+
+/// Where the headers and their attributes lie in an EXR file (the OpenEXR file layout:
+/// magic number, version and flags, then one header, or for multi-part files headers up to
+/// an empty one; a header is a list of `name\0 type\0 size value` ended by a zero byte).
+fn header_layout(bytes: &[u8]) -> Result<Vec<RawHeader>, VolumeError> {
+    let bad = |what: &str| VolumeError::InvalidData(format!("EXR headers: {what}"));
+    const MAGIC: [u8; 4] = [0x76, 0x2f, 0x31, 0x01];
+    const MULTIPART: u32 = 0x1000;
+    if bytes.len() < 8 || bytes[..4] != MAGIC {
+        return Err(bad("not an EXR file"));
+    }
+    let multipart = u32::from_le_bytes([bytes[4], bytes[5], bytes[6], bytes[7]]) & MULTIPART != 0;
+    // The zero-terminated string at `*pos`, without its terminator.
+    let cstr = |pos: &mut usize| -> Result<std::ops::Range<usize>, VolumeError> {
+        let len = bytes
+            .get(*pos..)
+            .and_then(|rest| rest.iter().position(|&b| b == 0))
+            .ok_or_else(|| bad("unterminated name"))?;
+        let r = *pos..*pos + len;
+        *pos += len + 1;
+        Ok(r)
+    };
+    let mut headers = Vec::new();
+    let mut pos = 8usize;
+    loop {
+        if multipart && bytes.get(pos) == Some(&0) {
+            break; // the empty header that ends a multi-part file's header list
+        }
+        let start = pos;
+        let mut attributes = Vec::new();
+        loop {
+            let at = pos;
+            let name = cstr(&mut pos)?;
+            if name.is_empty() {
+                break;
+            }
+            cstr(&mut pos)?; // the type name
+            let size = bytes.get(pos..pos + 4).ok_or_else(|| bad("truncated attribute size"))?;
+            let size = usize::try_from(i32::from_le_bytes([size[0], size[1], size[2], size[3]]))
+                .map_err(|_| bad("negative attribute size"))?;
+            pos = pos
+                .checked_add(4 + size)
+                .filter(|&end| end <= bytes.len())
+                .ok_or_else(|| bad("truncated attribute value"))?;
+            attributes.push(RawAttribute { bytes: at..pos, name });
+        }
+        headers.push(RawHeader { bytes: start..pos - 1, attributes });
+        if !multipart {
+            break;
+        }
+    }
+    Ok(headers)
 }
 
 /// An f64 array as JSON (exact through serde_json's shortest round-trip printing).

@@ -37,6 +37,9 @@ use crate::slab::TEXEL_BYTES;
 /// pairs, which must be sorted by key.
 pub(crate) fn ktx2_rgba16f_bytes(dims: [u32; 3], texels: &[u8], kvd: &[(&str, &str)]) -> Vec<u8> {
     debug_assert_eq!(texels.len(), dims.iter().map(|&d| d as usize).product::<usize>() * TEXEL_BYTES);
+    // KTX2 requires the key/value pairs sorted by key; a fixed order also keeps the bytes
+    // reproducible.
+    debug_assert!(kvd.windows(2).all(|w| w[0].0.as_bytes() < w[1].0.as_bytes()), "unsorted KTX2 keys");
     let format = Format::R16G16B16A16_SFLOAT;
     let (dfd, type_size) = ktx2::dfd::Basic::from_format(format).expect("RGBA16F has a generated DFD");
     let dfd_block = ktx2::dfd::Block::Basic(dfd).to_vec();

@@ -16,6 +16,10 @@
 //!   `lightvol.dilated`, `lightvol.unfilled` (each text, a u64 in decimal: exact beyond i32
 //!   and f64 ranges).
 //!
+//! Each header lists the standard EXR attributes first and the `lightvol.*` ones after them,
+//! sorted by name (`lightvol_volume::exr_io::canonical_attribute_order`), so equal maps give
+//! byte-identical files.
+//!
 //! Written through a temporary file in the target directory and renamed. The reader checks
 //! every header before decoding pixels and accepts only [`VERSION`] (a version-1 file lacks
 //! the lighting and counters: re-bake it); a panic inside the `exr` decoder is caught and
@@ -116,7 +120,10 @@ fn to_bytes(maps: &[CoefficientMap], version: i32) -> Result<Vec<u8>, String> {
     let image = Image::from_layers(ia, layers);
     let mut out = Cursor::new(Vec::new());
     image.write().non_parallel().to_buffered(&mut out).map_err(|e| format!("EXR encoder: {e}"))?;
-    Ok(out.into_inner())
+    // The crate writes custom attributes in hash-map order; fix it (byte-reproducible files).
+    let mut bytes = out.into_inner();
+    lightvol_volume::exr_io::canonical_attribute_order(&mut bytes).map_err(|e| e.to_string())?;
+    Ok(bytes)
 }
 
 /// Writes `maps` to `path` (temporary file in the same directory, then rename).
@@ -383,6 +390,27 @@ mod tests {
         renamed.basis = "sh4".into(); // 6 channels declared as a 4-coefficient basis
         let b = surface_exr_to_bytes(&[renamed]).unwrap();
         assert!(surface_exr_from_bytes(&b).unwrap_err().contains("does not have"));
+    }
+
+    /// Writing the same maps again gives the same bytes (each write builds new, differently
+    /// seeded attribute maps inside the exr crate), with every part's `lightvol.*`
+    /// attributes after the standard ones and sorted by name.
+    #[test]
+    fn repeated_writes_are_byte_identical() {
+        let maps = vec![sample_map("floor", 4, 3), sample_map("wall", 2, 5)];
+        let first = surface_exr_to_bytes(&maps).unwrap();
+        for _ in 0..5 {
+            assert!(surface_exr_to_bytes(&maps).unwrap() == first, "a repeated write differs");
+        }
+        let headers = lightvol_volume::exr_io::header_attribute_names(&first).unwrap();
+        assert_eq!(headers.len(), 2);
+        for names in &headers {
+            let from = names.iter().position(|n| n.starts_with("lightvol.")).unwrap();
+            let custom = &names[from..];
+            assert_eq!(custom.len(), 13, "{names:?}");
+            assert!(custom.windows(2).all(|w| w[0] < w[1] && w[1].starts_with("lightvol.")), "{custom:?}");
+        }
+        assert_eq!(surface_exr_from_bytes(&first).unwrap(), maps);
     }
 
     /// Version 2 stores the lighting fingerprint and the invalid-texel counters (u64, beyond
