@@ -130,7 +130,7 @@ pub fn export_json(vol: &AdaptiveVolume, source: &Path) -> anyhow::Result<Value>
     let sc = Sidecar::describe(
         vol.base(),
         Encoding::F32,
-        Some(source.display().to_string()),
+        described_file_name(source),
         "native-exr-adaptive: base grid parts sh00.. and weight, plus octreeNN (fine surpluses) and splitNN parts",
     );
     let mut v = serde_json::to_value(&sc)?;
@@ -138,6 +138,14 @@ pub fn export_json(vol: &AdaptiveVolume, source: &Path) -> anyhow::Result<Value>
         m.insert("octree".into(), octree_json(vol));
     }
     Ok(v)
+}
+
+/// The sidecar's `storage.file` for the volume at `source`: its file name, without the
+/// directories (the sidecar describes the file beside it, as the DDS export's does), so that
+/// exports of one volume are the same bytes wherever it lies and no local path is stored.
+#[must_use]
+pub fn described_file_name(source: &Path) -> Option<String> {
+    source.file_name().map(|n| n.to_string_lossy().into_owned())
 }
 
 /// Resamples for a uniform-only format at `res` (default: the finest level's), returning

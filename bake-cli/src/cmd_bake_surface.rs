@@ -208,8 +208,10 @@ pub struct SurfaceBakeJson {
     pub gutter_texels: u64,
     /// Rays traced.
     pub rays: RaysJson,
-    /// Bake wall time.
-    pub seconds: f64,
+    /// Bake wall time: in the `--json` output only, left out of `<basis>.json` (a timing
+    /// would make two bakes of the same input write different files).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seconds: Option<f64>,
     /// Scale applied before 8-bit encoding.
     pub encode_scale: f64,
     /// Range compression factor.
@@ -515,7 +517,9 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
         let exr = args.output.join(format!("{tag}.exr"));
         write_surface_exr(&exr, &out.maps).with_context(|| format!("writing {}", exr.display()))?;
         let json = args.output.join(format!("{tag}.json"));
-        write_atomic(&json, serde_json::to_string_pretty(s)?.as_bytes())?;
+        // The file holds no timing: equal inputs write equal bytes.
+        let file = SurfaceBakeJson { seconds: None, ..s.clone() };
+        write_atomic(&json, serde_json::to_string_pretty(&file)?.as_bytes())?;
     }
     for (rel, bytes) in &outputs {
         let path = args.output.join(rel);
@@ -547,7 +551,7 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                 s.moved,
                 s.dilated,
                 s.unfilled,
-                s.seconds,
+                s.seconds.unwrap_or_default(),
                 100.0 * e8.rel_rms,
                 s.encodings
                     .iter()
@@ -613,7 +617,7 @@ fn summary(
         unfilled: r.unfilled,
         gutter_texels: r.gutter_texels,
         rays: RaysJson::of(&r.rays),
-        seconds,
+        seconds: Some(seconds),
         encode_scale: scale,
         range: args.range,
         encodings,

@@ -33,8 +33,8 @@ fn write_uniform(args: &ExportArgs, vol: &IrradianceVolume) -> anyhow::Result<()
         ExportFormat::Dds => lightvol_volume::dds_io::write_dds(out, vol).with_context(ctx)?,
         ExportFormat::Bevy => lightvol_volume::bevy::write_bevy(out, vol).with_context(ctx)?,
         ExportFormat::Json => {
-            let sc =
-                Sidecar::describe(vol, Encoding::F32, Some(args.volume.display().to_string()), "native-exr");
+            let file = adaptive_files::described_file_name(&args.volume);
+            let sc = Sidecar::describe(vol, Encoding::F32, file, "native-exr");
             write_sidecar(out, &sc).with_context(ctx)?;
         }
     }
