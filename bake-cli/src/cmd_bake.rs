@@ -328,11 +328,6 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let fit = if method == Method::Point { Fit::Average } else { args.sampling.fit };
-    if fit != Fit::Average && (args.shard.is_some() || args.keep_accumulator) {
-        bail!(
-            "--fit {fit} needs the whole bake (shard accumulators hold no mass matrix); use --fit average with --shard or --keep-accumulator"
-        );
-    }
     if fit != Fit::Average && args.gradients.is_some() {
         bail!(
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
@@ -399,8 +394,13 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     };
     if args.shard.is_some() || args.keep_accumulator {
         let acc_path = args.output.with_extension("lvacc");
-        write_accumulator(&acc_path, &out.accumulator, &meta)
-            .with_context(|| format!("writing {}", acc_path.display()))?;
+        // A least-squares bake's mass matrix travels in the shard file (exact sums too), so
+        // `merge` solves the fit over the whole set.
+        let mut acc = out.accumulator.clone();
+        if let Some(Grads::Mass(mass)) = &grads {
+            mass.attach_to(&mut acc);
+        }
+        write_accumulator(&acc_path, &acc, &meta).with_context(|| format!("writing {}", acc_path.display()))?;
         if !args.json {
             eprintln!("wrote {}", acc_path.display());
         }

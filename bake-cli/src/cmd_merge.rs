@@ -135,7 +135,22 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         lightvol_volume::accumulator_io::write_accumulator(&ap, &acc, &meta)
             .with_context(|| format!("writing {}", ap.display()))?;
     }
-    let (vol, fill) = acc.finalize();
+    // A least-squares bake's shards carry the mass matrix: solve the fit over the whole set.
+    let (vol, fill) = match lightvol_sampler::fit::MassMatrix::from_accumulator(&acc) {
+        None => acc.finalize(),
+        Some(mass) => {
+            let lambda = lsq_lambda(&meta.method).with_context(|| {
+                format!("the shards carry a mass matrix but their method '{}' names no least-squares fit", meta.method)
+            })?;
+            let (values, solve) =
+                lightvol_sampler::fit::solve_least_squares(&mass, &acc, lambda).context("least-squares node fit")?;
+            eprintln!(
+                "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
+                solve.active_nodes, solve.max_iterations, solve.max_relative_residual
+            );
+            lightvol_sampler::fit::finalize_least_squares(&acc, values)
+        }
+    };
     drop(acc);
     let vol = vol.with_metadata(meta);
     write_exr(&args.output, &vol, &ExrOptions::default())
@@ -147,6 +162,15 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         fill.filled
     );
     Ok(ExitCode::SUCCESS)
+}
+
+/// λ of a bake labelled `METHOD fit=lsq:λ` (as `bake --fit lsq` labels its metadata).
+fn lsq_lambda(method: &str) -> Option<f64> {
+    let fit: lightvol_sampler::fit::Fit = method.split_whitespace().find_map(|w| w.strip_prefix("fit="))?.parse().ok()?;
+    match fit {
+        lightvol_sampler::fit::Fit::LeastSquares { lambda } => Some(lambda),
+        lightvol_sampler::fit::Fit::Average => None,
+    }
 }
 
 /// `0, 3, 5`.

@@ -24,6 +24,7 @@
 //! 27 non-zeros per row and is solved per coefficient by Jacobi-preconditioned conjugate
 //! gradients, in a fixed order (deterministic for any thread count).
 
+use lightvol_volume::fixed::FixedSums;
 use lightvol_volume::FillReport;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
@@ -95,19 +96,49 @@ fn offset_slot(d: [i64; 3]) -> usize {
 }
 
 /// The sampled mass matrix `M_ij = Σ_s b_i(x_s) b_j(x_s)`: for every node, the 27 entries of
-/// its neighbours (offsets in `{-1,0,1}³`, slot `9(dx+1) + 3(dy+1) + (dz+1)`).
+/// its neighbours (offsets in `{-1,0,1}³`, slot `9(dx+1) + 3(dy+1) + (dz+1)`). The sums are
+/// exact fixed-point integers (`lightvol_volume::fixed`), like the accumulator's, so the
+/// matrices of shards merge into the whole bake's bit for bit.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MassMatrix {
     res: [usize; 3],
-    rows: Vec<[f64; 27]>,
+    sums: FixedSums,
 }
+
+/// Name of the mass matrix among an accumulator's auxiliary sums (shard files).
+pub const MASS_AUX: &str = "lsq-mass-27";
 
 impl MassMatrix {
     /// An all-zero matrix for `grid`'s nodes.
     #[must_use]
     pub fn new(grid: &GridSpec) -> Self {
         let r = grid.res();
-        Self { res: r.map(|v| v as usize), rows: vec![[0.0; 27]; grid.node_count()] }
+        Self { res: r.map(|v| v as usize), sums: FixedSums::zeros(grid.node_count() * 27) }
+    }
+
+    /// The matrix of a shard file: the auxiliary sums of `acc` named [`MASS_AUX`], or
+    /// `None` when it has none (or they do not fit its grid).
+    #[must_use]
+    pub fn from_accumulator(acc: &Accumulator) -> Option<Self> {
+        let (name, sums) = acc.aux()?;
+        let r = acc.spec().res();
+        (name == MASS_AUX && sums.len() == acc.spec().node_count() * 27)
+            .then(|| Self { res: r.map(|v| v as usize), sums: sums.clone() })
+    }
+
+    /// Stores the matrix in `acc`'s auxiliary sums (for a shard file).
+    pub fn attach_to(&self, acc: &mut Accumulator) {
+        acc.set_aux(MASS_AUX, self.sums.clone());
+    }
+
+    /// Row `node`: its 27 neighbour entries as f64.
+    #[must_use]
+    pub fn row(&self, node: usize) -> [f64; 27] {
+        std::array::from_fn(|j| self.sums.get(node * 27 + j))
+    }
+
+    fn node_count(&self) -> usize {
+        self.sums.len() / 27
     }
 
     fn coords(&self, node: usize) -> [i64; 3] {
@@ -131,7 +162,7 @@ impl MassMatrix {
                 }
                 let cb = self.coords(nodes[b]);
                 let slot = offset_slot([cb[0] - ca[0], cb[1] - ca[1], cb[2] - ca[2]]);
-                self.rows[nodes[a]][slot] += w[a] * w[b];
+                self.sums.add(nodes[a] * 27 + slot, w[a] * w[b]);
             }
         }
     }
@@ -150,11 +181,7 @@ impl MassMatrix {
         if self.res != other.res {
             return Err(BakeError::Settings("cannot merge mass matrices of different grids".into()));
         }
-        for (a, b) in self.rows.iter_mut().zip(&other.rows) {
-            for (x, y) in a.iter_mut().zip(b) {
-                *x += y;
-            }
-        }
+        self.sums.merge(&other.sums);
         Ok(())
     }
 
@@ -162,6 +189,30 @@ impl MassMatrix {
     /// a point sum to one).
     #[must_use]
     pub fn row_sum(&self, node: usize) -> f64 {
+        self.row(node).iter().sum()
+    }
+
+    /// Every row as f64, for the solver's matrix-vector products.
+    fn dense(&self) -> DenseMass {
+        DenseMass { res: self.res, rows: (0..self.node_count()).map(|i| self.row(i)).collect() }
+    }
+}
+
+/// The mass matrix converted once to f64 for the conjugate-gradient iterations.
+struct DenseMass {
+    res: [usize; 3],
+    rows: Vec<[f64; 27]>,
+}
+
+impl DenseMass {
+    fn coords(&self, node: usize) -> [i64; 3] {
+        let i = node % self.res[0];
+        let j = (node / self.res[0]) % self.res[1];
+        let k = node / (self.res[0] * self.res[1]);
+        [i as i64, j as i64, k as i64]
+    }
+
+    fn row_sum(&self, node: usize) -> f64 {
         self.rows[node].iter().sum()
     }
 
@@ -221,7 +272,7 @@ pub fn solve_least_squares(
     lambda: f64,
 ) -> Result<(Vec<f64>, FitReport), BakeError> {
     let n = acc.spec().node_count();
-    if mass.rows.len() != n {
+    if mass.node_count() != n {
         return Err(BakeError::Settings("mass matrix and accumulator grids differ".into()));
     }
     if !(lambda >= 0.0 && lambda.is_finite()) {
@@ -231,9 +282,10 @@ pub fn solve_least_squares(
     let den = acc.denominator();
     let num = acc.numerator();
     let active = active_nodes(acc);
+    let dense = mass.dense();
     let diag: Vec<f64> = (0..n)
         .map(
-            |i| if active[i] { mass.rows[i][offset_slot([0, 0, 0])] + lambda * mass.row_sum(i) } else { 1.0 },
+            |i| if active[i] { dense.rows[i][offset_slot([0, 0, 0])] + lambda * dense.row_sum(i) } else { 1.0 },
         )
         .collect();
     let columns: Vec<(Vec<f64>, usize, f64)> = (0..k)
@@ -244,7 +296,7 @@ pub fn solve_least_squares(
             // Start from Eq. 6.
             let x0: Vec<f64> =
                 (0..n).map(|i| if active[i] { num[i * k + ch] / den[i] } else { 0.0 }).collect();
-            conjugate_gradient(mass, lambda, &active, &diag, &b, x0)
+            conjugate_gradient(&dense, lambda, &active, &diag, &b, x0)
         })
         .collect();
     let mut values = vec![0.0; n * k];
@@ -266,7 +318,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 
 /// Jacobi-preconditioned conjugate gradients; returns `(x, iterations, relative residual)`.
 fn conjugate_gradient(
-    mass: &MassMatrix,
+    mass: &DenseMass,
     lambda: f64,
     active: &[bool],
     diag: &[f64],

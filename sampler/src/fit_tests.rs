@@ -60,7 +60,7 @@ fn mass_matrix_matches_the_analytic_integrals() {
     let g = grid();
     let (_, mass) = feed(&g, 200_000, |_| true, |_| 1.0);
     let node = g.node_index(2, 1, 1);
-    let row = &mass.rows[node];
+    let row = mass.row(node);
     let diag = row[offset_slot([0, 0, 0])];
     // QMC integration error with 2e5 points of a piecewise polynomial with kinks.
     const QMC_TOL: f64 = 2e-3;
@@ -73,7 +73,7 @@ fn mass_matrix_matches_the_analytic_integrals() {
     assert!((row[offset_slot([1, 1, 1])] / diag - 0.25f64.powi(3)).abs() < QMC_TOL);
     // Symmetry: M_ij = M_ji.
     let nb = g.node_index(3, 1, 1);
-    assert!((row[offset_slot([1, 0, 0])] - mass.rows[nb][offset_slot([-1, 0, 0])]).abs() < 1e-9 * diag);
+    assert!((row[offset_slot([1, 0, 0])] - mass.row(nb)[offset_slot([-1, 0, 0])]).abs() < 1e-9 * diag);
 }
 
 /// With λ = 0 the fit reproduces any field that is trilinear on the grid, also when the

@@ -59,6 +59,41 @@ fn any_shard_count_order_and_thread_count_gives_the_whole_bake() {
     }
 }
 
+/// `--fit lsq`: the shards carry the exact mass matrix, and `merge` solves the fit over the
+/// whole set, giving the whole least-squares bake bit for bit, for 3 shards in any order.
+#[test]
+fn least_squares_shards_merge_to_the_whole_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let whole = d.join("whole.exr");
+    bake(&whole, &["--fit", "lsq:0.25"]);
+    let w = read_exr(&whole).unwrap();
+    let shards: Vec<_> = (0..3)
+        .map(|k| {
+            let out = d.join(format!("l{k}.exr"));
+            bake(&out, &["--fit", "lsq:0.25", "--shard", &format!("{k}/3"), "--threads", if k == 1 { "2" } else { "1" }]);
+            out.with_extension("lvacc")
+        })
+        .collect();
+    for order in [[0, 1, 2], [2, 0, 1]] {
+        let merged = d.join("m.exr");
+        ok(&["merge", s(&shards[order[0]]), s(&shards[order[1]]), s(&shards[order[2]]), "-o", s(&merged)]);
+        let m = read_exr(&merged).unwrap();
+        assert_eq!(m.data(), w.data(), "order {order:?}");
+        assert_eq!(m.weights(), w.weights());
+        assert_eq!(m.metadata().method, w.metadata().method);
+    }
+    // The fit changes the values: the merge really solved (it is not Eq. 6's average).
+    let avg = d.join("avg.exr");
+    bake(&avg, &[]);
+    assert_ne!(read_exr(&avg).unwrap().data(), w.data());
+    // A least-squares shard and an average shard are different bakes.
+    let other = d.join("a1.exr");
+    bake(&other, &["--shard", "1/3"]);
+    let e = run(&["merge", s(&shards[0]), s(&other.with_extension("lvacc")), s(&shards[2]), "-o", s(&d.join("x.exr"))]).unwrap_err();
+    assert!(e.contains("same bake"), "{e}");
+}
+
 /// An incomplete set lists the missing shards and writes nothing; a shard of another bake
 /// (other seed) is refused; `--allow-partial` merges what is there.
 #[test]

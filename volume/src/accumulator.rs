@@ -43,6 +43,9 @@ pub struct Accumulator {
     denominator: FixedSums,
     outside: FixedSums,
     contributions: u64,
+    /// Auxiliary exact sums that travel with the accumulator (for example a least-squares
+    /// fit's mass matrix), by name.
+    aux: Option<(String, FixedSums)>,
 }
 
 /// A summary, not the sums themselves.
@@ -70,7 +73,20 @@ impl Accumulator {
             denominator: FixedSums::zeros(n),
             outside: FixedSums::zeros(n),
             contributions: 0,
+            aux: None,
         })
+    }
+
+    /// Attaches auxiliary exact sums (named, e.g. `"mass"`); they are merged, saved and
+    /// read back with the accumulator. Replaces any earlier ones.
+    pub fn set_aux(&mut self, name: &str, sums: FixedSums) {
+        self.aux = Some((name.to_owned(), sums));
+    }
+
+    /// The auxiliary sums and their name, if any.
+    #[must_use]
+    pub fn aux(&self) -> Option<(&str, &FixedSums)> {
+        self.aux.as_ref().map(|(n, s)| (n.as_str(), s))
     }
 
     /// Rebuilds an accumulator from its raw fixed-point sums ([`crate::fixed`]), as a shard
@@ -100,6 +116,7 @@ impl Accumulator {
             denominator: FixedSums::from_raw(denominator),
             outside: FixedSums::from_raw(outside),
             contributions,
+            aux: None,
         })
     }
 
@@ -110,13 +127,16 @@ impl Accumulator {
     /// # Panics
     /// If `i` is out of range.
     pub fn add_raw_at(&mut self, i: usize, v: i128) {
-        let (a, b) = (self.numerator.len(), self.denominator.len());
+        let (a, b, c) = (self.numerator.len(), self.denominator.len(), self.outside.len());
         if i < a {
             self.numerator.add_raw(i, v);
         } else if i < a + b {
             self.denominator.add_raw(i - a, v);
-        } else {
+        } else if i < a + b + c {
             self.outside.add_raw(i - a - b, v);
+        } else {
+            let aux = &mut self.aux.as_mut().expect("an index past the sums needs auxiliary sums").1;
+            aux.add_raw(i - a - b - c, v);
         }
     }
 
@@ -260,6 +280,15 @@ impl Accumulator {
                 "cannot merge accumulators with {} and {} coefficients",
                 self.coeffs, other.coeffs
             )));
+        }
+        match (&mut self.aux, &other.aux) {
+            (None, None) => {}
+            (Some((a, x)), Some((b, y))) if a == b && x.len() == y.len() => x.merge(y),
+            _ => {
+                return Err(VolumeError::Mismatch(
+                    "cannot merge accumulators with different auxiliary sums (e.g. one with a least-squares mass matrix)".into(),
+                ));
+            }
         }
         self.numerator.merge(&other.numerator);
         self.denominator.merge(&other.denominator);

@@ -43,7 +43,19 @@ struct AccHeader {
     coeffs: usize,
     contributions: u64,
     bake: BakeMetadata,
+    /// Auxiliary sums after the outside sums (version 2): name and count.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    aux: Option<AuxHeader>,
 }
+
+#[derive(Debug, Serialize, Deserialize)]
+struct AuxHeader {
+    name: String,
+    len: u64,
+}
+
+/// Most auxiliary sums a file may declare per node (a 27-neighbour mass matrix needs 27).
+const MAX_AUX_PER_NODE: u64 = 64;
 
 /// Serialises an accumulator and its bake metadata in memory. Errors if a sum is not
 /// finite (a NaN radiance reached the bake: fix the source rather than persist it).
@@ -60,9 +72,15 @@ pub fn accumulator_to_bytes(acc: &Accumulator, meta: &BakeMetadata) -> Result<Ve
         coeffs: acc.coeffs(),
         contributions: acc.contributions(),
         bake: meta.clone(),
+        aux: acc.aux().map(|(name, s)| AuxHeader { name: name.to_owned(), len: s.len() as u64 }),
     };
     let json = serde_json::to_vec(&header).expect("plain data");
-    let arrays = acc.fixed_parts().map_err(|(what, index)| VolumeError::NonFinite { what, index })?;
+    let parts = acc.fixed_parts().map_err(|(what, index)| VolumeError::NonFinite { what, index })?;
+    let aux = acc.aux().map(|(_, s)| s);
+    if let Some(index) = aux.and_then(crate::fixed::FixedSums::first_poisoned) {
+        return Err(VolumeError::NonFinite { what: "auxiliary sum", index });
+    }
+    let arrays: Vec<&[i128]> = parts.into_iter().chain(aux.map(crate::fixed::FixedSums::raw)).collect();
     let values: usize = arrays.iter().map(|a| a.len()).sum();
     let mut out = Vec::with_capacity(8 + 4 + json.len() + 16 * values + 8);
     out.extend_from_slice(ACC_MAGIC);
@@ -109,7 +127,8 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
     let k = header.coeffs * 3;
     let data = &body[12 + h..];
     let width: u64 = if version == 1 { 8 } else { 16 };
-    let need = width * (n as u64 * k as u64 + 2 * n as u64);
+    let aux_len = check_aux(&header, n as u64).map_err(bad)?;
+    let need = width * (n as u64 * k as u64 + 2 * n as u64 + aux_len);
     if data.len() as u64 != need {
         return Err(bad(format!("{} data bytes, the grid needs {need}", data.len())));
     }
@@ -123,13 +142,27 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
         let mut vals = data.chunks_exact(16).map(|c| i128::from_le_bytes(c.try_into().expect("16 bytes")));
         let numerator: Vec<i128> = vals.by_ref().take(n * k).collect();
         let denominator: Vec<i128> = vals.by_ref().take(n).collect();
-        let outside: Vec<i128> = vals.collect();
-        Accumulator::from_fixed_parts(spec, header.coeffs, numerator, denominator, outside, header.contributions)?
+        let outside: Vec<i128> = vals.by_ref().take(n).collect();
+        let mut acc =
+            Accumulator::from_fixed_parts(spec, header.coeffs, numerator, denominator, outside, header.contributions)?;
+        if let Some(a) = &header.aux {
+            acc.set_aux(&a.name, crate::fixed::FixedSums::from_raw(vals.collect()));
+        }
+        acc
     };
     if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
         return Err(bad(format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
     }
     Ok((acc, header.bake))
+}
+
+/// The auxiliary sum count a header declares (0 without), bounded per node.
+fn check_aux(header: &AccHeader, nodes: u64) -> Result<u64, String> {
+    match &header.aux {
+        None => Ok(0),
+        Some(a) if a.len <= MAX_AUX_PER_NODE * nodes => Ok(a.len),
+        Some(a) => Err(format!("{} auxiliary sums '{}' for {nodes} nodes", a.len, a.name)),
+    }
 }
 
 /// Merges a shard file into `into` (or into a new accumulator when `None`) as it streams
@@ -177,7 +210,8 @@ pub fn merge_accumulator_file(into: Option<Accumulator>, path: &Path) -> Result<
     let n = spec.node_count() as u64;
     let k = header.coeffs as u64 * 3;
     let width: u64 = if version == 1 { 8 } else { 16 };
-    let total = n * k + 2 * n;
+    let aux_len = check_aux(&header, n).map_err(bad)?;
+    let total = n * k + 2 * n + aux_len;
     if len != 12 + h as u64 + width * total + 8 {
         return Err(bad(format!("{} data bytes, the grid needs {}", len - 12 - h as u64 - 8, width * total)));
     }
@@ -198,8 +232,24 @@ pub fn merge_accumulator_file(into: Option<Accumulator>, path: &Path) -> Result<
             }
             a
         }
-        None => Accumulator::new(spec, header.coeffs)?,
+        None => {
+            let mut a = Accumulator::new(spec, header.coeffs)?;
+            if let Some(x) = &header.aux {
+                a.set_aux(&x.name, crate::fixed::FixedSums::zeros(x.len as usize));
+            }
+            a
+        }
     };
+    let same_aux = match (acc.aux(), &header.aux) {
+        (None, None) => true,
+        (Some((name, s)), Some(x)) => name == x.name && s.len() as u64 == x.len,
+        _ => false,
+    };
+    if !same_aux {
+        return Err(VolumeError::Mismatch(
+            "cannot merge accumulators with different auxiliary sums (e.g. one with a least-squares mass matrix)".into(),
+        ));
+    }
     const CHUNK: u64 = 4096;
     let mut buf = vec![0u8; (CHUNK * width) as usize];
     let mut i = 0u64;
@@ -317,6 +367,26 @@ mod tests {
         assert!(merge_accumulator_file(None, &pb).unwrap_err().to_string().contains("checksum"));
         std::fs::write(&pb, &bytes[..bytes.len() - 9]).unwrap();
         assert!(merge_accumulator_file(None, &pb).is_err());
+    }
+
+    /// Auxiliary sums round-trip, merge (in memory and streamed), and refuse to merge with
+    /// an accumulator that has none.
+    #[test]
+    fn auxiliary_sums_travel_with_the_accumulator() {
+        let mut a = acc();
+        let mut aux = crate::fixed::FixedSums::zeros(5);
+        aux.add(3, 0.75);
+        a.set_aux("test-aux", aux);
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("x.lvacc");
+        write_accumulator(&p, &a, &BakeMetadata::default()).unwrap();
+        let (b, _) = read_accumulator(&p).unwrap();
+        assert_eq!(b, a);
+        let (c, _) = merge_accumulator_file(Some(b.clone()), &p).unwrap();
+        assert_eq!(c.aux().unwrap().1.get(3), 1.5);
+        let mut plain = acc();
+        assert!(plain.merge(&a).is_err());
+        assert!(merge_accumulator_file(Some(acc()), &p).is_err());
     }
 
     #[test]
