@@ -218,8 +218,12 @@ pub fn run_bake(
 
 /// What a bake carries besides its accumulator.
 enum Grads {
-    /// Per-node SH gradients and their report.
-    Gradients(lightvol_volume::VolumeGradients, GradientsJson),
+    /// Per-node SH gradients, their report, and the basis estimator's exact sums.
+    Gradients(
+        lightvol_volume::VolumeGradients,
+        GradientsJson,
+        Option<lightvol_sampler::gradients::BasisGradientAccumulator>,
+    ),
     /// The mass matrix of a least-squares fit.
     Mass(MassMatrix),
 }
@@ -322,9 +326,9 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         shard,
         ..BakeSettings::default()
     };
-    if args.gradients.is_some() && (args.shard.is_some() || args.keep_accumulator) {
+    if args.gradients == Some(GradientEstimator::Central) && (args.shard.is_some() || args.keep_accumulator) {
         bail!(
-            "--gradients cannot be combined with --shard or --keep-accumulator (the accumulator holds no gradient sums)"
+            "--gradients central cannot be combined with --shard or --keep-accumulator (its extra projections are per node); use --gradients basis"
         );
     }
     let fit = if method == Method::Point { Fit::Average } else { args.sampling.fit };
@@ -364,7 +368,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     seconds: g.seconds,
                     memory_bytes: g.gradients.memory_bytes(),
                 };
-                (g.output, Some(Grads::Gradients(g.gradients, json)), bvh_seconds)
+                (g.output, Some(Grads::Gradients(g.gradients, json, g.basis_sums)), bvh_seconds)
             }
         })
     })??;
@@ -397,8 +401,10 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         // A least-squares bake's mass matrix travels in the shard file (exact sums too), so
         // `merge` solves the fit over the whole set.
         let mut acc = out.accumulator.clone();
-        if let Some(Grads::Mass(mass)) = &grads {
-            mass.attach_to(&mut acc);
+        match &grads {
+            Some(Grads::Mass(mass)) => mass.attach_to(&mut acc),
+            Some(Grads::Gradients(_, _, Some(sums))) => sums.attach_to(&mut acc),
+            _ => {}
         }
         write_accumulator(&acc_path, &acc, &meta).with_context(|| format!("writing {}", acc_path.display()))?;
         if !args.json {
@@ -410,7 +416,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             let (vol, fill) = finish_volume(&out, meta);
             (vol, fill, None, None)
         }
-        Some(Grads::Gradients(g, j)) => {
+        Some(Grads::Gradients(g, j, _)) => {
             let (vol, fill) = finish_volume(&out, meta);
             (vol, fill, Some(g), Some(j))
         }

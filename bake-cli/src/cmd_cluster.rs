@@ -155,8 +155,8 @@ fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, Pat
     if bake.shard.is_some() {
         bail!("--shard is set by the jobs (--shard auto); give only --shards N");
     }
-    if bake.adaptive.adaptive || bake.gradients.is_some() {
-        bail!("--adaptive and --gradients bakes cannot be sharded yet; use a whole bake");
+    if bake.adaptive.adaptive || bake.gradients == Some(crate::gradients::GradientEstimator::Central) {
+        bail!("--adaptive and --gradients central bakes cannot be sharded yet; use a whole bake");
     }
     let out = absolute(&bake.output)?;
     let work = absolute(&job.workdir.clone().unwrap_or_else(|| out.with_extension(ext)))?;
@@ -359,8 +359,8 @@ pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
     if args.bake.shard.is_some() {
         bail!("--shard is set by the jobs (--shard auto); give only --shards N");
     }
-    if args.bake.adaptive.adaptive || args.bake.gradients.is_some() {
-        bail!("--adaptive and --gradients bakes cannot be sharded yet; use a whole bake");
+    if args.bake.adaptive.adaptive || args.bake.gradients == Some(crate::gradients::GradientEstimator::Central) {
+        bail!("--adaptive and --gradients central bakes cannot be sharded yet; use a whole bake");
     }
     let work = absolute(&args.job.workdir.clone().unwrap_or_else(|| args.bake.output.with_extension("k8s")))?;
     let out = args.bake.output.to_string_lossy().into_owned();

@@ -136,6 +136,8 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("writing {}", ap.display()))?;
     }
     // A least-squares bake's shards carry the mass matrix: solve the fit over the whole set.
+    // A basis-gradient bake's carry the gradient systems: solve them on the merged volume.
+    let grad_sums = lightvol_sampler::gradients::BasisGradientAccumulator::from_accumulator(&acc);
     let (vol, fill) = match lightvol_sampler::fit::MassMatrix::from_accumulator(&acc) {
         None => acc.finalize(),
         Some(mass) => {
@@ -153,8 +155,15 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     };
     drop(acc);
     let vol = vol.with_metadata(meta);
-    write_exr(&args.output, &vol, &ExrOptions::default())
-        .with_context(|| format!("writing {}", args.output.display()))?;
+    match grad_sums {
+        None => write_exr(&args.output, &vol, &ExrOptions::default()),
+        Some(g) => {
+            let (grads, rep) = g.finish(&vol).context("solving the basis-gradient systems")?;
+            eprintln!("basis gradients: {} nodes solved, {} singular", rep.solved, rep.singular);
+            lightvol_volume::exr_io::write_exr_with_gradients(&args.output, &vol, &grads, &ExrOptions::default())
+        }
+    }
+    .with_context(|| format!("writing {}", args.output.display()))?;
     eprintln!(
         "merged {} shard(s) into {} ({} zero-weight nodes filled)",
         have.len(),

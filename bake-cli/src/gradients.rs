@@ -62,6 +62,8 @@ pub struct GradientBake {
     pub extra_directions: u64,
     /// Wall time of the gradient step beyond the bake.
     pub seconds: f64,
+    /// The basis estimator's exact sums (for shard files), `None` for `central`.
+    pub basis_sums: Option<lightvol_sampler::gradients::BasisGradientAccumulator>,
 }
 
 /// Bakes `grid` with `settings` and computes the gradients by `estimator`; the volume is
@@ -81,8 +83,8 @@ pub fn bake_with(
     quiet: bool,
     label: &str,
 ) -> anyhow::Result<GradientBake> {
-    if settings.shard.1 != 1 {
-        bail!("--gradients cannot be combined with --shard (the shard sums hold no gradient terms)");
+    if settings.shard.1 != 1 && estimator == GradientEstimator::Central {
+        bail!("--gradients central cannot be sharded (its extra projections are per node); use --gradients basis");
     }
     if estimator == GradientEstimator::Basis && settings.method == Method::Point {
         bail!(
@@ -111,6 +113,7 @@ pub fn bake_with(
                 singular_nodes: rep.singular,
                 extra_directions: 0,
                 seconds: t0.elapsed().as_secs_f64(),
+                basis_sums: Some(acc),
             }
         }
         GradientEstimator::Central => {
@@ -128,6 +131,7 @@ pub fn bake_with(
                 singular_nodes: 0,
                 extra_directions: 6 * u64::from(settings.samples) * grid.node_count() as u64,
                 seconds: t0.elapsed().as_secs_f64(),
+                basis_sums: None,
             }
         }
     };

@@ -44,6 +44,7 @@ use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::bands_of;
 use lightvol_sh::lowdisc::hash2;
 use lightvol_sh::sampling::sample_uniform_sphere;
+use lightvol_volume::fixed::FixedSums;
 use lightvol_volume::gradient::VolumeGradients;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
@@ -189,16 +190,50 @@ pub struct GradientReport {
 pub struct BasisGradientAccumulator {
     grid: GridSpec,
     k: usize,
-    m: Vec<[f64; 16]>,
-    r: Vec<f64>,
+    /// Per node, the 4×4 system matrix (row-major), exact fixed-point sums.
+    m: FixedSums,
+    /// Per node, the 4 × k right-hand sides, exact fixed-point sums.
+    r: FixedSums,
 }
+
+/// Name of the basis-gradient sums among an accumulator's auxiliary sums (shard files).
+pub const GRADIENT_AUX: &str = "basis-gradient-4x4";
 
 impl BasisGradientAccumulator {
     /// Empty sums for `grid` and `coeffs` SH coefficients per channel.
     #[must_use]
     pub fn new(grid: &GridSpec, coeffs: usize) -> Self {
         let n = grid.node_count();
-        Self { grid: grid.clone(), k: coeffs * 3, m: vec![[0.0; 16]; n], r: vec![0.0; n * 4 * coeffs * 3] }
+        Self { grid: grid.clone(), k: coeffs * 3, m: FixedSums::zeros(n * 16), r: FixedSums::zeros(n * 4 * coeffs * 3) }
+    }
+
+    /// Stores the sums in `acc`'s auxiliary sums (for a shard file): every node's 16 matrix
+    /// entries, then every node's `4k` right-hand sides.
+    pub fn attach_to(&self, acc: &mut Accumulator) {
+        let mut all = self.m.clone();
+        all.extend_zeros(self.r.len());
+        let at = self.m.len();
+        for (i, &v) in self.r.raw().iter().enumerate() {
+            all.add_raw(at + i, v);
+        }
+        if let Some(i) = self.r.first_poisoned() {
+            all.add(at + i, f64::NAN);
+        }
+        acc.set_aux(GRADIENT_AUX, all);
+    }
+
+    /// The sums of a shard file (see [`Self::attach_to`]), or `None` when `acc` has none.
+    #[must_use]
+    pub fn from_accumulator(acc: &Accumulator) -> Option<Self> {
+        let (name, all) = acc.aux()?;
+        let n = acc.spec().node_count();
+        let k = acc.coeffs() * 3;
+        if name != GRADIENT_AUX || all.len() != n * 16 + n * 4 * k {
+            return None;
+        }
+        let m = all.gather(0..n * 16);
+        let r = all.gather(n * 16..all.len());
+        Some(Self { grid: acc.spec().clone(), k, m, r })
     }
 
     /// Adds one cell sample: the cell's 8 corner nodes (corner `c = dx + 2dy + 4dz`), the
@@ -216,16 +251,15 @@ impl BasisGradientAccumulator {
             // Position relative to this corner in cell units.
             let d = [1.0, u[0] - bit[0] as f64, u[1] - bit[1] as f64, u[2] - bit[2] as f64];
             let node = nodes[c];
-            let m = &mut self.m[node];
             for (row, wr) in w.iter().enumerate() {
                 for (col, dc) in d.iter().enumerate() {
-                    m[4 * row + col] += wr * dc;
+                    self.m.add(node * 16 + 4 * row + col, wr * dc);
                 }
             }
-            let r = &mut self.r[node * 4 * self.k..(node + 1) * 4 * self.k];
+            let base = node * 4 * self.k;
             for (row, wr) in w.iter().enumerate() {
-                for (o, fv) in r[row * self.k..(row + 1) * self.k].iter_mut().zip(f) {
-                    *o += wr * fv;
+                for (j, fv) in f.iter().enumerate().take(self.k) {
+                    self.r.add(base + row * self.k + j, wr * fv);
                 }
             }
         }
@@ -255,10 +289,8 @@ impl BasisGradientAccumulator {
         if other.grid != self.grid || other.k != self.k {
             return Err(BakeError::Volume("gradient accumulators of different grids".into()));
         }
-        for (a, b) in self.m.iter_mut().zip(&other.m) {
-            a.iter_mut().zip(b).for_each(|(x, y)| *x += y);
-        }
-        self.r.iter_mut().zip(&other.r).for_each(|(x, y)| *x += y);
+        self.m.merge(&other.m);
+        self.r.merge(&other.r);
         Ok(())
     }
 
@@ -273,11 +305,13 @@ impl BasisGradientAccumulator {
         }
         let inv = inverse3(cell_edges(&self.grid));
         let k = self.k;
-        let mut data = vec![0.0f32; self.m.len() * k * 3];
+        let nodes = self.m.len() / 16;
+        let mut data = vec![0.0f32; nodes * k * 3];
         let mut report = GradientReport::default();
-        for node in 0..self.m.len() {
-            let r = &self.r[node * 4 * k..(node + 1) * 4 * k];
-            let Some(x) = solve4(self.m[node], r, k) else {
+        for node in 0..nodes {
+            let r: Vec<f64> = (node * 4 * k..(node + 1) * 4 * k).map(|i| self.r.get(i)).collect();
+            let m: [f64; 16] = std::array::from_fn(|j| self.m.get(node * 16 + j));
+            let Some(x) = solve4(m, &r, k) else {
                 report.singular += 1;
                 continue;
             };

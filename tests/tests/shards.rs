@@ -96,6 +96,29 @@ fn least_squares_shards_merge_to_the_whole_fit() {
     assert!(e.contains("same bake"), "{e}");
 }
 
+/// `--gradients basis`: the shards carry the exact gradient systems, and `merge` solves
+/// them on the merged volume: the whole gradient bake's file, byte for byte. The central
+/// estimator is refused with --shard in one line.
+#[test]
+fn basis_gradient_shards_merge_to_the_whole_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let whole = d.join("whole.exr");
+    bake(&whole, &["--gradients", "basis"]);
+    let shards: Vec<_> = (0..3)
+        .map(|k| {
+            let out = d.join(format!("g{k}.exr"));
+            bake(&out, &["--gradients", "basis", "--shard", &format!("{k}/3")]);
+            out.with_extension("lvacc")
+        })
+        .collect();
+    let merged = d.join("m.exr");
+    ok(&["merge", s(&shards[2]), s(&shards[0]), s(&shards[1]), "-o", s(&merged)]);
+    assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "merged gradient bake differs from the whole");
+    let e = run(&["bake", "builtin:maze", "--gradients", "central", "--shard", "0/2", "-o", s(&d.join("c.exr"))]).unwrap_err();
+    assert!(e.contains("--gradients central") && e.contains("basis"), "{e}");
+}
+
 /// An incomplete set lists the missing shards and writes nothing; a shard of another bake
 /// (other seed) is refused; `--allow-partial` merges what is there.
 #[test]

@@ -54,8 +54,10 @@ struct AuxHeader {
     len: u64,
 }
 
-/// Most auxiliary sums a file may declare per node (a 27-neighbour mass matrix needs 27).
-const MAX_AUX_PER_NODE: u64 = 64;
+/// Most auxiliary sums a file may declare per node: a 27-neighbour mass matrix needs 27,
+/// basis-gradient systems 16 + 4 · 3 · coeffs (208 at 16 coefficients); 256 bounds what a
+/// header can make the reader allocate.
+const MAX_AUX_PER_NODE: u64 = 256;
 
 /// Serialises an accumulator and its bake metadata in memory. Errors if a sum is not
 /// finite (a NaN radiance reached the bake: fix the source rather than persist it).
