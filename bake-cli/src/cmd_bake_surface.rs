@@ -28,15 +28,56 @@ use lightvol_hemibasis::map::{CoeffMap, MapError, Plane, map_error};
 use lightvol_hemibasis::texture::{ktx2_compressed, ktx2_rgba8};
 use lightvol_sampler::surface::{
     BasisChoice, CoefficientMap, InvalidTexels, Quantity, SurfaceReport, SurfaceSettings, UvSet,
-    bake_surface, write_surface_exr,
+    SurfaceGeometry, assemble_surface, bake_surface, bake_surface_texels, write_surface_exr,
 };
 use lightvol_sampler::{BakeControl, Progress, Tracer, Transport, TransportSettings};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::cmd_bake::{RaysJson, progress_bar};
+use lightvol_sampler::surface::shard_io::{TexelShardHeader, read_texels, write_texels};
 use crate::imaging::{write_atomic, write_png_rgb8};
 use crate::setup::{SceneArgs, with_threads};
+
+/// What shards of one surface bake share: the scene's geometry and lighting, every setting
+/// and the lightvol version.
+fn shard_fingerprint(loaded: &crate::setup::LoadedScene, settings: &SurfaceSettings, bounces: u32) -> String {
+    let lighting = lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, bounces);
+    let extra = format!("{settings:?} {lighting} lightvol={}", env!("CARGO_PKG_VERSION"));
+    crate::cmd_bake::scene_hash(loaded, &extra)
+}
+
+/// The texel records of basis `tag` from shard files: every shard of one bake exactly once,
+/// with the fingerprint of the current scene and options.
+fn shard_records(files: &[PathBuf], tag: &str, fingerprint: &str) -> anyhow::Result<Vec<lightvol_sampler::surface::TexelRecord>> {
+    let mut records = Vec::new();
+    let mut have: Vec<u32> = Vec::new();
+    let mut count: Option<u32> = None;
+    for f in files {
+        let (t, h) = read_texels(f).with_context(|| format!("reading {}", f.display()))?;
+        if h.basis != tag {
+            continue;
+        }
+        if h.fingerprint != fingerprint {
+            bail!("{} was baked from another scene or other options (fingerprint {} vs {fingerprint})", f.display(), h.fingerprint);
+        }
+        if count.is_some_and(|c| c != h.shard_count) {
+            bail!("{} is shard {} of {}, the others are of {}", f.display(), h.shard_index, h.shard_count, count.unwrap_or(0));
+        }
+        count = Some(h.shard_count);
+        if have.contains(&h.shard_index) {
+            bail!("shard {} of {tag} given twice ({})", h.shard_index, f.display());
+        }
+        have.push(h.shard_index);
+        records.extend(t.records);
+    }
+    let Some(n) = count else { bail!("no texel shard of basis {tag} among the --from-shards files") };
+    let missing: Vec<String> = (0..n).filter(|k| !have.contains(k)).map(|k| k.to_string()).collect();
+    if !missing.is_empty() {
+        bail!("incomplete set: shards {} of {n} of {tag} are missing; nothing written", missing.join(", "));
+    }
+    Ok(records)
+}
 
 /// 8-bit texture container for `--encode`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -129,6 +170,18 @@ pub struct BakeSurfaceArgs {
     /// Output directory.
     #[arg(short, long, default_value = "surface")]
     pub output: PathBuf,
+    /// Integrate only shard K of N of every basis's texels (or `auto`, from the scheduler,
+    /// as `bake --shard auto`) and write them to `OUT/texels-BASIS-K-of-N.lvtex`; no maps.
+    /// `--from-shards` assembles the maps from all shards, equal to the whole bake's.
+    #[arg(long, value_name = "K/N|auto", conflicts_with = "from_shards")]
+    pub shard: Option<String>,
+    /// Number of shards for `--shard auto` with Kubernetes or AWS Batch indices.
+    #[arg(long, value_name = "N")]
+    pub shards: Option<u32>,
+    /// Assemble the maps from these texel shard files (every shard of every basis, baked
+    /// with the same scene and options) instead of tracing.
+    #[arg(long, value_name = "FILE.lvtex", num_args = 1..)]
+    pub from_shards: Vec<PathBuf>,
     /// Print the summary as JSON on stdout.
     #[arg(long)]
     pub json: bool,
@@ -392,6 +445,12 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     if args.output.exists() && !args.output.is_dir() {
         bail!("output {} exists and is not a directory", args.output.display());
     }
+    let shard = match args.shard.as_deref() {
+        None if args.shards.is_some() => bail!("--shards N needs --shard auto"),
+        None => None,
+        Some("auto") => Some(lightvol_sampler::shard::shard_from_env(|k| std::env::var(k).ok(), args.shards)?),
+        Some(s) => Some(lightvol_sampler::shard::parse_shard("--shard", s)?),
+    };
     let loaded = args.scene.load()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };
     let ts = TransportSettings { bounces: args.bounces, ..TransportSettings::default() };
@@ -422,13 +481,46 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
             };
             let control = BakeControl { progress: Some(&report), cancel: None };
             let t0 = Instant::now();
-            let out = bake_surface(&transport, &settings, &control)
-                .with_context(|| format!("baking {}", basis.tag()))?;
+            let fingerprint = shard_fingerprint(&loaded, &settings, args.bounces);
+            if let Some(shard) = shard {
+                let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
+                let part = bake_surface_texels(&transport, &geo, &settings, &control, shard)
+                    .with_context(|| format!("baking {} shard {}/{}", basis.tag(), shard.0, shard.1))?;
+                pb.finish_and_clear();
+                let header = TexelShardHeader {
+                    shard_index: shard.0,
+                    shard_count: shard.1,
+                    total: part.total,
+                    coeffs: basis.coeffs(),
+                    basis: basis.tag().to_owned(),
+                    fingerprint,
+                    records: part.records.len() as u64,
+                };
+                std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+                let p = args.output.join(format!("texels-{}-{}-of-{}.lvtex", basis.tag(), shard.0, shard.1));
+                write_texels(&p, &part, &header).with_context(|| format!("writing {}", p.display()))?;
+                if !args.quiet {
+                    eprintln!("wrote {} ({} of {} texels)", p.display(), part.records.len(), part.total);
+                }
+                continue;
+            }
+            let out = if args.from_shards.is_empty() {
+                bake_surface(&transport, &settings, &control).with_context(|| format!("baking {}", basis.tag()))?
+            } else {
+                let records = shard_records(&args.from_shards, basis.tag(), &fingerprint)?;
+                let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
+                assemble_surface(&transport, &geo, &settings, &records)
+                    .with_context(|| format!("assembling {} from its shards", basis.tag()))?
+            };
             pb.finish_and_clear();
             bakes.push((basis.clone(), out, t0.elapsed().as_secs_f64()));
         }
         Ok(())
     })??;
+
+    if shard.is_some() {
+        return Ok(ExitCode::SUCCESS);
+    }
 
     // Encode in memory, then write.
     let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();

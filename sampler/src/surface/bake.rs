@@ -123,7 +123,8 @@ pub fn bake_surface(
     bake_surface_with(transport, &geo, settings, control)
 }
 
-/// [`bake_surface`] with a prepared [`SurfaceGeometry`] (built for `settings.uv_set`).
+/// [`bake_surface`] with a prepared [`SurfaceGeometry`] (built for `settings.uv_set`): all
+/// texels ([`bake_surface_texels`] over the whole range), then [`assemble_surface`].
 ///
 /// # Errors
 /// As [`bake_surface`].
@@ -133,6 +134,47 @@ pub fn bake_surface_with(
     settings: &SurfaceSettings,
     control: &BakeControl<'_>,
 ) -> Result<SurfaceBake, SurfaceError> {
+    let start = Instant::now();
+    let texels = bake_surface_texels(transport, geo, settings, control, (0, 1))?;
+    let mut bake = assemble_surface(transport, geo, settings, &texels.records)?;
+    bake.report.wall_time = start.elapsed();
+    Ok(bake)
+}
+
+/// The integrated result of one covered texel, before dilation: what a shard of a surface
+/// bake computes and a merge assembles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TexelRecord {
+    /// Index of the texel's footprint among all objects' footprints (object by object, in
+    /// atlas order): the bake's unit of work.
+    pub index: u64,
+    /// The texel's basis coefficients (RGB, as stored in the map), `None` when no sample
+    /// point was valid (the texel is filled by dilation).
+    pub coeffs: Option<Vec<[f32; 3]>>,
+    /// At least one candidate point saw a back face.
+    pub invalid: bool,
+    /// Rays traced for the texel.
+    pub rays: RayCounts,
+}
+
+/// The texels of one shard of a surface bake.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SurfaceTexels {
+    /// Footprints of the whole bake (every object).
+    pub total: u64,
+    /// The shard's records, ascending by index.
+    pub records: Vec<TexelRecord>,
+}
+
+/// What the surface bake derives from the geometry and settings before any tracing.
+struct Prepared {
+    atlases: Vec<Atlas>,
+    matrix: lightvol_hemibasis::Matrix,
+    factors: Vec<f64>,
+    max_candidates: u32,
+}
+
+fn prepare(geo: &SurfaceGeometry, settings: &SurfaceSettings) -> Result<Prepared, SurfaceError> {
     if settings.samples == 0 || settings.max_candidates_factor == 0 {
         return Err(SurfaceError::Settings("samples and max_candidates_factor must be positive".into()));
     }
@@ -147,7 +189,6 @@ pub fn bake_surface_with(
     {
         return Err(SurfaceError::Settings(format!("resolution {w}×{h}")));
     }
-    let start = Instant::now();
     let bands = settings.sh_bands;
     let basis = settings.basis.basis();
     let matrix = sh_to_basis_matrix(basis.as_ref(), bands);
@@ -167,28 +208,119 @@ pub fn bake_surface_with(
         };
         atlases.push(Atlas::build(geo, o, size)?);
     }
-    let lighting = lighting_fingerprint(transport.scene(), transport.settings().bounces);
-    let total: usize = atlases.iter().map(|a| a.footprints.len()).sum();
-    let mut report = SurfaceReport { objects: atlases.len(), ..SurfaceReport::default() };
-    let mut maps = Vec::new();
-    let mut done = 0;
+    Ok(Prepared { atlases, matrix, factors, max_candidates })
+}
+
+/// Integrates the covered texels of shard `K` of `N` of a surface bake: footprints
+/// `⌊T·K/N⌋..⌊T·(K+1)/N⌋` of the `T` footprints of every object. Each texel's result
+/// depends only on `(seed, object, texel)`, so shards computed anywhere, merged by
+/// [`assemble_surface`], give the whole bake's maps bit for bit.
+///
+/// # Errors
+/// As [`bake_surface`], and [`SurfaceError::Settings`] for an invalid shard.
+pub fn bake_surface_texels(
+    transport: &Transport<'_>,
+    geo: &SurfaceGeometry,
+    settings: &SurfaceSettings,
+    control: &BakeControl<'_>,
+    shard: (u32, u32),
+) -> Result<SurfaceTexels, SurfaceError> {
+    let (k, n) = shard;
+    if n == 0 || k >= n {
+        return Err(SurfaceError::Settings(format!("shard {k} of {n}")));
+    }
+    let prep = prepare(geo, settings)?;
+    let total: u64 = prep.atlases.iter().map(|a| a.footprints.len() as u64).sum();
+    let (lo, hi) = (total * u64::from(k) / u64::from(n), total * (u64::from(k) + 1) / u64::from(n));
+    let mut records = Vec::with_capacity((hi - lo) as usize);
     let chunk = settings.chunk.max(1);
-    for (o, atlas) in atlases.iter().enumerate() {
-        let job = TexelJob {
-            transport,
-            geo,
-            size: [atlas.width, atlas.height],
-            object: o as u32,
-            seed: settings.seed,
-            samples: settings.samples,
-            max_candidates,
-            light_sampling: settings.light_sampling,
-            invalid: settings.invalid,
-            bands,
-            factors: factors.clone(),
-            matrix: &matrix,
-        };
-        let k = basis.len();
+    let mut first = 0u64;
+    let mut done = 0usize;
+    for (o, atlas) in prep.atlases.iter().enumerate() {
+        let count = atlas.footprints.len() as u64;
+        let (a, b) = (lo.max(first).min(first + count), hi.max(first).min(first + count));
+        if a < b {
+            let job = TexelJob {
+                transport,
+                geo,
+                size: [atlas.width, atlas.height],
+                object: o as u32,
+                seed: settings.seed,
+                samples: settings.samples,
+                max_candidates: prep.max_candidates,
+                light_sampling: settings.light_sampling,
+                invalid: settings.invalid,
+                bands: settings.sh_bands,
+                factors: prep.factors.clone(),
+                matrix: &prep.matrix,
+            };
+            let fps = &atlas.footprints[(a - first) as usize..(b - first) as usize];
+            for (c, part) in fps.chunks(chunk).enumerate() {
+                let outs: Vec<Option<TexelOut>> = part
+                    .par_iter()
+                    .map(|fp| {
+                        if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                            return None;
+                        }
+                        Some(job.run(fp))
+                    })
+                    .collect();
+                if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || outs.iter().any(Option::is_none) {
+                    return Err(SurfaceError::Cancelled);
+                }
+                for (j, out) in outs.into_iter().flatten().enumerate() {
+                    records.push(TexelRecord {
+                        index: a + (c * chunk + j) as u64,
+                        coeffs: out.coeffs.map(|cs| cs.iter().map(|v| v.map(|x| x as f32)).collect()),
+                        invalid: out.invalid_points > 0,
+                        rays: out.rays,
+                    });
+                }
+                done += part.len();
+                if let Some(p) = control.progress {
+                    p(Progress { done, total: (hi - lo) as usize });
+                }
+            }
+        }
+        first += count;
+    }
+    Ok(SurfaceTexels { total, records })
+}
+
+/// Builds the maps from texel records (of one whole bake, or of every shard of one, in
+/// any order): stores each texel, then runs the dilation passes per object in index order
+/// exactly as the whole bake does.
+///
+/// # Errors
+/// As [`bake_surface`] before tracing, and [`SurfaceError::Settings`] when the records do
+/// not cover every footprint exactly once.
+pub fn assemble_surface(
+    transport: &Transport<'_>,
+    geo: &SurfaceGeometry,
+    settings: &SurfaceSettings,
+    records: &[TexelRecord],
+) -> Result<SurfaceBake, SurfaceError> {
+    let prep = prepare(geo, settings)?;
+    let total: u64 = prep.atlases.iter().map(|a| a.footprints.len() as u64).sum();
+    let mut by_index: Vec<Option<&TexelRecord>> = vec![None; total as usize];
+    for r in records {
+        let slot = by_index
+            .get_mut(r.index as usize)
+            .ok_or_else(|| SurfaceError::Settings(format!("texel record {} of {total} footprints", r.index)))?;
+        if slot.replace(r).is_some() {
+            return Err(SurfaceError::Settings(format!("texel {} is given twice", r.index)));
+        }
+    }
+    if let Some(missing) = by_index.iter().position(Option::is_none) {
+        let count = by_index.iter().filter(|r| r.is_none()).count();
+        return Err(SurfaceError::Settings(format!("{count} of {total} texels are missing (first: {missing})")));
+    }
+    let k = settings.basis.basis().len();
+    let lighting = lighting_fingerprint(transport.scene(), transport.settings().bounces);
+    let mut report = SurfaceReport { objects: prep.atlases.len(), ..SurfaceReport::default() };
+    let mut maps = Vec::new();
+    let mut first = 0usize;
+    for (o, atlas) in prep.atlases.iter().enumerate() {
         let n = atlas.width as usize * atlas.height as usize;
         let mut data = vec![[0.0f32; 3]; n * k];
         let mut state = vec![TexelState::Empty; n];
@@ -198,44 +330,29 @@ pub fn bake_surface_with(
             keys[fp.texel as usize] = Some(TexelKey { chart: fp.chart, normal });
         }
         let mut invalid = InvalidCounts::default();
-        for part in atlas.footprints.chunks(chunk) {
-            let outs: Vec<Option<TexelOut>> = part
-                .par_iter()
-                .map(|fp| {
-                    if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
-                        return None;
-                    }
-                    Some(job.run(fp))
-                })
-                .collect();
-            if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || outs.iter().any(Option::is_none) {
-                return Err(SurfaceError::Cancelled);
+        for (j, fp) in atlas.footprints.iter().enumerate() {
+            let out = by_index[first + j].expect("checked above");
+            let t = fp.texel as usize;
+            report.texels_covered += 1;
+            report.rays.add(&out.rays);
+            if out.invalid {
+                invalid.invalid_texels += 1;
             }
-            for (fp, out) in part.iter().zip(outs.into_iter().flatten()) {
-                let t = fp.texel as usize;
-                report.texels_covered += 1;
-                report.rays.add(&out.rays);
-                if out.invalid_points > 0 {
-                    invalid.invalid_texels += 1;
-                }
-                match out.coeffs {
-                    Some(c) => {
-                        for (dst, src) in data[t * k..(t + 1) * k].iter_mut().zip(&c) {
-                            *dst = src.map(|v| v as f32);
-                        }
-                        state[t] = TexelState::Baked;
-                        if out.invalid_points > 0 && settings.invalid == InvalidTexels::Fix {
-                            invalid.moved += 1;
-                        }
+            match &out.coeffs {
+                Some(c) => {
+                    if c.len() != k {
+                        return Err(SurfaceError::Settings(format!("texel {} has {} coefficients, the basis {k}", out.index, c.len())));
                     }
-                    None => state[t] = TexelState::NeedsFill,
+                    data[t * k..(t + 1) * k].copy_from_slice(c);
+                    state[t] = TexelState::Baked;
+                    if out.invalid && settings.invalid == InvalidTexels::Fix {
+                        invalid.moved += 1;
+                    }
                 }
-            }
-            done += part.len();
-            if let Some(p) = control.progress {
-                p(Progress { done, total });
+                None => state[t] = TexelState::NeedsFill,
             }
         }
+        first += atlas.footprints.len();
         let d = dilate(&mut data, &mut state, &mut keys, [atlas.width, atlas.height], k, settings.gutter);
         invalid.dilated = d.dilated;
         invalid.unfilled = d.unfilled;
@@ -260,6 +377,5 @@ pub fn bake_surface_with(
             invalid,
         });
     }
-    report.wall_time = start.elapsed();
     Ok(SurfaceBake { maps, report })
 }

@@ -25,6 +25,7 @@
 
 pub mod atlas;
 pub mod bake;
+pub mod shard_io;
 pub mod error;
 pub mod exr;
 pub mod geometry;
@@ -38,7 +39,9 @@ pub mod texel;
 mod tests;
 
 pub use atlas::{Atlas, MAX_ATLAS_SIZE, atlas_size};
-pub use bake::{SurfaceBake, SurfaceReport, SurfaceSettings, bake_surface};
+pub use bake::{
+    SurfaceBake, SurfaceReport, SurfaceSettings, SurfaceTexels, TexelRecord, assemble_surface, bake_surface, bake_surface_texels,
+};
 pub use error::SurfaceError;
 pub use exr::{read_surface_exr, write_surface_exr};
 pub use geometry::{SurfaceGeometry, SurfaceObject};

@@ -1054,3 +1054,42 @@ fn basis_ranking_under_a_grazing_sun() {
     // Same span, same least-squares fit: equal up to the f32 storage of the coefficients.
     assert!((rmse["hbasis6"] - rmse["hbasis_mod6"]).abs() < 1e-6 * rmse["hbasis6"], "{rmse:?}");
 }
+
+/// A surface bake split into 1, 3 or 7 shards of texels, the shards' records written to
+/// `.lvtex` files, read back and assembled in any order, gives the whole bake's maps bit
+/// for bit; an incomplete set is an error.
+#[test]
+fn sharded_texels_assemble_to_the_whole_bake() {
+    use super::shard_io::{TexelShardHeader, read_texels, write_texels};
+    use super::{SurfaceGeometry, assemble_surface, bake_surface_texels};
+    let scene = boxes_scene();
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    let s = SurfaceSettings { samples: 8, texels_per_unit: 6.0, ..settings("hbasis6") };
+    let whole = bake_surface(&t, &s, &BakeControl::default()).unwrap();
+    let geo = SurfaceGeometry::new(&scene, s.uv_set).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for n in [1u32, 3, 7] {
+        let mut records = Vec::new();
+        for k in (0..n).rev() {
+            let part = bake_surface_texels(&t, &geo, &s, &BakeControl::default(), (k, n)).unwrap();
+            let h = TexelShardHeader { shard_index: k, shard_count: n, total: part.total, coeffs: 6, basis: "hbasis6".into(), fingerprint: "x".into(), records: part.records.len() as u64 };
+            let p = dir.path().join(format!("{k}.lvtex"));
+            write_texels(&p, &part, &h).unwrap();
+            let (back, hb) = read_texels(&p).unwrap();
+            assert_eq!((&back, &hb), (&part, &h));
+            records.extend(back.records);
+        }
+        let merged = assemble_surface(&t, &geo, &s, &records).unwrap();
+        assert_eq!(merged.maps.len(), whole.maps.len());
+        for (a, b) in merged.maps.iter().zip(&whole.maps) {
+            assert_eq!(a, b, "{n} shards");
+        }
+        assert_eq!(merged.report.rays, whole.report.rays);
+        assert_eq!(merged.report.invalid_texels, whole.report.invalid_texels);
+        if n == 3 {
+            records.truncate(records.len() / 2);
+            assert!(assemble_surface(&t, &geo, &s, &records).unwrap_err().to_string().contains("missing"));
+        }
+    }
+}
