@@ -4,13 +4,22 @@
 //! zeros, then sparse values).
 //!
 //! Every offset is checked against its buffer view and buffer; the element count is capped
-//! by [`MAX_ACCESSOR_VALUES`] so a file cannot ask for an allocation it does not back.
+//! by [`MAX_ACCESSOR_VALUES`] so a file cannot ask for an allocation it does not back, and
+//! an accessor without a buffer view (zeros the file does not store) by the much smaller
+//! [`MAX_UNBACKED_VALUES`].
 
 use serde_json::Value;
 
 /// Most values (elements × components) one accessor may produce: 2^27, i.e. 1 GiB as f64,
 /// far above any mesh a bake can hold, far below what would abort the process.
 pub(crate) const MAX_ACCESSOR_VALUES: u64 = 1 << 27;
+
+/// Most values an accessor without a `bufferView` may produce, and (see
+/// [`unstored_values`]) all such accessors of one load together: 2^20 (8 MiB as f64). Their
+/// zeros are stored nowhere, so without this a few bytes of JSON (`"count": 44739242`)
+/// would allocate gigabytes; sparse-only accessors in real files (morph targets, small
+/// edits) are far smaller.
+pub(crate) const MAX_UNBACKED_VALUES: u64 = 1 << 20;
 
 /// A component type (glTF 2.0 §3.6.2.2, Table 3).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -141,26 +150,40 @@ pub(crate) fn read(json: &Value, buffers: &[Vec<u8>], index: u64) -> Result<Valu
     if count.saturating_mul(n as u64) > MAX_ACCESSOR_VALUES {
         return Err(bad(&format!("{count} elements of {ty} exceed the reader's limit of {MAX_ACCESSOR_VALUES} values")));
     }
+    let view = a.get("bufferView").and_then(Value::as_u64);
+    if view.is_none() && count.saturating_mul(n as u64) > MAX_UNBACKED_VALUES {
+        return Err(bad(&format!(
+            "{count} elements of {ty} without a bufferView exceed the reader's limit of {MAX_UNBACKED_VALUES} values for data the file does not store"
+        )));
+    }
     if n > 4 && comp.size() < 4 {
         // Matrix columns of 1- and 2-byte components are padded to 4 bytes (§3.6.2.4).
         return Err(bad("matrices of 8- or 16-bit components are not supported"));
     }
     let count = count as usize;
     let elem = n * comp.size();
-    let mut data = vec![0.0; count * n];
-    if let Some(view) = a.get("bufferView").and_then(Value::as_u64) {
-        let (bytes, stride) = view_bytes(json, buffers, view).map_err(|e| bad(&e))?;
-        let stride = stride.unwrap_or(elem);
-        if stride < elem {
-            return Err(bad(&format!("byteStride {stride} is smaller than the element size {elem}")));
-        }
-        let offset = a.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
-        if count > 0 {
-            let need = (count - 1).checked_mul(stride).and_then(|x| x.checked_add(offset)).and_then(|x| x.checked_add(elem));
-            if need.is_none_or(|need| need > bytes.len()) {
-                return Err(bad(&format!("{count} elements at offset {offset}, stride {stride} run past buffer view {view} ({} bytes)", bytes.len())));
+    // The view is checked before anything is allocated: until then `count` is only the
+    // file's word (a 16-element view claiming 2^27 values used to allocate 1 GiB first).
+    let backing = match view {
+        None => None,
+        Some(view) => {
+            let (bytes, stride) = view_bytes(json, buffers, view).map_err(|e| bad(&e))?;
+            let stride = stride.unwrap_or(elem);
+            if stride < elem {
+                return Err(bad(&format!("byteStride {stride} is smaller than the element size {elem}")));
             }
+            let offset = a.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+            if count > 0 {
+                let need = (count - 1).checked_mul(stride).and_then(|x| x.checked_add(offset)).and_then(|x| x.checked_add(elem));
+                if need.is_none_or(|need| need > bytes.len()) {
+                    return Err(bad(&format!("{count} elements at offset {offset}, stride {stride} run past buffer view {view} ({} bytes)", bytes.len())));
+                }
+            }
+            Some((bytes, stride, offset))
         }
+    };
+    let mut data = vec![0.0; count * n];
+    if let Some((bytes, stride, offset)) = backing {
         for i in 0..count {
             let at = offset + i * stride;
             for c in 0..n {
@@ -199,6 +222,29 @@ pub(crate) fn read(json: &Value, buffers: &[Vec<u8>], index: u64) -> Result<Valu
         }
     }
     Ok(Values { components: n, data })
+}
+
+/// How many values reading accessor `index` allocates that the file does not store: all of
+/// them (`count` × components) without a buffer view, else none.
+pub(crate) fn unstored_values(json: &Value, index: u64) -> u64 {
+    let Some(a) = json.get("accessors").and_then(|a| a.get(index as usize)) else { return 0 };
+    if a.get("bufferView").and_then(Value::as_u64).is_some() {
+        return 0;
+    }
+    let n = a.get("type").and_then(Value::as_str).and_then(components_of).unwrap_or(0) as u64;
+    a.get("count").and_then(Value::as_u64).unwrap_or(0).saturating_mul(n)
+}
+
+/// How many elements of accessor `index` the file stores: all of them with a buffer view,
+/// else only the sparse ones (the rest are zeros).
+pub(crate) fn stored_elements(json: &Value, index: u64) -> u64 {
+    let Some(a) = json.get("accessors").and_then(|a| a.get(index as usize)) else { return 0 };
+    let count = a.get("count").and_then(Value::as_u64).unwrap_or(0);
+    if a.get("bufferView").and_then(Value::as_u64).is_some() {
+        count
+    } else {
+        a.pointer("/sparse/count").and_then(Value::as_u64).unwrap_or(0).min(count)
+    }
 }
 
 /// Reads an index accessor (unsigned integer SCALAR, glTF 2.0 §3.7.2.1).
@@ -264,5 +310,35 @@ mod tests {
         assert_eq!(read(&j, &bufs, 2).unwrap().data, [0.0, 0.0, 9.0, 9.0, 0.0, 0.0]);
         assert!(read(&j, &bufs, 3).unwrap_err().contains("run past"));
         assert!(read(&j, &bufs, 9).unwrap_err().contains("does not exist"));
+    }
+
+    /// An accessor without a buffer view is zeros the file does not store: a large count is
+    /// refused before anything is allocated (it used to allocate 1 GiB here, and the
+    /// primitive built on it several more), a small one still reads.
+    #[test]
+    fn unbacked_accessors_are_capped() {
+        let m = MAX_ACCESSOR_VALUES / 3;
+        let j = json!({"accessors": [
+            {"componentType": 5126, "count": m, "type": "VEC3"},
+            {"componentType": 5126, "count": MAX_UNBACKED_VALUES / 3 + 1, "type": "VEC3"},
+            {"componentType": 5126, "count": MAX_UNBACKED_VALUES, "type": "SCALAR"},
+            {"bufferView": "0", "componentType": 5126, "count": m, "type": "VEC3"}]});
+        for i in [0, 1, 3] {
+            let e = read(&j, &[], i).unwrap_err();
+            assert!(e.contains("without a bufferView exceed"), "{e}");
+        }
+        assert_eq!(read(&j, &[], 2).unwrap().data.len() as u64, MAX_UNBACKED_VALUES);
+    }
+
+    /// A view too short for the count is an error before the values are allocated (the
+    /// allocation itself is checked by the counting allocator of `tests/gltf_fuzz.rs`,
+    /// which found it: 16 vertices nudged to 16777216 held 384 MiB).
+    #[test]
+    fn short_views_fail_before_allocating() {
+        let j = json!({
+            "bufferViews": [{"buffer": 0, "byteLength": 12}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": MAX_ACCESSOR_VALUES / 3, "type": "VEC3"}]});
+        let e = read(&j, &[vec![0; 12]], 0).unwrap_err();
+        assert!(e.contains("44739242 elements at offset 0, stride 12 run past buffer view 0 (12 bytes)"), "{e}");
     }
 }

@@ -132,11 +132,19 @@ pub(crate) fn read_uri(uri: &str, base: Option<&Path>) -> Result<Vec<u8>, String
     }
     let base = base.ok_or_else(|| format!("'{uri}' is an external file, and the document has no folder"))?;
     let path = base.join(percent_decode(uri));
+    // Only regular files: a device such as `/dev/zero` never ends (it used to be read until
+    // memory ran out) and opening a FIFO blocks. The check is on the path, before opening.
+    let meta = std::fs::metadata(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    if !meta.is_file() {
+        return Err(format!("{} is not a regular file", path.display()));
+    }
     std::fs::read(&path).map_err(|e| format!("{}: {e}", path.display()))
 }
 
-/// Loads every buffer: the GLB blob for a buffer without `uri`, else its URI. A buffer
-/// shorter than its `byteLength` is an error.
+/// Loads every buffer: the GLB blob for `buffers[0]` without `uri`, else its URI. A buffer
+/// shorter than its `byteLength` is an error, and so is a later buffer without `uri`
+/// (glTF 2.0 §4.4.3.3: only the first buffer may be the BIN chunk; each such buffer used to
+/// get its own copy of the blob, so a few bytes of JSON per entry cost the whole chunk).
 pub(crate) fn load_buffers(doc: &Document, base: Option<&Path>) -> Result<Vec<Vec<u8>>, String> {
     let Some(list) = doc.json.get("buffers") else { return Ok(Vec::new()) };
     let list = list.as_array().ok_or("'buffers' is not an array")?;
@@ -145,7 +153,8 @@ pub(crate) fn load_buffers(doc: &Document, base: Option<&Path>) -> Result<Vec<Ve
         let want = b.get("byteLength").and_then(Value::as_u64).ok_or_else(|| format!("buffers[{i}] has no byteLength"))?;
         let data = match b.get("uri").and_then(Value::as_str) {
             Some(uri) => read_uri(uri, base).map_err(|e| format!("buffers[{i}]: {e}"))?,
-            None => doc.blob.clone().ok_or_else(|| format!("buffers[{i}] has no uri and the file has no BIN chunk"))?,
+            None if i == 0 => doc.blob.clone().ok_or_else(|| format!("buffers[{i}] has no uri and the file has no BIN chunk"))?,
+            None => return Err(format!("buffers[{i}] has no uri (only buffers[0] can be the GLB's BIN chunk)")),
         };
         if (data.len() as u64) < want {
             return Err(format!("buffers[{i}] has {} bytes, byteLength says {want}", data.len()));
@@ -166,6 +175,31 @@ mod tests {
             assert_eq!(base64_decode(enc).unwrap(), dec.as_bytes());
         }
         assert!(base64_decode("Zm9v*").is_none());
+    }
+
+    /// Only `buffers[0]` is the BIN chunk; a second buffer without `uri` is an error, not
+    /// another copy of the chunk.
+    #[test]
+    fn only_the_first_buffer_is_the_bin_chunk() {
+        let doc = |buffers: &str| Document {
+            json: serde_json::from_str(&format!(r#"{{"asset":{{"version":"2.0"}},"buffers":{buffers}}}"#)).unwrap(),
+            blob: Some(vec![7; 8]),
+        };
+        assert_eq!(load_buffers(&doc(r#"[{"byteLength":8}]"#), None).unwrap(), [vec![7; 8]]);
+        let e = load_buffers(&doc(r#"[{"byteLength":8},{"byteLength":0},{"byteLength":0}]"#), None).unwrap_err();
+        assert_eq!(e, "buffers[1] has no uri (only buffers[0] can be the GLB's BIN chunk)");
+    }
+
+    /// URIs naming devices are refused, whichever way they reach them; files still read.
+    #[cfg(unix)]
+    #[test]
+    fn only_regular_files_are_read() {
+        let base = Path::new(env!("CARGO_MANIFEST_DIR"));
+        for uri in ["/dev/zero", "../../../../../../../../../../../dev/zero", "/dev/null", "."] {
+            let e = read_uri(uri, Some(base)).unwrap_err();
+            assert!(e.ends_with("is not a regular file"), "{uri}: {e}");
+        }
+        assert!(read_uri("Cargo.toml", Some(base)).unwrap().starts_with(b"[package]"));
     }
 
     #[test]

@@ -17,6 +17,11 @@ use crate::load_obj::{DEFAULT_ALBEDO, LoadOptions};
 use crate::scene::{AlphaMode, Material, SceneBuilder};
 use crate::texture::{Texture, Wrap};
 
+/// Most texels an image may have: 2^26 (8192 × 8192; 1 GiB as linear RGB and alpha
+/// floats). The decoder's own limit is on its bytes (512 MiB), which a PNG of a few hundred
+/// KB reaches: a 261 KB 16384 × 16384 grey PNG used to become 4.3 GB of texture.
+pub(crate) const MAX_TEXELS: u64 = 1 << 26;
+
 /// A 2×3 affine map of texture coordinates, `uv' = [a b c; d e f] · (u, v, 1)`.
 pub(crate) type UvTransform = [[f64; 3]; 2];
 
@@ -229,7 +234,13 @@ impl<'a> Materials<'a> {
             "jpeg" => image::ImageFormat::Jpeg,
             other => return Err(format!("image {index} is {other}, which this build does not decode")),
         };
-        let decoded = image::load_from_memory_with_format(&bytes, format).map_err(|e| format!("image {index}: {e}"))?;
+        // The size comes from the header, before anything is decoded.
+        let reader = || image::ImageReader::with_format(std::io::Cursor::new(&bytes[..]), format);
+        let (w, h) = reader().into_dimensions().map_err(|e| format!("image {index}: {e}"))?;
+        if u64::from(w) * u64::from(h) > MAX_TEXELS {
+            return Err(format!("image {index} is {w}×{h}, more than the {MAX_TEXELS} texels a texture may have"));
+        }
+        let decoded = reader().decode().map_err(|e| format!("image {index}: {e}"))?;
         Texture::from_image(&decoded).ok_or_else(|| format!("image {index} is empty"))
     }
 }

@@ -70,6 +70,7 @@ pub fn load_gltf_slice(bytes: &[u8], base: Option<&Path>, name: &str, opts: &Loa
         meshes: HashMap::new(),
         object_names: HashMap::new(),
         scene_name: name.to_owned(),
+        unstored: std::cell::Cell::new(0),
     };
     for w in ext_warnings {
         loader.b.warn(w);
@@ -82,6 +83,9 @@ pub fn load_gltf_slice(bytes: &[u8], base: Option<&Path>, name: &str, opts: &Loa
     let mut materials = Materials::new(&doc.json, &buffers, base, *opts);
     loader.walk(&mut materials).map_err(|e| match e {
         SceneError::Gltf { message, .. } => gerr(message),
+        // These quote names from the file (meshes, lights), which may hold line breaks.
+        SceneError::NonFinite { what } => SceneError::NonFinite { what: one_line(&what) },
+        SceneError::BadMesh(what) => SceneError::BadMesh(one_line(&what)),
         e => e,
     })?;
     loader.b.build()
@@ -113,6 +117,8 @@ struct Loader<'a> {
     meshes: HashMap<u64, std::rc::Rc<Vec<Primitive>>>,
     object_names: HashMap<String, usize>,
     scene_name: String,
+    /// Values read so far from accessors without a bufferView (see [`Loader::charge`]).
+    unstored: std::cell::Cell<u64>,
 }
 
 fn arr<'v>(v: &'v Value, key: &str) -> &'v [Value] {
@@ -149,6 +155,22 @@ fn local_transform(node: &Value) -> DMat4 {
 }
 
 impl Loader<'_> {
+    /// Charges the zeros that reading accessor `a` allocates without the file storing them
+    /// (no bufferView) to one budget for the whole load, [`accessor::MAX_UNBACKED_VALUES`]:
+    /// each reference to such an accessor, a few bytes of JSON, allocates its values anew,
+    /// so a cap per accessor alone let a thousand primitives sharing one take gigabytes.
+    fn charge(&self, a: u64) -> Result<(), String> {
+        let total = self.unstored.get().saturating_add(accessor::unstored_values(self.json, a));
+        if total > accessor::MAX_UNBACKED_VALUES {
+            return Err(format!(
+                "accessor {a}: accessors without a bufferView come to {total} values, more than the reader's limit of {} for data the file does not store",
+                accessor::MAX_UNBACKED_VALUES
+            ));
+        }
+        self.unstored.set(total);
+        Ok(())
+    }
+
     fn root_matrix(&self) -> DMat4 {
         let (up, s) = (self.opts.up, self.opts.scale);
         DMat4::from_cols(
@@ -224,11 +246,18 @@ impl Loader<'_> {
             return Ok(vec![DMat4::IDENTITY]);
         };
         let read = |k: &str| -> Result<Option<accessor::Values>, SceneError> {
-            ext.get(k)
-                .and_then(Value::as_u64)
-                .map(|a| accessor::read(self.json, self.buffers, a))
-                .transpose()
-                .map_err(|e| gltf_err(format!("node {ni} EXT_mesh_gpu_instancing {k}: {e}")))
+            let at = |e: String| gltf_err(format!("node {ni} EXT_mesh_gpu_instancing {k}: {e}"));
+            let Some(a) = ext.get(k).and_then(Value::as_u64) else { return Ok(None) };
+            self.charge(a).map_err(at)?;
+            let v = accessor::read(self.json, self.buffers, a).map_err(at)?;
+            // Every instance copies the mesh, so instances must be stored: zeros of an
+            // accessor without a bufferView (a few bytes of JSON) used to place thousands of
+            // coincident copies of a large mesh.
+            let stored = accessor::stored_elements(self.json, a);
+            if v.len() as u64 > stored {
+                return Err(at(format!("accessor {a} stores {stored} of its {} instances (no bufferView)", v.len())));
+            }
+            Ok(Some(v))
         };
         let (t, r, s) = (read("TRANSLATION")?, read("ROTATION")?, read("SCALE")?);
         let counts: Vec<usize> = [&t, &r, &s].iter().filter_map(|v| v.as_ref().map(accessor::Values::len)).collect();
@@ -273,7 +302,7 @@ impl Loader<'_> {
                 self.b.warn(format!("{mname} primitive {p}: no POSITION, skipped"));
                 continue;
             };
-            let read = |a: u64| accessor::read(self.json, self.buffers, a).map_err(|e| at(e));
+            let read = |a: u64| self.charge(a).and_then(|()| accessor::read(self.json, self.buffers, a)).map_err(|e| at(e));
             let positions: Vec<DVec3> = {
                 let v = read(pos)?;
                 (0..v.len()).map(|i| DVec3::from_array(v.get::<3>(i))).collect()
@@ -292,7 +321,7 @@ impl Loader<'_> {
                 }
             }
             let raw: Vec<u32> = match prim.get("indices").and_then(Value::as_u64) {
-                Some(a) => accessor::read_indices(self.json, self.buffers, a).map_err(at)?,
+                Some(a) => self.charge(a).and_then(|()| accessor::read_indices(self.json, self.buffers, a)).map_err(at)?,
                 None => (0..positions.len() as u32).collect(),
             };
             let indices: Vec<u32> = match mode {
@@ -416,23 +445,25 @@ impl Loader<'_> {
         let name = light.get("name").and_then(Value::as_str).unwrap_or("?");
         let color = f64s(light.get("color"), [1.0; 3]);
         let i = light.get("intensity").and_then(Value::as_f64).unwrap_or(1.0);
-        if !color.iter().all(|c| c.is_finite()) || !i.is_finite() {
+        // Intensity is per steradian in metres; positions were scaled by `scale`, so W/sr at a
+        // distance scaled by `scale` falls off by scale²: keep irradiance invariant.
+        let s2 = self.opts.scale * self.opts.scale;
+        let (intensity, irradiance) = (color.map(|c| c * i * s2), color.map(|c| c * i));
+        // The products too: finite factors such as 1e308 × 10 overflow.
+        if !color.iter().chain(&intensity).chain(&irradiance).all(|c| c.is_finite()) || !i.is_finite() {
             return Err(SceneError::NonFinite { what: format!("light '{name}'") });
         }
         let position = world.transform_point3(DVec3::ZERO);
         // Lights shine along local -Z.
         let axis = world.transform_vector3(-DVec3::Z).normalize_or_zero();
-        // Intensity is per steradian in metres; positions were scaled by `scale`, so W/sr at a
-        // distance scaled by `scale` falls off by scale²: keep irradiance invariant.
-        let s2 = self.opts.scale * self.opts.scale;
         let l = match light.get("type").and_then(Value::as_str).unwrap_or("") {
-            "point" => PunctualLight::Point { position, intensity: color.map(|c| c * i * s2) },
+            "point" => PunctualLight::Point { position, intensity },
             "spot" => {
                 let inner = light.pointer("/spot/innerConeAngle").and_then(Value::as_f64).unwrap_or(0.0);
                 let outer = light.pointer("/spot/outerConeAngle").and_then(Value::as_f64).unwrap_or(std::f64::consts::FRAC_PI_4);
-                PunctualLight::Spot { position, axis, intensity: color.map(|c| c * i * s2), inner, outer }
+                PunctualLight::Spot { position, axis, intensity, inner, outer }
             }
-            "directional" => PunctualLight::Directional { to_light: -axis, irradiance: color.map(|c| c * i) },
+            "directional" => PunctualLight::Directional { to_light: -axis, irradiance },
             other => {
                 self.b.warn(format!("light '{name}': unknown type {other:?}, skipped"));
                 return Ok(());

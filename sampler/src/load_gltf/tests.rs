@@ -449,6 +449,53 @@ fn gpu_instancing_places_every_instance() {
     assert!((s.triangles[4].v[1] - DVec3::new(-1.0, 10.0, 5.0)).length() < 1e-12, "{}", s.triangles[4].v[1]);
 }
 
+/// Instances come from stored data: an instancing accessor without a bufferView (zeros,
+/// but for its sparse entries) is an error rather than that many coincident copies of the
+/// mesh. 1000 such instances of the living room's largest mesh used to take 488 MiB.
+#[test]
+fn gpu_instancing_needs_stored_instances() {
+    let mut d = Doc::default();
+    let (pos, ind) = quad(&mut d);
+    let zeros = d.accessor(json!({"componentType": 5126, "count": 1000, "type": "VEC3"}));
+    let text = d.json(json!({
+        "nodes": [{"mesh": 0, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": zeros}}}}],
+        "scenes": [{"nodes": [0]}],
+        "meshes": quad_mesh(pos, ind, 1, Value::Null)
+    }));
+    let e = load_str(&text).unwrap_err().to_string();
+    assert_eq!(e, format!("glTF error in synthetic.gltf: node 0 EXT_mesh_gpu_instancing TRANSLATION: accessor {zeros} stores 0 of its 1000 instances (no bufferView)"));
+    // Fully sparse (every instance stored) is fine.
+    let sidx = d.view(&[0, 1]);
+    let sval = d.view(&[1.0f32, 0.0, 0.0, 2.0, 0.0, 0.0].iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<_>>());
+    let sparse = d.accessor(json!({"componentType": 5126, "count": 2, "type": "VEC3",
+        "sparse": {"count": 2, "indices": {"bufferView": sidx, "componentType": 5121}, "values": {"bufferView": sval}}}));
+    let text = d.json(json!({
+        "nodes": [{"mesh": 0, "extensions": {"EXT_mesh_gpu_instancing": {"attributes": {"TRANSLATION": sparse}}}}],
+        "scenes": [{"nodes": [0]}],
+        "meshes": quad_mesh(pos, ind, 1, Value::Null)
+    }));
+    let s = load_str(&text).unwrap();
+    assert_eq!((s.report.instances, s.triangles[2].v[0]), (2, DVec3::new(2.0, 0.0, 0.0)));
+}
+
+/// Zeros of accessors without a bufferView are budgeted for the whole load, not per
+/// accessor: every primitive that refers to one allocates its values again, so 1000
+/// primitives sharing a 2^20-value one used to take gigabytes from a few KB of JSON.
+#[test]
+fn unstored_zeros_are_budgeted_per_load() {
+    let mut d = Doc::default();
+    let (pos, ind) = quad(&mut d);
+    let zeros = d.accessor(json!({"componentType": 5126, "count": 200_000, "type": "VEC3"}));
+    let prim = |normal: usize| json!({"attributes": {"POSITION": pos, "NORMAL": normal}, "indices": ind});
+    let doc = |prims: Vec<Value>| d.json(json!({"nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "meshes": [{"primitives": prims}]}));
+    // One reference (600000 values) is within the budget (the normals, of the wrong count, are dropped) ...
+    let s = load_str(&doc(vec![prim(zeros)])).unwrap();
+    assert_eq!(s.triangles.len(), 2);
+    // ... a second one is not.
+    let e = load_str(&doc(vec![prim(zeros), prim(zeros)])).unwrap_err().to_string();
+    assert!(e.ends_with(&format!("primitive 1: accessor {zeros}: accessors without a bufferView come to 1200000 values, more than the reader's limit of 1048576 for data the file does not store")), "{e}");
+}
+
 /// Sparse accessors substitute values; non-indexed primitives and triangle strips and fans
 /// are triangulated as glTF 2.0 §3.7.2.1 says.
 #[test]
@@ -583,4 +630,86 @@ fn node_cycles_are_errors() {
         "meshes": quad_mesh(pos, ind, 1, Value::Null)
     }));
     assert!(load_str(&text).unwrap_err().to_string().contains("reached twice"));
+}
+
+/// Errors that quote a name from the file stay one line when the name holds line breaks
+/// (a mesh named "\n" whose vertices overflow to infinity used to give a two-line message;
+/// found by `tests/gltf_fuzz.rs`).
+#[test]
+fn names_with_line_breaks_keep_errors_one_line() {
+    let mut d = Doc::default();
+    let (pos, ind) = quad(&mut d);
+    let mut meshes = quad_mesh(pos, ind, 1, Value::Null);
+    meshes[0]["name"] = json!("first\nsecond\r\n");
+    let text = d.json(json!({
+        "nodes": [{"mesh": 0, "translation": [1e308, 0, 0], "scale": [1e308, 1, 1]}],
+        "scenes": [{"nodes": [0]}], "meshes": meshes,
+    }));
+    let e = load_str(&text).unwrap_err();
+    assert!(matches!(e, SceneError::NonFinite { .. }), "{e}");
+    assert_eq!(e.to_string(), "non-finite value in vertex of face 0 in mesh 'first second ' of synthetic.gltf");
+    let text = d.json(json!({
+        "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "name": "lamp\n2", "intensity": 1e308, "color": [1e308, 1, 1]}]}},
+        "nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}],
+        "scenes": [{"nodes": [0, 1]}], "meshes": quad_mesh(pos, ind, 1, Value::Null),
+    }));
+    assert_eq!(load_str(&text).unwrap_err().to_string(), "non-finite value in light 'lamp 2'");
+}
+
+/// A light whose colour and intensity are finite but whose product is not (1e308 × 2) is
+/// an error like a non-finite factor; it used to reach the scene as an infinite light.
+#[test]
+fn overflowing_light_intensity_is_non_finite() {
+    let mut d = Doc::default();
+    let (pos, ind) = quad(&mut d);
+    for (ty, color, intensity) in [("point", 1e308, 2.0), ("spot", 2.0, 1e308), ("directional", 1e200, 1e200)] {
+        let text = d.json(json!({
+            "extensions": {"KHR_lights_punctual": {"lights": [{"type": ty, "name": "sun", "intensity": intensity, "color": [color, 1, 1]}]}},
+            "nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}],
+            "scenes": [{"nodes": [0, 1]}], "meshes": quad_mesh(pos, ind, 1, Value::Null),
+        }));
+        let e = load_str(&text).unwrap_err();
+        assert!(matches!(e, SceneError::NonFinite { .. }), "{ty}: {e}");
+    }
+}
+
+/// An image larger than `MAX_TEXELS` is refused from its header, before anything is
+/// decoded, and the material keeps its factor with a warning. A 261 KB grey PNG of
+/// 16384 × 16384 used to decode into 4.3 GB of texture; here the header alone (IHDR, an
+/// empty IDAT, IEND) makes the point without the pixels.
+#[test]
+fn oversized_image_is_refused_before_decoding() {
+    fn chunk(png: &mut Vec<u8>, kind: &[u8; 4], data: &[u8]) {
+        let mut c = !0u32;
+        for &b in kind.iter().chain(data) {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 { (c >> 1) ^ 0xEDB8_8320 } else { c >> 1 };
+            }
+        }
+        png.extend_from_slice(&(data.len() as u32).to_be_bytes());
+        png.extend_from_slice(kind);
+        png.extend_from_slice(data);
+        png.extend_from_slice(&(!c).to_be_bytes());
+    }
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    let ihdr: Vec<u8> = [16384u32.to_be_bytes(), 16384u32.to_be_bytes()].concat().into_iter().chain([8, 0, 0, 0, 0]).collect();
+    chunk(&mut png, b"IHDR", &ihdr);
+    chunk(&mut png, b"IDAT", &[]);
+    chunk(&mut png, b"IEND", &[]);
+    let mut d = Doc::default();
+    let (pos, ind) = quad(&mut d);
+    let text = d.json(json!({
+        "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}],
+        "meshes": quad_mesh(pos, ind, 1, 0.into()),
+        "materials": [{"name": "huge", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1], "baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0}],
+        "images": [{"uri": format!("data:image/png;base64,{}", base64_encode(&png))}],
+    }));
+    let s = load_str(&text).unwrap();
+    assert!(s.textures.is_empty() && s.materials[0].albedo_texture.is_none());
+    assert_eq!(
+        s.report.warnings,
+        ["material 'huge': base colour texture 0 not used (image 0 is 16384×16384, more than the 67108864 texels a texture may have); factor used"]
+    );
 }
