@@ -218,11 +218,12 @@ pub fn run_bake(
 
 /// What a bake carries besides its accumulator.
 enum Grads {
-    /// Per-node SH gradients, their report, and the basis estimator's exact sums.
+    /// Per-node SH gradients, their report, and the basis estimator's exact sums (boxed:
+    /// the variant is much larger than the others).
     Gradients(
         lightvol_volume::VolumeGradients,
         GradientsJson,
-        Option<lightvol_sampler::gradients::BasisGradientAccumulator>,
+        Option<Box<lightvol_sampler::gradients::BasisGradientAccumulator>>,
     ),
     /// The mass matrix of a least-squares fit.
     Mass(MassMatrix),
@@ -368,7 +369,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     seconds: g.seconds,
                     memory_bytes: g.gradients.memory_bytes(),
                 };
-                (g.output, Some(Grads::Gradients(g.gradients, json, g.basis_sums)), bvh_seconds)
+                (g.output, Some(Grads::Gradients(g.gradients, json, g.basis_sums.map(Box::new))), bvh_seconds)
             }
         })
     })??;

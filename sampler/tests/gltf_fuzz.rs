@@ -45,12 +45,12 @@
 //!
 //! **Checks per case.** The call returns (a panic fails the case: proptest catches it and
 //! shrinks the input); an `Err` displays as one non-empty line; an `Ok` scene has finite
-//! vertices, lights and cameras; the load's peak heap stays under [`CASE_MEMORY_BUDGET`]
-//! plus [`BYTES_PER_TRIANGLE`] per triangle it returns, i.e. memory is explained by the
-//! scene the file describes. The two failures proptest cannot catch, an allocation that
-//! would exhaust memory and a load that never ends, are turned into a test failure that
-//! prints the case by a counting global allocator ([`guard`], [`HARD_MEMORY_LIMIT`]) and a
-//! watchdog thread ([`CASE_TIME_LIMIT`]).
+//! vertices, lights and cameras; the load's peak resident memory stays under
+//! [`CASE_MEMORY_BUDGET`] plus [`BYTES_PER_TRIANGLE`] per triangle it returns, i.e. memory is
+//! explained by the scene the file describes. The two failures proptest cannot catch, a load
+//! that would exhaust memory and a load that never ends, are turned into a test failure
+//! that prints the case by a watchdog thread ([`HARD_MEMORY_LIMIT`] on the resident size,
+//! [`CASE_TIME_LIMIT`]; see [`status_bytes`]).
 //!
 //! A valid file can still describe a scene too large for memory (`EXT_mesh_gpu_instancing`
 //! over a large stored accessor multiplies a mesh thousands of times); the loader flattens
@@ -103,93 +103,29 @@ const TINY_PNG: &str = "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCA
 // ---------------------------------------------------------------------------------------
 // Memory and time guard.
 
-/// A global allocator that counts live bytes. An allocation that would take the live heap
-/// past [`HARD_MEMORY_LIMIT`] parks its thread (returning null would abort before anything
-/// could be printed) and the watchdog ends the process with the case that asked for it.
-#[allow(unsafe_code)]
-mod guard {
-    use std::alloc::{GlobalAlloc, Layout, System};
-    use std::sync::atomic::AtomicUsize;
-    use std::sync::atomic::Ordering::Relaxed;
-
-    /// Bytes allocated and not yet freed.
-    pub static LIVE: AtomicUsize = AtomicUsize::new(0);
-    /// Highest `LIVE` since it was last reset.
-    pub static PEAK: AtomicUsize = AtomicUsize::new(0);
-    /// Size of an allocation refused for the hard limit (0: none).
-    pub static REFUSED: AtomicUsize = AtomicUsize::new(0);
-
-    /// The counting allocator (over [`System`]).
-    pub struct Counting;
-
-    fn admit(size: usize) {
-        let now = LIVE.fetch_add(size, Relaxed) + size;
-        if now > super::HARD_MEMORY_LIMIT {
-            LIVE.fetch_sub(size, Relaxed);
-            REFUSED.store(size.max(1), Relaxed);
-            loop {
-                std::thread::sleep(std::time::Duration::from_secs(1));
-            }
-        }
-        PEAK.fetch_max(now, Relaxed);
-    }
-
-    // SAFETY: every call forwards to `System` with the caller's arguments; the counters
-    // never change what is returned.
-    unsafe impl GlobalAlloc for Counting {
-        unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-            admit(layout.size());
-            // SAFETY: the caller's contract for `alloc` is `System.alloc`'s.
-            let p = unsafe { System.alloc(layout) };
-            if p.is_null() {
-                LIVE.fetch_sub(layout.size(), Relaxed);
-            }
-            p
-        }
-
-        unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-            admit(layout.size());
-            // SAFETY: as `alloc`.
-            let p = unsafe { System.alloc_zeroed(layout) };
-            if p.is_null() {
-                LIVE.fetch_sub(layout.size(), Relaxed);
-            }
-            p
-        }
-
-        unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-            // SAFETY: `ptr` came from this allocator, i.e. from `System`, with `layout`.
-            unsafe { System.dealloc(ptr, layout) };
-            LIVE.fetch_sub(layout.size(), Relaxed);
-        }
-
-        unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-            let old = layout.size();
-            if new_size > old {
-                admit(new_size - old);
-            }
-            // SAFETY: as `dealloc`, and the caller's contract for `new_size`.
-            let p = unsafe { System.realloc(ptr, layout, new_size) };
-            if p.is_null() {
-                if new_size > old {
-                    LIVE.fetch_sub(new_size - old, Relaxed);
-                }
-            } else if new_size < old {
-                LIVE.fetch_sub(old - new_size, Relaxed);
-            }
-            p
-        }
-    }
+/// Resident memory of this process, from `/proc/self/status` (`VmRSS` now, `VmHWM` the peak
+/// since the last [`reset_peak`]); 0 where the file is missing (non-Linux), which turns the
+/// memory checks off. Resident pages are what a load really touched: zeroed memory that
+/// nothing writes is not counted, so the budget is a floor, and the watchdog stops a runaway
+/// load well before the machine's memory is gone. (A counting global allocator would be
+/// exact, but it needs `unsafe`, which this workspace keeps to the GPU crate.)
+fn status_bytes(key: &str) -> usize {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with(key)).and_then(|l| l.split_whitespace().nth(1)?.parse::<usize>().ok()))
+        .map_or(0, |kib| kib * 1024)
 }
 
-#[global_allocator]
-static ALLOCATOR: guard::Counting = guard::Counting;
+/// Resets `VmHWM` to the current resident size (`/proc/self/clear_refs`, value 5).
+fn reset_peak() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
 
 /// The case being run, for the watchdog to print.
 static CURRENT_CASE: Mutex<String> = Mutex::new(String::new());
 /// When the running case started (nanoseconds since [`epoch`], plus one; 0: none running).
 static CASE_STARTED: AtomicU64 = AtomicU64::new(0);
-/// The two properties share the allocator's counters, so they take turns.
+/// The properties share the process's memory figures, so they take turns.
 static SERIAL: Mutex<()> = Mutex::new(());
 
 fn epoch() -> Instant {
@@ -204,13 +140,9 @@ fn watchdog() {
         std::thread::spawn(|| {
             loop {
                 std::thread::sleep(Duration::from_millis(50));
-                let refused = guard::REFUSED.load(Ordering::Relaxed);
-                let why = if refused > 0 {
-                    format!(
-                        "asked for {refused} bytes with {} MiB live (limit {} MiB)",
-                        guard::LIVE.load(Ordering::Relaxed) >> 20,
-                        HARD_MEMORY_LIMIT >> 20
-                    )
+                let resident = status_bytes("VmRSS:");
+                let why = if resident > HARD_MEMORY_LIMIT {
+                    format!("holds {} MiB resident (limit {} MiB)", resident >> 20, HARD_MEMORY_LIMIT >> 20)
                 } else {
                     match CASE_STARTED.load(Ordering::Relaxed) {
                         0 => continue,
@@ -1485,11 +1417,11 @@ fn light_is_finite(l: &PunctualLight) -> bool {
 /// triangle count or the message.
 fn check(bytes: &[u8], base: &Path, case: &dyn Debug) -> Result<Result<usize, String>, TestCaseError> {
     let running = Running::start(case);
-    let before = guard::LIVE.load(Ordering::Relaxed);
-    guard::PEAK.store(before, Ordering::Relaxed);
+    let before = status_bytes("VmRSS:");
+    reset_peak();
     let result = load_gltf_slice(bytes, Some(base), "fuzz", &LoadOptions::default());
     drop(running);
-    let peak = guard::PEAK.load(Ordering::Relaxed).saturating_sub(before);
+    let peak = status_bytes("VmHWM:").saturating_sub(before);
     // A scene the file really describes (an instanced mesh, a duplicated primitive) may
     // cost what its triangles cost; anything beyond that is memory the input did not back.
     let triangles = result.as_ref().map_or(0, |s| s.triangles.len() + s.report.degenerate_skipped);

@@ -60,6 +60,55 @@ fn any_shard_count_order_and_thread_count_gives_the_whole_bake() {
     }
 }
 
+proptest::proptest! {
+    #![proptest_config(proptest::test_runner::Config {
+        cases: 12,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(17),
+        failure_persistence: None,
+        ..proptest::test_runner::Config::default()
+    })]
+
+    /// As a property: for any shard count 1..=7, any merge order and any thread count per
+    /// shard, with either node fit, the merged file is the whole bake's file.
+    #[test]
+    fn merged_file_is_the_whole_file_for_any_split(
+        n in 1u32..=7,
+        order_seed in proptest::prelude::any::<u64>(),
+        threads in proptest::collection::vec(1u32..=2, 7),
+        lsq in proptest::prelude::any::<bool>(),
+    ) {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        let fit: &[&str] = if lsq { &["--fit", "lsq:0.25"] } else { &[] };
+        let whole = d.join("whole.exr");
+        bake(&whole, fit);
+        let mut shards: Vec<std::path::PathBuf> = (0..n)
+            .map(|k| {
+                let out = d.join(format!("s{k}.exr"));
+                let t = threads[k as usize].to_string();
+                let mut extra = vec!["--shard".to_owned(), format!("{k}/{n}"), "--threads".to_owned(), t];
+                extra.extend(fit.iter().map(|x| (*x).to_owned()));
+                bake(&out, &extra.iter().map(String::as_str).collect::<Vec<_>>());
+                out.with_extension("lvacc")
+            })
+            .collect();
+        // A seeded shuffle of the merge order.
+        let mut state = order_seed | 1;
+        for i in (1..shards.len()).rev() {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            shards.swap(i, (state % (i as u64 + 1)) as usize);
+        }
+        let merged = d.join("merged.exr");
+        let mut a = vec!["merge".to_owned()];
+        a.extend(shards.iter().map(|p| s(p).to_owned()));
+        a.extend(["-o".to_owned(), s(&merged).to_owned()]);
+        ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+        proptest::prop_assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "{n} shards, lsq {lsq}");
+    }
+}
+
 /// `--fit lsq`: the shards carry the exact mass matrix, and `merge` solves the fit over the
 /// whole set, giving the whole least-squares bake bit for bit, for 3 shards in any order.
 #[test]

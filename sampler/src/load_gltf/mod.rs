@@ -302,7 +302,7 @@ impl Loader<'_> {
                 self.b.warn(format!("{mname} primitive {p}: no POSITION, skipped"));
                 continue;
             };
-            let read = |a: u64| self.charge(a).and_then(|()| accessor::read(self.json, self.buffers, a)).map_err(|e| at(e));
+            let read = |a: u64| self.charge(a).and_then(|()| accessor::read(self.json, self.buffers, a)).map_err(&at);
             let positions: Vec<DVec3> = {
                 let v = read(pos)?;
                 (0..v.len()).map(|i| DVec3::from_array(v.get::<3>(i))).collect()
