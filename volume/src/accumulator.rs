@@ -167,16 +167,7 @@ impl Accumulator {
         outside: Vec<f64>,
         contributions: u64,
     ) -> Result<Self, VolumeError> {
-        check_coeffs(coeffs)?;
-        let n = spec.node_count();
-        if numerator.len() != n * coeffs * 3 || denominator.len() != n || outside.len() != n {
-            return Err(VolumeError::Mismatch(format!(
-                "accumulator arrays of {}, {}, {} values for {n} nodes x {coeffs} coeffs",
-                numerator.len(),
-                denominator.len(),
-                outside.len()
-            )));
-        }
+        // The lengths are checked by `from_fixed_parts`.
         let conv = |what: &'static str, v: &[f64]| -> Result<Vec<i128>, VolumeError> {
             v.iter()
                 .enumerate()

@@ -59,6 +59,38 @@ struct AuxHeader {
 /// header can make the reader allocate.
 const MAX_AUX_PER_NODE: u64 = 256;
 
+/// Checks the 12 fixed bytes (magic, version, header length) and returns the version and
+/// the header length.
+fn parse_head(head: &[u8]) -> Result<(u16, usize), VolumeError> {
+    let bad = |r: String| VolumeError::malformed(F, r);
+    if &head[..6] != ACC_MAGIC {
+        return Err(bad("not a lightvol accumulator (bad magic)".into()));
+    }
+    let version = u16::from_le_bytes([head[6], head[7]]);
+    if version == 0 || version > ACC_VERSION {
+        return Err(VolumeError::unsupported(F, format!("version {version}")));
+    }
+    let h = u32::from_le_bytes(head[8..12].try_into().expect("4 bytes")) as usize;
+    if h > MAX_HEADER {
+        return Err(bad(format!("header length {h} is too large")));
+    }
+    Ok((version, h))
+}
+
+/// Parses the JSON header and the grid it names.
+fn parse_header(json: &[u8]) -> Result<(AccHeader, GridSpec), VolumeError> {
+    let header: AccHeader = serde_json::from_slice(json).map_err(|e| VolumeError::malformed(F, e.to_string()))?;
+    check_coeffs(header.coeffs)?;
+    let mut spec = GridSpec::new(header.grid.min, header.grid.max, header.grid.res)?;
+    if let Some(m) = header.grid.to_world {
+        spec = spec.with_placement(Placement::new(m)?);
+    }
+    if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
+        return Err(VolumeError::malformed(F, format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
+    }
+    Ok((header, spec))
+}
+
 /// Serialises an accumulator and its bake metadata in memory. Errors if a sum is not
 /// finite (a NaN radiance reached the bake: fix the source rather than persist it).
 pub fn accumulator_to_bytes(acc: &Accumulator, meta: &BakeMetadata) -> Result<Vec<u8>, VolumeError> {
@@ -108,23 +140,11 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
     if fnv1a(body) != stored {
         return Err(bad("checksum mismatch: the file is damaged or truncated".into()));
     }
-    if &body[..6] != ACC_MAGIC {
-        return Err(bad("not a lightvol accumulator (bad magic)".into()));
-    }
-    let version = u16::from_le_bytes([body[6], body[7]]);
-    if version == 0 || version > ACC_VERSION {
-        return Err(VolumeError::unsupported(F, format!("version {version}")));
-    }
-    let h = u32::from_le_bytes(body[8..12].try_into().expect("4 bytes")) as usize;
-    if h > MAX_HEADER || 12 + h > body.len() {
+    let (version, h) = parse_head(&body[..12])?;
+    if 12 + h > body.len() {
         return Err(bad(format!("header length {h} does not fit the file")));
     }
-    let header: AccHeader = serde_json::from_slice(&body[12..12 + h]).map_err(|e| bad(e.to_string()))?;
-    check_coeffs(header.coeffs)?;
-    let mut spec = GridSpec::new(header.grid.min, header.grid.max, header.grid.res)?;
-    if let Some(m) = header.grid.to_world {
-        spec = spec.with_placement(Placement::new(m)?);
-    }
+    let (header, spec) = parse_header(&body[12..12 + h])?;
     let n = spec.node_count();
     let k = header.coeffs * 3;
     let data = &body[12 + h..];
@@ -152,9 +172,6 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
         }
         acc
     };
-    if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
-        return Err(bad(format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
-    }
     Ok((acc, header.bake))
 }
 
@@ -190,25 +207,13 @@ pub fn merge_accumulator_file(into: Option<Accumulator>, path: &Path) -> Result<
     }
     let mut head = [0u8; 12];
     read(&mut head, &mut hash)?;
-    if &head[..6] != ACC_MAGIC {
-        return Err(bad("not a lightvol accumulator (bad magic)".into()));
-    }
-    let version = u16::from_le_bytes([head[6], head[7]]);
-    if version == 0 || version > ACC_VERSION {
-        return Err(VolumeError::unsupported(F, format!("version {version}")));
-    }
-    let h = u32::from_le_bytes(head[8..12].try_into().expect("4 bytes")) as usize;
-    if h > MAX_HEADER || 12 + h as u64 + 8 > len {
+    let (version, h) = parse_head(&head)?;
+    if 12 + h as u64 + 8 > len {
         return Err(bad(format!("header length {h} does not fit the file")));
     }
     let mut json = vec![0u8; h];
     read(&mut json, &mut hash)?;
-    let header: AccHeader = serde_json::from_slice(&json).map_err(|e| bad(e.to_string()))?;
-    check_coeffs(header.coeffs)?;
-    let mut spec = GridSpec::new(header.grid.min, header.grid.max, header.grid.res)?;
-    if let Some(m) = header.grid.to_world {
-        spec = spec.with_placement(Placement::new(m)?);
-    }
+    let (header, spec) = parse_header(&json)?;
     let n = spec.node_count() as u64;
     let k = header.coeffs as u64 * 3;
     let width: u64 = if version == 1 { 8 } else { 16 };
@@ -216,9 +221,6 @@ pub fn merge_accumulator_file(into: Option<Accumulator>, path: &Path) -> Result<
     let total = n * k + 2 * n + aux_len;
     if len != 12 + h as u64 + width * total + 8 {
         return Err(bad(format!("{} data bytes, the grid needs {}", len - 12 - h as u64 - 8, width * total)));
-    }
-    if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
-        return Err(bad(format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
     }
     let mut acc = match into {
         Some(a) => {
@@ -289,23 +291,10 @@ pub fn read_accumulator_metadata(path: &Path) -> Result<BakeMetadata, VolumeErro
     let mut f = std::fs::File::open(path).map_err(io)?;
     let mut head = [0u8; 12];
     f.read_exact(&mut head).map_err(|e| bad(format!("truncated ({e})")))?;
-    if &head[..6] != ACC_MAGIC {
-        return Err(bad("not a lightvol accumulator (bad magic)".into()));
-    }
-    let version = u16::from_le_bytes([head[6], head[7]]);
-    if version == 0 || version > ACC_VERSION {
-        return Err(VolumeError::unsupported(F, format!("version {version}")));
-    }
-    let h = u32::from_le_bytes(head[8..12].try_into().expect("4 bytes")) as usize;
-    if h > MAX_HEADER {
-        return Err(bad(format!("header length {h} is too large")));
-    }
+    let (_, h) = parse_head(&head)?;
     let mut json = vec![0u8; h];
     f.read_exact(&mut json).map_err(|e| bad(format!("truncated ({e})")))?;
-    let header: AccHeader = serde_json::from_slice(&json).map_err(|e| bad(e.to_string()))?;
-    if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
-        return Err(bad(format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
-    }
+    let (header, _) = parse_header(&json)?;
     Ok(header.bake)
 }
 
