@@ -47,8 +47,8 @@ pub struct BakeArgs {
     /// against the Slurm array or `LIGHTVOL_SHARD` where those give it).
     #[arg(long, value_name = "N")]
     pub shards: Option<u32>,
-    /// Also write the exact accumulator (`<stem>.lvacc`) for an unsharded bake, so that it
-    /// can later be merged with more samples (e.g. another seed).
+    /// Also write the exact accumulator (`<stem>.lvacc`) of an unsharded bake: its Eq. 6
+    /// sums as `merge` reads them (for example to finalize it again with `merge`).
     #[arg(long)]
     pub keep_accumulator: bool,
     /// Also bake per-node SH irradiance gradients (Oat 2005) and store them in the EXR:

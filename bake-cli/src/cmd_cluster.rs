@@ -26,7 +26,7 @@ use crate::cmd_bake::BakeArgs;
 #[derive(Debug, Args)]
 pub struct JobArgs {
     /// Work folder for the job files, shard outputs and logs (default: the output's path
-    /// with the extension `.slurm` or `.k8s`).
+    /// with the extension `.slurm`; for k8s, `STEM.k8s` in the current folder).
     #[arg(long)]
     pub workdir: Option<PathBuf>,
     /// The lightvol executable the jobs run (default: this one).
@@ -138,6 +138,15 @@ pub fn sh_quote(s: &str) -> String {
     format!("'{}'", s.replace('\'', r"'\''"))
 }
 
+/// Refuses a value written into an `#SBATCH` line or a job's shell command that could end
+/// the line or mean something else to Slurm (control characters, `%` patterns, `\`).
+fn check_job_value(what: &str, v: &str) -> anyhow::Result<()> {
+    if v.chars().any(|c| c.is_control() || c == '%' || c == '\\') {
+        bail!("{what} {v:?} contains a control character, '%' or '\\', which job files cannot carry safely");
+    }
+    Ok(())
+}
+
 fn absolute(p: &Path) -> anyhow::Result<PathBuf> {
     if p.is_absolute() {
         Ok(p.to_owned())
@@ -164,6 +173,9 @@ fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, Pat
         Some(p) => absolute(p)?,
         None => std::env::current_exe().context("locating the lightvol executable")?,
     };
+    for (what, p) in [("the output", &out), ("the work folder", &work), ("the lightvol path", &exe)] {
+        check_job_value(what, &p.to_string_lossy())?;
+    }
     Ok((n, work, out, exe))
 }
 
@@ -173,12 +185,23 @@ pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> 
     // The scene and lights must load here, so that a typo fails now, not on the cluster.
     args.bake.scene.load_quiet().context("checking the scene before writing jobs")?;
     let bake = bake_arguments(argv);
+    for a in &bake {
+        check_job_value("the bake option", a)?;
+    }
+    for v in [&args.partition, &args.time, &args.mem].into_iter().flatten() {
+        check_job_value("the Slurm option", v)?;
+    }
+    // Jobs run where this command ran, so relative paths in the bake options keep meaning
+    // what they mean here.
+    let cwd = std::env::current_dir().context("current folder")?;
+    check_job_value("the current folder", &cwd.to_string_lossy())?;
     let q = |p: &Path| sh_quote(&p.to_string_lossy());
     let mut head = vec![
         "#!/bin/bash".to_owned(),
         "#SBATCH --job-name=lightvol-bake".to_owned(),
         format!("#SBATCH --array=0-{}", n - 1),
         format!("#SBATCH --output={}", q(&work.join("logs/bake-%A_%a.log"))),
+        format!("#SBATCH --chdir={}", q(&cwd)),
     ];
     if let Some(c) = args.cpus {
         head.push(format!("#SBATCH --cpus-per-task={c}"));
@@ -200,6 +223,7 @@ pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> 
         "#!/bin/bash".to_owned(),
         "#SBATCH --job-name=lightvol-merge".to_owned(),
         format!("#SBATCH --output={}", q(&work.join("logs/merge-%j.log"))),
+        format!("#SBATCH --chdir={}", q(&cwd)),
     ];
     for (k, v) in [("partition", &args.partition), ("time", &args.time), ("mem", &args.mem)] {
         if let Some(v) = v {
@@ -244,7 +268,7 @@ pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> 
     }
     let failed: Vec<String> = job_lines(&bake_id)?
         .into_iter()
-        .filter(|j| j.state != "COMPLETED")
+        .filter(|j| j.state != "COMPLETED" && FINAL.contains(&j.state.as_str()))
         .map(|j| format!("array task {} ({}) {} exit {}", j.task.as_deref().unwrap_or("?"), j.id, j.state, j.exit_code))
         .collect();
     let logs = work.join("logs");
@@ -334,14 +358,29 @@ fn job_lines(id: &str) -> anyhow::Result<Vec<JobLine>> {
 const FINAL: &[&str] =
     &["COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "OUT_OF_MEMORY", "NODE_FAIL", "PREEMPTED", "BOOT_FAIL", "DEADLINE"];
 
-/// Polls `scontrol` once a second (`sbatch --wait` backs off to 32 s) until job `id` ends.
+/// Consecutive failed `scontrol` calls `--wait` tolerates (a busy controller times out).
+const SCONTROL_RETRIES: u32 = 20;
+
+/// Polls `scontrol` twice a second (`sbatch --wait` backs off to 32 s) until job `id` ends.
 fn wait_for(id: &str) -> anyhow::Result<JobLine> {
     let start = Instant::now();
+    let mut failures = 0;
     loop {
-        if let Some(j) = job_lines(id)?.into_iter().next()
-            && FINAL.contains(&j.state.as_str())
-        {
-            return Ok(j);
+        match job_lines(id) {
+            Ok(lines) => {
+                failures = 0;
+                if let Some(j) = lines.into_iter().next()
+                    && FINAL.contains(&j.state.as_str())
+                {
+                    return Ok(j);
+                }
+            }
+            Err(e) => {
+                failures += 1;
+                if failures > SCONTROL_RETRIES {
+                    return Err(e.context(format!("{SCONTROL_RETRIES} scontrol calls in a row failed")));
+                }
+            }
         }
         if start.elapsed() > Duration::from_secs(7 * 24 * 3600) {
             bail!("gave up waiting for job {id} after a week");
@@ -362,11 +401,25 @@ pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
     if args.bake.adaptive.adaptive || args.bake.gradients == Some(crate::gradients::GradientEstimator::Central) {
         bail!("--adaptive and --gradients central bakes cannot be sharded yet; use a whole bake");
     }
-    let work = absolute(&args.job.workdir.clone().unwrap_or_else(|| args.bake.output.with_extension("k8s")))?;
+    if args.job.lightvol.is_some() {
+        bail!("--lightvol is for slurm; the k8s jobs run the image's lightvol");
+    }
+    let mount = args.mount.trim_end_matches('/');
+    if !mount.starts_with('/') {
+        bail!("--mount must be an absolute path inside the pods, got {:?}", args.mount);
+    }
+    check_job_value("--mount", mount)?;
     let out = args.bake.output.to_string_lossy().into_owned();
+    if !(out.starts_with(&format!("{mount}/"))) {
+        bail!("-o {out}: the merged volume must be an absolute path under --mount {mount} (the pods keep nothing else)");
+    }
+    check_job_value("the output", &out)?;
+    // The job files are written here; `-o` names a path inside the pods.
+    let stem = args.bake.output.file_stem().map_or_else(|| "lightvol".to_owned(), |s| s.to_string_lossy().into_owned());
+    let work = absolute(&args.job.workdir.clone().unwrap_or_else(|| PathBuf::from(format!("{stem}.k8s"))))?;
     let raw = bake_arguments(argv);
     let bake: Vec<String> = raw.iter().map(|a| sh_quote(a)).chain(quiet(&raw)).collect();
-    let shards = format!("{}/shards", args.mount.trim_end_matches('/'));
+    let shards = sh_quote(&format!("{mount}/shards"));
     let bake_cmd = format!(
         "mkdir -p {shards} && exec lightvol bake {} --shard auto --shards {n} -o {shards}/shard-\"$JOB_COMPLETION_INDEX\".exr",
         bake.join(" ")

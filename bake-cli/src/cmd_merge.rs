@@ -59,9 +59,18 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
 /// Runs `lightvol merge`.
 pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     // Headers first: the whole set is checked before any sum is read or anything written.
+    if args.allow_partial && args.keep_accumulator {
+        bail!("--keep-accumulator cannot be combined with --allow-partial: a partial merge's sums would carry one shard index for several shards");
+    }
     let mut parts: Vec<(BakeMetadata, PathBuf)> = Vec::new();
+    let mut seen: Vec<PathBuf> = Vec::new();
     for p in &args.inputs {
         let ap = accumulator_path(p)?;
+        let canon = std::fs::canonicalize(&ap).unwrap_or_else(|_| ap.clone());
+        if seen.contains(&canon) {
+            bail!("{} is given twice (its samples would count twice)", ap.display());
+        }
+        seen.push(canon);
         let meta = read_accumulator_metadata(&ap).with_context(|| format!("reading {}", ap.display()))?;
         parts.push((meta, ap));
     }
@@ -90,7 +99,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         }
     }
     for w in parts.windows(2) {
-        if w[0].0.shard_index == w[1].0.shard_index && first.shard_count > 1 {
+        if w[0].0.shard_index == w[1].0.shard_index {
             bail!(
                 "shard {} of {} given twice ({} and {})",
                 w[0].0.shard_index,

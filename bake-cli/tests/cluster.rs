@@ -191,3 +191,29 @@ fn slurm_failed_shard_cancels_the_merge() {
     assert!(err.contains("array task 2") && err.contains("FAILED") && err.contains("CANCELLED"), "{err}");
     assert!(!merged.exists());
 }
+
+/// Values that would break out of an `#SBATCH` line or a pod's shell command are refused
+/// in one line, and nothing is written.
+#[test]
+fn job_files_refuse_unsafe_values() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("v.exr");
+    for (extra, want) in [
+        (&["--partition", "gpu\ntouch /tmp/x #"][..], "control character"),
+        (&["--mem", "4G%"][..], "'%'"),
+    ] {
+        let mut a = vec!["slurm", "builtin:city", "--shards", "2", "-o", s(&out)];
+        a.extend_from_slice(extra);
+        let o = lightvol(&a, &[]);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert!(err.contains(want), "{err}");
+        assert!(!d.join("v.slurm").exists());
+    }
+    let o = lightvol(&["k8s", "builtin:city", "--shards", "2", "--image", "x", "--mount", "/data; touch /tmp/x #", "-o", "/data/v.exr", "--workdir", s(&d.join("k"))], &[]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("--mount"), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = lightvol(&["k8s", "builtin:city", "--shards", "2", "--image", "x", "-o", "v.exr", "--workdir", s(&d.join("k"))], &[]);
+    assert!(String::from_utf8_lossy(&o.stderr).contains("under --mount"), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(!d.join("k").exists());
+}

@@ -192,3 +192,21 @@ fn incomplete_and_mixed_sets_are_refused() {
     ok(&["merge", s(&p(0)), s(&p(2)), "--allow-partial", "-o", s(&out)]);
     assert!(out.exists());
 }
+
+/// The same shard file twice (or an unsharded bake merged with itself) would count its
+/// samples twice: refused, as is keeping the accumulator of a partial merge.
+#[test]
+fn the_same_samples_are_never_merged_twice() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let one = d.join("one.exr");
+    bake(&one, &["--keep-accumulator"]);
+    let out = d.join("out.exr");
+    let e = run(&["merge", s(&one.with_extension("lvacc")), s(&one), "-o", s(&out)]).unwrap_err();
+    assert!(e.contains("given twice"), "{e}");
+    let p0 = d.join("p0.exr");
+    bake(&p0, &["--shard", "0/2"]);
+    let e = run(&["merge", s(&p0.with_extension("lvacc")), "--allow-partial", "--keep-accumulator", "-o", s(&out)]).unwrap_err();
+    assert!(e.contains("--allow-partial"), "{e}");
+    assert!(!out.exists());
+}

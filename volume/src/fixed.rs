@@ -7,18 +7,20 @@
 //! every grouping — any shard count, shard order or thread count — gives the same bits.
 //!
 //! **Range.** Terms are rounded to the nearest multiple of 2^-64 ≈ 5.4e-20 (absolute).
-//! A term of magnitude [`MAX_TERM`] (2^60 ≈ 1.15e18) or more, or a non-finite term, cannot be
+//! A term of magnitude [`MAX_TERM`] (2^48 ≈ 2.8e14) or more, or a non-finite term, cannot be
 //! represented and poisons its sum (it reads back as NaN, which the finalizer zeroes and
 //! counts, as it does for a NaN radiance). Sums are exact while their true value stays
-//! below 2^63 ≈ 9.2e18 in magnitude (i128 has 127 value bits, 64 of them fractional);
-//! additions wrap modulo 2^128, which is itself associative, so intermediate overflow in
+//! below 2^63 ≈ 9.2e18 in magnitude (i128 has 127 value bits, 64 of them fractional), which
+//! holds for at least 2^15 terms of the largest size and for any number of terms whose sum
+//! stays below 2^63 — a bake's sums are sample counts times radiances, far below it.
+//! Additions wrap modulo 2^128, which is itself associative, so intermediate overflow in
 //! any order cannot change a final sum that is in range.
 
 /// Fractional bits of the fixed-point sums.
 pub const FRAC_BITS: i32 = 64;
 
-/// Terms at or beyond this magnitude (2^60) are not representable (see the module docs).
-pub const MAX_TERM: f64 = 1_152_921_504_606_846_976.0;
+/// Terms at or beyond this magnitude (2^48) are not representable (see the module docs).
+pub const MAX_TERM: f64 = 281_474_976_710_656.0;
 
 /// 2^FRAC_BITS as f64 (exact: a power of two).
 const SCALE: f64 = 18_446_744_073_709_551_616.0;
@@ -193,13 +195,13 @@ mod tests {
     #[test]
     fn constants_are_powers_of_two() {
         assert_eq!(SCALE, 2f64.powi(FRAC_BITS));
-        assert_eq!(MAX_TERM, 2f64.powi(60));
+        assert_eq!(MAX_TERM, 2f64.powi(48));
     }
 
     /// Round trip: dyadic values are exact; others are within half a unit (2^-65).
     #[test]
     fn round_trip_and_rounding() {
-        for x in [0.0, 1.0, -0.5, 3.25, 1e-19 * 0.0, 2f64.powi(59)] {
+        for x in [0.0, 1.0, -0.5, 3.25, 1e-19 * 0.0, 2f64.powi(47)] {
             assert_eq!(from_fixed(to_fixed(x).unwrap()), x);
         }
         for x in [0.1, -1.0 / 3.0, std::f64::consts::PI, 1e-12] {
@@ -239,12 +241,12 @@ mod tests {
     /// Wrapping intermediate overflow does not change an in-range final sum.
     #[test]
     fn wrapping_is_harmless_for_in_range_results() {
-        let big = 2f64.powi(59);
+        let big = 2f64.powi(47);
         let mut s = FixedSum::default();
-        for _ in 0..20 {
-            s.add(big); // 20 · 2^59 · 2^64 > 2^127: wraps
+        for _ in 0..(1 << 17) {
+            s.add(big); // 2^17 · 2^47 · 2^64 = 2^128: wraps
         }
-        for _ in 0..20 {
+        for _ in 0..(1 << 17) {
             s.add(-big);
         }
         s.add(0.25);
