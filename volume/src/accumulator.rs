@@ -142,7 +142,7 @@ impl Accumulator {
 
     /// Adds `n` to the contribution count (for a merged shard file).
     pub fn add_contributions(&mut self, n: u64) {
-        self.contributions += n;
+        self.contributions = self.contributions.saturating_add(n);
     }
 
     /// The raw fixed-point sums `(numerator, denominator, outside)`, or the name and index of
@@ -284,7 +284,7 @@ impl Accumulator {
         self.numerator.merge(&other.numerator);
         self.denominator.merge(&other.denominator);
         self.outside.merge(&other.outside);
-        self.contributions += other.contributions;
+        self.contributions = self.contributions.saturating_add(other.contributions);
         Ok(())
     }
 
