@@ -15,7 +15,11 @@ use lightvol_volume::{Accumulator, BakeMetadata, GridSpec};
 fn vm_hwm_bytes() -> u64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        })
         .map_or(0, |kib| kib * 1024)
 }
 
@@ -50,13 +54,22 @@ fn main() {
         for node in lo..hi {
             acc.add(node, 0.5, [1.0 + node as f64 * 1e-6, 2.0, 3.0], &basis);
         }
-        let meta = BakeMetadata { method: "doi".into(), shard_index: k, shard_count: shards, scene_hash: "bench".into(), ..BakeMetadata::default() };
+        let meta = BakeMetadata {
+            method: "doi".into(),
+            shard_index: k,
+            shard_count: shards,
+            scene_hash: "bench".into(),
+            ..BakeMetadata::default()
+        };
         let p = dir.path().join(format!("shard-{k}.lvacc"));
         write_accumulator(&p, &acc, &meta).expect("write shard");
         files.push(p);
     }
     let shard_bytes = std::fs::metadata(&files[0]).map_or(0, |m| m.len());
-    eprintln!("wrote {shards} shards of {res}^3 ({shard_bytes} bytes each) in {:.1} s", t0.elapsed().as_secs_f64());
+    eprintln!(
+        "wrote {shards} shards of {res}^3 ({shard_bytes} bytes each) in {:.1} s",
+        t0.elapsed().as_secs_f64()
+    );
     let out = dir.path().join("merged.exr");
     let t1 = std::time::Instant::now();
     let o = std::process::Command::new(std::env::current_exe().expect("self"))
@@ -69,7 +82,8 @@ fn main() {
     let secs = t1.elapsed().as_secs_f64();
     assert!(o.status.success(), "merge failed: {}", String::from_utf8_lossy(&o.stderr));
     let text = String::from_utf8_lossy(&o.stdout);
-    let peak: u64 = text.lines().find_map(|l| l.strip_prefix("child_vm_hwm_bytes ")?.parse().ok()).expect("child peak");
+    let peak: u64 =
+        text.lines().find_map(|l| l.strip_prefix("child_vm_hwm_bytes ")?.parse().ok()).expect("child peak");
     let sums = (n * (coeffs * 3 + 2)) as u64;
     let acc_bytes = sums * 17;
     let volume_bytes = (n * (coeffs * 3 + 1) * 4) as u64;

@@ -308,7 +308,9 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         anyhow::bail!("--samples must be at least 1");
     }
     let shard = match args.shard.as_deref() {
-        None if args.shards.is_some() => bail!("--shards N needs --shard auto (or use `lightvol slurm` / `lightvol k8s`)"),
+        None if args.shards.is_some() => {
+            bail!("--shards N needs --shard auto (or use `lightvol slurm` / `lightvol k8s`)")
+        }
         None => (0, 1),
         Some("auto") => lightvol_sampler::shard::shard_from_env(|k| std::env::var(k).ok(), args.shards)?,
         Some(s) => {
@@ -407,7 +409,8 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             Some(Grads::Gradients(_, _, Some(sums))) => sums.attach_to(&mut acc),
             _ => {}
         }
-        write_accumulator(&acc_path, &acc, &meta).with_context(|| format!("writing {}", acc_path.display()))?;
+        write_accumulator(&acc_path, &acc, &meta)
+            .with_context(|| format!("writing {}", acc_path.display()))?;
         if !args.json {
             eprintln!("wrote {}", acc_path.display());
         }

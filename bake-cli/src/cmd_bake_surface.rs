@@ -27,17 +27,17 @@ use lightvol_hemibasis::encode::{ClampStats, DcTransfer, Encoding};
 use lightvol_hemibasis::map::{CoeffMap, MapError, Plane, map_error};
 use lightvol_hemibasis::texture::{ktx2_compressed, ktx2_rgba8};
 use lightvol_sampler::surface::{
-    BasisChoice, CoefficientMap, InvalidTexels, Quantity, SurfaceReport, SurfaceSettings, UvSet,
-    SurfaceGeometry, assemble_surface, bake_surface, bake_surface_texels, write_surface_exr,
+    BasisChoice, CoefficientMap, InvalidTexels, Quantity, SurfaceGeometry, SurfaceReport, SurfaceSettings,
+    UvSet, assemble_surface, bake_surface, bake_surface_texels, write_surface_exr,
 };
 use lightvol_sampler::{BakeControl, Progress, Tracer, Transport, TransportSettings};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::cmd_bake::{RaysJson, progress_bar};
-use lightvol_sampler::surface::shard_io::{TexelShardHeader, read_texels, write_texels};
 use crate::imaging::{write_atomic, write_png_rgb8};
 use crate::setup::{SceneArgs, with_threads};
+use lightvol_sampler::surface::shard_io::{TexelShardHeader, read_texels, write_texels};
 
 /// What shards of one surface bake share: the scene's geometry and lighting, every setting
 /// and the lightvol version.
@@ -49,7 +49,11 @@ fn shard_fingerprint(loaded: &crate::setup::LoadedScene, settings: &SurfaceSetti
 
 /// The texel records of basis `tag` from shard files: every shard of one bake exactly once,
 /// with the fingerprint of the current scene and options.
-fn shard_records(files: &[PathBuf], tag: &str, fingerprint: &str) -> anyhow::Result<Vec<lightvol_sampler::surface::TexelRecord>> {
+fn shard_records(
+    files: &[PathBuf],
+    tag: &str,
+    fingerprint: &str,
+) -> anyhow::Result<Vec<lightvol_sampler::surface::TexelRecord>> {
     let mut records = Vec::new();
     let mut have: Vec<u32> = Vec::new();
     let mut count: Option<u32> = None;
@@ -59,10 +63,20 @@ fn shard_records(files: &[PathBuf], tag: &str, fingerprint: &str) -> anyhow::Res
             continue;
         }
         if h.fingerprint != fingerprint {
-            bail!("{} was baked from another scene or other options (fingerprint {} vs {fingerprint})", f.display(), h.fingerprint);
+            bail!(
+                "{} was baked from another scene or other options (fingerprint {} vs {fingerprint})",
+                f.display(),
+                h.fingerprint
+            );
         }
         if count.is_some_and(|c| c != h.shard_count) {
-            bail!("{} is shard {} of {}, the others are of {}", f.display(), h.shard_index, h.shard_count, count.unwrap_or(0));
+            bail!(
+                "{} is shard {} of {}, the others are of {}",
+                f.display(),
+                h.shard_index,
+                h.shard_count,
+                count.unwrap_or(0)
+            );
         }
         count = Some(h.shard_count);
         if have.contains(&h.shard_index) {
@@ -448,7 +462,9 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     let shard = match args.shard.as_deref() {
         None if args.shards.is_some() => bail!("--shards N needs --shard auto"),
         None => None,
-        Some("auto") => Some(lightvol_sampler::shard::shard_from_env(|k| std::env::var(k).ok(), args.shards)?),
+        Some("auto") => {
+            Some(lightvol_sampler::shard::shard_from_env(|k| std::env::var(k).ok(), args.shards)?)
+        }
         Some(s) => Some(lightvol_sampler::shard::parse_shard("--shard", s)?),
     };
     let loaded = args.scene.load()?;
@@ -496,7 +512,8 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                     fingerprint,
                     records: part.records.len() as u64,
                 };
-                std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+                std::fs::create_dir_all(&args.output)
+                    .with_context(|| format!("creating {}", args.output.display()))?;
                 let p = args.output.join(format!("texels-{}-{}-of-{}.lvtex", basis.tag(), shard.0, shard.1));
                 write_texels(&p, &part, &header).with_context(|| format!("writing {}", p.display()))?;
                 if !args.quiet {
@@ -505,7 +522,8 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                 continue;
             }
             let out = if args.from_shards.is_empty() {
-                bake_surface(&transport, &settings, &control).with_context(|| format!("baking {}", basis.tag()))?
+                bake_surface(&transport, &settings, &control)
+                    .with_context(|| format!("baking {}", basis.tag()))?
             } else {
                 let records = shard_records(&args.from_shards, basis.tag(), &fingerprint)?;
                 let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;

@@ -115,7 +115,9 @@ pub fn bake_arguments(argv: &[String]) -> Vec<String> {
     while i < argv.len() {
         let a = &argv[i];
         let hit = JOB_ONLY.iter().find(|(name, _)| {
-            a == name || a.starts_with(&format!("{name}=")) || (*name == "-o" && a.starts_with("-o") && a.len() > 2 && !a.starts_with("--"))
+            a == name
+                || a.starts_with(&format!("{name}="))
+                || (*name == "-o" && a.starts_with("-o") && a.len() > 2 && !a.starts_with("--"))
         });
         match hit {
             Some((name, true)) if a == name => i += 2,
@@ -211,8 +213,11 @@ pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> 
             head.push(format!("#SBATCH --{k}={}", sh_quote(v)));
         }
     }
-    let bake_cmd: Vec<String> =
-        [q(&exe), "bake".to_owned()].into_iter().chain(bake.iter().map(|a| sh_quote(a))).chain(quiet(&bake)).collect();
+    let bake_cmd: Vec<String> = [q(&exe), "bake".to_owned()]
+        .into_iter()
+        .chain(bake.iter().map(|a| sh_quote(a)))
+        .chain(quiet(&bake))
+        .collect();
     let bake_script = format!(
         "{}\n# Written by `lightvol slurm`: one array task per shard. `--shard auto` maps the task's\n# SLURM_ARRAY_TASK_ID (with _MIN/_MAX/_STEP) to a dense shard index.\nset -euo pipefail\nexec {} --shard auto --shards {n} -o {}\"$SLURM_ARRAY_TASK_ID\".exr\n",
         head.join("\n"),
@@ -243,20 +248,32 @@ pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> 
         q(&work.join("merge.sbatch"))
     );
     for d in ["shards", "logs"] {
-        std::fs::create_dir_all(work.join(d)).with_context(|| format!("creating {}", work.join(d).display()))?;
+        std::fs::create_dir_all(work.join(d))
+            .with_context(|| format!("creating {}", work.join(d).display()))?;
     }
-    for (name, body) in [("bake.sbatch", &bake_script), ("merge.sbatch", &merge_script), ("submit.sh", &submit_script)] {
+    for (name, body) in
+        [("bake.sbatch", &bake_script), ("merge.sbatch", &merge_script), ("submit.sh", &submit_script)]
+    {
         let p = work.join(name);
-        crate::imaging::write_atomic(&p, body.as_bytes()).with_context(|| format!("writing {}", p.display()))?;
+        crate::imaging::write_atomic(&p, body.as_bytes())
+            .with_context(|| format!("writing {}", p.display()))?;
         make_executable(&p)?;
     }
-    eprintln!("wrote {}/{{bake.sbatch,merge.sbatch,submit.sh}} ({n} shards → {})", work.display(), out.display());
+    eprintln!(
+        "wrote {}/{{bake.sbatch,merge.sbatch,submit.sh}} ({n} shards → {})",
+        work.display(),
+        out.display()
+    );
     if !args.submit {
         println!("{}", work.join("submit.sh").display());
         return Ok(ExitCode::SUCCESS);
     }
     let bake_id = sbatch(&[s(&work.join("bake.sbatch"))])?;
-    let merge_id = sbatch(&[&format!("--dependency=afterok:{bake_id}"), "--kill-on-invalid-dep=yes", s(&work.join("merge.sbatch"))])?;
+    let merge_id = sbatch(&[
+        &format!("--dependency=afterok:{bake_id}"),
+        "--kill-on-invalid-dep=yes",
+        s(&work.join("merge.sbatch")),
+    ])?;
     println!("bake array {bake_id}, merge {merge_id}");
     if !args.wait {
         return Ok(ExitCode::SUCCESS);
@@ -269,13 +286,27 @@ pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> 
     let failed: Vec<String> = job_lines(&bake_id)?
         .into_iter()
         .filter(|j| j.state != "COMPLETED" && FINAL.contains(&j.state.as_str()))
-        .map(|j| format!("array task {} ({}) {} exit {}", j.task.as_deref().unwrap_or("?"), j.id, j.state, j.exit_code))
+        .map(|j| {
+            format!(
+                "array task {} ({}) {} exit {}",
+                j.task.as_deref().unwrap_or("?"),
+                j.id,
+                j.state,
+                j.exit_code
+            )
+        })
         .collect();
     let logs = work.join("logs");
     if failed.is_empty() {
         bail!("merge {merge_id} ended {} (exit {}); see {}", state.state, state.exit_code, logs.display());
     }
-    bail!("{}; merge {merge_id} {} ({}); logs in {}", failed.join(", "), state.state, state.reason, logs.display());
+    bail!(
+        "{}; merge {merge_id} {} ({}); logs in {}",
+        failed.join(", "),
+        state.state,
+        state.reason,
+        logs.display()
+    );
 }
 
 /// `--quiet` for the shard jobs (no progress bars in their logs), unless already given.
@@ -290,7 +321,8 @@ fn s(p: &Path) -> &str {
 #[cfg(unix)]
 fn make_executable(p: &Path) -> anyhow::Result<()> {
     use std::os::unix::fs::PermissionsExt;
-    std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o755)).with_context(|| format!("chmod {}", p.display()))
+    std::fs::set_permissions(p, std::fs::Permissions::from_mode(0o755))
+        .with_context(|| format!("chmod {}", p.display()))
 }
 
 #[cfg(not(unix))]
@@ -300,7 +332,11 @@ fn make_executable(_: &Path) -> anyhow::Result<()> {
 
 /// Submits with `sbatch --parsable`, returning the job id.
 fn sbatch(args: &[&str]) -> anyhow::Result<String> {
-    let o = Proc::new("sbatch").arg("--parsable").args(args).output().context("running sbatch (is Slurm installed and SLURM_CONF set?)")?;
+    let o = Proc::new("sbatch")
+        .arg("--parsable")
+        .args(args)
+        .output()
+        .context("running sbatch (is Slurm installed and SLURM_CONF set?)")?;
     if !o.status.success() {
         bail!("sbatch {}: {}", args.join(" "), String::from_utf8_lossy(&o.stderr).trim());
     }
@@ -355,8 +391,17 @@ fn job_lines(id: &str) -> anyhow::Result<Vec<JobLine>> {
 }
 
 /// Job states after which a job never runs again.
-const FINAL: &[&str] =
-    &["COMPLETED", "FAILED", "CANCELLED", "TIMEOUT", "OUT_OF_MEMORY", "NODE_FAIL", "PREEMPTED", "BOOT_FAIL", "DEADLINE"];
+const FINAL: &[&str] = &[
+    "COMPLETED",
+    "FAILED",
+    "CANCELLED",
+    "TIMEOUT",
+    "OUT_OF_MEMORY",
+    "NODE_FAIL",
+    "PREEMPTED",
+    "BOOT_FAIL",
+    "DEADLINE",
+];
 
 /// Consecutive failed `scontrol` calls `--wait` tolerates (a busy controller times out).
 const SCONTROL_RETRIES: u32 = 20;
@@ -398,7 +443,9 @@ pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
     if args.bake.shard.is_some() {
         bail!("--shard is set by the jobs (--shard auto); give only --shards N");
     }
-    if args.bake.adaptive.adaptive || args.bake.gradients == Some(crate::gradients::GradientEstimator::Central) {
+    if args.bake.adaptive.adaptive
+        || args.bake.gradients == Some(crate::gradients::GradientEstimator::Central)
+    {
         bail!("--adaptive and --gradients central bakes cannot be sharded yet; use a whole bake");
     }
     if args.job.lightvol.is_some() {
@@ -411,11 +458,17 @@ pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
     check_job_value("--mount", mount)?;
     let out = args.bake.output.to_string_lossy().into_owned();
     if !(out.starts_with(&format!("{mount}/"))) {
-        bail!("-o {out}: the merged volume must be an absolute path under --mount {mount} (the pods keep nothing else)");
+        bail!(
+            "-o {out}: the merged volume must be an absolute path under --mount {mount} (the pods keep nothing else)"
+        );
     }
     check_job_value("the output", &out)?;
     // The job files are written here; `-o` names a path inside the pods.
-    let stem = args.bake.output.file_stem().map_or_else(|| "lightvol".to_owned(), |s| s.to_string_lossy().into_owned());
+    let stem = args
+        .bake
+        .output
+        .file_stem()
+        .map_or_else(|| "lightvol".to_owned(), |s| s.to_string_lossy().into_owned());
     let work = absolute(&args.job.workdir.clone().unwrap_or_else(|| PathBuf::from(format!("{stem}.k8s"))))?;
     let raw = bake_arguments(argv);
     let bake: Vec<String> = raw.iter().map(|a| sh_quote(a)).chain(quiet(&raw)).collect();
@@ -448,10 +501,13 @@ pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
     std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
     // JSON is YAML (YAML 1.2 is a superset), and kubectl reads either.
     let header = "# Written by `lightvol k8s`. Apply the bake, wait for it, then apply the merge:\n#   kubectl apply -f bake-job.yaml\n#   kubectl wait --for=condition=complete --timeout=24h job/lightvol-bake\n#   kubectl apply -f merge-job.yaml\n";
-    for (file, j) in [("bake-job.yaml", job("bake", &bake_cmd, true)), ("merge-job.yaml", job("merge", &merge_cmd, false))] {
+    for (file, j) in
+        [("bake-job.yaml", job("bake", &bake_cmd, true)), ("merge-job.yaml", job("merge", &merge_cmd, false))]
+    {
         let p = work.join(file);
         let body = format!("{header}{}\n", serde_json::to_string_pretty(&j).expect("plain data"));
-        crate::imaging::write_atomic(&p, body.as_bytes()).with_context(|| format!("writing {}", p.display()))?;
+        crate::imaging::write_atomic(&p, body.as_bytes())
+            .with_context(|| format!("writing {}", p.display()))?;
     }
     println!("{}", work.display());
     eprintln!(
@@ -471,7 +527,24 @@ mod tests {
 
     #[test]
     fn job_only_options_are_removed_in_every_spelling() {
-        let argv = v(&["builtin:city", "--shards", "4", "--samples", "8", "-o", "v.exr", "--partition=gpu", "--submit", "--wait", "--time", "1:00", "-ox.exr", "--output=y.exr", "--res", "4,4,4"]);
+        let argv = v(&[
+            "builtin:city",
+            "--shards",
+            "4",
+            "--samples",
+            "8",
+            "-o",
+            "v.exr",
+            "--partition=gpu",
+            "--submit",
+            "--wait",
+            "--time",
+            "1:00",
+            "-ox.exr",
+            "--output=y.exr",
+            "--res",
+            "4,4,4",
+        ]);
         assert_eq!(bake_arguments(&argv), v(&["builtin:city", "--samples", "8", "--res", "4,4,4"]));
     }
 

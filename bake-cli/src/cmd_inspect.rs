@@ -188,7 +188,9 @@ pub fn summarize(label: &str, scene: &Scene, up: UpAxis) -> SceneSummary {
         .punctual
         .iter()
         .map(|l| match l {
-            PunctualLight::Point { position, intensity } => format!("point at {} intensity {}", v(f(*position)), v(*intensity)),
+            PunctualLight::Point { position, intensity } => {
+                format!("point at {} intensity {}", v(f(*position)), v(*intensity))
+            }
             PunctualLight::Spot { position, axis, intensity, inner, outer } => format!(
                 "spot at {} along {} intensity {} cone {:.1}°..{:.1}°",
                 v(f(*position)),
@@ -204,7 +206,9 @@ pub fn summarize(label: &str, scene: &Scene, up: UpAxis) -> SceneSummary {
         .collect();
     let environment = match &scene.environment {
         Environment::Black => "black".to_owned(),
-        Environment::UniformSky { sky, ground } => format!("uniform sky {} ground {}", v(*sky), v(ground.unwrap_or([0.0; 3]))),
+        Environment::UniformSky { sky, ground } => {
+            format!("uniform sky {} ground {}", v(*sky), v(ground.unwrap_or([0.0; 3])))
+        }
         Environment::Map(_) => "latitude-longitude map".to_owned(),
     };
     let (lo, hi) = scene.bounds();
@@ -225,10 +229,18 @@ pub fn summarize(label: &str, scene: &Scene, up: UpAxis) -> SceneSummary {
             .report
             .extensions
             .iter()
-            .map(|e| ExtensionInfo { name: e.name.clone(), required: e.required, used_in: e.used_in.clone(), treatment: e.treatment.clone() })
+            .map(|e| ExtensionInfo {
+                name: e.name.clone(),
+                required: e.required,
+                used_in: e.used_in.clone(),
+                treatment: e.treatment.clone(),
+            })
             .collect(),
         lights,
-        sun: scene.sun.as_ref().map(|s| format!("towards {} irradiance {}", v(f(s.direction)), v(s.irradiance))),
+        sun: scene
+            .sun
+            .as_ref()
+            .map(|s| format!("towards {} irradiance {}", v(f(s.direction)), v(s.irradiance))),
         environment,
         cameras: scene
             .cameras
@@ -272,7 +284,10 @@ fn text(s: &SceneSummary) -> String {
             Some(c) => format!("MASK cutoff {c}"),
             None => m.alpha_mode.to_owned(),
         };
-        let tex = m.texture.map_or_else(|| "no texture".to_owned(), |t| format!("texture {}x{}{}", t[0], t[1], if m.texture_alpha { " with alpha" } else { "" }));
+        let tex = m.texture.map_or_else(
+            || "no texture".to_owned(),
+            |t| format!("texture {}x{}{}", t[0], t[1], if m.texture_alpha { " with alpha" } else { "" }),
+        );
         println!(
             "  {:<24} {:>9} tris  {}  {}  albedo {}  alpha {}  {}{}",
             m.name,
@@ -282,12 +297,22 @@ fn text(s: &SceneSummary) -> String {
             v(m.albedo),
             m.alpha,
             tex,
-            if m.emission.iter().any(|&e| e > 0.0) { format!("  emits {}", v(m.emission)) } else { String::new() }
+            if m.emission.iter().any(|&e| e > 0.0) {
+                format!("  emits {}", v(m.emission))
+            } else {
+                String::new()
+            }
         );
     }
     println!("extensions: {}", s.extensions.len());
     for e in &s.extensions {
-        println!("  {}{} in [{}]: {}", e.name, if e.required { " (required)" } else { "" }, e.used_in.join(", "), e.treatment);
+        println!(
+            "  {}{} in [{}]: {}",
+            e.name,
+            if e.required { " (required)" } else { "" },
+            e.used_in.join(", "),
+            e.treatment
+        );
     }
     println!("lights: {}", s.lights.len());
     for l in &s.lights {
@@ -328,7 +353,8 @@ pub fn run(args: &InspectArgs) -> anyhow::Result<ExitCode> {
     };
     match &args.output {
         Some(p) => {
-            crate::imaging::write_atomic(p, body.as_bytes()).with_context(|| format!("writing {}", p.display()))?;
+            crate::imaging::write_atomic(p, body.as_bytes())
+                .with_context(|| format!("writing {}", p.display()))?;
         }
         None => print!("{body}"),
     }

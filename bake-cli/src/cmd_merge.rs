@@ -10,9 +10,9 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use lightvol_volume::BakeMetadata;
 use lightvol_volume::accumulator_io::{merge_accumulator_file, read_accumulator_metadata};
 use lightvol_volume::exr_io::{ExrOptions, write_exr};
-use lightvol_volume::BakeMetadata;
 
 /// `lightvol merge`.
 #[derive(Debug, Args)]
@@ -60,7 +60,9 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
 pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     // Headers first: the whole set is checked before any sum is read or anything written.
     if args.allow_partial && args.keep_accumulator {
-        bail!("--keep-accumulator cannot be combined with --allow-partial: a partial merge's sums would carry one shard index for several shards");
+        bail!(
+            "--keep-accumulator cannot be combined with --allow-partial: a partial merge's sums would carry one shard index for several shards"
+        );
     }
     let mut parts: Vec<(BakeMetadata, PathBuf)> = Vec::new();
     let mut seen: Vec<PathBuf> = Vec::new();
@@ -124,7 +126,8 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     let mut meta = first.clone();
     meta.samples = 0;
     for (m, p) in &parts {
-        let (a, _) = merge_accumulator_file(acc.take(), p).with_context(|| format!("merging {}", p.display()))?;
+        let (a, _) =
+            merge_accumulator_file(acc.take(), p).with_context(|| format!("merging {}", p.display()))?;
         acc = Some(a);
         meta.samples += m.samples;
     }
@@ -151,10 +154,13 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         None => acc.finalize(),
         Some(mass) => {
             let lambda = lsq_lambda(&meta.method).with_context(|| {
-                format!("the shards carry a mass matrix but their method '{}' names no least-squares fit", meta.method)
+                format!(
+                    "the shards carry a mass matrix but their method '{}' names no least-squares fit",
+                    meta.method
+                )
             })?;
-            let (values, solve) =
-                lightvol_sampler::fit::solve_least_squares(&mass, &acc, lambda).context("least-squares node fit")?;
+            let (values, solve) = lightvol_sampler::fit::solve_least_squares(&mass, &acc, lambda)
+                .context("least-squares node fit")?;
             eprintln!(
                 "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
                 solve.active_nodes, solve.max_iterations, solve.max_relative_residual
@@ -169,7 +175,12 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         Some(g) => {
             let (grads, rep) = g.finish(&vol).context("solving the basis-gradient systems")?;
             eprintln!("basis gradients: {} nodes solved, {} singular", rep.solved, rep.singular);
-            lightvol_volume::exr_io::write_exr_with_gradients(&args.output, &vol, &grads, &ExrOptions::default())
+            lightvol_volume::exr_io::write_exr_with_gradients(
+                &args.output,
+                &vol,
+                &grads,
+                &ExrOptions::default(),
+            )
         }
     }
     .with_context(|| format!("writing {}", args.output.display()))?;
@@ -184,7 +195,8 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
 
 /// λ of a bake labelled `METHOD fit=lsq:λ` (as `bake --fit lsq` labels its metadata).
 fn lsq_lambda(method: &str) -> Option<f64> {
-    let fit: lightvol_sampler::fit::Fit = method.split_whitespace().find_map(|w| w.strip_prefix("fit="))?.parse().ok()?;
+    let fit: lightvol_sampler::fit::Fit =
+        method.split_whitespace().find_map(|w| w.strip_prefix("fit="))?.parse().ok()?;
     match fit {
         lightvol_sampler::fit::Fit::LeastSquares { lambda } => Some(lambda),
         lightvol_sampler::fit::Fit::Average => None,

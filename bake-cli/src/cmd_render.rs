@@ -99,7 +99,8 @@ impl Camera {
     /// A camera of the scene file (`SceneCamera`, already in the internal frame).
     pub fn from_scene(c: &lightvol_sampler::SceneCamera) -> anyhow::Result<Self> {
         let forward = c.forward.try_normalize().context("file camera has no view direction")?;
-        let right = forward.cross(c.up).try_normalize().context("file camera's up is parallel to its view")?;
+        let right =
+            forward.cross(c.up).try_normalize().context("file camera's up is parallel to its view")?;
         let up = right.cross(forward);
         Ok(Self { eye: c.position, forward, right, up, tan_half: (c.yfov / 2.0).tan() })
     }
@@ -113,7 +114,8 @@ impl Camera {
             Err(_) => scene.cameras.iter().find(|c| c.name == key),
         };
         let Some(c) = found else {
-            let names: Vec<String> = scene.cameras.iter().enumerate().map(|(i, c)| format!("{i} '{}'", c.name)).collect();
+            let names: Vec<String> =
+                scene.cameras.iter().enumerate().map(|(i, c)| format!("{i} '{}'", c.name)).collect();
             if names.is_empty() {
                 bail!("--camera {s}: the scene file has no perspective camera");
             }

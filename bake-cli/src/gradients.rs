@@ -84,7 +84,9 @@ pub fn bake_with(
     label: &str,
 ) -> anyhow::Result<GradientBake> {
     if settings.shard.1 != 1 && estimator == GradientEstimator::Central {
-        bail!("--gradients central cannot be sharded (its extra projections are per node); use --gradients basis");
+        bail!(
+            "--gradients central cannot be sharded (its extra projections are per node); use --gradients basis"
+        );
     }
     if estimator == GradientEstimator::Basis && settings.method == Method::Point {
         bail!(

@@ -316,7 +316,6 @@ impl GridArgs {
     }
 }
 
-
 /// Parses a method name.
 pub fn parse_method(s: &str) -> anyhow::Result<Method> {
     s.parse::<Method>().map_err(|e| anyhow::anyhow!(e))

@@ -41,7 +41,14 @@ fn s(p: &Path) -> &str {
 fn same_file(a: &Path, b: &Path) {
     let (x, y) = (std::fs::read(a).unwrap(), std::fs::read(b).unwrap());
     let first = x.iter().zip(&y).position(|(p, q)| p != q);
-    assert!(x.len() == y.len() && first.is_none(), "{} and {} differ: {} vs {} bytes, first difference at {first:?}", a.display(), b.display(), x.len(), y.len());
+    assert!(
+        x.len() == y.len() && first.is_none(),
+        "{} and {} differ: {} vs {} bytes, first difference at {first:?}",
+        a.display(),
+        b.display(),
+        x.len(),
+        y.len()
+    );
 }
 
 fn whole_bake(dir: &Path) -> PathBuf {
@@ -69,17 +76,35 @@ fn shard_auto_reads_the_scheduler() {
         out.with_extension("lvacc")
     };
     let explicit = std::fs::read(bake("explicit.exr", &["--shard", "2/4"], &[])).unwrap();
-    let slurm = [("SLURM_ARRAY_TASK_ID", "5"), ("SLURM_ARRAY_TASK_MIN", "1"), ("SLURM_ARRAY_TASK_MAX", "7"), ("SLURM_ARRAY_TASK_STEP", "2"), ("SLURM_ARRAY_TASK_COUNT", "4")];
+    let slurm = [
+        ("SLURM_ARRAY_TASK_ID", "5"),
+        ("SLURM_ARRAY_TASK_MIN", "1"),
+        ("SLURM_ARRAY_TASK_MAX", "7"),
+        ("SLURM_ARRAY_TASK_STEP", "2"),
+        ("SLURM_ARRAY_TASK_COUNT", "4"),
+    ];
     assert_eq!(std::fs::read(bake("slurm.exr", &["--shard", "auto"], &slurm)).unwrap(), explicit);
     let k8s = [("JOB_COMPLETION_INDEX", "2")];
-    assert_eq!(std::fs::read(bake("k8s.exr", &["--shard", "auto", "--shards", "4"], &k8s)).unwrap(), explicit);
+    assert_eq!(
+        std::fs::read(bake("k8s.exr", &["--shard", "auto", "--shards", "4"], &k8s)).unwrap(),
+        explicit
+    );
     let aws = [("AWS_BATCH_JOB_ARRAY_INDEX", "2")];
-    assert_eq!(std::fs::read(bake("aws.exr", &["--shard", "auto", "--shards", "4"], &aws)).unwrap(), explicit);
-    assert_eq!(std::fs::read(bake("env.exr", &["--shard", "auto"], &[("LIGHTVOL_SHARD", "2/4")])).unwrap(), explicit);
+    assert_eq!(
+        std::fs::read(bake("aws.exr", &["--shard", "auto", "--shards", "4"], &aws)).unwrap(),
+        explicit
+    );
+    assert_eq!(
+        std::fs::read(bake("env.exr", &["--shard", "auto"], &[("LIGHTVOL_SHARD", "2/4")])).unwrap(),
+        explicit
+    );
     let o = lightvol(&["bake", "builtin:city", "--shard", "auto", "-o", s(&d.join("none.exr"))], &[]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1));
-    assert!(err.lines().count() == 1 && err.contains("SLURM_ARRAY_TASK_ID") && err.contains("LIGHTVOL_SHARD"), "{err}");
+    assert!(
+        err.lines().count() == 1 && err.contains("SLURM_ARRAY_TASK_ID") && err.contains("LIGHTVOL_SHARD"),
+        "{err}"
+    );
     let o = lightvol(&["bake", "builtin:city", "--shard", "auto", "-o", s(&d.join("k.exr"))], &k8s);
     assert!(String::from_utf8_lossy(&o.stderr).contains("--shards N"));
 }
@@ -90,7 +115,18 @@ fn shard_auto_reads_the_scheduler() {
 fn k8s_writes_an_indexed_job_and_a_merge_job() {
     let dir = tempfile::tempdir().unwrap();
     let work = dir.path().join("jobs");
-    let mut a = vec!["k8s", "builtin:city", "--shards", "3", "--image", "registry.example/lightvol:1", "--workdir", s(&work), "-o", "/data/city.exr"];
+    let mut a = vec![
+        "k8s",
+        "builtin:city",
+        "--shards",
+        "3",
+        "--image",
+        "registry.example/lightvol:1",
+        "--workdir",
+        s(&work),
+        "-o",
+        "/data/city.exr",
+    ];
     a.extend_from_slice(&BAKE);
     ok(&a, &[]);
     let read = |f: &str| -> serde_json::Value {
@@ -103,7 +139,13 @@ fn k8s_writes_an_indexed_job_and_a_merge_job() {
     assert_eq!(bake["spec"]["completionMode"], "Indexed");
     assert_eq!(bake["spec"]["completions"], 3);
     let cmd = bake["spec"]["template"]["spec"]["containers"][0]["command"][2].as_str().unwrap();
-    assert!(cmd.contains("lightvol bake builtin:city") && cmd.contains("--shard auto --shards 3") && cmd.contains("$JOB_COMPLETION_INDEX") && cmd.contains("--samples 6"), "{cmd}");
+    assert!(
+        cmd.contains("lightvol bake builtin:city")
+            && cmd.contains("--shard auto --shards 3")
+            && cmd.contains("$JOB_COMPLETION_INDEX")
+            && cmd.contains("--samples 6"),
+        "{cmd}"
+    );
     assert!(!cmd.contains("--image") && !cmd.contains("/data/city.exr"), "{cmd}");
     let merge = read("merge-job.yaml");
     let mcmd = merge["spec"]["template"]["spec"]["containers"][0]["command"][2].as_str().unwrap();
@@ -115,8 +157,13 @@ fn k8s_writes_an_indexed_job_and_a_merge_job() {
 fn slurm_available(test: &str) -> bool {
     let ok = Command::new("sinfo").arg("-h").output().is_ok_and(|o| o.status.success());
     if !ok {
-        let msg = format!("SLURM TESTS NOT RUN ({test}): no working sinfo/sbatch (start one with ci/slurm-up.sh and source its env)");
-        assert!(std::env::var("LIGHTVOL_REQUIRE_SLURM").as_deref() != Ok("1"), "{msg}, and LIGHTVOL_REQUIRE_SLURM=1");
+        let msg = format!(
+            "SLURM TESTS NOT RUN ({test}): no working sinfo/sbatch (start one with ci/slurm-up.sh and source its env)"
+        );
+        assert!(
+            std::env::var("LIGHTVOL_REQUIRE_SLURM").as_deref() != Ok("1"),
+            "{msg}, and LIGHTVOL_REQUIRE_SLURM=1"
+        );
         // Straight to the process's stderr, past the test harness's capture, so that a run
         // without a cluster says so.
         use std::io::Write as _;
@@ -135,12 +182,29 @@ fn slurm_submit_wait_equals_the_whole_bake() {
     let d = dir.path();
     let whole = whole_bake(d);
     let merged = d.join("cluster.exr");
-    let mut a = vec!["slurm", "builtin:city", "--shards", "4", "--submit", "--wait", "-o", s(&merged), "--lightvol", BIN];
+    let mut a = vec![
+        "slurm",
+        "builtin:city",
+        "--shards",
+        "4",
+        "--submit",
+        "--wait",
+        "-o",
+        s(&merged),
+        "--lightvol",
+        BIN,
+    ];
     a.extend_from_slice(&BAKE);
     let o = ok(&a, &[]);
     assert!(String::from_utf8_lossy(&o.stdout).contains("bake array"));
     same_file(&merged, &whole);
-    assert_eq!(std::fs::read_dir(d.join("cluster.slurm/shards")).unwrap().filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "lvacc")).count(), 4);
+    assert_eq!(
+        std::fs::read_dir(d.join("cluster.slurm/shards"))
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "lvacc"))
+            .count(),
+        4
+    );
 }
 
 /// A hand-written sparse array (`--array=1-8:2`: tasks 1, 3, 5, 7) with `--shard auto`,
@@ -153,8 +217,23 @@ fn slurm_sparse_array_with_shard_auto() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let whole = whole_bake(d);
-    let wrap = format!("{BIN} bake builtin:city {} --shard auto -o {}/s-$SLURM_ARRAY_TASK_ID.exr", BAKE.join(" "), s(d));
-    let o = Command::new("sbatch").args(["--parsable", "--wait", "--array=1-8:2", "--output", &format!("{}/log-%a.txt", s(d)), "--wrap", &wrap]).output().unwrap();
+    let wrap = format!(
+        "{BIN} bake builtin:city {} --shard auto -o {}/s-$SLURM_ARRAY_TASK_ID.exr",
+        BAKE.join(" "),
+        s(d)
+    );
+    let o = Command::new("sbatch")
+        .args([
+            "--parsable",
+            "--wait",
+            "--array=1-8:2",
+            "--output",
+            &format!("{}/log-%a.txt", s(d)),
+            "--wrap",
+            &wrap,
+        ])
+        .output()
+        .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let shards: Vec<String> = [1, 3, 5, 7].iter().map(|t| format!("{}/s-{t}.lvacc", s(d))).collect();
     let merged = d.join("m.exr");
@@ -183,7 +262,18 @@ fn slurm_failed_shard_cancels_the_merge() {
         std::fs::set_permissions(&fake, std::fs::Permissions::from_mode(0o755)).unwrap();
     }
     let merged = d.join("never.exr");
-    let mut a = vec!["slurm", "builtin:city", "--shards", "4", "--submit", "--wait", "-o", s(&merged), "--lightvol", s(&fake)];
+    let mut a = vec![
+        "slurm",
+        "builtin:city",
+        "--shards",
+        "4",
+        "--submit",
+        "--wait",
+        "-o",
+        s(&merged),
+        "--lightvol",
+        s(&fake),
+    ];
     a.extend_from_slice(&BAKE);
     let o = lightvol(&a, &[]);
     let err = String::from_utf8_lossy(&o.stderr);
@@ -199,10 +289,9 @@ fn job_files_refuse_unsafe_values() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let out = d.join("v.exr");
-    for (extra, want) in [
-        (&["--partition", "gpu\ntouch /tmp/x #"][..], "control character"),
-        (&["--mem", "4G%"][..], "'%'"),
-    ] {
+    for (extra, want) in
+        [(&["--partition", "gpu\ntouch /tmp/x #"][..], "control character"), (&["--mem", "4G%"][..], "'%'")]
+    {
         let mut a = vec!["slurm", "builtin:city", "--shards", "2", "-o", s(&out)];
         a.extend_from_slice(extra);
         let o = lightvol(&a, &[]);
@@ -211,9 +300,43 @@ fn job_files_refuse_unsafe_values() {
         assert!(err.contains(want), "{err}");
         assert!(!d.join("v.slurm").exists());
     }
-    let o = lightvol(&["k8s", "builtin:city", "--shards", "2", "--image", "x", "--mount", "/data; touch /tmp/x #", "-o", "/data/v.exr", "--workdir", s(&d.join("k"))], &[]);
+    let o = lightvol(
+        &[
+            "k8s",
+            "builtin:city",
+            "--shards",
+            "2",
+            "--image",
+            "x",
+            "--mount",
+            "/data; touch /tmp/x #",
+            "-o",
+            "/data/v.exr",
+            "--workdir",
+            s(&d.join("k")),
+        ],
+        &[],
+    );
     assert!(String::from_utf8_lossy(&o.stderr).contains("--mount"), "{}", String::from_utf8_lossy(&o.stderr));
-    let o = lightvol(&["k8s", "builtin:city", "--shards", "2", "--image", "x", "-o", "v.exr", "--workdir", s(&d.join("k"))], &[]);
-    assert!(String::from_utf8_lossy(&o.stderr).contains("under --mount"), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = lightvol(
+        &[
+            "k8s",
+            "builtin:city",
+            "--shards",
+            "2",
+            "--image",
+            "x",
+            "-o",
+            "v.exr",
+            "--workdir",
+            s(&d.join("k")),
+        ],
+        &[],
+    );
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("under --mount"),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
     assert!(!d.join("k").exists());
 }

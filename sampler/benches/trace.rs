@@ -122,7 +122,10 @@ fn canopy(mode: &str) -> (Tracer, Vec<(DVec3, DVec3)>) {
             if x * x + y * y < 32.0 * 32.0 { 1.0 } else { 0.0 }
         })
         .collect();
-    let tex = Texture::from_linear(n, n, vec![[0.2, 0.6, 0.2]; (n * n) as usize]).unwrap().with_alpha(alpha).unwrap();
+    let tex = Texture::from_linear(n, n, vec![[0.2, 0.6, 0.2]; (n * n) as usize])
+        .unwrap()
+        .with_alpha(alpha)
+        .unwrap();
     let mut b = SceneBuilder::new("canopy");
     let t = b.add_texture(tex);
     let mut m = Material::diffuse("leaf", [1.0; 3]).two_sided();

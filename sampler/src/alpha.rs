@@ -56,7 +56,8 @@ impl AlphaTable {
         let mut mat_map: Vec<Option<u32>> = vec![None; scene.materials.len()];
         let mut tex_map: Vec<Option<u32>> = vec![None; scene.textures.len()];
         for (mi, m) in scene.materials.iter().enumerate() {
-            let tex = m.albedo_texture.filter(|&i| scene.textures.get(i as usize).is_some_and(Texture::has_alpha));
+            let tex =
+                m.albedo_texture.filter(|&i| scene.textures.get(i as usize).is_some_and(Texture::has_alpha));
             let trivially_opaque = match m.alpha_mode {
                 AlphaMode::Opaque => true,
                 AlphaMode::Mask { cutoff } => tex.is_none() && m.alpha >= cutoff,

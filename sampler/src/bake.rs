@@ -279,7 +279,10 @@ impl SparseSums {
         let k = self.k;
         SubsetSums {
             nodes: order.iter().map(|&i| self.nodes[i]).collect(),
-            numerator: order.iter().flat_map(|&i| (i * k..(i + 1) * k).map(|j| self.numerator.get(j))).collect(),
+            numerator: order
+                .iter()
+                .flat_map(|&i| (i * k..(i + 1) * k).map(|j| self.numerator.get(j)))
+                .collect(),
             denominator: order.iter().map(|&i| self.denominator.get(i)).collect(),
             outside: order.iter().map(|&i| self.outside.get(i)).collect(),
         }

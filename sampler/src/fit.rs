@@ -24,8 +24,8 @@
 //! 27 non-zeros per row and is solved per coefficient by Jacobi-preconditioned conjugate
 //! gradients, in a fixed order (deterministic for any thread count).
 
-use lightvol_volume::fixed::FixedSums;
 use lightvol_volume::FillReport;
+use lightvol_volume::fixed::FixedSums;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
@@ -283,11 +283,16 @@ pub fn solve_least_squares(
     let num = acc.numerator();
     let active = active_nodes(acc);
     let dense = mass.dense();
-    let diag: Vec<f64> = (0..n)
-        .map(
-            |i| if active[i] { dense.rows[i][offset_slot([0, 0, 0])] + lambda * dense.row_sum(i) } else { 1.0 },
-        )
-        .collect();
+    let diag: Vec<f64> =
+        (0..n)
+            .map(|i| {
+                if active[i] {
+                    dense.rows[i][offset_slot([0, 0, 0])] + lambda * dense.row_sum(i)
+                } else {
+                    1.0
+                }
+            })
+            .collect();
     let columns: Vec<(Vec<f64>, usize, f64)> = (0..k)
         .into_par_iter()
         .map(|ch| {

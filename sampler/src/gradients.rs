@@ -204,7 +204,12 @@ impl BasisGradientAccumulator {
     #[must_use]
     pub fn new(grid: &GridSpec, coeffs: usize) -> Self {
         let n = grid.node_count();
-        Self { grid: grid.clone(), k: coeffs * 3, m: FixedSums::zeros(n * 16), r: FixedSums::zeros(n * 4 * coeffs * 3) }
+        Self {
+            grid: grid.clone(),
+            k: coeffs * 3,
+            m: FixedSums::zeros(n * 16),
+            r: FixedSums::zeros(n * 4 * coeffs * 3),
+        }
     }
 
     /// Stores the sums in `acc`'s auxiliary sums (for a shard file): every node's 16 matrix

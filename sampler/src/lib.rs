@@ -33,7 +33,10 @@ pub use lights::{Environment, PunctualLight, Sun};
 pub use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 pub use load_obj::{LoadOptions, load_obj, load_scene};
 pub use reference::{reference_irradiance, reference_irradiance_many};
-pub use scene::{AlphaMode, ExtensionReport, LoadReport, Material, MeshAttributes, Scene, SceneBuilder, SceneCamera, Triangle, TriangleRef, UpAxis};
+pub use scene::{
+    AlphaMode, ExtensionReport, LoadReport, Material, MeshAttributes, Scene, SceneBuilder, SceneCamera,
+    Triangle, TriangleRef, UpAxis,
+};
 pub use stats::{BakeStats, RayCounts};
 pub use transport::{PathRng, Transport, TransportSettings};
 
@@ -46,8 +49,7 @@ mod cornell_tests {
     /// emits (17, 12, 4); +Y-up millimetres become +Z up.
     #[test]
     fn cornell_box_loads() {
-        let p =
-            Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/cornell_box/cornell_box.obj"));
+        let p = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/cornell_box/cornell_box.obj"));
         let s = load_scene(p, &LoadOptions::default()).unwrap();
         assert_eq!(s.triangles.len(), 36);
         assert!(s.report.warnings.is_empty(), "{:?}", s.report.warnings);
@@ -89,13 +91,24 @@ mod vendored_scene_tests {
             assert_eq!(kept, instanced, "{file}");
             assert_eq!(s.report.unique_triangles, unique, "{file}");
             assert_eq!(s.cameras.len(), cameras, "{file}");
-            assert!(s.report.warnings.iter().all(|w| !w.contains("texture")), "{file}: {:?}", s.report.warnings);
+            assert!(
+                s.report.warnings.iter().all(|w| !w.contains("texture")),
+                "{file}: {:?}",
+                s.report.warnings
+            );
         }
         let b = load_scene(&data("breakfast_room/BreakfastRoom.gltf"), &LoadOptions::default()).unwrap();
         assert_eq!(b.textures.len(), 3);
         assert_eq!(b.materials.len(), 14);
-        let ext: Vec<_> = b.report.extensions.iter().map(|e| (e.name.as_str(), e.treatment.as_str())).collect();
-        assert_eq!(ext, [("MSFT_texture_dds", "texture extension not supported, core image used"), ("KHR_materials_specular", "material extension not supported, core material used")]);
+        let ext: Vec<_> =
+            b.report.extensions.iter().map(|e| (e.name.as_str(), e.treatment.as_str())).collect();
+        assert_eq!(
+            ext,
+            [
+                ("MSFT_texture_dds", "texture extension not supported, core image used"),
+                ("KHR_materials_specular", "material extension not supported, core material used")
+            ]
+        );
         let z = load_scene(&data("zdm2/zdm2.glb"), &LoadOptions::default()).unwrap();
         assert_eq!(z.materials.len(), 1);
         assert_eq!(z.materials[0].albedo, load_obj::DEFAULT_ALBEDO);

@@ -48,21 +48,33 @@ pub fn parse_shard(what: &str, s: &str) -> Result<(u32, u32), ShardError> {
 /// [`ShardError::NotFound`] when no variable applies; [`ShardError::Invalid`] for values
 /// that do not form a dense shard (an array index off the array's step, `--shards`
 /// disagreeing with the array's size, a missing `--shards` for Kubernetes or AWS).
-pub fn shard_from_env(env: impl Fn(&str) -> Option<String>, shards: Option<u32>) -> Result<(u32, u32), ShardError> {
+pub fn shard_from_env(
+    env: impl Fn(&str) -> Option<String>,
+    shards: Option<u32>,
+) -> Result<(u32, u32), ShardError> {
     let num = |k: &str| -> Result<Option<i64>, ShardError> {
-        env(k).map(|v| v.trim().parse::<i64>().map_err(|_| ShardError::Invalid(format!("{k}={v} is not an integer")))).transpose()
+        env(k)
+            .map(|v| {
+                v.trim().parse::<i64>().map_err(|_| ShardError::Invalid(format!("{k}={v} is not an integer")))
+            })
+            .transpose()
     };
     let check_n = |n: u32, from: &str| -> Result<(), ShardError> {
         match shards {
-            Some(s) if s != n => Err(ShardError::Invalid(format!("--shards {s} disagrees with {from}, which has {n} tasks"))),
+            Some(s) if s != n => {
+                Err(ShardError::Invalid(format!("--shards {s} disagrees with {from}, which has {n} tasks")))
+            }
             _ => Ok(()),
         }
     };
     if let Some(id) = num("SLURM_ARRAY_TASK_ID")? {
-        let min = num("SLURM_ARRAY_TASK_MIN")?.ok_or_else(|| ShardError::Invalid("SLURM_ARRAY_TASK_ID without SLURM_ARRAY_TASK_MIN".into()))?;
-        let max = num("SLURM_ARRAY_TASK_MAX")?.ok_or_else(|| ShardError::Invalid("SLURM_ARRAY_TASK_ID without SLURM_ARRAY_TASK_MAX".into()))?;
+        let min = num("SLURM_ARRAY_TASK_MIN")?
+            .ok_or_else(|| ShardError::Invalid("SLURM_ARRAY_TASK_ID without SLURM_ARRAY_TASK_MIN".into()))?;
+        let max = num("SLURM_ARRAY_TASK_MAX")?
+            .ok_or_else(|| ShardError::Invalid("SLURM_ARRAY_TASK_ID without SLURM_ARRAY_TASK_MAX".into()))?;
         let step = num("SLURM_ARRAY_TASK_STEP")?.unwrap_or(1);
-        if step < 1 || max < min || id < min || id > max || (id - min) % step != 0 || (max - min) % step != 0 {
+        if step < 1 || max < min || id < min || id > max || (id - min) % step != 0 || (max - min) % step != 0
+        {
             return Err(ShardError::Invalid(format!(
                 "Slurm array task {id} is not on the arithmetic array {min}-{max}:{step} (use --array=A-B[:S])"
             )));
@@ -81,8 +93,13 @@ pub fn shard_from_env(env: impl Fn(&str) -> Option<String>, shards: Option<u32>)
     }
     for var in ["JOB_COMPLETION_INDEX", "AWS_BATCH_JOB_ARRAY_INDEX"] {
         if let Some(i) = num(var)? {
-            let n = shards.ok_or_else(|| ShardError::Invalid(format!("{var} is set: give the shard count with --shards N")))?;
-            let k = u32::try_from(i).ok().filter(|&k| k < n).ok_or_else(|| ShardError::Invalid(format!("{var}={i} is not below --shards {n}")))?;
+            let n = shards.ok_or_else(|| {
+                ShardError::Invalid(format!("{var} is set: give the shard count with --shards N"))
+            })?;
+            let k = u32::try_from(i)
+                .ok()
+                .filter(|&k| k < n)
+                .ok_or_else(|| ShardError::Invalid(format!("{var}={i} is not below --shards {n}")))?;
             return Ok((k, n));
         }
     }
@@ -106,16 +123,23 @@ mod tests {
     use std::collections::HashMap;
 
     fn env(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
-        let m: HashMap<String, String> = pairs.iter().map(|(k, v)| ((*k).to_owned(), (*v).to_owned())).collect();
+        let m: HashMap<String, String> =
+            pairs.iter().map(|(k, v)| ((*k).to_owned(), (*v).to_owned())).collect();
         move |k| m.get(k).cloned()
     }
 
     fn slurm(id: i64, min: i64, max: i64, step: i64) -> Vec<(String, String)> {
         let count = (max - min) / step + 1;
-        [("SLURM_ARRAY_TASK_ID", id), ("SLURM_ARRAY_TASK_MIN", min), ("SLURM_ARRAY_TASK_MAX", max), ("SLURM_ARRAY_TASK_STEP", step), ("SLURM_ARRAY_TASK_COUNT", count)]
-            .iter()
-            .map(|(k, v)| ((*k).to_owned(), v.to_string()))
-            .collect()
+        [
+            ("SLURM_ARRAY_TASK_ID", id),
+            ("SLURM_ARRAY_TASK_MIN", min),
+            ("SLURM_ARRAY_TASK_MAX", max),
+            ("SLURM_ARRAY_TASK_STEP", step),
+            ("SLURM_ARRAY_TASK_COUNT", count),
+        ]
+        .iter()
+        .map(|(k, v)| ((*k).to_owned(), v.to_string()))
+        .collect()
     }
 
     fn e(v: &[(String, String)]) -> impl Fn(&str) -> Option<String> + '_ {
@@ -152,7 +176,12 @@ mod tests {
     #[test]
     fn kubernetes_aws_and_explicit() {
         assert_eq!(shard_from_env(env(&[("JOB_COMPLETION_INDEX", "3")]), Some(8)).unwrap(), (3, 8));
-        assert!(shard_from_env(env(&[("JOB_COMPLETION_INDEX", "3")]), None).unwrap_err().to_string().contains("--shards N"));
+        assert!(
+            shard_from_env(env(&[("JOB_COMPLETION_INDEX", "3")]), None)
+                .unwrap_err()
+                .to_string()
+                .contains("--shards N")
+        );
         assert!(shard_from_env(env(&[("JOB_COMPLETION_INDEX", "8")]), Some(8)).is_err());
         assert_eq!(shard_from_env(env(&[("AWS_BATCH_JOB_ARRAY_INDEX", "0")]), Some(2)).unwrap(), (0, 2));
         assert_eq!(shard_from_env(env(&[("LIGHTVOL_SHARD", "2/5")]), None).unwrap(), (2, 5));
@@ -162,7 +191,12 @@ mod tests {
         v.push(("LIGHTVOL_SHARD".into(), "0/3".into()));
         assert_eq!(shard_from_env(e(&v), None).unwrap(), (1, 2));
         let none = shard_from_env(env(&[]), None).unwrap_err().to_string();
-        assert!(none.contains("SLURM_ARRAY_TASK_ID") && none.contains("JOB_COMPLETION_INDEX") && none.contains("LIGHTVOL_SHARD"), "{none}");
+        assert!(
+            none.contains("SLURM_ARRAY_TASK_ID")
+                && none.contains("JOB_COMPLETION_INDEX")
+                && none.contains("LIGHTVOL_SHARD"),
+            "{none}"
+        );
         assert_eq!(threads_from_env(env(&[("SLURM_CPUS_PER_TASK", "4")])), Some(4));
         assert_eq!(threads_from_env(env(&[("SLURM_CPUS_PER_TASK", "0")])), None);
     }

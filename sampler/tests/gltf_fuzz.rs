@@ -65,8 +65,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, Once, OnceLock};
 use std::time::{Duration, Instant};
 
-use lightvol_sampler::{LoadOptions, PunctualLight};
 use lightvol_sampler::load_gltf::load_gltf_slice;
+use lightvol_sampler::{LoadOptions, PunctualLight};
 use proptest::prelude::*;
 use proptest::sample::{Index, select};
 use proptest::test_runner::{Config, RngAlgorithm, TestCaseResult, TestRng, TestRunner};
@@ -112,7 +112,11 @@ const TINY_PNG: &str = "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCA
 fn status_bytes(key: &str) -> usize {
     std::fs::read_to_string("/proc/self/status")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with(key)).and_then(|l| l.split_whitespace().nth(1)?.parse::<usize>().ok()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with(key))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<usize>().ok())
+        })
         .map_or(0, |kib| kib * 1024)
 }
 
@@ -146,7 +150,9 @@ fn watchdog() {
                 } else {
                     match CASE_STARTED.load(Ordering::Relaxed) {
                         0 => continue,
-                        t if epoch().elapsed().as_nanos() as u64 + 1 - t > CASE_TIME_LIMIT.as_nanos() as u64 => {
+                        t if epoch().elapsed().as_nanos() as u64 + 1 - t
+                            > CASE_TIME_LIMIT.as_nanos() as u64 =>
+                        {
                             format!("ran longer than {CASE_TIME_LIMIT:?}")
                         }
                         _ => continue,
@@ -238,13 +244,18 @@ fn breakfast_room() -> (Fixture, usize) {
             json["accessors"][ia]["byteOffset"] = json!(index_start);
             json["accessors"][ia]["count"] = json!(n);
             // Attributes: the used vertices, each attribute at its old offset within the stride.
-            let attrs: Vec<usize> = prim["attributes"].as_object().expect("attributes").values().map(u64_of).collect();
-            let first = attrs.iter().map(|&a| u64_of(&json["accessors"][a]["byteOffset"])).min().expect("attributes");
+            let attrs: Vec<usize> =
+                prim["attributes"].as_object().expect("attributes").values().map(u64_of).collect();
+            let first =
+                attrs.iter().map(|&a| u64_of(&json["accessors"][a]["byteOffset"])).min().expect("attributes");
             let vertex_start = vertices.len();
             vertices.resize(vertex_start + order.len() * stride, 0);
             for &a in &attrs {
                 let acc = &json["accessors"][a];
-                assert_eq!((acc["componentType"].as_u64(), acc["bufferView"].as_u64()), (Some(5126), Some(0)));
+                assert_eq!(
+                    (acc["componentType"].as_u64(), acc["bufferView"].as_u64()),
+                    (Some(5126), Some(0))
+                );
                 let components = match acc["type"].as_str() {
                     Some("VEC2") => 2,
                     Some("VEC3") => 3,
@@ -256,11 +267,15 @@ fn breakfast_room() -> (Fixture, usize) {
                 let mut lo = vec![f64::INFINITY; components];
                 let mut hi = vec![f64::NEG_INFINITY; components];
                 for (new, &old_v) in order.iter().enumerate() {
-                    let src = u64_of(&vertex_view["byteOffset"]) + u64_of(&acc["byteOffset"]) + old_v as usize * stride;
+                    let src = u64_of(&vertex_view["byteOffset"])
+                        + u64_of(&acc["byteOffset"])
+                        + old_v as usize * stride;
                     let dst = vertex_start + rel + new * stride;
                     vertices[dst..dst + 4 * components].copy_from_slice(&old[src..src + 4 * components]);
                     for c in 0..components {
-                        let x = f64::from(f32::from_le_bytes(old[src + 4 * c..src + 4 * c + 4].try_into().expect("4 bytes")));
+                        let x = f64::from(f32::from_le_bytes(
+                            old[src + 4 * c..src + 4 * c + 4].try_into().expect("4 bytes"),
+                        ));
                         lo[c] = lo[c].min(x);
                         hi[c] = hi[c].max(x);
                     }
@@ -398,9 +413,24 @@ fn leaf_value() -> BoxedStrategy<Value> {
 /// Any value: a leaf, or small arrays and objects of them.
 fn any_value() -> BoxedStrategy<Value> {
     let keys = select(vec![
-        "bufferView", "byteOffset", "count", "componentType", "type", "indices", "values",
-        "attributes", "POSITION", "mesh", "children", "uri", "byteLength", "light", "lights",
-        "index", "extensions", "x",
+        "bufferView",
+        "byteOffset",
+        "count",
+        "componentType",
+        "type",
+        "indices",
+        "values",
+        "attributes",
+        "POSITION",
+        "mesh",
+        "children",
+        "uri",
+        "byteLength",
+        "light",
+        "lights",
+        "index",
+        "extensions",
+        "x",
     ]);
     leaf_value()
         .prop_recursive(3, 24, 6, move |inner| {
@@ -443,9 +473,12 @@ fn index_value() -> BoxedStrategy<Value> {
 }
 
 fn index_list() -> BoxedStrategy<Value> {
-    prop::collection::vec(prop_oneof![8 => (0u64..=40).prop_map(Value::from), 1 => int_value(), 1 => leaf_value()], 0..8)
-        .prop_map(Value::Array)
-        .boxed()
+    prop::collection::vec(
+        prop_oneof![8 => (0u64..=40).prop_map(Value::from), 1 => int_value(), 1 => leaf_value()],
+        0..8,
+    )
+    .prop_map(Value::Array)
+    .boxed()
 }
 
 fn numbers(n: usize) -> BoxedStrategy<Value> {
@@ -454,7 +487,8 @@ fn numbers(n: usize) -> BoxedStrategy<Value> {
 }
 
 fn sparse_ref(indices: bool) -> BoxedStrategy<Value> {
-    let comp = prop_oneof![4 => select(vec![5121u64, 5123, 5125]).prop_map(Value::from), 1 => component_value()];
+    let comp =
+        prop_oneof![4 => select(vec![5121u64, 5123, 5125]).prop_map(Value::from), 1 => component_value()];
     (index_value(), prop_oneof![3 => Just(json!(0)), 1 => size_value()], comp, any::<bool>())
         .prop_map(move |(view, offset, comp, with_offset)| {
             let mut o = Map::new();
@@ -471,7 +505,11 @@ fn sparse_ref(indices: bool) -> BoxedStrategy<Value> {
 }
 
 fn sparse_value() -> BoxedStrategy<Value> {
-    (prop_oneof![3 => (0u64..=64).prop_map(Value::from), 1 => size_value()], sparse_ref(true), sparse_ref(false))
+    (
+        prop_oneof![3 => (0u64..=64).prop_map(Value::from), 1 => size_value()],
+        sparse_ref(true),
+        sparse_ref(false),
+    )
         .prop_map(|(count, indices, values)| json!({"count": count, "indices": indices, "values": values}))
         .boxed()
 }
@@ -509,11 +547,12 @@ fn extension_names() -> BoxedStrategy<Value> {
 }
 
 fn extensions_value() -> BoxedStrategy<Value> {
-    let light = (select(vec!["point", "spot", "directional", "area", ""]), numbers(3), float_value(), float_value())
-        .prop_map(|(t, color, intensity, cone)| {
-            json!({"type": t, "color": color, "intensity": intensity, "range": 1, "name": "l\nx",
+    let light =
+        (select(vec!["point", "spot", "directional", "area", ""]), numbers(3), float_value(), float_value())
+            .prop_map(|(t, color, intensity, cone)| {
+                json!({"type": t, "color": color, "intensity": intensity, "range": 1, "name": "l\nx",
                    "spot": {"innerConeAngle": cone, "outerConeAngle": 0.5}})
-        });
+            });
     prop_oneof![
         2 => index_value().prop_map(|l| json!({"KHR_lights_punctual": {"light": l}})),
         2 => prop::collection::vec(light, 0..3).prop_map(|l| json!({"KHR_lights_punctual": {"lights": l}})),
@@ -591,7 +630,16 @@ fn texture_info() -> BoxedStrategy<Value> {
 }
 
 fn attributes_value() -> BoxedStrategy<Value> {
-    let name = select(vec!["POSITION", "NORMAL", "TANGENT", "TEXCOORD_0", "TEXCOORD_1", "TEXCOORD_7", "COLOR_0", "JOINTS_0"]);
+    let name = select(vec![
+        "POSITION",
+        "NORMAL",
+        "TANGENT",
+        "TEXCOORD_0",
+        "TEXCOORD_1",
+        "TEXCOORD_7",
+        "COLOR_0",
+        "JOINTS_0",
+    ]);
     prop::collection::btree_map(name.prop_map(str::to_owned), index_value(), 0..5)
         .prop_map(|m| Value::Object(m.into_iter().collect()))
         .boxed()
@@ -603,9 +651,31 @@ fn value_of(c: Class) -> BoxedStrategy<Value> {
         Class::Index => index_value(),
         Class::IndexList => index_list(),
         Class::Size => size_value(),
-        Class::Stride => select(vec![0u64, 1, 2, 3, 4, 5, 8, 11, 12, 16, 20, 24, 31, 32, 33, 64, 252, 255, 256, 1 << 20, u64::from(u32::MAX)])
-            .prop_map(Value::from)
-            .boxed(),
+        Class::Stride => select(vec![
+            0u64,
+            1,
+            2,
+            3,
+            4,
+            5,
+            8,
+            11,
+            12,
+            16,
+            20,
+            24,
+            31,
+            32,
+            33,
+            64,
+            252,
+            255,
+            256,
+            1 << 20,
+            u64::from(u32::MAX),
+        ])
+        .prop_map(Value::from)
+        .boxed(),
         Class::Component => component_value(),
         Class::AccessorType => string_value(),
         Class::Mode => prop_oneof![(0u64..=8).prop_map(Value::from), int_value()].boxed(),
@@ -620,7 +690,12 @@ fn value_of(c: Class) -> BoxedStrategy<Value> {
         Class::ExtensionNames => extension_names(),
         Class::TextureInfo => texture_info(),
         Class::Attributes => attributes_value(),
-        Class::Array => prop_oneof![Just(json!([])), prop::collection::vec(leaf_value(), 1..4).prop_map(Value::Array), any_value()].boxed(),
+        Class::Array => prop_oneof![
+            Just(json!([])),
+            prop::collection::vec(leaf_value(), 1..4).prop_map(Value::Array),
+            any_value()
+        ]
+        .boxed(),
         Class::Object => prop_oneof![Just(json!({})), any_value()].boxed(),
     };
     prop_oneof![5 => specific, 1 => any_value()].boxed()
@@ -721,7 +796,9 @@ fn kind_of(path: &[Seg]) -> Option<Kind> {
         "nodes/#" => Kind::Node,
         "materials/#" => Kind::Material,
         "materials/#/pbrMetallicRoughness" => Kind::Pbr,
-        "materials/#/pbrMetallicRoughness/baseColorTexture" | "materials/#/emissiveTexture" => Kind::TextureInfo,
+        "materials/#/pbrMetallicRoughness/baseColorTexture" | "materials/#/emissiveTexture" => {
+            Kind::TextureInfo
+        }
         "textures/#" => Kind::Texture,
         "images/#" => Kind::Image,
         "samplers/#" => Kind::Sampler,
@@ -756,7 +833,21 @@ const FIELDS: &[(&str, &[Kind], Class)] = {
         ("indices", &[K::Primitive], C::Index),
         ("material", &[K::Primitive], C::Index),
         ("mode", &[K::Primitive], C::Mode),
-        ("extensions", &[K::Primitive, K::Node, K::Material, K::TextureInfo, K::Texture, K::Root, K::Accessor, K::BufferView, K::Mesh], C::Extensions),
+        (
+            "extensions",
+            &[
+                K::Primitive,
+                K::Node,
+                K::Material,
+                K::TextureInfo,
+                K::Texture,
+                K::Root,
+                K::Accessor,
+                K::BufferView,
+                K::Mesh,
+            ],
+            C::Extensions,
+        ),
         ("POSITION", &[K::Attributes], C::Index),
         ("NORMAL", &[K::Attributes], C::Index),
         ("TANGENT", &[K::Attributes], C::Index),
@@ -898,7 +989,12 @@ fn pick<'a, T>(items: &'a [T], i: &Index) -> Option<&'a T> {
 fn nudged(v: &Value, how: Nudge) -> Option<Value> {
     let x = v.as_f64()?;
     let int = v.as_i64().map(i128::from).or(v.as_u64().map(i128::from));
-    let from_int = |n: i128| u64::try_from(n).map(Value::from).or_else(|_| i64::try_from(n).map(Value::from)).unwrap_or_else(|_| Value::from(n as f64));
+    let from_int = |n: i128| {
+        u64::try_from(n)
+            .map(Value::from)
+            .or_else(|_| i64::try_from(n).map(Value::from))
+            .unwrap_or_else(|_| Value::from(n as f64))
+    };
     Some(match (how, int) {
         (Nudge::Add(d), Some(n)) => from_int(n + i128::from(d)),
         (Nudge::Add(d), None) => Value::from(x + d as f64),
@@ -920,7 +1016,9 @@ fn base64(data: &[u8]) -> String {
     const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
     let mut out = String::with_capacity(data.len().div_ceil(3) * 4);
     for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16) | (u32::from(*c.get(1).unwrap_or(&0)) << 8) | u32::from(*c.get(2).unwrap_or(&0));
+        let n = (u32::from(c[0]) << 16)
+            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+            | u32::from(*c.get(2).unwrap_or(&0));
         for k in 0..4 {
             out.push(if k <= c.len() { A[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
         }
@@ -952,7 +1050,13 @@ fn damaged(uri: &str, how: &UriDamage) -> String {
 fn apply(doc: &mut Value, bin: &[u8], m: &JsonMutation) {
     let paths = all_paths(doc);
     let objects_of = |kinds: &[Kind]| -> Vec<JsonPath> {
-        paths.iter().filter(|p| kind_of(p).is_some_and(|k| kinds.contains(&k)) && get(doc, p).is_some_and(Value::is_object)).cloned().collect()
+        paths
+            .iter()
+            .filter(|p| {
+                kind_of(p).is_some_and(|k| kinds.contains(&k)) && get(doc, p).is_some_and(Value::is_object)
+            })
+            .cloned()
+            .collect()
     };
     let set = |doc: &mut Value, path: &[Seg], value: Value| {
         if let Some(slot) = get_mut(doc, path) {
@@ -965,7 +1069,8 @@ fn apply(doc: &mut Value, bin: &[u8], m: &JsonMutation) {
             let mut targets = objects_of(kinds);
             if targets.is_empty() {
                 // No such object (a sampler, a sparse block): any object gets the field.
-                targets = paths.iter().filter(|p| get(doc, p).is_some_and(Value::is_object)).cloned().collect();
+                targets =
+                    paths.iter().filter(|p| get(doc, p).is_some_and(Value::is_object)).cloned().collect();
             }
             if let Some(p) = pick(&targets, target)
                 && let Some(Value::Object(o)) = get_mut(doc, p)
@@ -991,7 +1096,8 @@ fn apply(doc: &mut Value, bin: &[u8], m: &JsonMutation) {
             }
         }
         JsonMutation::Nudge { at, how } => {
-            let numbers: Vec<&JsonPath> = paths.iter().filter(|p| get(doc, p).is_some_and(Value::is_number)).collect();
+            let numbers: Vec<&JsonPath> =
+                paths.iter().filter(|p| get(doc, p).is_some_and(Value::is_number)).collect();
             if let Some(&p) = pick(&numbers, at)
                 && let Some(v) = get(doc, p).and_then(|v| nudged(v, *how))
             {
@@ -1021,7 +1127,10 @@ fn apply(doc: &mut Value, bin: &[u8], m: &JsonMutation) {
             }
         }
         JsonMutation::Duplicate { array, element, times } => {
-            let arrays: Vec<&JsonPath> = paths.iter().filter(|p| get(doc, p).and_then(Value::as_array).is_some_and(|a| !a.is_empty())).collect();
+            let arrays: Vec<&JsonPath> = paths
+                .iter()
+                .filter(|p| get(doc, p).and_then(Value::as_array).is_some_and(|a| !a.is_empty()))
+                .collect();
             if let Some(&p) = pick(&arrays, array)
                 && let Some(Value::Array(a)) = get_mut(doc, p)
             {
@@ -1041,7 +1150,11 @@ fn apply(doc: &mut Value, bin: &[u8], m: &JsonMutation) {
         JsonMutation::DataUri { target, how } => {
             let uris: Vec<&JsonPath> = paths
                 .iter()
-                .filter(|p| get(doc, p).and_then(Value::as_str).is_some_and(|s| s == BIN_PLACEHOLDER || s.starts_with("data:")))
+                .filter(|p| {
+                    get(doc, p)
+                        .and_then(Value::as_str)
+                        .is_some_and(|s| s == BIN_PLACEHOLDER || s.starts_with("data:"))
+                })
                 .collect();
             if let Some(&p) = pick(&uris, target) {
                 let uri = match get(doc, p).and_then(Value::as_str) {
@@ -1112,8 +1225,22 @@ enum TextMutation {
 
 fn text_mutation() -> BoxedStrategy<TextMutation> {
     let with = select(vec![
-        "1e999", "-1e999", "NaN", "Infinity", "-Infinity", "1e-999", "00", "-", "0x10", "1.", ".5", "+1",
-        "18446744073709551616", "-9223372036854775809", "1E400", "-0",
+        "1e999",
+        "-1e999",
+        "NaN",
+        "Infinity",
+        "-Infinity",
+        "1e-999",
+        "00",
+        "-",
+        "0x10",
+        "1.",
+        ".5",
+        "+1",
+        "18446744073709551616",
+        "-9223372036854775809",
+        "1E400",
+        "-0",
     ]);
     prop_oneof![
         6 => (any::<Index>(), with).prop_map(|(which, with)| TextMutation::Number { which, with }),
@@ -1129,10 +1256,13 @@ fn apply_text(text: &mut Vec<u8>, m: &TextMutation) {
             let mut spans = Vec::new();
             let mut i = 0;
             while i < text.len() {
-                let starts = (text[i].is_ascii_digit() || text[i] == b'-') && i > 0 && matches!(text[i - 1], b':' | b',' | b'[' | b' ');
+                let starts = (text[i].is_ascii_digit() || text[i] == b'-')
+                    && i > 0
+                    && matches!(text[i - 1], b':' | b',' | b'[' | b' ');
                 if starts {
                     let s = i;
-                    while i < text.len() && matches!(text[i], b'0'..=b'9' | b'-' | b'+' | b'.' | b'e' | b'E') {
+                    while i < text.len() && matches!(text[i], b'0'..=b'9' | b'-' | b'+' | b'.' | b'e' | b'E')
+                    {
                         i += 1;
                     }
                     spans.push(s..i);
@@ -1160,7 +1290,12 @@ fn fill_placeholder(v: &mut Value, bin: &[u8]) {
 }
 
 /// The mutated JSON text and binary buffer of a document.
-fn mutated(f: &Fixture, json: &[JsonMutation], bin: &[BinMutation], text: Option<&TextMutation>) -> (Vec<u8>, Vec<u8>) {
+fn mutated(
+    f: &Fixture,
+    json: &[JsonMutation],
+    bin: &[BinMutation],
+    text: Option<&TextMutation>,
+) -> (Vec<u8>, Vec<u8>) {
     let mut b = f.bin.clone();
     for m in bin {
         apply_bin(&mut b, m);
@@ -1232,10 +1367,19 @@ enum Word {
 /// A change to the packed GLB bytes.
 #[derive(Clone, Debug)]
 enum ByteMutation {
-    Header { field: Field, value: Word },
+    Header {
+        field: Field,
+        value: Word,
+    },
     /// Flip bits of a byte in the header (0), the JSON chunk (1), the BIN chunk (2) or anywhere (3).
-    Flip { region: u8, at: Index, xor: u8 },
-    Truncate { at: Index },
+    Flip {
+        region: u8,
+        at: Index,
+        xor: u8,
+    },
+    Truncate {
+        at: Index,
+    },
 }
 
 /// A `.glb` case.
@@ -1316,9 +1460,17 @@ fn glb_bytes(f: &Fixture, case: &GlbCase) -> Vec<u8> {
         Layout::Standard => pack(&[(CHUNK_JSON, &json, j), (CHUNK_BIN, &bin, b)]),
         Layout::NoBin => pack(&[(CHUNK_JSON, &json, j)]),
         Layout::BinFirst => pack(&[(CHUNK_BIN, &bin, b), (CHUNK_JSON, &json, j)]),
-        Layout::TwoJson => pack(&[(CHUNK_JSON, br#"{"asset":{"version":"2.0"}}"#, j), (CHUNK_JSON, &json, j), (CHUNK_BIN, &bin, b)]),
-        Layout::UnknownChunk { first: true } => pack(&[(0x1234_5678, b"junk", b), (CHUNK_JSON, &json, j), (CHUNK_BIN, &bin, b)]),
-        Layout::UnknownChunk { first: false } => pack(&[(CHUNK_JSON, &json, j), (0x1234_5678, b"junk!", b), (CHUNK_BIN, &bin, b)]),
+        Layout::TwoJson => pack(&[
+            (CHUNK_JSON, br#"{"asset":{"version":"2.0"}}"#, j),
+            (CHUNK_JSON, &json, j),
+            (CHUNK_BIN, &bin, b),
+        ]),
+        Layout::UnknownChunk { first: true } => {
+            pack(&[(0x1234_5678, b"junk", b), (CHUNK_JSON, &json, j), (CHUNK_BIN, &bin, b)])
+        }
+        Layout::UnknownChunk { first: false } => {
+            pack(&[(CHUNK_JSON, &json, j), (0x1234_5678, b"junk!", b), (CHUNK_BIN, &bin, b)])
+        }
         Layout::EmptyBin => pack(&[(CHUNK_JSON, &json, j), (CHUNK_BIN, &[], b)]),
         Layout::UnpaddedJson => pack(&[(CHUNK_JSON, &json, None), (CHUNK_BIN, &bin, b)]),
         Layout::Trailing(t) => {
@@ -1399,17 +1551,30 @@ impl Outcomes {
         let mut top: Vec<(&String, &usize)> = self.errors.iter().collect();
         top.sort_by(|a, b| b.1.cmp(a.1));
         let lines: Vec<String> = top.iter().take(40).map(|(e, n)| format!("  {n:4} × …{e}…")).collect();
-        format!("{what}: {total} runs, {} Ok, {} kinds of error:\n{}", self.ok, self.errors.len(), lines.join("\n"))
+        format!(
+            "{what}: {total} runs, {} Ok, {} kinds of error:\n{}",
+            self.ok,
+            self.errors.len(),
+            lines.join("\n")
+        )
     }
 }
 
 fn light_is_finite(l: &PunctualLight) -> bool {
     match l {
-        PunctualLight::Point { position, intensity } => position.is_finite() && intensity.iter().all(|x| x.is_finite()),
-        PunctualLight::Spot { position, axis, intensity, inner, outer } => {
-            position.is_finite() && axis.is_finite() && intensity.iter().all(|x| x.is_finite()) && inner.is_finite() && outer.is_finite()
+        PunctualLight::Point { position, intensity } => {
+            position.is_finite() && intensity.iter().all(|x| x.is_finite())
         }
-        PunctualLight::Directional { to_light, irradiance } => to_light.is_finite() && irradiance.iter().all(|x| x.is_finite()),
+        PunctualLight::Spot { position, axis, intensity, inner, outer } => {
+            position.is_finite()
+                && axis.is_finite()
+                && intensity.iter().all(|x| x.is_finite())
+                && inner.is_finite()
+                && outer.is_finite()
+        }
+        PunctualLight::Directional { to_light, irradiance } => {
+            to_light.is_finite() && irradiance.iter().all(|x| x.is_finite())
+        }
     }
 }
 
@@ -1426,16 +1591,28 @@ fn check(bytes: &[u8], base: &Path, case: &dyn Debug) -> Result<Result<usize, St
     // cost what its triangles cost; anything beyond that is memory the input did not back.
     let triangles = result.as_ref().map_or(0, |s| s.triangles.len() + s.report.degenerate_skipped);
     let budget = CASE_MEMORY_BUDGET + triangles * BYTES_PER_TRIANGLE;
-    prop_assert!(peak <= budget, "the load held {} MiB at once (budget {} MiB for {triangles} triangles)", peak >> 20, budget >> 20);
+    prop_assert!(
+        peak <= budget,
+        "the load held {} MiB at once (budget {} MiB for {triangles} triangles)",
+        peak >> 20,
+        budget >> 20
+    );
     Ok(match result {
         Ok(scene) => {
             prop_assert!(
                 scene.triangles.iter().all(|t| t.v.iter().all(|p| p.is_finite())),
                 "a loaded scene has a non-finite vertex"
             );
-            prop_assert!(scene.punctual.iter().all(light_is_finite), "a loaded light is not finite: {:?}", scene.punctual);
             prop_assert!(
-                scene.cameras.iter().all(|c| c.position.is_finite() && c.forward.is_finite() && c.up.is_finite() && c.yfov.is_finite()),
+                scene.punctual.iter().all(light_is_finite),
+                "a loaded light is not finite: {:?}",
+                scene.punctual
+            );
+            prop_assert!(
+                scene.cameras.iter().all(|c| c.position.is_finite()
+                    && c.forward.is_finite()
+                    && c.up.is_finite()
+                    && c.yfov.is_finite()),
                 "a loaded camera is not finite: {:?}",
                 scene.cameras
             );
@@ -1444,7 +1621,10 @@ fn check(bytes: &[u8], base: &Path, case: &dyn Debug) -> Result<Result<usize, St
         Err(e) => {
             let msg = e.to_string();
             prop_assert!(!msg.trim().is_empty(), "empty error message ({e:?})");
-            prop_assert!(!msg.contains('\n') && !msg.contains('\r'), "error message is not one line: {msg:?}");
+            prop_assert!(
+                !msg.contains('\n') && !msg.contains('\r'),
+                "error message is not one line: {msg:?}"
+            );
             Err(msg)
         }
     })
@@ -1455,8 +1635,12 @@ fn runner(cases: u32) -> TestRunner {
     TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, SEED))
 }
 
-fn run<S: Strategy>(name: &str, cases: u32, strategy: S, test: impl Fn(S::Value, &mut Outcomes) -> TestCaseResult)
-where
+fn run<S: Strategy>(
+    name: &str,
+    cases: u32,
+    strategy: S,
+    test: impl Fn(S::Value, &mut Outcomes) -> TestCaseResult,
+) where
     S::Value: Debug,
 {
     let outcomes = RefCell::new(Outcomes::default());
@@ -1476,7 +1660,8 @@ fn breakfast_room_fixture_loads() {
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let (f, kept) = breakfast_room();
     let (text, _) = mutated(&f, &[], &[], None);
-    let scene = load_gltf_slice(&text, Some(&f.base), "fixture", &LoadOptions::default()).expect("trimmed document loads");
+    let scene = load_gltf_slice(&text, Some(&f.base), "fixture", &LoadOptions::default())
+        .expect("trimmed document loads");
     assert_eq!(scene.report.unique_triangles, kept);
     assert_eq!(scene.cameras.len(), 3);
     assert_eq!(scene.textures.len(), 3, "the three base-colour textures decode");
@@ -1502,11 +1687,13 @@ fn mutated_glb_is_ok_or_one_line_error() {
     watchdog();
     let _serial = SERIAL.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
     let f = living_room();
-    let unmutated = GlbCase { json: vec![], bin: vec![], text: None, layout: Layout::Standard, bytes: vec![] };
-    let triangles = load_gltf_slice(&glb_bytes(&f, &unmutated), Some(&f.base), "fixture", &LoadOptions::default())
-        .expect("the re-packed GLB loads")
-        .report
-        .unique_triangles;
+    let unmutated =
+        GlbCase { json: vec![], bin: vec![], text: None, layout: Layout::Standard, bytes: vec![] };
+    let triangles =
+        load_gltf_slice(&glb_bytes(&f, &unmutated), Some(&f.base), "fixture", &LoadOptions::default())
+            .expect("the re-packed GLB loads")
+            .report
+            .unique_triangles;
     assert!(triangles > 4000, "{triangles} triangles");
     run("GLB", GLB_CASES, glb_case(), |case, outcomes| {
         let bytes = glb_bytes(&f, &case);

@@ -45,7 +45,21 @@ fn every_vendored_scene_is_inspected_and_bakes() {
         let t = std::fs::read_to_string(&txt).unwrap();
         assert!(t.contains(&format!("{unique} unique")), "{file}: {t}");
         let vol = dir.path().join("v.exr");
-        ok(&["bake", s(&path), "--spacing", spacing, "--samples", "4", "--bounces", "1", "--sky", "1,1,1", "--quiet", "-o", s(&vol)]);
+        ok(&[
+            "bake",
+            s(&path),
+            "--spacing",
+            spacing,
+            "--samples",
+            "4",
+            "--bounces",
+            "1",
+            "--sky",
+            "1,1,1",
+            "--quiet",
+            "-o",
+            s(&vol),
+        ]);
         assert!(std::fs::metadata(&vol).unwrap().len() > 0);
         std::fs::remove_file(&vol).unwrap();
     }
@@ -58,12 +72,40 @@ fn breakfast_room_renders_through_its_glb_cameras() {
     let dir = tempfile::tempdir().unwrap();
     let path = scene("breakfast_room/BreakfastRoom.gltf");
     let out = dir.path().join("view.png");
-    ok(&["render", s(&path), "--reference", "--camera", "gltf:0", "--width", "64", "--reference-samples", "2", "--sky", "1,1,1", "-o", s(&out)]);
+    ok(&[
+        "render",
+        s(&path),
+        "--reference",
+        "--camera",
+        "gltf:0",
+        "--width",
+        "64",
+        "--reference-samples",
+        "2",
+        "--sky",
+        "1,1,1",
+        "-o",
+        s(&out),
+    ]);
     let img = image::open(&out).unwrap();
     assert_eq!((img.width(), img.height()), (64, 36));
     // Not a black image: the camera looks into the lit room.
     assert!(img.to_rgb8().pixels().any(|p| p.0.iter().any(|&c| c > 0)));
-    ok(&["render", s(&path), "--reference", "--camera", "gltf:CameraTopDown", "--width", "32", "--height", "20", "--reference-samples", "1", "-o", s(&out)]);
+    ok(&[
+        "render",
+        s(&path),
+        "--reference",
+        "--camera",
+        "gltf:CameraTopDown",
+        "--width",
+        "32",
+        "--height",
+        "20",
+        "--reference-samples",
+        "1",
+        "-o",
+        s(&out),
+    ]);
     assert_eq!(image::open(&out).unwrap().height(), 20);
     let e = run(&["render", s(&path), "--reference", "--camera", "gltf:7", "-o", s(&out)]).unwrap_err();
     assert!(e.contains("no such camera") && e.contains("0 'CameraMain'"), "{e}");

@@ -51,7 +51,10 @@ fn any_shard_count_order_and_thread_count_gives_the_whole_bake() {
             a.extend(["-o".to_owned(), s(&merged).to_owned()]);
             ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
             let m = read_exr(&merged).unwrap();
-            assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "{n} shards, order {order:?}: the files differ");
+            assert!(
+                std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(),
+                "{n} shards, order {order:?}: the files differ"
+            );
             assert_eq!(m.data(), w.data(), "{n} shards, order {order:?}");
             assert_eq!(m.weights(), w.weights());
             assert_eq!((m.metadata().shard_index, m.metadata().shard_count), (0, 1));
@@ -121,7 +124,17 @@ fn least_squares_shards_merge_to_the_whole_fit() {
     let shards: Vec<_> = (0..3)
         .map(|k| {
             let out = d.join(format!("l{k}.exr"));
-            bake(&out, &["--fit", "lsq:0.25", "--shard", &format!("{k}/3"), "--threads", if k == 1 { "2" } else { "1" }]);
+            bake(
+                &out,
+                &[
+                    "--fit",
+                    "lsq:0.25",
+                    "--shard",
+                    &format!("{k}/3"),
+                    "--threads",
+                    if k == 1 { "2" } else { "1" },
+                ],
+            );
             out.with_extension("lvacc")
         })
         .collect();
@@ -129,7 +142,10 @@ fn least_squares_shards_merge_to_the_whole_fit() {
         let merged = d.join("m.exr");
         ok(&["merge", s(&shards[order[0]]), s(&shards[order[1]]), s(&shards[order[2]]), "-o", s(&merged)]);
         let m = read_exr(&merged).unwrap();
-        assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "order {order:?}: the files differ");
+        assert!(
+            std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(),
+            "order {order:?}: the files differ"
+        );
         assert_eq!(m.data(), w.data(), "order {order:?}");
         assert_eq!(m.weights(), w.weights());
         assert_eq!(m.metadata().method, w.metadata().method);
@@ -141,7 +157,15 @@ fn least_squares_shards_merge_to_the_whole_fit() {
     // A least-squares shard and an average shard are different bakes.
     let other = d.join("a1.exr");
     bake(&other, &["--shard", "1/3"]);
-    let e = run(&["merge", s(&shards[0]), s(&other.with_extension("lvacc")), s(&shards[2]), "-o", s(&d.join("x.exr"))]).unwrap_err();
+    let e = run(&[
+        "merge",
+        s(&shards[0]),
+        s(&other.with_extension("lvacc")),
+        s(&shards[2]),
+        "-o",
+        s(&d.join("x.exr")),
+    ])
+    .unwrap_err();
     assert!(e.contains("same bake"), "{e}");
 }
 
@@ -163,8 +187,13 @@ fn basis_gradient_shards_merge_to_the_whole_bake() {
         .collect();
     let merged = d.join("m.exr");
     ok(&["merge", s(&shards[2]), s(&shards[0]), s(&shards[1]), "-o", s(&merged)]);
-    assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "merged gradient bake differs from the whole");
-    let e = run(&["bake", "builtin:maze", "--gradients", "central", "--shard", "0/2", "-o", s(&d.join("c.exr"))]).unwrap_err();
+    assert!(
+        std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(),
+        "merged gradient bake differs from the whole"
+    );
+    let e =
+        run(&["bake", "builtin:maze", "--gradients", "central", "--shard", "0/2", "-o", s(&d.join("c.exr"))])
+            .unwrap_err();
     assert!(e.contains("--gradients central") && e.contains("basis"), "{e}");
 }
 
@@ -206,7 +235,15 @@ fn the_same_samples_are_never_merged_twice() {
     assert!(e.contains("given twice"), "{e}");
     let p0 = d.join("p0.exr");
     bake(&p0, &["--shard", "0/2"]);
-    let e = run(&["merge", s(&p0.with_extension("lvacc")), "--allow-partial", "--keep-accumulator", "-o", s(&out)]).unwrap_err();
+    let e = run(&[
+        "merge",
+        s(&p0.with_extension("lvacc")),
+        "--allow-partial",
+        "--keep-accumulator",
+        "-o",
+        s(&out),
+    ])
+    .unwrap_err();
     assert!(e.contains("--allow-partial"), "{e}");
     assert!(!out.exists());
 }

@@ -28,7 +28,23 @@ fn surface_shards_assemble_to_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let gltf = write_gltf(d, "planes.gltf", &[plane("floor"), plane("floor_copy")]);
-    let base = ["bake-surface", s(&gltf), "--basis", "hbasis_mod4,sh9", "--texels-per-unit", "3", "--samples", "6", "--quiet", "--encode", "ktx2", "--sky", "0.3,0.4,0.6", "--sun", "1,0.2,0.3:4"];
+    let base = [
+        "bake-surface",
+        s(&gltf),
+        "--basis",
+        "hbasis_mod4,sh9",
+        "--texels-per-unit",
+        "3",
+        "--samples",
+        "6",
+        "--quiet",
+        "--encode",
+        "ktx2",
+        "--sky",
+        "0.3,0.4,0.6",
+        "--sun",
+        "1,0.2,0.3:4",
+    ];
     let run = |extra: &[&str]| -> Result<ExitCode, String> {
         let mut a: Vec<&str> = base.to_vec();
         a.extend_from_slice(extra);
@@ -40,7 +56,10 @@ fn surface_shards_assemble_to_the_whole_bake() {
     for k in [2, 0, 1] {
         assert_eq!(run(&["--shard", &format!("{k}/3"), "-o", s(&shards)]), Ok(ExitCode::SUCCESS));
     }
-    let mut lvtex: Vec<String> = std::fs::read_dir(&shards).unwrap().map(|e| e.unwrap().path().to_string_lossy().into_owned()).collect();
+    let mut lvtex: Vec<String> = std::fs::read_dir(&shards)
+        .unwrap()
+        .map(|e| e.unwrap().path().to_string_lossy().into_owned())
+        .collect();
     lvtex.sort();
     assert_eq!(lvtex.len(), 6, "3 shards × 2 bases: {lvtex:?}");
     lvtex.reverse();
@@ -55,7 +74,8 @@ fn surface_shards_assemble_to_the_whole_bake() {
         assert!(m[name] == *bytes, "{name} differs between the whole and the merged bake");
     }
     // Incomplete: one shard of sh9 left out.
-    let partial: Vec<&str> = lvtex.iter().map(String::as_str).filter(|p| !p.contains("texels-sh9-1-of-3")).collect();
+    let partial: Vec<&str> =
+        lvtex.iter().map(String::as_str).filter(|p| !p.contains("texels-sh9-1-of-3")).collect();
     let out = d.join("partial");
     let mut a = vec!["-o", s(&out), "--from-shards"];
     a.extend(partial);

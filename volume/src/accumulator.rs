@@ -148,7 +148,9 @@ impl Accumulator {
     /// The raw fixed-point sums `(numerator, denominator, outside)`, or the name and index of
     /// the first poisoned sum (a non-finite or unrepresentable term reached the bake).
     pub fn fixed_parts(&self) -> Result<[&[i128]; 3], (&'static str, usize)> {
-        for (what, v) in [("numerator", &self.numerator), ("denominator", &self.denominator), ("outside", &self.outside)] {
+        for (what, v) in
+            [("numerator", &self.numerator), ("denominator", &self.denominator), ("outside", &self.outside)]
+        {
             if let Some(i) = v.first_poisoned() {
                 return Err((what, i));
             }

@@ -79,14 +79,18 @@ fn parse_head(head: &[u8]) -> Result<(u16, usize), VolumeError> {
 
 /// Parses the JSON header and the grid it names.
 fn parse_header(json: &[u8]) -> Result<(AccHeader, GridSpec), VolumeError> {
-    let header: AccHeader = serde_json::from_slice(json).map_err(|e| VolumeError::malformed(F, e.to_string()))?;
+    let header: AccHeader =
+        serde_json::from_slice(json).map_err(|e| VolumeError::malformed(F, e.to_string()))?;
     check_coeffs(header.coeffs)?;
     let mut spec = GridSpec::new(header.grid.min, header.grid.max, header.grid.res)?;
     if let Some(m) = header.grid.to_world {
         spec = spec.with_placement(Placement::new(m)?);
     }
     if header.bake.shard_count == 0 || header.bake.shard_index >= header.bake.shard_count {
-        return Err(VolumeError::malformed(F, format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count)));
+        return Err(VolumeError::malformed(
+            F,
+            format!("shard {} of {}", header.bake.shard_index, header.bake.shard_count),
+        ));
     }
     Ok((header, spec))
 }
@@ -165,8 +169,14 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
         let numerator: Vec<i128> = vals.by_ref().take(n * k).collect();
         let denominator: Vec<i128> = vals.by_ref().take(n).collect();
         let outside: Vec<i128> = vals.by_ref().take(n).collect();
-        let mut acc =
-            Accumulator::from_fixed_parts(spec, header.coeffs, numerator, denominator, outside, header.contributions)?;
+        let mut acc = Accumulator::from_fixed_parts(
+            spec,
+            header.coeffs,
+            numerator,
+            denominator,
+            outside,
+            header.contributions,
+        )?;
         if let Some(a) = &header.aux {
             acc.set_aux(&a.name, crate::fixed::FixedSums::from_raw(vals.collect()));
         }
@@ -190,7 +200,10 @@ fn check_aux(header: &AccHeader, nodes: u64) -> Result<u64, String> {
 /// [`accumulator_from_bytes`] apply (the checksum is verified at the end: on any error the
 /// partly merged accumulator is dropped, so nothing half-merged escapes). Errors if the
 /// file's grid or coefficient count differs from `into`'s.
-pub fn merge_accumulator_file(into: Option<Accumulator>, path: &Path) -> Result<(Accumulator, BakeMetadata), VolumeError> {
+pub fn merge_accumulator_file(
+    into: Option<Accumulator>,
+    path: &Path,
+) -> Result<(Accumulator, BakeMetadata), VolumeError> {
     use std::io::Read;
     let io = |e: std::io::Error| VolumeError::io(path, e);
     let bad = |r: String| VolumeError::malformed(F, r);
@@ -264,7 +277,8 @@ pub fn merge_accumulator_file(into: Option<Accumulator>, path: &Path) -> Result<
         for (j, c) in b.chunks_exact(width as usize).enumerate() {
             let v = if width == 8 {
                 let x = f64::from_le_bytes(c.try_into().expect("8 bytes"));
-                crate::fixed::to_fixed(x).ok_or(VolumeError::NonFinite { what: "sum", index: (i as usize) + j })?
+                crate::fixed::to_fixed(x)
+                    .ok_or(VolumeError::NonFinite { what: "sum", index: (i as usize) + j })?
             } else {
                 i128::from_le_bytes(c.try_into().expect("16 bytes"))
             };
@@ -342,10 +356,22 @@ mod tests {
         b.add_sample([0.9, 0.1, 0.2], [5.0, 1.0, 0.5], &[0.4, -0.1, 0.2, 0.3]);
         let dir = tempfile::tempdir().unwrap();
         let (pa, pb) = (dir.path().join("a.lvacc"), dir.path().join("b.lvacc"));
-        write_accumulator(&pa, &a, &BakeMetadata { shard_index: 0, shard_count: 2, ..BakeMetadata::default() }).unwrap();
-        write_accumulator(&pb, &b, &BakeMetadata { shard_index: 1, shard_count: 2, ..BakeMetadata::default() }).unwrap();
-        let (ab, _) = merge_accumulator_file(Some(merge_accumulator_file(None, &pa).unwrap().0), &pb).unwrap();
-        let (ba, m) = merge_accumulator_file(Some(merge_accumulator_file(None, &pb).unwrap().0), &pa).unwrap();
+        write_accumulator(
+            &pa,
+            &a,
+            &BakeMetadata { shard_index: 0, shard_count: 2, ..BakeMetadata::default() },
+        )
+        .unwrap();
+        write_accumulator(
+            &pb,
+            &b,
+            &BakeMetadata { shard_index: 1, shard_count: 2, ..BakeMetadata::default() },
+        )
+        .unwrap();
+        let (ab, _) =
+            merge_accumulator_file(Some(merge_accumulator_file(None, &pa).unwrap().0), &pb).unwrap();
+        let (ba, m) =
+            merge_accumulator_file(Some(merge_accumulator_file(None, &pb).unwrap().0), &pa).unwrap();
         let mut want = a.clone();
         want.merge(&b).unwrap();
         assert_eq!(ab, want);

@@ -216,7 +216,8 @@ mod tests {
     /// Any grouping and order of the same terms gives the same bits, where f64 sums differ.
     #[test]
     fn sums_are_order_free() {
-        let terms: Vec<f64> = (0..1000).map(|i| ((i as f64) * 0.618_033_988_75).sin() * 10f64.powi(i % 7 - 3)).collect();
+        let terms: Vec<f64> =
+            (0..1000).map(|i| ((i as f64) * 0.618_033_988_75).sin() * 10f64.powi(i % 7 - 3)).collect();
         let mut fwd = FixedSum::default();
         terms.iter().for_each(|&t| fwd.add(t));
         let mut rev = FixedSum::default();

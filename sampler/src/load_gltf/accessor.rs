@@ -93,17 +93,32 @@ fn components_of(ty: &str) -> Option<usize> {
 }
 
 /// The bytes of buffer view `view` and its stride (`None`: tightly packed).
-fn view_bytes<'a>(json: &Value, buffers: &'a [Vec<u8>], view: u64) -> Result<(&'a [u8], Option<usize>), String> {
+fn view_bytes<'a>(
+    json: &Value,
+    buffers: &'a [Vec<u8>],
+    view: u64,
+) -> Result<(&'a [u8], Option<usize>), String> {
     let v = json
         .get("bufferViews")
         .and_then(|a| a.get(view as usize))
         .ok_or_else(|| format!("buffer view {view} does not exist"))?;
-    let buffer = v.get("buffer").and_then(Value::as_u64).ok_or_else(|| format!("bufferViews[{view}] has no buffer"))?;
-    let data = buffers.get(buffer as usize).ok_or_else(|| format!("bufferViews[{view}] refers to buffer {buffer}, which does not exist"))?;
+    let buffer = v
+        .get("buffer")
+        .and_then(Value::as_u64)
+        .ok_or_else(|| format!("bufferViews[{view}] has no buffer"))?;
+    let data = buffers
+        .get(buffer as usize)
+        .ok_or_else(|| format!("bufferViews[{view}] refers to buffer {buffer}, which does not exist"))?;
     let offset = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0);
-    let length = v.get("byteLength").and_then(Value::as_u64).ok_or_else(|| format!("bufferViews[{view}] has no byteLength"))?;
+    let length = v
+        .get("byteLength")
+        .and_then(Value::as_u64)
+        .ok_or_else(|| format!("bufferViews[{view}] has no byteLength"))?;
     let end = offset.checked_add(length).filter(|&e| e <= data.len() as u64).ok_or_else(|| {
-        format!("bufferViews[{view}] (bytes {offset}..+{length}) runs past buffer {buffer} ({} bytes)", data.len())
+        format!(
+            "bufferViews[{view}] (bytes {offset}..+{length}) runs past buffer {buffer} ({} bytes)",
+            data.len()
+        )
     })?;
     let stride = v.get("byteStride").and_then(Value::as_u64).map(|s| s as usize);
     Ok((&data[offset as usize..end as usize], stride))
@@ -142,13 +157,19 @@ pub(crate) fn read(json: &Value, buffers: &[Vec<u8>], index: u64) -> Result<Valu
         .and_then(|a| a.get(index as usize))
         .ok_or_else(|| format!("accessor {index} does not exist"))?;
     let bad = |what: &str| format!("accessors[{index}]: {what}");
-    let comp = a.get("componentType").and_then(Value::as_u64).and_then(Component::from_code).ok_or_else(|| bad("unknown componentType"))?;
+    let comp = a
+        .get("componentType")
+        .and_then(Value::as_u64)
+        .and_then(Component::from_code)
+        .ok_or_else(|| bad("unknown componentType"))?;
     let ty = a.get("type").and_then(Value::as_str).unwrap_or("");
     let n = components_of(ty).ok_or_else(|| bad(&format!("unknown type {ty:?}")))?;
     let count = a.get("count").and_then(Value::as_u64).ok_or_else(|| bad("no count"))?;
     let normalized = a.get("normalized").and_then(Value::as_bool).unwrap_or(false);
     if count.saturating_mul(n as u64) > MAX_ACCESSOR_VALUES {
-        return Err(bad(&format!("{count} elements of {ty} exceed the reader's limit of {MAX_ACCESSOR_VALUES} values")));
+        return Err(bad(&format!(
+            "{count} elements of {ty} exceed the reader's limit of {MAX_ACCESSOR_VALUES} values"
+        )));
     }
     let view = a.get("bufferView").and_then(Value::as_u64);
     if view.is_none() && count.saturating_mul(n as u64) > MAX_UNBACKED_VALUES {
@@ -174,9 +195,15 @@ pub(crate) fn read(json: &Value, buffers: &[Vec<u8>], index: u64) -> Result<Valu
             }
             let offset = a.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
             if count > 0 {
-                let need = (count - 1).checked_mul(stride).and_then(|x| x.checked_add(offset)).and_then(|x| x.checked_add(elem));
+                let need = (count - 1)
+                    .checked_mul(stride)
+                    .and_then(|x| x.checked_add(offset))
+                    .and_then(|x| x.checked_add(elem));
                 if need.is_none_or(|need| need > bytes.len()) {
-                    return Err(bad(&format!("{count} elements at offset {offset}, stride {stride} run past buffer view {view} ({} bytes)", bytes.len())));
+                    return Err(bad(&format!(
+                        "{count} elements at offset {offset}, stride {stride} run past buffer view {view} ({} bytes)",
+                        bytes.len()
+                    )));
                 }
             }
             Some((bytes, stride, offset))
@@ -193,15 +220,24 @@ pub(crate) fn read(json: &Value, buffers: &[Vec<u8>], index: u64) -> Result<Valu
         }
     }
     if let Some(sparse) = a.get("sparse") {
-        let k = sparse.get("count").and_then(Value::as_u64).ok_or_else(|| bad("sparse without count"))? as usize;
+        let k =
+            sparse.get("count").and_then(Value::as_u64).ok_or_else(|| bad("sparse without count"))? as usize;
         if k > count {
             return Err(bad(&format!("sparse count {k} exceeds count {count}")));
         }
         let idx = sparse.get("indices").ok_or_else(|| bad("sparse without indices"))?;
         let vals = sparse.get("values").ok_or_else(|| bad("sparse without values"))?;
-        let icomp = idx.get("componentType").and_then(Value::as_u64).and_then(Component::from_code).filter(|c| matches!(c, Component::U8 | Component::U16 | Component::U32)).ok_or_else(|| bad("sparse indices need an unsigned componentType"))?;
+        let icomp = idx
+            .get("componentType")
+            .and_then(Value::as_u64)
+            .and_then(Component::from_code)
+            .filter(|c| matches!(c, Component::U8 | Component::U16 | Component::U32))
+            .ok_or_else(|| bad("sparse indices need an unsigned componentType"))?;
         let slice = |part: &Value, size: usize, what: &str| -> Result<Vec<u8>, String> {
-            let view = part.get("bufferView").and_then(Value::as_u64).ok_or_else(|| bad(&format!("sparse {what} without bufferView")))?;
+            let view = part
+                .get("bufferView")
+                .and_then(Value::as_u64)
+                .ok_or_else(|| bad(&format!("sparse {what} without bufferView")))?;
             let (bytes, _) = view_bytes(json, buffers, view).map_err(|e| bad(&e))?;
             let off = part.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
             let end = k.checked_mul(size).and_then(|x| x.checked_add(off)).filter(|&e| e <= bytes.len());
@@ -339,6 +375,9 @@ mod tests {
             "bufferViews": [{"buffer": 0, "byteLength": 12}],
             "accessors": [{"bufferView": 0, "componentType": 5126, "count": MAX_ACCESSOR_VALUES / 3, "type": "VEC3"}]});
         let e = read(&j, &[vec![0; 12]], 0).unwrap_err();
-        assert!(e.contains("44739242 elements at offset 0, stride 12 run past buffer view 0 (12 bytes)"), "{e}");
+        assert!(
+            e.contains("44739242 elements at offset 0, stride 12 run past buffer view 0 (12 bytes)"),
+            "{e}"
+        );
     }
 }

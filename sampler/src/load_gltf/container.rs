@@ -150,11 +150,19 @@ pub(crate) fn load_buffers(doc: &Document, base: Option<&Path>) -> Result<Vec<Ve
     let list = list.as_array().ok_or("'buffers' is not an array")?;
     let mut out = Vec::with_capacity(list.len());
     for (i, b) in list.iter().enumerate() {
-        let want = b.get("byteLength").and_then(Value::as_u64).ok_or_else(|| format!("buffers[{i}] has no byteLength"))?;
+        let want = b
+            .get("byteLength")
+            .and_then(Value::as_u64)
+            .ok_or_else(|| format!("buffers[{i}] has no byteLength"))?;
         let data = match b.get("uri").and_then(Value::as_str) {
             Some(uri) => read_uri(uri, base).map_err(|e| format!("buffers[{i}]: {e}"))?,
-            None if i == 0 => doc.blob.clone().ok_or_else(|| format!("buffers[{i}] has no uri and the file has no BIN chunk"))?,
-            None => return Err(format!("buffers[{i}] has no uri (only buffers[0] can be the GLB's BIN chunk)")),
+            None if i == 0 => doc
+                .blob
+                .clone()
+                .ok_or_else(|| format!("buffers[{i}] has no uri and the file has no BIN chunk"))?,
+            None => {
+                return Err(format!("buffers[{i}] has no uri (only buffers[0] can be the GLB's BIN chunk)"));
+            }
         };
         if (data.len() as u64) < want {
             return Err(format!("buffers[{i}] has {} bytes, byteLength says {want}", data.len()));
@@ -171,7 +179,15 @@ mod tests {
     /// Base64 against RFC 4648 §10's test vectors.
     #[test]
     fn base64_rfc_vectors() {
-        for (enc, dec) in [("", ""), ("Zg==", "f"), ("Zm8=", "fo"), ("Zm9v", "foo"), ("Zm9vYg==", "foob"), ("Zm9vYmE=", "fooba"), ("Zm9vYmFy", "foobar")] {
+        for (enc, dec) in [
+            ("", ""),
+            ("Zg==", "f"),
+            ("Zm8=", "fo"),
+            ("Zm9v", "foo"),
+            ("Zm9vYg==", "foob"),
+            ("Zm9vYmE=", "fooba"),
+            ("Zm9vYmFy", "foobar"),
+        ] {
             assert_eq!(base64_decode(enc).unwrap(), dec.as_bytes());
         }
         assert!(base64_decode("Zm9v*").is_none());
@@ -182,11 +198,13 @@ mod tests {
     #[test]
     fn only_the_first_buffer_is_the_bin_chunk() {
         let doc = |buffers: &str| Document {
-            json: serde_json::from_str(&format!(r#"{{"asset":{{"version":"2.0"}},"buffers":{buffers}}}"#)).unwrap(),
+            json: serde_json::from_str(&format!(r#"{{"asset":{{"version":"2.0"}},"buffers":{buffers}}}"#))
+                .unwrap(),
             blob: Some(vec![7; 8]),
         };
         assert_eq!(load_buffers(&doc(r#"[{"byteLength":8}]"#), None).unwrap(), [vec![7; 8]]);
-        let e = load_buffers(&doc(r#"[{"byteLength":8},{"byteLength":0},{"byteLength":0}]"#), None).unwrap_err();
+        let e =
+            load_buffers(&doc(r#"[{"byteLength":8},{"byteLength":0},{"byteLength":0}]"#), None).unwrap_err();
         assert_eq!(e, "buffers[1] has no uri (only buffers[0] can be the GLB's BIN chunk)");
     }
 

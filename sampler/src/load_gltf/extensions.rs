@@ -51,9 +51,9 @@ fn scan(v: &Value, place: &str, found: &mut Vec<(String, String)>) {
 }
 
 fn strings(json: &Value, key: &str) -> Vec<String> {
-    json.get(key).and_then(Value::as_array).map_or_else(Vec::new, |a| {
-        a.iter().filter_map(Value::as_str).map(str::to_owned).collect()
-    })
+    json.get(key)
+        .and_then(Value::as_array)
+        .map_or_else(Vec::new, |a| a.iter().filter_map(Value::as_str).map(str::to_owned).collect())
 }
 
 /// A primitive that uses the geometry extension `name` (for the error message).
@@ -61,17 +61,31 @@ fn user_of(json: &Value, name: &str) -> String {
     let has = |v: &Value| v.get("extensions").and_then(|e| e.get(name)).is_some();
     let arr = |k: &str| json.get(k).and_then(Value::as_array).cloned().unwrap_or_default();
     let (accessors, views) = (arr("accessors"), arr("bufferViews"));
-    let view_hit = |vi: Option<u64>| vi.and_then(|i| views.get(i as usize)).is_some_and(|v| {
-        has(v) || v.get("buffer").and_then(Value::as_u64).and_then(|b| arr("buffers").get(b as usize).cloned()).is_some_and(|b| has(&b))
-    });
-    let acc_hit = |ai: u64| accessors.get(ai as usize).is_some_and(|a| {
-        has(a) || view_hit(a.get("bufferView").and_then(Value::as_u64))
-    });
+    let view_hit = |vi: Option<u64>| {
+        vi.and_then(|i| views.get(i as usize)).is_some_and(|v| {
+            has(v)
+                || v.get("buffer")
+                    .and_then(Value::as_u64)
+                    .and_then(|b| arr("buffers").get(b as usize).cloned())
+                    .is_some_and(|b| has(&b))
+        })
+    };
+    let acc_hit = |ai: u64| {
+        accessors
+            .get(ai as usize)
+            .is_some_and(|a| has(a) || view_hit(a.get("bufferView").and_then(Value::as_u64)))
+    };
     for (m, mesh) in arr("meshes").iter().enumerate() {
-        let mname = mesh.get("name").and_then(Value::as_str).map_or_else(|| format!("mesh {m}"), |n| format!("mesh '{n}'"));
+        let mname = mesh
+            .get("name")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("mesh {m}"), |n| format!("mesh '{n}'"));
         let prims = mesh.get("primitives").and_then(Value::as_array).cloned().unwrap_or_default();
         for (p, prim) in prims.iter().enumerate() {
-            let mut ids: Vec<u64> = prim.get("attributes").and_then(Value::as_object).map_or_else(Vec::new, |o| o.values().filter_map(Value::as_u64).collect());
+            let mut ids: Vec<u64> = prim
+                .get("attributes")
+                .and_then(Value::as_object)
+                .map_or_else(Vec::new, |o| o.values().filter_map(Value::as_u64).collect());
             ids.extend(prim.get("indices").and_then(Value::as_u64));
             if has(mesh) || has(prim) || ids.into_iter().any(acc_hit) {
                 return format!("{mname} primitive {p}");
@@ -80,7 +94,10 @@ fn user_of(json: &Value, name: &str) -> String {
     }
     for (i, node) in arr("nodes").iter().enumerate() {
         if has(node) {
-            return node.get("name").and_then(Value::as_str).map_or_else(|| format!("node {i}"), |n| format!("node '{n}'"));
+            return node
+                .get("name")
+                .and_then(Value::as_str)
+                .map_or_else(|| format!("node {i}"), |n| format!("node '{n}'"));
         }
     }
     "the file".to_owned()
@@ -125,13 +142,20 @@ pub(crate) fn classify(json: &Value) -> Result<(Vec<ExtensionReport>, Vec<String
             "geometry extension not supported; not required, so the core data is used".to_owned()
         } else if !used_in.is_empty() && used_in.iter().all(|p| APPEARANCE.contains(&p.as_str())) {
             let what = if used_in.iter().any(|p| p == "materials") { "material" } else { "texture" };
-            let t = format!("{what} extension not supported, core {} used", if what == "material" { "material" } else { "image" });
+            let t = format!(
+                "{what} extension not supported, core {} used",
+                if what == "material" { "material" } else { "image" }
+            );
             if req {
                 warnings.push(format!("{name}: {t}"));
             }
             t
         } else {
-            let t = if used_in.is_empty() { "not supported; appears in no object, ignored" } else { "not supported, ignored" };
+            let t = if used_in.is_empty() {
+                "not supported; appears in no object, ignored"
+            } else {
+                "not supported, ignored"
+            };
             if req {
                 warnings.push(format!("{name} (required): {t}"));
             }
@@ -170,6 +194,9 @@ mod tests {
         let mut j2 = j.clone();
         j2["extensionsRequired"] = json!(["EXT_meshopt_compression"]);
         let e = classify(&j2).unwrap_err();
-        assert_eq!(e, "EXT_meshopt_compression (required) on mesh 'leaf' primitive 0: geometry extension not supported; export without it");
+        assert_eq!(
+            e,
+            "EXT_meshopt_compression (required) on mesh 'leaf' primitive 0: geometry extension not supported; export without it"
+        );
     }
 }

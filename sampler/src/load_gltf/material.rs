@@ -93,7 +93,12 @@ pub(crate) struct Materials<'a> {
 }
 
 impl<'a> Materials<'a> {
-    pub(crate) fn new(json: &'a Value, buffers: &'a [Vec<u8>], base: Option<&'a Path>, opts: LoadOptions) -> Self {
+    pub(crate) fn new(
+        json: &'a Value,
+        buffers: &'a [Vec<u8>],
+        base: Option<&'a Path>,
+        opts: LoadOptions,
+    ) -> Self {
         Self { json, buffers, base, opts, textures: HashMap::new(), by_index: HashMap::new() }
     }
 
@@ -107,7 +112,11 @@ impl<'a> Materials<'a> {
                 let mut m = Material::diffuse("default", DEFAULT_ALBEDO);
                 m.double_sided = self.opts.force_double_sided;
                 b.warn(format!("a primitive has no material: default albedo {} used", DEFAULT_ALBEDO[0]));
-                MaterialUse { id: b.add_material(m).map_err(|e| e.to_string())?, uv_set: 0, uv_transform: None }
+                MaterialUse {
+                    id: b.add_material(m).map_err(|e| e.to_string())?,
+                    uv_set: 0,
+                    uv_transform: None,
+                }
             }
             Some(i) => {
                 let gm = self
@@ -123,14 +132,16 @@ impl<'a> Materials<'a> {
     }
 
     fn convert(&mut self, b: &mut SceneBuilder, index: u64, gm: &Value) -> Result<MaterialUse, String> {
-        let name = gm.get("name").and_then(Value::as_str).map_or_else(|| format!("material{index}"), str::to_owned);
+        let name =
+            gm.get("name").and_then(Value::as_str).map_or_else(|| format!("material{index}"), str::to_owned);
         let pbr = gm.get("pbrMetallicRoughness");
         let f = nums(pbr.and_then(|p| p.get("baseColorFactor")), [1.0; 4]);
         let mut m = Material::diffuse(&name, [f[0], f[1], f[2]]);
         m.alpha = f[3];
         let strength = num(gm.pointer("/extensions/KHR_materials_emissive_strength/emissiveStrength"), 1.0);
         m.emission = nums(gm.get("emissiveFactor"), [0.0; 3]).map(|e| e * strength);
-        m.double_sided = gm.get("doubleSided").and_then(Value::as_bool).unwrap_or(false) || self.opts.force_double_sided;
+        m.double_sided =
+            gm.get("doubleSided").and_then(Value::as_bool).unwrap_or(false) || self.opts.force_double_sided;
         m.alpha_mode = match gm.get("alphaMode").and_then(Value::as_str).unwrap_or("OPAQUE") {
             "MASK" => AlphaMode::Mask { cutoff: num(gm.get("alphaCutoff"), 0.5) },
             "BLEND" => AlphaMode::Blend,
@@ -173,7 +184,9 @@ impl<'a> Materials<'a> {
             let tex = info.get("index").and_then(Value::as_u64).unwrap_or(u64::MAX);
             match self.texture(b, tex) {
                 Ok(id) => m.albedo_texture = Some(id),
-                Err(why) => b.warn(format!("material '{name}': base colour texture {tex} not used ({why}); factor used")),
+                Err(why) => b.warn(format!(
+                    "material '{name}': base colour texture {tex} not used ({why}); factor used"
+                )),
             }
         }
         let id = b.add_material(m).map_err(|e| e.to_string())?;
@@ -199,8 +212,10 @@ impl<'a> Materials<'a> {
                 format!("it has no PNG/JPEG source, only {}", alt.join(", "))
             });
         };
-        let sampler = t.get("sampler").and_then(Value::as_u64).and_then(|s| self.json.get("samplers")?.get(s as usize));
-        let wrap = |k: &str| Wrap::from_gl(sampler.and_then(|s| s.get(k)).and_then(Value::as_u64).unwrap_or(10497));
+        let sampler =
+            t.get("sampler").and_then(Value::as_u64).and_then(|s| self.json.get("samplers")?.get(s as usize));
+        let wrap =
+            |k: &str| Wrap::from_gl(sampler.and_then(|s| s.get(k)).and_then(Value::as_u64).unwrap_or(10497));
         let wrap = [wrap("wrapS"), wrap("wrapT")];
         let key = (source, wrap);
         if let Some(r) = self.textures.get(&key) {
@@ -221,8 +236,16 @@ impl<'a> Materials<'a> {
         let bytes = if let Some(uri) = img.get("uri").and_then(Value::as_str) {
             read_uri(uri, self.base).map_err(|e| format!("image {index}: {e}"))?
         } else if let Some(view) = img.get("bufferView").and_then(Value::as_u64) {
-            let v = self.json.get("bufferViews").and_then(|a| a.get(view as usize)).ok_or("its buffer view does not exist")?;
-            let buf = v.get("buffer").and_then(Value::as_u64).and_then(|i| self.buffers.get(i as usize)).ok_or("its buffer does not exist")?;
+            let v = self
+                .json
+                .get("bufferViews")
+                .and_then(|a| a.get(view as usize))
+                .ok_or("its buffer view does not exist")?;
+            let buf = v
+                .get("buffer")
+                .and_then(Value::as_u64)
+                .and_then(|i| self.buffers.get(i as usize))
+                .ok_or("its buffer does not exist")?;
             let off = v.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
             let len = v.get("byteLength").and_then(Value::as_u64).unwrap_or(0) as usize;
             buf.get(off..off.saturating_add(len)).ok_or("its buffer view runs past the buffer")?.to_vec()
@@ -238,7 +261,9 @@ impl<'a> Materials<'a> {
         let reader = || image::ImageReader::with_format(std::io::Cursor::new(&bytes[..]), format);
         let (w, h) = reader().into_dimensions().map_err(|e| format!("image {index}: {e}"))?;
         if u64::from(w) * u64::from(h) > MAX_TEXELS {
-            return Err(format!("image {index} is {w}×{h}, more than the {MAX_TEXELS} texels a texture may have"));
+            return Err(format!(
+                "image {index} is {w}×{h}, more than the {MAX_TEXELS} texels a texture may have"
+            ));
         }
         let decoded = reader().decode().map_err(|e| format!("image {index}: {e}"))?;
         Texture::from_image(&decoded).ok_or_else(|| format!("image {index} is empty"))

@@ -57,7 +57,12 @@ pub fn load_gltf(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
 ///
 /// # Errors
 /// As [`load_gltf`].
-pub fn load_gltf_slice(bytes: &[u8], base: Option<&Path>, name: &str, opts: &LoadOptions) -> Result<Scene, SceneError> {
+pub fn load_gltf_slice(
+    bytes: &[u8],
+    base: Option<&Path>,
+    name: &str,
+    opts: &LoadOptions,
+) -> Result<Scene, SceneError> {
     let gerr = |message: String| SceneError::Gltf { path: name.into(), message: one_line(&message) };
     let doc = container::parse(bytes).map_err(gerr)?;
     let (reports, ext_warnings) = extensions::classify(&doc.json).map_err(gerr)?;
@@ -185,9 +190,14 @@ impl Loader<'_> {
         let json = self.json;
         let nodes = arr(json, "nodes");
         let scenes = arr(json, "scenes");
-        let roots: Vec<u64> = match json.get("scene").and_then(Value::as_u64).or(if scenes.is_empty() { None } else { Some(0) }) {
+        let roots: Vec<u64> = match json.get("scene").and_then(Value::as_u64).or(if scenes.is_empty() {
+            None
+        } else {
+            Some(0)
+        }) {
             Some(s) => {
-                let sc = scenes.get(s as usize).ok_or_else(|| gltf_err(format!("scene {s} does not exist")))?;
+                let sc =
+                    scenes.get(s as usize).ok_or_else(|| gltf_err(format!("scene {s} does not exist")))?;
                 arr(sc, "nodes").iter().filter_map(Value::as_u64).collect()
             }
             None => {
@@ -213,7 +223,9 @@ impl Loader<'_> {
             }
             let world = parent * local_transform(node);
             if !world.is_finite() {
-                return Err(SceneError::NonFinite { what: format!("transform of node {ni} in {}", self.scene_name) });
+                return Err(SceneError::NonFinite {
+                    what: format!("transform of node {ni} in {}", self.scene_name),
+                });
             }
             for c in arr(node, "children").iter().rev().filter_map(Value::as_u64) {
                 stack.push((c, world));
@@ -255,15 +267,21 @@ impl Loader<'_> {
             // coincident copies of a large mesh.
             let stored = accessor::stored_elements(self.json, a);
             if v.len() as u64 > stored {
-                return Err(at(format!("accessor {a} stores {stored} of its {} instances (no bufferView)", v.len())));
+                return Err(at(format!(
+                    "accessor {a} stores {stored} of its {} instances (no bufferView)",
+                    v.len()
+                )));
             }
             Ok(Some(v))
         };
         let (t, r, s) = (read("TRANSLATION")?, read("ROTATION")?, read("SCALE")?);
-        let counts: Vec<usize> = [&t, &r, &s].iter().filter_map(|v| v.as_ref().map(accessor::Values::len)).collect();
+        let counts: Vec<usize> =
+            [&t, &r, &s].iter().filter_map(|v| v.as_ref().map(accessor::Values::len)).collect();
         let Some(&n) = counts.first() else { return Ok(vec![DMat4::IDENTITY]) };
         if counts.iter().any(|&c| c != n) {
-            return Err(gltf_err(format!("node {ni}: EXT_mesh_gpu_instancing attributes have different counts {counts:?}")));
+            return Err(gltf_err(format!(
+                "node {ni}: EXT_mesh_gpu_instancing attributes have different counts {counts:?}"
+            )));
         }
         Ok((0..n)
             .map(|i| {
@@ -287,7 +305,10 @@ impl Loader<'_> {
         let mesh = arr(self.json, "meshes")
             .get(index as usize)
             .ok_or_else(|| gltf_err(format!("mesh {index} does not exist")))?;
-        let mname = mesh.get("name").and_then(Value::as_str).map_or_else(|| format!("mesh {index}"), |n| format!("mesh '{n}'"));
+        let mname = mesh
+            .get("name")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("mesh {index}"), |n| format!("mesh '{n}'"));
         let mut prims = Vec::new();
         for (p, prim) in arr(mesh, "primitives").iter().enumerate() {
             let at = |e: String| gltf_err(format!("{mname} primitive {p}: {e}"));
@@ -302,16 +323,24 @@ impl Loader<'_> {
                 self.b.warn(format!("{mname} primitive {p}: no POSITION, skipped"));
                 continue;
             };
-            let read = |a: u64| self.charge(a).and_then(|()| accessor::read(self.json, self.buffers, a)).map_err(&at);
+            let read = |a: u64| {
+                self.charge(a).and_then(|()| accessor::read(self.json, self.buffers, a)).map_err(&at)
+            };
             let positions: Vec<DVec3> = {
                 let v = read(pos)?;
                 (0..v.len()).map(|i| DVec3::from_array(v.get::<3>(i))).collect()
             };
             let normals = attr("NORMAL")
-                .map(|a| read(a).map(|v| (0..v.len()).map(|i| DVec3::from_array(v.get::<3>(i))).collect::<Vec<_>>()))
+                .map(|a| {
+                    read(a)
+                        .map(|v| (0..v.len()).map(|i| DVec3::from_array(v.get::<3>(i))).collect::<Vec<_>>())
+                })
                 .transpose()?;
             let tangents = attr("TANGENT")
-                .map(|a| read(a).map(|v| (0..v.len()).map(|i| DVec4::from_array(v.get::<4>(i))).collect::<Vec<_>>()))
+                .map(|a| {
+                    read(a)
+                        .map(|v| (0..v.len()).map(|i| DVec4::from_array(v.get::<4>(i))).collect::<Vec<_>>())
+                })
                 .transpose()?;
             let mut uvs = HashMap::new();
             for set in 0..8u32 {
@@ -321,7 +350,10 @@ impl Loader<'_> {
                 }
             }
             let raw: Vec<u32> = match prim.get("indices").and_then(Value::as_u64) {
-                Some(a) => self.charge(a).and_then(|()| accessor::read_indices(self.json, self.buffers, a)).map_err(at)?,
+                Some(a) => self
+                    .charge(a)
+                    .and_then(|()| accessor::read_indices(self.json, self.buffers, a))
+                    .map_err(at)?,
                 None => (0..positions.len() as u32).collect(),
             };
             let indices: Vec<u32> = match mode {
@@ -349,11 +381,19 @@ impl Loader<'_> {
     }
 
     /// Places one instance of mesh `index` with transform `world` as one lightmap object.
-    fn add_instance(&mut self, materials: &mut Materials<'_>, index: u64, world: &DMat4) -> Result<(), SceneError> {
+    fn add_instance(
+        &mut self,
+        materials: &mut Materials<'_>,
+        index: u64,
+        world: &DMat4,
+    ) -> Result<(), SceneError> {
         let prims = self.mesh(index)?;
         self.b.report_mut().instances += 1;
         let mesh_json = &arr(self.json, "meshes")[index as usize];
-        let base_name = mesh_json.get("name").and_then(Value::as_str).map_or_else(|| format!("mesh{index}"), str::to_owned);
+        let base_name = mesh_json
+            .get("name")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("mesh{index}"), str::to_owned);
         let seen = self.object_names.entry(base_name.clone()).or_insert(0);
         *seen += 1;
         let object_name = if *seen == 1 { base_name } else { format!("{base_name}#{seen}") };
@@ -369,19 +409,33 @@ impl Loader<'_> {
             (Some(Vec::new()), Some(Vec::new()), Some(Vec::new()), Some(Vec::new()));
         let mut faces: Vec<Face> = Vec::new();
         for (p, prim) in prims.iter().enumerate() {
-            let mu: MaterialUse = materials.get(&mut self.b, prim.material).map_err(|e| gltf_err(format!("mesh '{object_name}' primitive {p}: {e}")))?;
+            let mu: MaterialUse = materials
+                .get(&mut self.b, prim.material)
+                .map_err(|e| gltf_err(format!("mesh '{object_name}' primitive {p}: {e}")))?;
             let positions: Vec<DVec3> = prim.positions.iter().map(|&q| world.transform_point3(q)).collect();
             let nv = positions.len();
             let base_vertex = attrs.positions.len();
             attrs.positions.extend_from_slice(&positions);
             extend_or_drop(&mut uv0, prim.uvs.get(&0).cloned(), nv);
             extend_or_drop(&mut uv1, prim.uvs.get(&1).cloned(), nv);
-            extend_or_drop(&mut normals, prim.normals.as_ref().map(|n| n.iter().map(|&q| (normal_matrix * q).normalize_or_zero()).collect()), nv);
+            extend_or_drop(
+                &mut normals,
+                prim.normals
+                    .as_ref()
+                    .map(|n| n.iter().map(|&q| (normal_matrix * q).normalize_or_zero()).collect()),
+                nv,
+            );
             extend_or_drop(
                 &mut tangents,
                 prim.tangents.as_ref().map(|t| {
                     t.iter()
-                        .map(|q| (linear * q.truncate()).normalize_or_zero().extend(if q.w < 0.0 { -handed } else { handed }))
+                        .map(|q| {
+                            (linear * q.truncate()).normalize_or_zero().extend(if q.w < 0.0 {
+                                -handed
+                            } else {
+                                handed
+                            })
+                        })
                         .collect()
                 }),
                 nv,
@@ -418,21 +472,38 @@ impl Loader<'_> {
     }
 
     fn add_camera(&mut self, index: u64, world: &DMat4) -> Result<(), SceneError> {
-        let cam = arr(self.json, "cameras").get(index as usize).ok_or_else(|| gltf_err(format!("camera {index} does not exist")))?;
-        let name = cam.get("name").and_then(Value::as_str).map_or_else(|| format!("camera{index}"), str::to_owned);
+        let cam = arr(self.json, "cameras")
+            .get(index as usize)
+            .ok_or_else(|| gltf_err(format!("camera {index} does not exist")))?;
+        let name =
+            cam.get("name").and_then(Value::as_str).map_or_else(|| format!("camera{index}"), str::to_owned);
         let Some(p) = cam.get("perspective") else {
-            self.b.warn(format!("camera '{name}': {} camera skipped (only perspective cameras are used)", cam.get("type").and_then(Value::as_str).unwrap_or("unknown")));
+            self.b.warn(format!(
+                "camera '{name}': {} camera skipped (only perspective cameras are used)",
+                cam.get("type").and_then(Value::as_str).unwrap_or("unknown")
+            ));
             return Ok(());
         };
         let yfov = p.get("yfov").and_then(Value::as_f64).unwrap_or(f64::NAN);
         let aspect = p.get("aspectRatio").and_then(Value::as_f64);
         let forward = world.transform_vector3(-DVec3::Z).normalize_or_zero();
         let up = world.transform_vector3(DVec3::Y).normalize_or_zero();
-        if !(yfov > 0.0 && yfov < std::f64::consts::PI) || forward == DVec3::ZERO || up == DVec3::ZERO || aspect.is_some_and(|a| !(a > 0.0 && a.is_finite())) {
+        if !(yfov > 0.0 && yfov < std::f64::consts::PI)
+            || forward == DVec3::ZERO
+            || up == DVec3::ZERO
+            || aspect.is_some_and(|a| !(a > 0.0 && a.is_finite()))
+        {
             self.b.warn(format!("camera '{name}': invalid yfov, aspect ratio or transform; skipped"));
             return Ok(());
         }
-        self.b.cameras.push(SceneCamera { name, position: world.transform_point3(DVec3::ZERO), forward, up, yfov, aspect });
+        self.b.cameras.push(SceneCamera {
+            name,
+            position: world.transform_point3(DVec3::ZERO),
+            forward,
+            up,
+            yfov,
+            aspect,
+        });
         Ok(())
     }
 
@@ -460,7 +531,10 @@ impl Loader<'_> {
             "point" => PunctualLight::Point { position, intensity },
             "spot" => {
                 let inner = light.pointer("/spot/innerConeAngle").and_then(Value::as_f64).unwrap_or(0.0);
-                let outer = light.pointer("/spot/outerConeAngle").and_then(Value::as_f64).unwrap_or(std::f64::consts::FRAC_PI_4);
+                let outer = light
+                    .pointer("/spot/outerConeAngle")
+                    .and_then(Value::as_f64)
+                    .unwrap_or(std::f64::consts::FRAC_PI_4);
                 PunctualLight::Spot { position, axis, intensity, inner, outer }
             }
             "directional" => PunctualLight::Directional { to_light: -axis, irradiance },

@@ -259,7 +259,9 @@ impl Doc {
 fn png_rgba(w: u32, h: u32, px: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
     let img = image::RgbaImage::from_fn(w, h, |x, y| image::Rgba(px(x, y)));
     let mut png = Vec::new();
-    image::DynamicImage::ImageRgba8(img).write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png).unwrap();
+    image::DynamicImage::ImageRgba8(img)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
     png
 }
 
@@ -333,7 +335,11 @@ fn dds_only_image_uses_the_factor_and_core_png_is_preferred() {
     let s = load_str(&text).unwrap();
     assert_eq!(s.triangles.len(), 4);
     assert_eq!(s.materials[0].albedo_texture, None);
-    assert!(s.report.warnings.iter().any(|w| w.contains("dds_only") && w.contains("is DDS")), "{:?}", s.report.warnings);
+    assert!(
+        s.report.warnings.iter().any(|w| w.contains("dds_only") && w.contains("is DDS")),
+        "{:?}",
+        s.report.warnings
+    );
     // The PNG is pure red: linear (1, 0, 0).
     assert!(s.materials[1].albedo_texture.is_some());
     assert_eq!(s.albedo(2, 0.3, 0.3), [1.0, 0.0, 0.0]);
@@ -354,7 +360,9 @@ fn required_extensions_by_location() {
     }));
     let s = load_str(&text).unwrap();
     assert_eq!(s.triangles.len(), 2);
-    assert!(s.report.warnings.contains(&"AMD_split_roughnessMetallic: material extension not supported, core material used".to_owned()));
+    assert!(s.report.warnings.contains(
+        &"AMD_split_roughnessMetallic: material extension not supported, core material used".to_owned()
+    ));
     let e = &s.report.extensions[0];
     assert!(e.required && e.used_in == ["materials"], "{e:?}");
     let text = d.json(json!({
@@ -364,7 +372,10 @@ fn required_extensions_by_location() {
             "extensions": {"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}}}]}]
     }));
     let e = load_str(&text).unwrap_err().to_string();
-    assert_eq!(e, "glTF error in synthetic.gltf: KHR_draco_mesh_compression (required) on mesh 'statue' primitive 0: geometry extension not supported; export without it");
+    assert_eq!(
+        e,
+        "glTF error in synthetic.gltf: KHR_draco_mesh_compression (required) on mesh 'statue' primitive 0: geometry extension not supported; export without it"
+    );
 }
 
 /// `KHR_mesh_quantization`: normalized i16 positions under a node scale, and plain u8
@@ -374,14 +385,18 @@ fn quantized_positions_and_normals() {
     let mut d = Doc::default();
     let q: Vec<u8> = [0i16, 0, 0, 32767, 0, 0, 0, 32767, 0].iter().flat_map(|v| v.to_le_bytes()).collect();
     let v16 = d.view(&q);
-    let p16 = d.accessor(json!({"bufferView": v16, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC3"}));
+    let p16 = d.accessor(
+        json!({"bufferView": v16, "componentType": 5122, "normalized": true, "count": 3, "type": "VEC3"}),
+    );
     // u8 positions, 4-byte stride (padding byte per vertex), not normalized.
     let v8 = d.view(&[0, 0, 0, 0, 2, 0, 0, 0, 0, 2, 0, 0]);
     d.views[v8]["byteStride"] = 4.into();
     let p8 = d.accessor(json!({"bufferView": v8, "componentType": 5121, "count": 3, "type": "VEC3"}));
     let vn = d.view(&[0, 0, 127, 0, 0, 0, 127, 0, 0, 0, 127, 0]);
     d.views[vn]["byteStride"] = 4.into();
-    let n8 = d.accessor(json!({"bufferView": vn, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"}));
+    let n8 = d.accessor(
+        json!({"bufferView": vn, "componentType": 5120, "normalized": true, "count": 3, "type": "VEC3"}),
+    );
     let text = d.json(json!({
         "extensionsUsed": ["KHR_mesh_quantization"], "extensionsRequired": ["KHR_mesh_quantization"],
         "nodes": [{"mesh": 0, "scale": [4, 4, 4]}, {"mesh": 1, "translation": [0, 0, 1]}], "scenes": [{"nodes": [0, 1]}],
@@ -391,7 +406,10 @@ fn quantized_positions_and_normals() {
     assert!(s.report.warnings.iter().all(|w| w.contains("no material")), "{:?}", s.report.warnings);
     assert_eq!(s.triangles.len(), 2);
     assert_eq!(s.triangles[0].v, [DVec3::ZERO, DVec3::new(4.0, 0.0, 0.0), DVec3::new(0.0, 4.0, 0.0)]);
-    assert_eq!(s.triangles[1].v, [DVec3::new(0.0, 0.0, 1.0), DVec3::new(2.0, 0.0, 1.0), DVec3::new(0.0, 2.0, 1.0)]);
+    assert_eq!(
+        s.triangles[1].v,
+        [DVec3::new(0.0, 0.0, 1.0), DVec3::new(2.0, 0.0, 1.0), DVec3::new(0.0, 2.0, 1.0)]
+    );
     let n = s.meshes[0].normals.as_ref().unwrap();
     assert!(n.iter().all(|n| (*n - DVec3::Z).length() < 1e-15), "{n:?}");
     assert_eq!(s.report.extensions[0].treatment, "supported");
@@ -401,7 +419,10 @@ fn quantized_positions_and_normals() {
 /// every lookup onto the other texel.
 #[test]
 fn texture_transform_moves_the_lookup() {
-    let png = format!("data:image/png;base64,{}", base64_encode(&png_rgba(2, 1, |x, _| if x == 0 { [255, 255, 255, 255] } else { [0, 0, 0, 255] })));
+    let png = format!(
+        "data:image/png;base64,{}",
+        base64_encode(&png_rgba(2, 1, |x, _| if x == 0 { [255, 255, 255, 255] } else { [0, 0, 0, 255] }))
+    );
     let mut d = Doc::default();
     let (pos, ind) = quad(&mut d);
     let mk = |ext: Value| {
@@ -463,10 +484,16 @@ fn gpu_instancing_needs_stored_instances() {
         "meshes": quad_mesh(pos, ind, 1, Value::Null)
     }));
     let e = load_str(&text).unwrap_err().to_string();
-    assert_eq!(e, format!("glTF error in synthetic.gltf: node 0 EXT_mesh_gpu_instancing TRANSLATION: accessor {zeros} stores 0 of its 1000 instances (no bufferView)"));
+    assert_eq!(
+        e,
+        format!(
+            "glTF error in synthetic.gltf: node 0 EXT_mesh_gpu_instancing TRANSLATION: accessor {zeros} stores 0 of its 1000 instances (no bufferView)"
+        )
+    );
     // Fully sparse (every instance stored) is fine.
     let sidx = d.view(&[0, 1]);
-    let sval = d.view(&[1.0f32, 0.0, 0.0, 2.0, 0.0, 0.0].iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<_>>());
+    let sval =
+        d.view(&[1.0f32, 0.0, 0.0, 2.0, 0.0, 0.0].iter().flat_map(|x| x.to_le_bytes()).collect::<Vec<_>>());
     let sparse = d.accessor(json!({"componentType": 5126, "count": 2, "type": "VEC3",
         "sparse": {"count": 2, "indices": {"bufferView": sidx, "componentType": 5121}, "values": {"bufferView": sval}}}));
     let text = d.json(json!({
@@ -487,7 +514,9 @@ fn unstored_zeros_are_budgeted_per_load() {
     let (pos, ind) = quad(&mut d);
     let zeros = d.accessor(json!({"componentType": 5126, "count": 200_000, "type": "VEC3"}));
     let prim = |normal: usize| json!({"attributes": {"POSITION": pos, "NORMAL": normal}, "indices": ind});
-    let doc = |prims: Vec<Value>| d.json(json!({"nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "meshes": [{"primitives": prims}]}));
+    let doc = |prims: Vec<Value>| {
+        d.json(json!({"nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "meshes": [{"primitives": prims}]}))
+    };
     // One reference (600000 values) is within the budget (the normals, of the wrong count, are dropped) ...
     let s = load_str(&doc(vec![prim(zeros)])).unwrap();
     assert_eq!(s.triangles.len(), 2);
@@ -518,7 +547,10 @@ fn sparse_non_indexed_strips_and_fans() {
     // Strip of 4 vertices: (0,1,2) and (2,1,3) reordered to keep the winding; the sparse
     // value moved vertex 3 to (2, 2, 0).
     assert_eq!(s.triangles.len(), 4);
-    assert_eq!(s.triangles[1].v, [DVec3::new(0.0, 1.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(2.0, 2.0, 0.0)]);
+    assert_eq!(
+        s.triangles[1].v,
+        [DVec3::new(0.0, 1.0, 0.0), DVec3::new(1.0, 0.0, 0.0), DVec3::new(2.0, 2.0, 0.0)]
+    );
     assert!(s.triangles[..2].iter().all(|t| t.normal().z > 0.0), "strip winding");
     // Fan: (0, 1, 2), (0, 2, 3).
     assert_eq!(s.triangles[3].v, [DVec3::ZERO, DVec3::new(0.0, 1.0, 0.0), DVec3::new(1.0, 1.0, 0.0)]);
@@ -531,7 +563,10 @@ fn sparse_non_indexed_strips_and_fans() {
 /// from below; the same quad `OPAQUE` blocks it.
 #[test]
 fn mask_leaf_lets_light_through_masked_texels() {
-    let png = format!("data:image/png;base64,{}", base64_encode(&png_rgba(2, 1, |x, _| [40, 160, 40, if x == 0 { 0 } else { 255 }])));
+    let png = format!(
+        "data:image/png;base64,{}",
+        base64_encode(&png_rgba(2, 1, |x, _| [40, 160, 40, if x == 0 { 0 } else { 255 }]))
+    );
     let mut d = Doc::default();
     let (pos, ind) = quad(&mut d);
     let mk = |mode: &str| {
@@ -647,7 +682,10 @@ fn names_with_line_breaks_keep_errors_one_line() {
     }));
     let e = load_str(&text).unwrap_err();
     assert!(matches!(e, SceneError::NonFinite { .. }), "{e}");
-    assert_eq!(e.to_string(), "non-finite value in vertex of face 0 in mesh 'first second ' of synthetic.gltf");
+    assert_eq!(
+        e.to_string(),
+        "non-finite value in vertex of face 0 in mesh 'first second ' of synthetic.gltf"
+    );
     let text = d.json(json!({
         "extensions": {"KHR_lights_punctual": {"lights": [{"type": "point", "name": "lamp\n2", "intensity": 1e308, "color": [1e308, 1, 1]}]}},
         "nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}],
@@ -662,7 +700,8 @@ fn names_with_line_breaks_keep_errors_one_line() {
 fn overflowing_light_intensity_is_non_finite() {
     let mut d = Doc::default();
     let (pos, ind) = quad(&mut d);
-    for (ty, color, intensity) in [("point", 1e308, 2.0), ("spot", 2.0, 1e308), ("directional", 1e200, 1e200)] {
+    for (ty, color, intensity) in [("point", 1e308, 2.0), ("spot", 2.0, 1e308), ("directional", 1e200, 1e200)]
+    {
         let text = d.json(json!({
             "extensions": {"KHR_lights_punctual": {"lights": [{"type": ty, "name": "sun", "intensity": intensity, "color": [color, 1, 1]}]}},
             "nodes": [{"mesh": 0}, {"extensions": {"KHR_lights_punctual": {"light": 0}}}],
@@ -693,7 +732,11 @@ fn oversized_image_is_refused_before_decoding() {
         png.extend_from_slice(&(!c).to_be_bytes());
     }
     let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
-    let ihdr: Vec<u8> = [16384u32.to_be_bytes(), 16384u32.to_be_bytes()].concat().into_iter().chain([8, 0, 0, 0, 0]).collect();
+    let ihdr: Vec<u8> = [16384u32.to_be_bytes(), 16384u32.to_be_bytes()]
+        .concat()
+        .into_iter()
+        .chain([8, 0, 0, 0, 0])
+        .collect();
     chunk(&mut png, b"IHDR", &ihdr);
     chunk(&mut png, b"IDAT", &[]);
     chunk(&mut png, b"IEND", &[]);
@@ -710,6 +753,8 @@ fn oversized_image_is_refused_before_decoding() {
     assert!(s.textures.is_empty() && s.materials[0].albedo_texture.is_none());
     assert_eq!(
         s.report.warnings,
-        ["material 'huge': base colour texture 0 not used (image 0 is 16384×16384, more than the 67108864 texels a texture may have); factor used"]
+        [
+            "material 'huge': base colour texture 0 not used (image 0 is 16384×16384, more than the 67108864 texels a texture may have); factor used"
+        ]
     );
 }

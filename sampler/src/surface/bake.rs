@@ -265,7 +265,9 @@ pub fn bake_surface_texels(
                         Some(job.run(fp))
                     })
                     .collect();
-                if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || outs.iter().any(Option::is_none) {
+                if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
+                    || outs.iter().any(Option::is_none)
+                {
                     return Err(SurfaceError::Cancelled);
                 }
                 for (j, out) in outs.into_iter().flatten().enumerate() {
@@ -304,16 +306,18 @@ pub fn assemble_surface(
     let total: u64 = prep.atlases.iter().map(|a| a.footprints.len() as u64).sum();
     let mut by_index: Vec<Option<&TexelRecord>> = vec![None; total as usize];
     for r in records {
-        let slot = by_index
-            .get_mut(r.index as usize)
-            .ok_or_else(|| SurfaceError::Settings(format!("texel record {} of {total} footprints", r.index)))?;
+        let slot = by_index.get_mut(r.index as usize).ok_or_else(|| {
+            SurfaceError::Settings(format!("texel record {} of {total} footprints", r.index))
+        })?;
         if slot.replace(r).is_some() {
             return Err(SurfaceError::Settings(format!("texel {} is given twice", r.index)));
         }
     }
     if let Some(missing) = by_index.iter().position(Option::is_none) {
         let count = by_index.iter().filter(|r| r.is_none()).count();
-        return Err(SurfaceError::Settings(format!("{count} of {total} texels are missing (first: {missing})")));
+        return Err(SurfaceError::Settings(format!(
+            "{count} of {total} texels are missing (first: {missing})"
+        )));
     }
     let k = settings.basis.basis().len();
     let lighting = lighting_fingerprint(transport.scene(), transport.settings().bounces);
@@ -341,7 +345,11 @@ pub fn assemble_surface(
             match &out.coeffs {
                 Some(c) => {
                     if c.len() != k {
-                        return Err(SurfaceError::Settings(format!("texel {} has {} coefficients, the basis {k}", out.index, c.len())));
+                        return Err(SurfaceError::Settings(format!(
+                            "texel {} has {} coefficients, the basis {k}",
+                            out.index,
+                            c.len()
+                        )));
                     }
                     data[t * k..(t + 1) * k].copy_from_slice(c);
                     state[t] = TexelState::Baked;

@@ -25,13 +25,13 @@
 
 pub mod atlas;
 pub mod bake;
-pub mod shard_io;
 pub mod error;
 pub mod exr;
 pub mod geometry;
 pub mod lighting;
 pub mod map;
 pub mod reference;
+pub mod shard_io;
 pub mod tangent;
 pub mod texel;
 
@@ -40,7 +40,8 @@ mod tests;
 
 pub use atlas::{Atlas, MAX_ATLAS_SIZE, atlas_size};
 pub use bake::{
-    SurfaceBake, SurfaceReport, SurfaceSettings, SurfaceTexels, TexelRecord, assemble_surface, bake_surface, bake_surface_texels,
+    SurfaceBake, SurfaceReport, SurfaceSettings, SurfaceTexels, TexelRecord, assemble_surface, bake_surface,
+    bake_surface_texels,
 };
 pub use error::SurfaceError;
 pub use exr::{read_surface_exr, write_surface_exr};

@@ -99,9 +99,17 @@ pub fn texels_from_bytes(bytes: &[u8]) -> Result<(SurfaceTexels, TexelShardHeade
     if h > MAX_HEADER || 12 + h > body.len() {
         return Err(err(format!("texel shard header length {h} does not fit the file")));
     }
-    let header: TexelShardHeader = serde_json::from_slice(&body[12..12 + h]).map_err(|e| err(format!("texel shard header: {e}")))?;
-    if header.shard_count == 0 || header.shard_index >= header.shard_count || header.coeffs == 0 || header.coeffs > 64 {
-        return Err(err(format!("texel shard {} of {} with {} coefficients", header.shard_index, header.shard_count, header.coeffs)));
+    let header: TexelShardHeader =
+        serde_json::from_slice(&body[12..12 + h]).map_err(|e| err(format!("texel shard header: {e}")))?;
+    if header.shard_count == 0
+        || header.shard_index >= header.shard_count
+        || header.coeffs == 0
+        || header.coeffs > 64
+    {
+        return Err(err(format!(
+            "texel shard {} of {} with {} coefficients",
+            header.shard_index, header.shard_count, header.coeffs
+        )));
     }
     let mut at = 12 + h;
     let data = body;
@@ -124,7 +132,11 @@ pub fn texels_from_bytes(bytes: &[u8]) -> Result<(SurfaceTexels, TexelShardHeade
             let b = take(&mut at, header.coeffs * 12)?;
             Some(
                 b.chunks_exact(12)
-                    .map(|c| std::array::from_fn(|i| f32::from_le_bytes(c[4 * i..4 * i + 4].try_into().expect("4 bytes"))))
+                    .map(|c| {
+                        std::array::from_fn(|i| {
+                            f32::from_le_bytes(c[4 * i..4 * i + 4].try_into().expect("4 bytes"))
+                        })
+                    })
                     .collect(),
             )
         } else {

@@ -1073,7 +1073,15 @@ fn sharded_texels_assemble_to_the_whole_bake() {
         let mut records = Vec::new();
         for k in (0..n).rev() {
             let part = bake_surface_texels(&t, &geo, &s, &BakeControl::default(), (k, n)).unwrap();
-            let h = TexelShardHeader { shard_index: k, shard_count: n, total: part.total, coeffs: 6, basis: "hbasis6".into(), fingerprint: "x".into(), records: part.records.len() as u64 };
+            let h = TexelShardHeader {
+                shard_index: k,
+                shard_count: n,
+                total: part.total,
+                coeffs: 6,
+                basis: "hbasis6".into(),
+                fingerprint: "x".into(),
+                records: part.records.len() as u64,
+            };
             let p = dir.path().join(format!("{k}.lvtex"));
             write_texels(&p, &part, &h).unwrap();
             let (back, hb) = read_texels(&p).unwrap();
