@@ -197,6 +197,53 @@ mod tests {
         }
     }
 
+    /// The tracer's detached table gives the alpha that [`Scene::alpha`] (the reference,
+    /// read straight from the scene's materials and textures) gives, at every barycentric
+    /// of a grid, for a textured MASK material, an untextured BLEND one and an opaque one.
+    #[test]
+    fn table_alpha_equals_the_scene_reference() {
+        use crate::scene::{Material, SceneBuilder};
+        use glam::DVec2;
+        let mut b = SceneBuilder::new("alpha");
+        let tex = Texture::from_linear(2, 2, vec![[1.0; 3]; 4])
+            .unwrap()
+            .with_alpha(vec![0.0, 0.25, 0.75, 1.0])
+            .unwrap();
+        let t = b.add_texture(tex);
+        let mut leaf = Material::diffuse("leaf", [0.5; 3]);
+        leaf.albedo_texture = Some(t);
+        leaf.alpha_mode = AlphaMode::Mask { cutoff: 0.5 };
+        leaf.alpha = 0.8;
+        let mut pane = Material::diffuse("pane", [0.5; 3]);
+        pane.alpha_mode = AlphaMode::Blend;
+        pane.alpha = 0.3;
+        let ms = [
+            b.add_material(leaf).unwrap(),
+            b.add_material(pane).unwrap(),
+            b.add_material(Material::diffuse("wall", [0.5; 3])).unwrap(),
+        ];
+        let uv = [DVec2::new(0.1, 0.2), DVec2::new(0.9, 0.3), DVec2::new(0.4, 0.95)];
+        for (i, &m) in ms.iter().enumerate() {
+            let z = i as f64;
+            b.add_triangle(
+                [DVec3::new(0.0, 0.0, z), DVec3::new(1.0, 0.0, z), DVec3::new(0.0, 1.0, z)],
+                uv,
+                m,
+            )
+            .unwrap();
+        }
+        let scene = b.build().unwrap();
+        let table = AlphaTable::new(&scene);
+        assert_eq!(table.len(), 2);
+        for tri in 0..3u32 {
+            for (u, v) in
+                (0..=10).flat_map(|i| (0..=10 - i).map(move |j| (f64::from(i) / 10.0, f64::from(j) / 10.0)))
+            {
+                assert_eq!(table.alpha(tri, u, v), scene.alpha(tri, u, v), "triangle {tri} at ({u}, {v})");
+            }
+        }
+    }
+
     /// Ray keys depend on every component and nothing else.
     #[test]
     fn ray_keys_are_stable_and_distinct() {
