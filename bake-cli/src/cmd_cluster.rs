@@ -157,8 +157,9 @@ fn absolute(p: &Path) -> anyhow::Result<PathBuf> {
     }
 }
 
-/// Checks what both verbs need and returns (shards, work folder, merged output, lightvol).
-fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, PathBuf, PathBuf, PathBuf)> {
+/// The `--shards N` of a bake both verbs can split: given, positive, no `--shard` of its
+/// own, and a mode that shards.
+fn shard_count(bake: &BakeArgs) -> anyhow::Result<u32> {
     let Some(n) = bake.shards else { bail!("give the number of shards with --shards N") };
     if n == 0 {
         bail!("--shards must be at least 1");
@@ -169,6 +170,12 @@ fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, Pat
     if bake.adaptive.adaptive || bake.gradients == Some(crate::gradients::GradientEstimator::Central) {
         bail!("--adaptive and --gradients central bakes cannot be sharded yet; use a whole bake");
     }
+    Ok(n)
+}
+
+/// Checks what both verbs need and returns (shards, work folder, merged output, lightvol).
+fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, PathBuf, PathBuf, PathBuf)> {
+    let n = shard_count(bake)?;
     let out = absolute(&bake.output)?;
     let work = absolute(&job.workdir.clone().unwrap_or_else(|| out.with_extension(ext)))?;
     let exe = match &job.lightvol {
@@ -436,18 +443,7 @@ fn wait_for(id: &str) -> anyhow::Result<JobLine> {
 
 /// Runs `lightvol k8s`.
 pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
-    let Some(n) = args.bake.shards else { bail!("give the number of shards with --shards N") };
-    if n == 0 {
-        bail!("--shards must be at least 1");
-    }
-    if args.bake.shard.is_some() {
-        bail!("--shard is set by the jobs (--shard auto); give only --shards N");
-    }
-    if args.bake.adaptive.adaptive
-        || args.bake.gradients == Some(crate::gradients::GradientEstimator::Central)
-    {
-        bail!("--adaptive and --gradients central bakes cannot be sharded yet; use a whole bake");
-    }
+    let n = shard_count(&args.bake)?;
     if args.job.lightvol.is_some() {
         bail!("--lightvol is for slurm; the k8s jobs run the image's lightvol");
     }

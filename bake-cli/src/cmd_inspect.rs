@@ -131,17 +131,8 @@ pub struct SceneSummary {
     pub warnings: Vec<String>,
 }
 
-/// The internal frame back to the file's axes (the inverse of [`UpAxis::to_world`]).
-#[must_use]
-pub fn to_file(up: UpAxis, p: DVec3) -> DVec3 {
-    match up {
-        UpAxis::Y => DVec3::new(p.x, p.z, -p.y),
-        UpAxis::Z => p,
-    }
-}
-
 fn bounds_to_file(up: UpAxis, lo: DVec3, hi: DVec3) -> Bounds {
-    let (a, b) = (to_file(up, lo), to_file(up, hi));
+    let (a, b) = (up.to_file(lo), up.to_file(hi));
     Bounds { min: a.min(b).to_array(), max: a.max(b).to_array() }
 }
 
@@ -182,7 +173,7 @@ pub fn summarize(label: &str, scene: &Scene, up: UpAxis) -> SceneSummary {
         .filter(|(m, _)| m.alpha_mode != AlphaMode::Opaque)
         .map(|(_, &n)| n)
         .sum();
-    let f = |p: DVec3| to_file(up, p).to_array();
+    let f = |p: DVec3| up.to_file(p).to_array();
     let v = |p: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", p[0], p[1], p[2]);
     let lights = scene
         .punctual

@@ -105,6 +105,15 @@ pub struct MassMatrix {
     sums: FixedSums,
 }
 
+/// Integer grid coordinates of flat node index `node` (x fastest), as
+/// `GridSpec::node_coords` gives them, for the matrices that keep only the resolution.
+fn node_coords(res: [usize; 3], node: usize) -> [i64; 3] {
+    let i = node % res[0];
+    let j = (node / res[0]) % res[1];
+    let k = node / (res[0] * res[1]);
+    [i as i64, j as i64, k as i64]
+}
+
 /// Name of the mass matrix among an accumulator's auxiliary sums (shard files).
 pub const MASS_AUX: &str = "lsq-mass-27";
 
@@ -142,10 +151,7 @@ impl MassMatrix {
     }
 
     fn coords(&self, node: usize) -> [i64; 3] {
-        let i = node % self.res[0];
-        let j = (node / self.res[0]) % self.res[1];
-        let k = node / (self.res[0] * self.res[1]);
-        [i as i64, j as i64, k as i64]
+        node_coords(self.res, node)
     }
 
     /// Adds one kept sample with the trilinear weights `w` of the 8 corners `nodes` of its
@@ -206,10 +212,7 @@ struct DenseMass {
 
 impl DenseMass {
     fn coords(&self, node: usize) -> [i64; 3] {
-        let i = node % self.res[0];
-        let j = (node / self.res[0]) % self.res[1];
-        let k = node / (self.res[0] * self.res[1]);
-        [i as i64, j as i64, k as i64]
+        node_coords(self.res, node)
     }
 
     fn row_sum(&self, node: usize) -> f64 {

@@ -244,6 +244,16 @@ impl UpAxis {
             Self::Z => p,
         }
     }
+    /// The inverse of [`to_world`](Self::to_world): a world-frame point or direction in the
+    /// file's axes.
+    #[must_use]
+    #[inline]
+    pub fn to_file(self, p: DVec3) -> DVec3 {
+        match self {
+            Self::Y => DVec3::new(p.x, p.z, -p.y),
+            Self::Z => p,
+        }
+    }
 }
 
 /// The scene: geometry, materials, textures and lights. Build one with [`SceneBuilder`],
@@ -578,6 +588,11 @@ mod tests {
         // A rotation maps x × y to (Rx) × (Ry).
         assert_eq!(r.to_world(x).cross(r.to_world(y)), r.to_world(x.cross(y)));
         assert_eq!(r.to_world(z).length(), 1.0);
+        for up in [UpAxis::Y, UpAxis::Z] {
+            let p = DVec3::new(1.5, -2.0, 3.25);
+            assert_eq!(up.to_file(up.to_world(p)), p);
+            assert_eq!(up.to_world(up.to_file(p)), p);
+        }
     }
 
     #[test]

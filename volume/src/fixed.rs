@@ -42,40 +42,6 @@ pub fn from_fixed(v: i128) -> f64 {
     v as f64 / SCALE
 }
 
-/// One fixed-point sum with its poison flag.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct FixedSum {
-    /// The sum in units of 2^-64.
-    pub value: i128,
-    /// A term could not be represented (non-finite or too large).
-    pub poisoned: bool,
-}
-
-impl FixedSum {
-    /// Adds a term.
-    #[inline]
-    pub fn add(&mut self, x: f64) {
-        match to_fixed(x) {
-            Some(v) => self.value = self.value.wrapping_add(v),
-            None => self.poisoned = true,
-        }
-    }
-
-    /// Adds another sum (exact, associative, commutative).
-    #[inline]
-    pub fn merge(&mut self, o: FixedSum) {
-        self.value = self.value.wrapping_add(o.value);
-        self.poisoned |= o.poisoned;
-    }
-
-    /// The sum as f64; NaN when poisoned.
-    #[must_use]
-    #[inline]
-    pub fn get(self) -> f64 {
-        if self.poisoned { f64::NAN } else { from_fixed(self.value) }
-    }
-}
-
 /// An array of fixed-point sums with their poison flags (17 bytes per sum).
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct FixedSums {
@@ -218,39 +184,40 @@ mod tests {
     fn sums_are_order_free() {
         let terms: Vec<f64> =
             (0..1000).map(|i| ((i as f64) * 0.618_033_988_75).sin() * 10f64.powi(i % 7 - 3)).collect();
-        let mut fwd = FixedSum::default();
-        terms.iter().for_each(|&t| fwd.add(t));
-        let mut rev = FixedSum::default();
-        terms.iter().rev().for_each(|&t| rev.add(t));
-        let (mut a, mut b) = (FixedSum::default(), FixedSum::default());
+        let mut fwd = FixedSums::zeros(1);
+        terms.iter().for_each(|&t| fwd.add(0, t));
+        let mut rev = FixedSums::zeros(1);
+        terms.iter().rev().for_each(|&t| rev.add(0, t));
+        let (mut a, mut b) = (FixedSums::zeros(1), FixedSums::zeros(1));
         for (i, &t) in terms.iter().enumerate() {
-            if i % 3 == 0 { a.add(t) } else { b.add(t) }
+            if i % 3 == 0 { a.add(0, t) } else { b.add(0, t) }
         }
-        b.merge(a);
+        b.merge(&a);
         assert_eq!(fwd, rev);
         assert_eq!(fwd, b);
         let f64_fwd: f64 = terms.iter().sum();
         let f64_rev: f64 = terms.iter().rev().sum();
         assert_ne!(f64_fwd, f64_rev, "the f64 sums should differ for this test to mean anything");
-        assert!((fwd.get() - f64_fwd).abs() < 1e-12);
-        let mut p = FixedSum::default();
-        p.add(f64::NAN);
-        p.add(1.0);
-        assert!(p.get().is_nan());
+        assert!((fwd.get(0) - f64_fwd).abs() < 1e-12);
+        let mut p = FixedSums::zeros(1);
+        p.add(0, f64::NAN);
+        p.add(0, 1.0);
+        assert!(p.get(0).is_nan());
+        assert_eq!(p.first_poisoned(), Some(0));
     }
 
     /// Wrapping intermediate overflow does not change an in-range final sum.
     #[test]
     fn wrapping_is_harmless_for_in_range_results() {
         let big = 2f64.powi(47);
-        let mut s = FixedSum::default();
+        let mut s = FixedSums::zeros(1);
         for _ in 0..(1 << 17) {
-            s.add(big); // 2^17 · 2^47 · 2^64 = 2^128: wraps
+            s.add(0, big); // 2^17 · 2^47 · 2^64 = 2^128: wraps
         }
         for _ in 0..(1 << 17) {
-            s.add(-big);
+            s.add(0, -big);
         }
-        s.add(0.25);
-        assert_eq!(s.get(), 0.25);
+        s.add(0, 0.25);
+        assert_eq!(s.get(0), 0.25);
     }
 }

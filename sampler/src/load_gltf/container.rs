@@ -96,6 +96,23 @@ pub(crate) fn base64_decode(s: &str) -> Option<Vec<u8>> {
     Some(out)
 }
 
+/// Encodes standard base64 with padding (RFC 4648 §4), for tests that embed buffers and
+/// images in `data:` URIs.
+#[cfg(test)]
+pub(crate) fn base64_encode(data: &[u8]) -> String {
+    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    let mut out = String::new();
+    for c in data.chunks(3) {
+        let n = (u32::from(c[0]) << 16)
+            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
+            | u32::from(*c.get(2).unwrap_or(&0));
+        for k in 0..4 {
+            out.push(if k <= c.len() { A[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
+        }
+    }
+    out
+}
+
 /// Decodes `%XX` escapes of a relative URI (RFC 3986 §2.1).
 fn percent_decode(s: &str) -> String {
     let b = s.as_bytes();
@@ -191,6 +208,9 @@ mod tests {
             assert_eq!(base64_decode(enc).unwrap(), dec.as_bytes());
         }
         assert!(base64_decode("Zm9v*").is_none());
+        for (enc, dec) in [("Zg==", "f"), ("Zm8=", "fo"), ("Zm9vYmFy", "foobar")] {
+            assert_eq!(base64_encode(dec.as_bytes()), enc);
+        }
     }
 
     /// Only `buffers[0]` is the BIN chunk; a second buffer without `uri` is an error, not

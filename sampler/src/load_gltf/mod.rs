@@ -18,6 +18,8 @@
 
 mod accessor;
 mod container;
+#[cfg(test)]
+pub(crate) use container::base64_encode;
 pub mod extensions;
 mod material;
 

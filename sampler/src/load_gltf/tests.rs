@@ -3,6 +3,7 @@
 use super::*;
 use crate::scene::UpAxis;
 use crate::texture::srgb_to_linear;
+use container::base64_encode;
 use serde_json::json;
 
 /// A minimal embedded glTF: one triangle under a node translated by (0, 0, 5) and
@@ -38,24 +39,6 @@ fn gltf_text(double_sided: bool) -> String {
   "buffers": [{{"byteLength": 36, "uri": "data:application/octet-stream;base64,{b64}"}}]
 }}"#
     )
-}
-
-fn base64_encode(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for k in 0..4 {
-            if k <= c.len() {
-                out.push(A[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
 }
 
 #[test]

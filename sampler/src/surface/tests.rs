@@ -502,19 +502,7 @@ fn bary_of(v: &[DVec3; 3], p: DVec3) -> [f64; 2] {
 // ---------------------------------------------------------------------------------------
 // Lightmap UV errors from glTF files.
 
-fn base64(data: &[u8]) -> String {
-    const A: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for c in data.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for k in 0..4 {
-            out.push(if k <= c.len() { A[(n >> (18 - 6 * k) & 63) as usize] as char } else { '=' });
-        }
-    }
-    out
-}
+use crate::load_gltf::base64_encode as base64;
 
 /// A glTF file with one mesh "Floor" of two triangles over the unit square (4 vertices),
 /// `TEXCOORD_0` = positions, `TEXCOORD_1` = `uv1` if given, optional `TANGENT`s, under a node
