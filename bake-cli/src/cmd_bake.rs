@@ -307,20 +307,9 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     if args.sampling.samples == 0 {
         anyhow::bail!("--samples must be at least 1");
     }
-    let shard = match args.shard.as_deref() {
-        None if args.shards.is_some() => {
-            bail!("--shards N needs --shard auto (or use `lightvol slurm` / `lightvol k8s`)")
-        }
-        None => (0, 1),
-        Some("auto") => lightvol_sampler::shard::shard_from_env(|k| std::env::var(k).ok(), args.shards)?,
-        Some(s) => {
-            let (k, n) = lightvol_sampler::shard::parse_shard("--shard", s)?;
-            if args.shards.is_some_and(|m| m != n) {
-                bail!("--shards {} disagrees with --shard {s}", args.shards.unwrap_or(n));
-            }
-            (k, n)
-        }
-    };
+    let shard = lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
+        std::env::var(k).ok()
+    })?;
     let settings = BakeSettings {
         method,
         samples: args.sampling.samples,
@@ -346,7 +335,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
-    let (out, grads, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
+    let (mut out, grads, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
@@ -403,13 +392,13 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         let acc_path = args.output.with_extension("lvacc");
         // A least-squares bake's mass matrix travels in the shard file (exact sums too), so
         // `merge` solves the fit over the whole set.
-        let mut acc = out.accumulator.clone();
+        // (Auxiliary sums do not change what the accumulator finalizes to.)
         match &grads {
-            Some(Grads::Mass(mass)) => mass.attach_to(&mut acc),
-            Some(Grads::Gradients(_, _, Some(sums))) => sums.attach_to(&mut acc),
+            Some(Grads::Mass(mass)) => mass.attach_to(&mut out.accumulator),
+            Some(Grads::Gradients(_, _, Some(sums))) => sums.attach_to(&mut out.accumulator),
             _ => {}
         }
-        write_accumulator(&acc_path, &acc, &meta)
+        write_accumulator(&acc_path, &out.accumulator, &meta)
             .with_context(|| format!("writing {}", acc_path.display()))?;
         if !args.json {
             eprintln!("wrote {}", acc_path.display());

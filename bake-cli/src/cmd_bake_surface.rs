@@ -459,13 +459,11 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     if args.output.exists() && !args.output.is_dir() {
         bail!("output {} exists and is not a directory", args.output.display());
     }
-    let shard = match args.shard.as_deref() {
-        None if args.shards.is_some() => bail!("--shards N needs --shard auto"),
-        None => None,
-        Some("auto") => {
-            Some(lightvol_sampler::shard::shard_from_env(|k| std::env::var(k).ok(), args.shards)?)
-        }
-        Some(s) => Some(lightvol_sampler::shard::parse_shard("--shard", s)?),
+    let shard = match lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
+        std::env::var(k).ok()
+    })? {
+        (0, 1) if args.shard.is_none() => None,
+        s => Some(s),
     };
     let loaded = args.scene.load()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };

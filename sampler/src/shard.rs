@@ -111,6 +111,35 @@ pub fn shard_from_env(
     Err(ShardError::NotFound)
 }
 
+/// The shard a command runs: `--shard K/N`, `--shard auto` (from the scheduler's
+/// environment, with `--shards N` where it needs one), or `(0, 1)` for a whole bake.
+///
+/// # Errors
+/// As [`parse_shard`] and [`shard_from_env`], and [`ShardError::Invalid`] for `--shards`
+/// without `--shard` or disagreeing with an explicit `K/N`.
+pub fn resolve_shard(
+    shard: Option<&str>,
+    shards: Option<u32>,
+    env: impl Fn(&str) -> Option<String>,
+) -> Result<(u32, u32), ShardError> {
+    match shard {
+        None if shards.is_some() => Err(ShardError::Invalid(
+            "--shards N needs --shard auto (or use `lightvol slurm` / `lightvol k8s`)".into(),
+        )),
+        None => Ok((0, 1)),
+        Some("auto") => shard_from_env(env, shards),
+        Some(s) => {
+            let (k, n) = parse_shard("--shard", s)?;
+            match shards {
+                Some(m) if m != n => {
+                    Err(ShardError::Invalid(format!("--shards {m} disagrees with --shard {s}")))
+                }
+                _ => Ok((k, n)),
+            }
+        }
+    }
+}
+
 /// Worker threads from the scheduler: `SLURM_CPUS_PER_TASK` when set to a positive number.
 #[must_use]
 pub fn threads_from_env(env: impl Fn(&str) -> Option<String>) -> Option<usize> {
@@ -171,6 +200,16 @@ mod tests {
         let mut v = slurm(3, 1, 7, 1);
         v[4].1 = "3".into(); // --array=1,3,7: min 1, max 7, 3 tasks
         assert!(shard_from_env(e(&v), None).unwrap_err().to_string().contains("not arithmetic"));
+    }
+
+    #[test]
+    fn resolve_covers_whole_explicit_and_auto() {
+        let none = env(&[]);
+        assert_eq!(resolve_shard(None, None, &none).unwrap(), (0, 1));
+        assert!(resolve_shard(None, Some(3), &none).unwrap_err().to_string().contains("--shard auto"));
+        assert_eq!(resolve_shard(Some("1/3"), Some(3), &none).unwrap(), (1, 3));
+        assert!(resolve_shard(Some("1/3"), Some(4), &none).unwrap_err().to_string().contains("disagrees"));
+        assert_eq!(resolve_shard(Some("auto"), None, env(&[("LIGHTVOL_SHARD", "2/5")])).unwrap(), (2, 5));
     }
 
     #[test]
