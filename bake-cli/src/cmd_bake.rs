@@ -218,12 +218,12 @@ pub fn run_bake(
 
 /// What a bake carries besides its accumulator.
 enum Grads {
-    /// Per-node SH gradients, their report, and the basis estimator's exact sums (boxed:
+    /// Per-node SH gradients, their report, and what a shard file carries of them (boxed:
     /// the variant is much larger than the others).
     Gradients(
         lightvol_volume::VolumeGradients,
         GradientsJson,
-        Option<Box<lightvol_sampler::gradients::BasisGradientAccumulator>>,
+        Box<lightvol_sampler::gradients::ShardGradients>,
     ),
     /// The mass matrix of a least-squares fit.
     Mass(MassMatrix),
@@ -318,11 +318,6 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         shard,
         ..BakeSettings::default()
     };
-    if args.gradients == Some(GradientEstimator::Central) && (args.shard.is_some() || args.keep_accumulator) {
-        bail!(
-            "--gradients central cannot be combined with --shard or --keep-accumulator (its extra projections are per node); use --gradients basis"
-        );
-    }
     let fit = if method == Method::Point { Fit::Average } else { args.sampling.fit };
     if fit != Fit::Average && args.gradients.is_some() {
         bail!(
@@ -360,7 +355,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     seconds: g.seconds,
                     memory_bytes: g.gradients.memory_bytes(),
                 };
-                (g.output, Some(Grads::Gradients(g.gradients, json, g.basis_sums.map(Box::new))), bvh_seconds)
+                (g.output, Some(Grads::Gradients(g.gradients, json, Box::new(g.sums))), bvh_seconds)
             }
         })
     })??;
@@ -395,7 +390,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         // (Auxiliary sums do not change what the accumulator finalizes to.)
         match &grads {
             Some(Grads::Mass(mass)) => mass.attach_to(&mut out.accumulator),
-            Some(Grads::Gradients(_, _, Some(sums))) => sums.attach_to(&mut out.accumulator),
+            Some(Grads::Gradients(_, _, sums)) => sums.attach_to(&mut out.accumulator),
             _ => {}
         }
         write_accumulator(&acc_path, &out.accumulator, &meta)

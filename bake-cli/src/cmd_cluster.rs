@@ -167,8 +167,8 @@ fn shard_count(bake: &BakeArgs) -> anyhow::Result<u32> {
     if bake.shard.is_some() {
         bail!("--shard is set by the jobs (--shard auto); give only --shards N");
     }
-    if bake.adaptive.adaptive || bake.gradients == Some(crate::gradients::GradientEstimator::Central) {
-        bail!("--adaptive and --gradients central bakes cannot be sharded yet; use a whole bake");
+    if bake.adaptive.adaptive {
+        bail!("--adaptive bakes cannot be sharded yet; use a whole bake");
     }
     Ok(n)
 }

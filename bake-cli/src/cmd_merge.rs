@@ -2,8 +2,8 @@
 //!
 //! Each input is a shard's exact accumulator (`.lvacc`, written by `bake --shard` or
 //! `bake --keep-accumulator`) or an EXR whose sibling `.lvacc` exists. The Eq. 6 sums are
-//! added in shard order (deterministic), then finalized; the result equals the unsharded
-//! bake to f64 rounding.
+//! added as exact fixed-point integers (any order gives the same bits), then finalized; the
+//! result is the unsharded bake's file byte for byte.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -148,8 +148,10 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
             .with_context(|| format!("writing {}", ap.display()))?;
     }
     // A least-squares bake's shards carry the mass matrix: solve the fit over the whole set.
-    // A basis-gradient bake's carry the gradient systems: solve them on the merged volume.
-    let grad_sums = lightvol_sampler::gradients::BasisGradientAccumulator::from_accumulator(&acc);
+    // A gradient bake's carry the basis estimator's systems (solved on the merged volume) or
+    // the central differences of their nodes.
+    let grad_sums = lightvol_sampler::gradients::ShardGradients::from_accumulator(&acc)
+        .context("reading the shards' gradients")?;
     let (vol, fill) = match lightvol_sampler::fit::MassMatrix::from_accumulator(&acc) {
         None => acc.finalize(),
         Some(mass) => {
@@ -174,7 +176,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         None => write_exr(&args.output, &vol, &ExrOptions::default()),
         Some(g) => {
             let (grads, rep) = g.finish(&vol).context("solving the basis-gradient systems")?;
-            eprintln!("basis gradients: {} nodes solved, {} singular", rep.solved, rep.singular);
+            eprintln!("gradients: {} nodes solved, {} singular", rep.solved, rep.singular);
             lightvol_volume::exr_io::write_exr_with_gradients(
                 &args.output,
                 &vol,

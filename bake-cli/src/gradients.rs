@@ -8,7 +8,9 @@
 
 use anyhow::{Context, bail};
 use clap::ValueEnum;
-use lightvol_sampler::gradients::{bake_with_gradients, central_difference_gradients, default_offset};
+use lightvol_sampler::gradients::{
+    ShardGradients, bake_with_gradients, central_difference_data, default_offset,
+};
 use lightvol_sampler::{BakeControl, BakeOutput, BakeSettings, Method, Tracer, Transport, TransportSettings};
 use lightvol_volume::gradient::{GradientLookup, floats_per_sample};
 use lightvol_volume::{GridSpec, IrradianceVolume, VolumeGradients};
@@ -62,16 +64,19 @@ pub struct GradientBake {
     pub extra_directions: u64,
     /// Wall time of the gradient step beyond the bake.
     pub seconds: f64,
-    /// The basis estimator's exact sums (for shard files), `None` for `central`.
-    pub basis_sums: Option<lightvol_sampler::gradients::BasisGradientAccumulator>,
+    /// What a shard file carries for `merge`: the basis estimator's exact sums, or the
+    /// central differences of the shard's nodes.
+    pub sums: ShardGradients,
 }
 
 /// Bakes `grid` with `settings` and computes the gradients by `estimator`; the volume is
 /// `output.accumulator.finalize()` (the caller finalizes and attaches metadata).
 ///
+/// A sharded bake (`settings.shard`) computes the central differences of its own range of
+/// nodes ([`lightvol_sampler::shard::shard_range`]); its `gradients` are zero elsewhere.
+///
 /// # Errors
-/// `basis` with `point` sampling, a sharded bake (the accumulator holds no gradient sums),
-/// and the bake's own errors.
+/// `basis` with `point` sampling, and the bake's own errors.
 #[allow(clippy::too_many_arguments)] // reason: mirrors cmd_bake::run_bake plus the estimator
 pub fn bake_with(
     scene: &lightvol_sampler::Scene,
@@ -83,11 +88,6 @@ pub fn bake_with(
     quiet: bool,
     label: &str,
 ) -> anyhow::Result<GradientBake> {
-    if settings.shard.1 != 1 && estimator == GradientEstimator::Central {
-        bail!(
-            "--gradients central cannot be sharded (its extra projections are per node); use --gradients basis"
-        );
-    }
     if estimator == GradientEstimator::Basis && settings.method == Method::Point {
         bail!(
             "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
@@ -115,7 +115,7 @@ pub fn bake_with(
                 singular_nodes: rep.singular,
                 extra_directions: 0,
                 seconds: t0.elapsed().as_secs_f64(),
-                basis_sums: Some(acc),
+                sums: ShardGradients::Basis(acc),
             }
         }
         GradientEstimator::Central => {
@@ -123,17 +123,20 @@ pub fn bake_with(
             pb.finish_and_clear();
             let t0 = std::time::Instant::now();
             let (vol, _) = output.accumulator.finalize();
+            let nodes = lightvol_sampler::shard::shard_range(grid.node_count(), settings.shard);
+            let count = nodes.len() as u64;
+            let data = central_difference_data(&transport, grid, settings, default_offset(grid), nodes)
+                .context("central-difference gradients")?;
             let gradients =
-                central_difference_gradients(&transport, grid, settings, default_offset(grid), &vol)
-                    .context("central-difference gradients")?;
+                VolumeGradients::new(&vol, data.clone()).context("central-difference gradients")?;
             GradientBake {
                 output,
                 gradients,
                 estimator,
                 singular_nodes: 0,
-                extra_directions: 6 * u64::from(settings.samples) * grid.node_count() as u64,
+                extra_directions: 6 * u64::from(settings.samples) * count,
                 seconds: t0.elapsed().as_secs_f64(),
-                basis_sums: None,
+                sums: ShardGradients::Central(data),
             }
         }
     };

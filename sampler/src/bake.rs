@@ -17,8 +17,9 @@
 //! **Determinism.** Work is split in units (cells, or nodes for point sampling), processed in
 //! parallel in chunks; each unit's samples use only per-(unit, sample) random streams; the
 //! results are fed into the accumulator strictly in unit order. Any thread count therefore
-//! gives bit-identical sums. Shard `k` of `n` takes a contiguous range of units; merging
-//! the shards' accumulators reorders only the final additions (f64 rounding).
+//! gives bit-identical sums. Shard `k` of `n` takes a contiguous range of units
+//! ([`crate::shard::shard_range`]); the accumulator's sums are exact fixed-point integers
+//! (lightvol-volume's `fixed`), so merging shards in any order gives the whole bake's bits.
 
 use std::f64::consts::PI;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -205,8 +206,9 @@ pub(crate) fn bake_with_sink(
         Method::Point => grid.node_count(),
         Method::Prefilter | Method::Doi => grid.cell_count(),
     };
-    let (lo, hi) = (units * k as usize / n as usize, units * (k as usize + 1) / n as usize);
-    let stats = run_units(transport, grid, settings, control, hi - lo, |i| lo + i, &mut acc, &mut sink)?;
+    let range = crate::shard::shard_range(units, (k, n));
+    let lo = range.start;
+    let stats = run_units(transport, grid, settings, control, range.len(), |i| lo + i, &mut acc, &mut sink)?;
     Ok(BakeOutput { accumulator: acc, stats })
 }
 

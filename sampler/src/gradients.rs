@@ -93,8 +93,24 @@ pub fn central_differences(
     h: f64,
     project: impl Fn(usize, DVec3) -> Vec<f64> + Sync,
 ) -> Vec<f32> {
+    central_differences_of(grid, coeffs, h, 0..grid.node_count(), project)
+}
+
+/// [`central_differences`] for the nodes in `nodes` only (a shard's); the other nodes'
+/// gradients are zero. Each node's gradient depends on nothing but the node, so the union
+/// of disjoint ranges is the whole array bit for bit.
+pub fn central_differences_of(
+    grid: &GridSpec,
+    coeffs: usize,
+    h: f64,
+    nodes: std::ops::Range<usize>,
+    project: impl Fn(usize, DVec3) -> Vec<f64> + Sync,
+) -> Vec<f32> {
     let k = coeffs * 3;
-    let per_node: Vec<Vec<f32>> = (0..grid.node_count())
+    let all = grid.node_count();
+    let nodes = nodes.start.min(all)..nodes.end.min(all);
+    let (before, after) = (nodes.start * k * 3, (all - nodes.end) * k * 3);
+    let per_node: Vec<Vec<f32>> = nodes
         .into_par_iter()
         .map(|node| {
             let [i, j, l] = grid.node_coords(node);
@@ -110,7 +126,10 @@ pub fn central_differences(
             g
         })
         .collect();
-    per_node.concat()
+    let mut out = vec![0.0f32; before];
+    out.extend(per_node.concat());
+    out.resize(out.len() + after, 0.0);
+    out
 }
 
 /// Eq. 4 of Kontkanen & Laine 2006 at world point `x`: `settings.samples` uniform
@@ -158,19 +177,112 @@ pub fn central_difference_gradients(
     h: f64,
     volume: &IrradianceVolume,
 ) -> Result<VolumeGradients, BakeError> {
+    if !volume.spec().same_nodes(grid) || volume.coeffs() != settings.coeffs {
+        return Err(BakeError::Volume("volume does not match the grid and coefficient count".into()));
+    }
+    let data = central_difference_data(t, grid, settings, h, 0..grid.node_count())?;
+    VolumeGradients::new(volume, data).map_err(|e| BakeError::Volume(e.to_string()))
+}
+
+/// The raw gradient array `[node][coeff][rgb][xyz]` of [`central_difference_gradients`] for
+/// the nodes in `nodes` (zero elsewhere): what one shard of a sharded bake computes
+/// ([`crate::shard::shard_range`] over the nodes). Store it with [`attach_central`].
+///
+/// # Errors
+/// As [`central_difference_gradients`].
+pub fn central_difference_data(
+    t: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    h: f64,
+    nodes: std::ops::Range<usize>,
+) -> Result<Vec<f32>, BakeError> {
     if settings.samples == 0 || !(h > 0.0) || bands_of(settings.coeffs).is_none() {
         return Err(BakeError::Settings(format!(
             "central differences need samples > 0 (got {}), h > 0 (got {h}), 4/9/16 coeffs (got {})",
             settings.samples, settings.coeffs
         )));
     }
-    if !volume.spec().same_nodes(grid) || volume.coeffs() != settings.coeffs {
-        return Err(BakeError::Volume("volume does not match the grid and coefficient count".into()));
-    }
-    let data = central_differences(grid, settings.coeffs, h, |node, x| {
+    Ok(central_differences_of(grid, settings.coeffs, h, nodes, |node, x| {
         point_projection(t, settings, x, hash2(node as u64, GRADIENT_STREAM))
-    });
-    VolumeGradients::new(volume, data).map_err(|e| BakeError::Volume(e.to_string()))
+    }))
+}
+
+/// Name of the central-difference gradients among an accumulator's auxiliary sums.
+pub const CENTRAL_AUX: &str = "central-gradient-f32";
+
+/// Stores a shard's central-difference gradients ([`central_difference_data`]) in `acc`'s
+/// auxiliary sums: each f32's bit pattern as an integer (`0..2^32`). A node's gradient is
+/// computed by exactly one shard and is zero in the others, so the exact integer sum of a
+/// complete set is that shard's bit pattern: merging is lossless in any order.
+pub fn attach_central(data: &[f32], acc: &mut Accumulator) {
+    let raw = data.iter().map(|v| i128::from(v.to_bits())).collect();
+    acc.set_aux(CENTRAL_AUX, FixedSums::from_raw(raw));
+}
+
+/// The gradients a sharded bake carries in its (merged) accumulator.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShardGradients {
+    /// The basis estimator's exact sums, solved on the merged volume.
+    Basis(BasisGradientAccumulator),
+    /// The central-difference gradients, `[node][coeff][rgb][xyz]`.
+    Central(Vec<f32>),
+}
+
+impl ShardGradients {
+    /// The gradients attached to `acc` ([`BasisGradientAccumulator::attach_to`],
+    /// [`attach_central`]), `Ok(None)` when it carries none.
+    ///
+    /// # Errors
+    /// [`BakeError::Volume`] for central gradients whose merged values are not f32 bit
+    /// patterns (the same node counted by two shards) or of the wrong length.
+    pub fn from_accumulator(acc: &Accumulator) -> Result<Option<Self>, BakeError> {
+        if let Some(b) = BasisGradientAccumulator::from_accumulator(acc) {
+            return Ok(Some(Self::Basis(b)));
+        }
+        let Some((name, all)) = acc.aux() else { return Ok(None) };
+        if name != CENTRAL_AUX {
+            return Ok(None);
+        }
+        let n = acc.spec().node_count() * acc.coeffs() * 9;
+        if all.len() != n || all.first_poisoned().is_some() {
+            return Err(BakeError::Volume(format!(
+                "central gradients of {} values, expected {n}",
+                all.len()
+            )));
+        }
+        let data = all
+            .raw()
+            .iter()
+            .map(|&v| u32::try_from(v).map(f32::from_bits))
+            .collect::<Result<Vec<f32>, _>>()
+            .map_err(|_| BakeError::Volume("central gradients counted twice for a node".into()))?;
+        Ok(Some(Self::Central(data)))
+    }
+
+    /// Stores the gradients in `acc`'s auxiliary sums (for a shard file).
+    pub fn attach_to(&self, acc: &mut Accumulator) {
+        match self {
+            Self::Basis(b) => b.attach_to(acc),
+            Self::Central(data) => attach_central(data, acc),
+        }
+    }
+
+    /// The gradients of `volume` (the merged bake's), with the basis solve's report (all
+    /// nodes "solved" for central).
+    ///
+    /// # Errors
+    /// [`BakeError::Volume`] when the gradients do not fit `volume`.
+    pub fn finish(&self, volume: &IrradianceVolume) -> Result<(VolumeGradients, GradientReport), BakeError> {
+        match self {
+            Self::Basis(b) => b.finish(volume),
+            Self::Central(data) => {
+                let g = VolumeGradients::new(volume, data.clone())
+                    .map_err(|e| BakeError::Volume(e.to_string()))?;
+                Ok((g, GradientReport { solved: volume.spec().node_count(), singular: 0 }))
+            }
+        }
+    }
 }
 
 /// How the basis-gradient solve went.

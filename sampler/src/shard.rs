@@ -140,6 +140,15 @@ pub fn resolve_shard(
     }
 }
 
+/// The contiguous range of `units` (cells, nodes, texels, ...) that shard `k` of `n` takes:
+/// `units·k/n .. units·(k+1)/n`. The ranges of `0..n` tile `0..units` in order.
+#[must_use]
+pub fn shard_range(units: usize, (k, n): (u32, u32)) -> std::ops::Range<usize> {
+    let (k, n) = (k as u128, n.max(1) as u128);
+    let u = units as u128;
+    (u * k / n) as usize..(u * (k + 1) / n) as usize
+}
+
 /// Worker threads from the scheduler: `SLURM_CPUS_PER_TASK` when set to a positive number.
 #[must_use]
 pub fn threads_from_env(env: impl Fn(&str) -> Option<String>) -> Option<usize> {
@@ -149,6 +158,23 @@ pub fn threads_from_env(env: impl Fn(&str) -> Option<String>) -> Option<usize> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The shard ranges tile the units in order, each of size ⌊units/n⌋ or ⌈units/n⌉.
+    #[test]
+    fn shard_ranges_tile_the_units() {
+        for units in [0usize, 1, 7, 64, 1000] {
+            for n in 1u32..=9 {
+                let mut next = 0;
+                for k in 0..n {
+                    let r = shard_range(units, (k, n));
+                    assert_eq!(r.start, next);
+                    assert!(r.len() == units / n as usize || r.len() == units.div_ceil(n as usize));
+                    next = r.end;
+                }
+                assert_eq!(next, units);
+            }
+        }
+    }
     use std::collections::HashMap;
 
     fn env(pairs: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
