@@ -115,7 +115,7 @@ pub fn bake_with(
                 singular_nodes: rep.singular,
                 extra_directions: 0,
                 seconds: t0.elapsed().as_secs_f64(),
-                sums: ShardGradients::Basis(acc),
+                sums: ShardGradients::Basis(Box::new(acc)),
             }
         }
         GradientEstimator::Central => {

@@ -223,8 +223,9 @@ pub fn attach_central(data: &[f32], acc: &mut Accumulator) {
 /// The gradients a sharded bake carries in its (merged) accumulator.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ShardGradients {
-    /// The basis estimator's exact sums, solved on the merged volume.
-    Basis(BasisGradientAccumulator),
+    /// The basis estimator's exact sums, solved on the merged volume (boxed: they are
+    /// much larger than the enum's other variant).
+    Basis(Box<BasisGradientAccumulator>),
     /// The central-difference gradients, `[node][coeff][rgb][xyz]`.
     Central(Vec<f32>),
 }
@@ -238,7 +239,7 @@ impl ShardGradients {
     /// patterns (the same node counted by two shards) or of the wrong length.
     pub fn from_accumulator(acc: &Accumulator) -> Result<Option<Self>, BakeError> {
         if let Some(b) = BasisGradientAccumulator::from_accumulator(acc) {
-            return Ok(Some(Self::Basis(b)));
+            return Ok(Some(Self::Basis(Box::new(b))));
         }
         let Some((name, all)) = acc.aux() else { return Ok(None) };
         if name != CENTRAL_AUX {
