@@ -43,11 +43,12 @@ use lightvol_sh::lowdisc::hash2;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use lightvol_volume::adaptive::{level_grid, pack_key};
 use lightvol_volume::{
-    AdaptiveVolume, BuildError, Candidates, GridSpec, LevelSamples, OctreeParams, build_adaptive,
+    Accumulator, AdaptiveVolume, BuildError, Candidates, GridSpec, LevelSamples, OctreeParams, build_adaptive,
 };
 use rayon::prelude::*;
 
-use crate::bake::{BakeControl, BakeSettings, Method, Progress, bake, bake_units};
+use crate::adaptive_shard::{LevelSums, plan_hash};
+use crate::bake::{BakeControl, BakeOutput, BakeSettings, Method, Progress, bake, bake_units_fixed};
 use crate::bvh::Tracer;
 use crate::error::BakeError;
 use crate::qmc::Qmc;
@@ -275,7 +276,8 @@ fn units_for(grid: &GridSpec, method: Method, nodes: &[[u32; 3]]) -> Vec<usize> 
 }
 
 /// Bakes an adaptive volume (module docs): the base grid with [`bake`], then level by level
-/// the nodes that the heuristics' splits create. `settings.shard` must be `(0, 1)`.
+/// the nodes that the heuristics' splits create. `settings.shard` must be `(0, 1)` (shard an
+/// adaptive bake level by level: [`crate::adaptive_shard`]).
 /// Progress counts units (cells) baked so far against units planned so far (the total
 /// grows as levels are planned).
 ///
@@ -289,10 +291,137 @@ pub fn bake_adaptive(
     adaptive: &AdaptiveSettings,
     control: &BakeControl<'_>,
 ) -> Result<(AdaptiveVolume, AdaptiveStats), BakeError> {
+    match drive(transport, base_grid, settings, adaptive, &Source::Whole, control)? {
+        Driven::Volume(v, s) => Ok((v, s)),
+        Driven::Level(_) => unreachable!("a whole bake never stops at a level"),
+    }
+}
+
+/// One shard of refinement level `level` (≥ 1) of a sharded adaptive bake
+/// ([`crate::adaptive_shard`]): replays the builder on `base` (the merged level-0 sums, from
+/// a sharded [`bake`] of `base_grid` with `settings`) and `levels` (the merged sums of levels
+/// `1..level`, in order), then bakes shard `shard` of level `level`'s units. A level the
+/// builder does not reach (nothing split below it) gives [`LevelSums::nothing_to_refine`].
+///
+/// # Errors
+/// As [`bake_adaptive`], and [`BakeError::Settings`] when `levels` are not levels
+/// `1..level`, when `base` is not on `base_grid`, or when a level's plan differs from the
+/// replay's (its shards were baked from other inputs).
+#[allow(clippy::too_many_arguments, reason = "the bake's inputs, plus what the level replays")]
+pub fn bake_adaptive_level_shard(
+    transport: &Transport<'_>,
+    base_grid: &GridSpec,
+    settings: &BakeSettings,
+    adaptive: &AdaptiveSettings,
+    base: &Accumulator,
+    levels: &[LevelSums],
+    level: u32,
+    shard: (u32, u32),
+    control: &BakeControl<'_>,
+) -> Result<LevelSums, BakeError> {
+    if level == 0 || level > adaptive.max_level {
+        return Err(BakeError::Settings(format!(
+            "refinement level {level} is not in 1..={}",
+            adaptive.max_level
+        )));
+    }
+    if levels.len() != level as usize - 1 {
+        return Err(BakeError::Settings(format!(
+            "level {level} needs the merged sums of levels 1..{level}, got {} level(s)",
+            levels.len()
+        )));
+    }
+    if shard.1 == 0 || shard.0 >= shard.1 {
+        return Err(BakeError::Settings(format!("shard {} of {}", shard.0, shard.1)));
+    }
+    let source =
+        Source::Replay { base, base_stats: BakeStats::default(), levels, target: Some((level, shard)) };
+    match drive(transport, base_grid, settings, adaptive, &source, control)? {
+        Driven::Level(l) => Ok(l),
+        Driven::Volume(..) => Ok(LevelSums::nothing_to_refine(level, settings.coeffs * 3)),
+    }
+}
+
+/// Assembles a sharded adaptive bake: replays the builder on `base` (merged level-0 sums,
+/// whose bake statistics were `base_stats`) and `levels` (the merged sums of levels `1..`,
+/// in order, as far as the builder refines). The volume equals [`bake_adaptive`]'s bit for
+/// bit.
+///
+/// # Errors
+/// As [`bake_adaptive_level_shard`], and [`BakeError::Settings`] naming the first level the
+/// builder needs that `levels` lacks, or a level with units the builder never reaches.
+#[allow(clippy::too_many_arguments, reason = "the bake's inputs, plus what the assembly replays")]
+pub fn assemble_adaptive(
+    transport: &Transport<'_>,
+    base_grid: &GridSpec,
+    settings: &BakeSettings,
+    adaptive: &AdaptiveSettings,
+    base: &Accumulator,
+    base_stats: BakeStats,
+    levels: &[LevelSums],
+    control: &BakeControl<'_>,
+) -> Result<(AdaptiveVolume, AdaptiveStats), BakeError> {
+    if levels.len() > adaptive.max_level as usize {
+        return Err(BakeError::Settings(format!(
+            "{} refinement levels given for --max-level {}",
+            levels.len(),
+            adaptive.max_level
+        )));
+    }
+    let source = Source::Replay { base, base_stats, levels, target: None };
+    match drive(transport, base_grid, settings, adaptive, &source, control)? {
+        Driven::Volume(v, s) => Ok((v, s)),
+        Driven::Level(_) => unreachable!("an assembly never stops at a level"),
+    }
+}
+
+/// Where the levels of [`drive`] come from.
+enum Source<'a> {
+    /// Bake every level.
+    Whole,
+    /// Replay merged sums; with a target, bake that shard of that level and stop.
+    Replay {
+        base: &'a Accumulator,
+        base_stats: BakeStats,
+        levels: &'a [LevelSums],
+        target: Option<(u32, (u32, u32))>,
+    },
+}
+
+/// What [`drive`] ends with.
+enum Driven {
+    Volume(AdaptiveVolume, AdaptiveStats),
+    Level(LevelSums),
+}
+
+/// Why the builder's callbacks stopped it.
+enum Halt {
+    Bake(BakeError),
+    Stop(LevelSums),
+}
+
+impl From<BakeError> for Halt {
+    fn from(e: BakeError) -> Self {
+        Self::Bake(e)
+    }
+}
+
+/// The adaptive bake of [`bake_adaptive`], its level shards and its assembly.
+fn drive(
+    transport: &Transport<'_>,
+    base_grid: &GridSpec,
+    settings: &BakeSettings,
+    adaptive: &AdaptiveSettings,
+    source: &Source<'_>,
+    control: &BakeControl<'_>,
+) -> Result<Driven, BakeError> {
     adaptive.validate()?;
     if settings.shard != (0, 1) {
-        return Err(BakeError::Settings("an adaptive bake cannot be sharded".into()));
+        return Err(BakeError::Settings(
+            "an adaptive bake is sharded level by level (adaptive_shard), not by settings.shard".into(),
+        ));
     }
+    let k = settings.coeffs * 3;
     let start = Instant::now();
     let done = AtomicUsize::new(0);
     let planned = AtomicUsize::new(match settings.method {
@@ -306,8 +435,26 @@ pub fn bake_adaptive(
         }
     };
     let inner = BakeControl { progress: Some(&offset_progress), cancel: control.cancel };
-    let (base, base_stats) = bake(transport, base_grid, settings, &inner)?.finish();
+    let (base, base_stats) = match source {
+        Source::Whole => bake(transport, base_grid, settings, &inner)?.finish(),
+        Source::Replay { base, base_stats, levels, .. } => {
+            if !base.spec().same_nodes(base_grid) || base.coeffs() != settings.coeffs {
+                return Err(BakeError::Settings(
+                    "the level-0 sums are not on the bake's grid and coefficient count".into(),
+                ));
+            }
+            if let Some((i, l)) = levels.iter().enumerate().find(|(i, l)| l.level != *i as u32 + 1) {
+                return Err(BakeError::Settings(format!(
+                    "refinement sums out of order: level {} given as the {}. level",
+                    l.level,
+                    i + 1
+                )));
+            }
+            BakeOutput { accumulator: (*base).clone(), stats: base_stats.clone() }.finish()
+        }
+    };
     done.fetch_add(planned.load(Ordering::Relaxed), Ordering::Relaxed);
+    let used_levels = AtomicUsize::new(0);
 
     let tracer = transport.tracer();
     let tris: Vec<[DVec3; 3]> = if adaptive.geometry {
@@ -328,7 +475,7 @@ pub fn bake_adaptive(
     let mut votes = [0usize; 3];
     let mut depth_rays = 0u64;
 
-    let score = |c: &Candidates<'_>| -> Result<Vec<f64>, BakeError> {
+    let score = |c: &Candidates<'_>| -> Result<Vec<f64>, Halt> {
         let cells = c.cells();
         let grid = c.grid();
         let grad: Vec<f64> = match adaptive.gradient_threshold {
@@ -388,7 +535,7 @@ pub fn bake_adaptive(
             None => vec![false; cells.len()],
         };
         if control.cancel.is_some_and(|f| f.load(Ordering::Relaxed)) {
-            return Err(BakeError::Cancelled);
+            return Err(BakeError::Cancelled.into());
         }
         Ok((0..cells.len())
             .map(|i| {
@@ -402,16 +549,58 @@ pub fn bake_adaptive(
     };
 
     let mut level_stats = vec![BakeStats::default(); adaptive.max_level as usize];
-    let bake_nodes = |level: u32, nodes: &[[u32; 3]]| -> Result<LevelSamples, BakeError> {
+    let bake_nodes = |level: u32, nodes: &[[u32; 3]]| -> Result<LevelSamples, Halt> {
         let grid = level_grid(base_grid, level).map_err(|e| BakeError::Volume(e.to_string()))?;
         let units = units_for(&grid, settings.method, nodes);
-        planned.fetch_add(units.len(), Ordering::Relaxed);
-        let (sums, st) = bake_units(transport, &grid, settings, &units, &inner)?;
+        let plan = plan_hash(&units);
+        let (fixed, st) = match source {
+            Source::Whole => {
+                planned.fetch_add(units.len(), Ordering::Relaxed);
+                bake_units_fixed(transport, &grid, settings, &units, &inner)?
+            }
+            Source::Replay { levels, target, .. } => match levels.get(level as usize - 1) {
+                Some(l) => {
+                    if (l.plan, l.units) != (plan, units.len() as u64) || l.k != k {
+                        return Err(BakeError::Settings(format!(
+                            "the level-{level} sums were baked for another plan ({} units, plan {:016x}; this replay plans {} units, plan {plan:016x}): bake them from the same lower levels",
+                            l.units,
+                            l.plan,
+                            units.len()
+                        ))
+                        .into());
+                    }
+                    used_levels.fetch_max(level as usize, Ordering::Relaxed);
+                    (l.sums.clone(), BakeStats { rays: l.rays, ..BakeStats::default() })
+                }
+                None => match target {
+                    Some((t, shard)) if *t == level => {
+                        let r = crate::shard::shard_range(units.len(), *shard);
+                        planned.fetch_add(r.len(), Ordering::Relaxed);
+                        let (sums, st) = bake_units_fixed(transport, &grid, settings, &units[r], &inner)?;
+                        return Err(Halt::Stop(LevelSums {
+                            level,
+                            plan,
+                            units: units.len() as u64,
+                            k,
+                            sums,
+                            rays: st.rays,
+                        }));
+                    }
+                    _ => {
+                        return Err(BakeError::Settings(format!(
+                            "no sums of refinement level {level} among the inputs (the builder refines {} units there)",
+                            units.len()
+                        ))
+                        .into());
+                    }
+                },
+            },
+        };
+        let sums = fixed.to_subset();
         done.fetch_add(units.len(), Ordering::Relaxed);
         let ls = &mut level_stats[level as usize - 1];
         ls.add_counts(&st);
         ls.wall_time += st.wall_time;
-        let k = settings.coeffs * 3;
         let mut out = LevelSamples {
             values: Vec::with_capacity(nodes.len() * k),
             weights: Vec::with_capacity(nodes.len()),
@@ -441,10 +630,21 @@ pub fn bake_adaptive(
         Ok(out)
     };
 
-    let vol = build_adaptive(base, &adaptive.params(), score, bake_nodes).map_err(|e| match e {
-        BuildError::Callback(b) => b,
-        BuildError::Volume(v) => BakeError::Settings(v.to_string()),
-    })?;
+    let vol = match build_adaptive(base, &adaptive.params(), score, bake_nodes) {
+        Ok(v) => v,
+        Err(BuildError::Callback(Halt::Stop(l))) => return Ok(Driven::Level(l)),
+        Err(BuildError::Callback(Halt::Bake(b))) => return Err(b),
+        Err(BuildError::Volume(v)) => return Err(BakeError::Settings(v.to_string())),
+    };
+    if let Source::Replay { levels, target: None, .. } = source {
+        let used = used_levels.load(Ordering::Relaxed);
+        if let Some(l) = levels[used..].iter().find(|l| l.units > 0) {
+            return Err(BakeError::Settings(format!(
+                "the level-{} sums refine {} units, but this replay stops at level {used}: they were baked from other inputs",
+                l.level, l.units
+            )));
+        }
+    }
     stats.split_votes = votes;
     stats.depth_rays = depth_rays;
     stats.levels = level_stats;
@@ -454,7 +654,7 @@ pub fn bake_adaptive(
     }
     stats.rays.query += depth_rays;
     stats.wall_time = start.elapsed();
-    Ok((vol, stats))
+    Ok(Driven::Volume(vol, stats))
 }
 
 #[cfg(test)]

@@ -3,6 +3,7 @@
 //! determinism across thread counts, the geometry heuristic, the budget, cancellation.
 
 use super::*;
+use crate::bake::bake_units;
 use crate::builtin::city;
 use crate::domain::classify_points;
 use crate::reference::reference_irradiance_many;
@@ -171,6 +172,83 @@ fn adaptive_city_is_bit_identical_across_thread_counts() {
     assert!(st[1].stored_nodes > 0 && st[2].stored_nodes > 0, "{st:?}");
     assert!(s1.split_votes.iter().all(|&v| v > 0), "{:?}", s1.split_votes);
     assert!(s1.depth_rays > 0 && s1.rays.total() > s1.base.rays.total());
+}
+
+/// A sharded adaptive bake, level by level (`adaptive_shard`): level 0 as ordinary shards,
+/// each refinement level's shards replaying the merged lower levels, then the assembly.
+/// For 1, 3 and 7 shards per level, merged in forward, reverse and shuffled order, on 1 or
+/// 2 threads, the volume's file is the whole bake's byte for byte.
+#[test]
+fn sharded_adaptive_bake_assembles_to_the_whole_bake() {
+    let c = city();
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let grid = small_city_grid();
+    let (s, a) = tiny_settings();
+    let (whole, whole_stats) = bake_adaptive(&t, &grid, &s, &a, &BakeControl::default()).unwrap();
+    let whole_bytes = lightvol_volume::adaptive_io::adaptive_exr_to_bytes(&whole).unwrap();
+    let ctl = BakeControl::default();
+    for (n, order_kind) in [(1u32, 0), (3, 1), (7, 2)] {
+        let order = |n: u32| -> Vec<u32> {
+            match order_kind {
+                0 => (0..n).collect(),
+                1 => (0..n).rev().collect(),
+                _ => (0..n).map(|i| (i * 5 + 2) % n).collect(),
+            }
+        };
+        // Level 0: ordinary shards of the base grid, merged in `order`.
+        let mut base: Option<Accumulator> = None;
+        let mut base_stats = BakeStats::default();
+        for k in order(n) {
+            let threads = 1 + (k as usize % 2);
+            let sk = BakeSettings { shard: (k, n), ..s.clone() };
+            let out = pool(threads, || bake(&t, &grid, &sk, &ctl).unwrap());
+            base_stats.add_counts(&out.stats);
+            match &mut base {
+                None => base = Some(out.accumulator),
+                Some(b) => b.merge(&out.accumulator).unwrap(),
+            }
+        }
+        let base = base.unwrap();
+        // Levels 1..=max: every shard replays the merged levels below.
+        let mut levels: Vec<LevelSums> = Vec::new();
+        for level in 1..=a.max_level {
+            let mut merged: Option<LevelSums> = None;
+            for k in order(n) {
+                let threads = 1 + ((k + level) as usize % 2);
+                let part = pool(threads, || {
+                    bake_adaptive_level_shard(&t, &grid, &s, &a, &base, &levels, level, (k, n), &ctl).unwrap()
+                });
+                // Through the file format, as a cluster would.
+                let bytes = crate::adaptive_shard::level_to_bytes(&part, (k, n), "h");
+                let (part, _) = crate::adaptive_shard::level_from_bytes(&bytes).unwrap();
+                match &mut merged {
+                    None => merged = Some(part),
+                    Some(m) => m.merge(&part).unwrap(),
+                }
+            }
+            let m = merged.unwrap();
+            assert!(m.units > 0, "level {level} refines nothing: the test would not test levels");
+            levels.push(m);
+        }
+        let (vol, st) = assemble_adaptive(&t, &grid, &s, &a, &base, base_stats, &levels, &ctl).unwrap();
+        let bytes = lightvol_volume::adaptive_io::adaptive_exr_to_bytes(&vol).unwrap();
+        assert!(
+            bytes == whole_bytes,
+            "{n} shards per level: the assembled file differs from the whole bake's"
+        );
+        assert_eq!(st.rays, whole_stats.rays, "{n} shards: ray counts");
+        // A missing level is named; a level from another plan is refused.
+        let e = assemble_adaptive(&t, &grid, &s, &a, &base, BakeStats::default(), &levels[..1], &ctl)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("level 2"), "{e}");
+        let mut swapped = levels.clone();
+        swapped.swap(0, 1);
+        swapped[0].level = 1;
+        swapped[1].level = 2;
+        assert!(assemble_adaptive(&t, &grid, &s, &a, &base, BakeStats::default(), &swapped, &ctl).is_err());
+    }
 }
 
 /// With only the geometry heuristic on, a candidate cell is split exactly when a triangle

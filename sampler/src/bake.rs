@@ -252,6 +252,84 @@ impl SubsetSums {
     }
 }
 
+/// [`SubsetSums`] before conversion to f64: exact fixed-point sums (lightvol-volume's
+/// `fixed`), so that the sums of disjoint unit subsets baked on different machines add up
+/// ([`Self::merge`]) to the sums of their union bit for bit.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct FixedSubsetSums {
+    /// Touched nodes, ascending.
+    pub nodes: Vec<usize>,
+    /// Numerators, `[i][coeff][rgb]` for `nodes[i]`.
+    pub numerator: FixedSums,
+    /// Denominators `Σ b`.
+    pub denominator: FixedSums,
+    /// Sums `Σ b` of rejected candidates.
+    pub outside: FixedSums,
+}
+
+impl FixedSubsetSums {
+    /// Values per node in [`Self::numerator`] (`3 · coeffs`), 0 when there are no nodes.
+    #[must_use]
+    pub fn values_per_node(&self) -> usize {
+        if self.nodes.is_empty() { 0 } else { self.numerator.len() / self.nodes.len() }
+    }
+
+    /// The sums as f64 (correctly rounded; NaN where a sum is poisoned).
+    #[must_use]
+    pub fn to_subset(&self) -> SubsetSums {
+        SubsetSums {
+            nodes: self.nodes.clone(),
+            numerator: self.numerator.to_f64(),
+            denominator: self.denominator.to_f64(),
+            outside: self.outside.to_f64(),
+        }
+    }
+
+    /// Adds `other`'s sums (the union of the node sets, ascending); exact, so any order of
+    /// merging gives the same sums.
+    ///
+    /// # Errors
+    /// [`BakeError::Settings`] when both have nodes and their values per node differ.
+    pub fn merge(&mut self, other: &Self) -> Result<(), BakeError> {
+        let (ka, kb) = (self.values_per_node(), other.values_per_node());
+        if ka != 0 && kb != 0 && ka != kb {
+            return Err(BakeError::Settings(format!(
+                "subset sums of {ka} and {kb} values per node cannot be merged"
+            )));
+        }
+        let k = ka.max(kb);
+        let mut out = Self::default();
+        let (mut i, mut j) = (0, 0);
+        let take = |out: &mut Self, src: &Self, at: usize| {
+            let d = out.nodes.len() - 1;
+            out.denominator.add_sum(d, &src.denominator, at);
+            out.outside.add_sum(d, &src.outside, at);
+            for c in 0..k {
+                out.numerator.add_sum(d * k + c, &src.numerator, at * k + c);
+            }
+        };
+        while i < self.nodes.len() || j < other.nodes.len() {
+            let a = self.nodes.get(i).copied().unwrap_or(usize::MAX);
+            let b = other.nodes.get(j).copied().unwrap_or(usize::MAX);
+            let node = a.min(b);
+            out.nodes.push(node);
+            out.numerator.extend_zeros(k);
+            out.denominator.extend_zeros(1);
+            out.outside.extend_zeros(1);
+            if a == node {
+                take(&mut out, self, i);
+                i += 1;
+            }
+            if b == node {
+                take(&mut out, other, j);
+                j += 1;
+            }
+        }
+        *self = out;
+        Ok(())
+    }
+}
+
 /// Sparse sums in insertion order (sorted by [`SparseSums::finish`]).
 struct SparseSums {
     k: usize,
@@ -275,18 +353,15 @@ impl SparseSums {
         s
     }
 
-    fn finish(self) -> SubsetSums {
+    fn finish(self) -> FixedSubsetSums {
         let mut order: Vec<usize> = (0..self.nodes.len()).collect();
         order.sort_unstable_by_key(|&i| self.nodes[i]);
         let k = self.k;
-        SubsetSums {
+        FixedSubsetSums {
             nodes: order.iter().map(|&i| self.nodes[i]).collect(),
-            numerator: order
-                .iter()
-                .flat_map(|&i| (i * k..(i + 1) * k).map(|j| self.numerator.get(j)))
-                .collect(),
-            denominator: order.iter().map(|&i| self.denominator.get(i)).collect(),
-            outside: order.iter().map(|&i| self.outside.get(i)).collect(),
+            numerator: self.numerator.gather(order.iter().flat_map(|&i| i * k..(i + 1) * k)),
+            denominator: self.denominator.gather(order.iter().copied()),
+            outside: self.outside.gather(order.iter().copied()),
         }
     }
 }
@@ -308,17 +383,18 @@ impl NodeSums for SparseSums {
 /// sampling; flat indices of `grid`, strictly increasing). Each unit is sampled exactly as
 /// in [`bake`] and the contributions are added in unit order, so every node whose units
 /// all lie in the subset gets sums bit-identical to the full bake's, for any thread count.
-/// `settings.shard` must be `(0, 1)`. Progress reports count the listed units.
+/// `settings.shard` must be `(0, 1)`. Progress reports count the listed units. The sums
+/// are exact ([`FixedSubsetSums`]): bakes of disjoint subsets merge into the union's.
 ///
 /// # Errors
 /// As [`bake`], plus [`BakeError::Settings`] for units out of range or not increasing.
-pub fn bake_units(
+pub fn bake_units_fixed(
     transport: &Transport<'_>,
     grid: &GridSpec,
     settings: &BakeSettings,
     units: &[usize],
     control: &BakeControl<'_>,
-) -> Result<(SubsetSums, BakeStats), BakeError> {
+) -> Result<(FixedSubsetSums, BakeStats), BakeError> {
     if settings.shard != (0, 1) {
         return Err(BakeError::Settings("a unit-subset bake cannot be sharded".into()));
     }
@@ -344,6 +420,21 @@ pub fn bake_units(
     let stats =
         run_units(transport, grid, settings, control, units.len(), |i| units[i], &mut sums, &mut |_| {})?;
     Ok((sums.finish(), stats))
+}
+
+/// [`bake_units_fixed`] with the sums converted to f64.
+///
+/// # Errors
+/// As [`bake_units_fixed`].
+pub fn bake_units(
+    transport: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    units: &[usize],
+    control: &BakeControl<'_>,
+) -> Result<(SubsetSums, BakeStats), BakeError> {
+    let (sums, stats) = bake_units_fixed(transport, grid, settings, units, control)?;
+    Ok((sums.to_subset(), stats))
 }
 
 /// Samples units `unit_of(0..count)` in parallel chunks and feeds them in order.

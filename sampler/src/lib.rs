@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod adaptive;
+pub mod adaptive_shard;
 pub mod alpha;
 pub mod bake;
 pub mod builtin;

@@ -116,6 +116,16 @@ impl FixedSums {
         self.value[i] = self.value[i].wrapping_add(v);
     }
 
+    /// Adds sum `j` of `src` to sum `i` (exact; a poisoned `src` sum poisons sum `i`).
+    ///
+    /// # Panics
+    /// If `i` or `j` is out of range.
+    #[inline]
+    pub fn add_sum(&mut self, i: usize, src: &FixedSums, j: usize) {
+        self.value[i] = self.value[i].wrapping_add(src.value[j]);
+        self.poisoned[i] |= src.poisoned[j];
+    }
+
     /// Sum `i` as f64 (NaN when poisoned).
     #[must_use]
     #[inline]

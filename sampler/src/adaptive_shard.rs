@@ -1,0 +1,366 @@
+//! Sharded adaptive bakes: the exact sums of one refinement level, one shard of it
+//! ([`LevelSums`]), and their file (`.lvref`).
+//!
+//! An adaptive bake (\[Oat05\], "Adaptive Octree Subdivision") is sequential in its levels:
+//! which nodes level `l + 1` bakes depends on the field of levels `0..=l`. It is therefore
+//! sharded **level by level**:
+//!
+//! 1. level 0 is an ordinary sharded bake of the base grid (exact `.lvacc` sums);
+//! 2. for each level `l ≥ 1`, every shard merges the complete sets of the levels below,
+//!    replays the deterministic builder up to level `l` (heuristics included), and bakes its
+//!    contiguous share ([`crate::shard::shard_range`]) of the level's sorted unit list,
+//!    writing the exact subset sums ([`crate::adaptive::bake_adaptive_level_shard`]);
+//! 3. assembly merges every level and replays the builder once more
+//!    ([`crate::adaptive::assemble_adaptive`]).
+//!
+//! All sums are fixed-point integers, so the assembled volume is the whole
+//! [`crate::adaptive::bake_adaptive`]'s bit for bit, for any shard counts and orders.
+//! Each level file records the level's **plan** (a hash of its whole unit list): a replay
+//! that plans differently (other inputs) is refused instead of mixing sums.
+//!
+//! ## Format (little-endian)
+//! | bytes | content |
+//! | --- | --- |
+//! | 8 | magic `LVREF\0`, then the version as u16 (1) |
+//! | 4 | length `h` of the JSON header ([`LevelShardHeader`]) |
+//! | h | JSON header |
+//! | 8·n | touched nodes (flat indices of the level grid), ascending |
+//! | 16·n·k | numerators, i128 in units of 2^-64 |
+//! | 16·n | denominators |
+//! | 16·n | outside sums |
+//! | 8 + 8·p | count `p` of poisoned sums, then their indices (numerators first, then denominators, then outside sums) |
+//! | 8 | FNV-1a 64 of every preceding byte |
+
+use std::path::Path;
+
+use lightvol_volume::checksum::fnv1a;
+use lightvol_volume::fixed::FixedSums;
+use lightvol_volume::io_util::{read_bounded, write_atomic};
+use serde::{Deserialize, Serialize};
+
+use crate::bake::FixedSubsetSums;
+use crate::error::BakeError;
+use crate::stats::RayCounts;
+
+const MAGIC: &[u8; 6] = b"LVREF\0";
+const VERSION: u16 = 1;
+const MAX_HEADER: usize = 1 << 20;
+/// Values per node a level file may declare (3 · the largest coefficient count).
+const MAX_VALUES_PER_NODE: usize = 3 * 64;
+
+/// The exact sums one shard baked of one refinement level.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LevelSums {
+    /// The level (≥ 1).
+    pub level: u32,
+    /// Hash of the level's whole sorted unit list ([`plan_hash`]); 0 with no units.
+    pub plan: u64,
+    /// Units of the whole level (0: the builder had nothing to refine at this level).
+    pub units: u64,
+    /// Values per node (`3 · coeffs`).
+    pub k: usize,
+    /// The sums.
+    pub sums: FixedSubsetSums,
+    /// Rays the shard traced.
+    pub rays: RayCounts,
+}
+
+impl LevelSums {
+    /// A level the builder never reaches (no cell split below it): no units.
+    #[must_use]
+    pub fn nothing_to_refine(level: u32, k: usize) -> Self {
+        Self { level, plan: 0, units: 0, k, sums: FixedSubsetSums::default(), rays: RayCounts::default() }
+    }
+
+    /// Adds another shard's sums of the same level and plan.
+    ///
+    /// # Errors
+    /// [`BakeError::Settings`] when the level, plan or values per node differ.
+    pub fn merge(&mut self, other: &Self) -> Result<(), BakeError> {
+        if (self.level, self.plan, self.units, self.k) != (other.level, other.plan, other.units, other.k) {
+            return Err(BakeError::Settings(format!(
+                "level {} shards of different plans ({:016x}, {} units vs level {} {:016x}, {} units)",
+                self.level, self.plan, self.units, other.level, other.plan, other.units
+            )));
+        }
+        self.sums.merge(&other.sums)?;
+        self.rays.add(&other.rays);
+        Ok(())
+    }
+}
+
+/// FNV-1a over the units' little-endian u64s: identifies a level's plan.
+#[must_use]
+pub fn plan_hash(units: &[usize]) -> u64 {
+    let bytes: Vec<u8> = units.iter().flat_map(|&u| (u as u64).to_le_bytes()).collect();
+    fnv1a(&bytes)
+}
+
+/// What a level file says about its bake.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct LevelShardHeader {
+    /// The level.
+    pub level: u32,
+    /// This shard's index within the level.
+    pub shard_index: u32,
+    /// Shards of the level.
+    pub shard_count: u32,
+    /// [`LevelSums::plan`].
+    pub plan: u64,
+    /// [`LevelSums::units`].
+    pub units: u64,
+    /// Values per node.
+    pub k: usize,
+    /// Touched nodes in the file.
+    pub nodes: u64,
+    /// Rays traced: sampling, query, bounce, shadow.
+    pub rays: [u64; 4],
+    /// Identifies the scene, lighting and settings (every file of one bake shares it).
+    pub scene_hash: String,
+}
+
+fn err(m: String) -> BakeError {
+    BakeError::Settings(m)
+}
+
+/// Serialises one shard of a level.
+#[must_use]
+pub fn level_to_bytes(l: &LevelSums, shard: (u32, u32), scene_hash: &str) -> Vec<u8> {
+    let s = &l.sums;
+    let header = LevelShardHeader {
+        level: l.level,
+        shard_index: shard.0,
+        shard_count: shard.1,
+        plan: l.plan,
+        units: l.units,
+        k: l.k,
+        nodes: s.nodes.len() as u64,
+        rays: [l.rays.sampling, l.rays.query, l.rays.bounce, l.rays.shadow],
+        scene_hash: scene_hash.to_owned(),
+    };
+    let json = serde_json::to_vec(&header).expect("plain data");
+    let mut out = Vec::new();
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(&json);
+    for &n in &s.nodes {
+        out.extend_from_slice(&(n as u64).to_le_bytes());
+    }
+    let mut poisoned = Vec::new();
+    let mut at = 0u64;
+    for f in [&s.numerator, &s.denominator, &s.outside] {
+        for (i, v) in f.raw().iter().enumerate() {
+            out.extend_from_slice(&v.to_le_bytes());
+            if f.get(i).is_nan() {
+                poisoned.push(at + i as u64);
+            }
+        }
+        at += f.len() as u64;
+    }
+    out.extend_from_slice(&(poisoned.len() as u64).to_le_bytes());
+    for p in poisoned {
+        out.extend_from_slice(&p.to_le_bytes());
+    }
+    let sum = fnv1a(&out);
+    out.extend_from_slice(&sum.to_le_bytes());
+    out
+}
+
+/// Parses one shard of a level.
+///
+/// # Errors
+/// [`BakeError::Settings`] naming what is damaged; every length is checked against the
+/// file before anything is allocated.
+pub fn level_from_bytes(bytes: &[u8]) -> Result<(LevelSums, LevelShardHeader), BakeError> {
+    if bytes.len() < 20 {
+        return Err(err(format!("level shard of {} bytes is too short", bytes.len())));
+    }
+    let (body, tail) = bytes.split_at(bytes.len() - 8);
+    if fnv1a(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
+        return Err(err("level shard checksum mismatch: the file is damaged or truncated".into()));
+    }
+    if &body[..6] != MAGIC {
+        return Err(err("not a lightvol level shard (bad magic)".into()));
+    }
+    let version = u16::from_le_bytes([body[6], body[7]]);
+    if version != VERSION {
+        return Err(err(format!("level shard version {version} (this lightvol reads {VERSION})")));
+    }
+    let h = u32::from_le_bytes(body[8..12].try_into().expect("4 bytes")) as usize;
+    if h > MAX_HEADER || 12 + h > body.len() {
+        return Err(err(format!("level shard header length {h} does not fit the file")));
+    }
+    let header: LevelShardHeader =
+        serde_json::from_slice(&body[12..12 + h]).map_err(|e| err(format!("level shard header: {e}")))?;
+    if header.shard_count == 0
+        || header.shard_index >= header.shard_count
+        || header.level == 0
+        || header.k > MAX_VALUES_PER_NODE
+    {
+        return Err(err(format!(
+            "level shard {} of {} of level {} with {} values per node",
+            header.shard_index, header.shard_count, header.level, header.k
+        )));
+    }
+    let data = &body[12 + h..];
+    // Bytes per node: its index, k numerators, a denominator and an outside sum.
+    let per_node = 8 + 16 * (header.k as u64 + 2);
+    if header.nodes > data.len() as u64 / per_node {
+        return Err(err(format!("level shard claims {} nodes", header.nodes)));
+    }
+    let n = header.nodes as usize;
+    let k = header.k;
+    let (nodes_b, rest) = data.split_at(8 * n);
+    let sums_len = n * (k + 2);
+    let (sums_b, rest) = rest.split_at(16 * sums_len);
+    let u64_at = |b: &[u8]| u64::from_le_bytes(b.try_into().expect("8 bytes"));
+    let nodes: Vec<usize> = nodes_b.chunks_exact(8).map(|c| u64_at(c) as usize).collect();
+    if nodes.windows(2).any(|w| w[0] >= w[1]) {
+        return Err(err("level shard nodes are not ascending".into()));
+    }
+    let raw: Vec<i128> =
+        sums_b.chunks_exact(16).map(|c| i128::from_le_bytes(c.try_into().expect("16 bytes"))).collect();
+    if rest.len() < 8 {
+        return Err(err("level shard ends before its poison list".into()));
+    }
+    let p = u64_at(&rest[..8]);
+    if p > sums_len as u64 || rest.len() as u64 != 8 + 8 * p {
+        return Err(err(format!("level shard poison list of {p} entries does not fit the file")));
+    }
+    let mut numerator = FixedSums::from_raw(raw[..n * k].to_vec());
+    let mut denominator = FixedSums::from_raw(raw[n * k..n * (k + 1)].to_vec());
+    let mut outside = FixedSums::from_raw(raw[n * (k + 1)..].to_vec());
+    for c in rest[8..].chunks_exact(8) {
+        let i = u64_at(c) as usize;
+        if i >= sums_len {
+            return Err(err(format!("level shard poisons sum {i} of {sums_len}")));
+        }
+        let (f, j) = if i < n * k {
+            (&mut numerator, i)
+        } else if i < n * (k + 1) {
+            (&mut denominator, i - n * k)
+        } else {
+            (&mut outside, i - n * (k + 1))
+        };
+        f.add(j, f64::NAN);
+    }
+    let r = header.rays;
+    let sums = LevelSums {
+        level: header.level,
+        plan: header.plan,
+        units: header.units,
+        k,
+        sums: FixedSubsetSums { nodes, numerator, denominator, outside },
+        rays: RayCounts { sampling: r[0], query: r[1], bounce: r[2], shadow: r[3] },
+    };
+    Ok((sums, header))
+}
+
+/// Writes one shard of a level atomically.
+///
+/// # Errors
+/// The I/O error, as [`BakeError::Settings`] naming the file.
+pub fn write_level(path: &Path, l: &LevelSums, shard: (u32, u32), scene_hash: &str) -> Result<(), BakeError> {
+    write_atomic(path, &level_to_bytes(l, shard, scene_hash)).map_err(|e| err(e.to_string()))
+}
+
+/// Reads one shard of a level.
+///
+/// # Errors
+/// As [`level_from_bytes`], or the I/O error.
+pub fn read_level(path: &Path) -> Result<(LevelSums, LevelShardHeader), BakeError> {
+    let bytes = read_bounded(path).map_err(|e| err(e.to_string()))?;
+    level_from_bytes(&bytes).map_err(|e| err(format!("{}: {e}", path.display())))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample() -> LevelSums {
+        let mut numerator = FixedSums::zeros(6);
+        let mut denominator = FixedSums::zeros(2);
+        let outside = FixedSums::zeros(2);
+        for i in 0..6 {
+            numerator.add(i, 0.125 * i as f64 - 0.3);
+        }
+        numerator.add(4, f64::NAN);
+        denominator.add(0, 1.5);
+        denominator.add(1, 2.25);
+        LevelSums {
+            level: 2,
+            plan: plan_hash(&[3, 5, 9]),
+            units: 3,
+            k: 3,
+            sums: FixedSubsetSums { nodes: vec![4, 11], numerator, denominator, outside },
+            rays: RayCounts { sampling: 10, query: 2, bounce: 3, shadow: 4 },
+        }
+    }
+
+    #[test]
+    fn level_files_round_trip_with_poison() {
+        let l = sample();
+        let bytes = level_to_bytes(&l, (1, 3), "abc");
+        let (back, h) = level_from_bytes(&bytes).unwrap();
+        assert_eq!(back, l);
+        assert_eq!((h.shard_index, h.shard_count, h.scene_hash.as_str()), (1, 3, "abc"));
+        assert!(back.sums.numerator.get(4).is_nan());
+        // Equal inputs give equal bytes.
+        assert_eq!(bytes, level_to_bytes(&l, (1, 3), "abc"));
+    }
+
+    /// Every truncation and every single-byte flip is an error, never a panic.
+    #[test]
+    fn damaged_level_files_are_refused() {
+        let bytes = level_to_bytes(&sample(), (0, 1), "x");
+        for cut in 0..bytes.len() {
+            assert!(level_from_bytes(&bytes[..cut]).is_err(), "cut at {cut}");
+        }
+        for i in 0..bytes.len() {
+            let mut b = bytes.clone();
+            b[i] ^= 0x41;
+            assert!(level_from_bytes(&b).is_err(), "flip at {i}");
+        }
+    }
+
+    /// Merging splits of a node set in either order gives the whole set's sums.
+    #[test]
+    fn merges_are_exact_unions() {
+        let k = 2;
+        let whole_nodes = [1usize, 4, 6, 9];
+        let value = |n: usize, c: usize| (n * 7 + c) as f64 * 0.1 + 1e-9;
+        let build = |nodes: &[usize], part: usize| {
+            let mut s = FixedSubsetSums {
+                nodes: nodes.to_vec(),
+                numerator: FixedSums::zeros(nodes.len() * k),
+                denominator: FixedSums::zeros(nodes.len()),
+                outside: FixedSums::zeros(nodes.len()),
+            };
+            for (i, &n) in nodes.iter().enumerate() {
+                for c in 0..k {
+                    s.numerator.add(i * k + c, value(n, c) * (part as f64 + 1.0));
+                }
+                s.denominator.add(i, (part + 1) as f64);
+            }
+            s
+        };
+        let a = build(&[1, 6], 0);
+        let b = build(&[4, 6, 9], 1);
+        let mut ab = a.clone();
+        ab.merge(&b).unwrap();
+        let mut ba = b.clone();
+        ba.merge(&a).unwrap();
+        assert_eq!(ab, ba);
+        assert_eq!(ab.nodes, whole_nodes);
+        // Node 6 got both parts: 1× + 2× its value, denominators 1 + 2.
+        assert_eq!(ab.denominator.get(2), 3.0);
+        let mut want = FixedSums::zeros(1);
+        want.add(0, value(6, 1));
+        want.add(0, value(6, 1) * 2.0);
+        assert_eq!(ab.numerator.raw()[2 * k + 1], want.raw()[0]);
+        let mut wrong = build(&[2], 0);
+        wrong.numerator.extend_zeros(1);
+        assert!(ab.clone().merge(&wrong).is_err());
+    }
+}
