@@ -292,7 +292,7 @@ pub fn bake_adaptive(
     control: &BakeControl<'_>,
 ) -> Result<(AdaptiveVolume, AdaptiveStats), BakeError> {
     match drive(transport, base_grid, settings, adaptive, &Source::Whole, control)? {
-        Driven::Volume(v, s) => Ok((v, s)),
+        Driven::Volume(b) => Ok(*b),
         Driven::Level(_) => unreachable!("a whole bake never stops at a level"),
     }
 }
@@ -338,7 +338,7 @@ pub fn bake_adaptive_level_shard(
         Source::Replay { base, base_stats: BakeStats::default(), levels, target: Some((level, shard)) };
     match drive(transport, base_grid, settings, adaptive, &source, control)? {
         Driven::Level(l) => Ok(l),
-        Driven::Volume(..) => Ok(LevelSums::nothing_to_refine(level, settings.coeffs * 3)),
+        Driven::Volume(_) => Ok(LevelSums::nothing_to_refine(level, settings.coeffs * 3)),
     }
 }
 
@@ -370,7 +370,7 @@ pub fn assemble_adaptive(
     }
     let source = Source::Replay { base, base_stats, levels, target: None };
     match drive(transport, base_grid, settings, adaptive, &source, control)? {
-        Driven::Volume(v, s) => Ok((v, s)),
+        Driven::Volume(b) => Ok(*b),
         Driven::Level(_) => unreachable!("an assembly never stops at a level"),
     }
 }
@@ -390,14 +390,14 @@ enum Source<'a> {
 
 /// What [`drive`] ends with.
 enum Driven {
-    Volume(AdaptiveVolume, AdaptiveStats),
+    Volume(Box<(AdaptiveVolume, AdaptiveStats)>),
     Level(LevelSums),
 }
 
 /// Why the builder's callbacks stopped it.
 enum Halt {
     Bake(BakeError),
-    Stop(LevelSums),
+    Stop(Box<LevelSums>),
 }
 
 impl From<BakeError> for Halt {
@@ -577,14 +577,14 @@ fn drive(
                         let r = crate::shard::shard_range(units.len(), *shard);
                         planned.fetch_add(r.len(), Ordering::Relaxed);
                         let (sums, st) = bake_units_fixed(transport, &grid, settings, &units[r], &inner)?;
-                        return Err(Halt::Stop(LevelSums {
+                        return Err(Halt::Stop(Box::new(LevelSums {
                             level,
                             plan,
                             units: units.len() as u64,
                             k,
                             sums,
                             rays: st.rays,
-                        }));
+                        })));
                     }
                     _ => {
                         return Err(BakeError::Settings(format!(
@@ -632,7 +632,7 @@ fn drive(
 
     let vol = match build_adaptive(base, &adaptive.params(), score, bake_nodes) {
         Ok(v) => v,
-        Err(BuildError::Callback(Halt::Stop(l))) => return Ok(Driven::Level(l)),
+        Err(BuildError::Callback(Halt::Stop(l))) => return Ok(Driven::Level(*l)),
         Err(BuildError::Callback(Halt::Bake(b))) => return Err(b),
         Err(BuildError::Volume(v)) => return Err(BakeError::Settings(v.to_string())),
     };
@@ -654,7 +654,7 @@ fn drive(
     }
     stats.rays.query += depth_rays;
     stats.wall_time = start.elapsed();
-    Ok(Driven::Volume(vol, stats))
+    Ok(Driven::Volume(Box::new((vol, stats))))
 }
 
 #[cfg(test)]
