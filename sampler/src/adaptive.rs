@@ -337,7 +337,7 @@ pub fn bake_adaptive_level_shard(
     let source =
         Source::Replay { base, base_stats: BakeStats::default(), levels, target: Some((level, shard)) };
     match drive(transport, base_grid, settings, adaptive, &source, control)? {
-        Driven::Level(l) => Ok(l),
+        Driven::Level(l) => Ok(*l),
         Driven::Volume(_) => Ok(LevelSums::nothing_to_refine(level, settings.coeffs * 3)),
     }
 }
@@ -391,7 +391,7 @@ enum Source<'a> {
 /// What [`drive`] ends with.
 enum Driven {
     Volume(Box<(AdaptiveVolume, AdaptiveStats)>),
-    Level(LevelSums),
+    Level(Box<LevelSums>),
 }
 
 /// Why the builder's callbacks stopped it.
@@ -632,7 +632,7 @@ fn drive(
 
     let vol = match build_adaptive(base, &adaptive.params(), score, bake_nodes) {
         Ok(v) => v,
-        Err(BuildError::Callback(Halt::Stop(l))) => return Ok(Driven::Level(*l)),
+        Err(BuildError::Callback(Halt::Stop(l))) => return Ok(Driven::Level(l)),
         Err(BuildError::Callback(Halt::Bake(b))) => return Err(b),
         Err(BuildError::Volume(v)) => return Err(BakeError::Settings(v.to_string())),
     };

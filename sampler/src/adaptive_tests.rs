@@ -201,7 +201,7 @@ fn sharded_adaptive_bake_assembles_to_the_whole_bake() {
         let mut base_stats = BakeStats::default();
         for k in order(n) {
             let threads = 1 + (k as usize % 2);
-            let sk = BakeSettings { shard: (k, n), ..s.clone() };
+            let sk = BakeSettings { shard: (k, n), ..s };
             let out = pool(threads, || bake(&t, &grid, &sk, &ctl).unwrap());
             base_stats.add_counts(&out.stats);
             match &mut base {
