@@ -7,7 +7,13 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use lightvol_sampler::adaptive::{AdaptiveSettings, AdaptiveStats, bake_adaptive};
+use std::path::PathBuf;
+
+use lightvol_sampler::adaptive::{
+    AdaptiveSettings, AdaptiveStats, assemble_adaptive, bake_adaptive, bake_adaptive_level_shard,
+};
+use lightvol_sampler::adaptive_shard::{LevelShardHeader, LevelSums, read_level, write_level};
+use lightvol_volume::accumulator_io::{merge_accumulator_file, read_accumulator_metadata, write_accumulator};
 use lightvol_sampler::{BakeControl, BakeSettings, Progress, Tracer, Transport, TransportSettings};
 use lightvol_volume::adaptive_io::write_adaptive_exr;
 use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
@@ -56,6 +62,17 @@ pub struct AdaptiveArgs {
     /// N × (3·coeffs + 1) × 4 bytes, the bytes of N uniform nodes with their weights.
     #[arg(long, value_name = "N")]
     pub node_budget: Option<u64>,
+    /// With --shard: bake shard K/N of refinement level L (1..=--max-level) from the
+    /// complete shard sets of the levels below (--from-shards), writing `<stem>.lvref`.
+    /// Without --level, --shard bakes level 0 (the base grid) and writes `<stem>.lvacc`.
+    #[arg(long, value_name = "L")]
+    pub level: Option<u32>,
+    /// Shard files of a level-by-level adaptive bake: the level-0 `.lvacc` set and the
+    /// `.lvref` sets of levels 1, 2, … (each complete). With --shard and --level, the levels
+    /// below L; without --shard, every level: the shards are assembled into the volume the
+    /// whole bake gives, byte for byte.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    pub from_shards: Vec<PathBuf>,
 }
 
 fn threshold(name: &str, s: Option<&str>, default: Option<f64>) -> anyhow::Result<Option<f64>> {
@@ -89,6 +106,8 @@ impl AdaptiveArgs {
             ("--depth-rays", self.depth_rays.is_some()),
             ("--cull-tolerance", self.cull_tolerance.is_some()),
             ("--node-budget", self.node_budget.is_some()),
+            ("--level", self.level.is_some()),
+            ("--from-shards", !self.from_shards.is_empty()),
         ];
         if self.adaptive { Vec::new() } else { given.iter().filter(|g| g.1).map(|g| g.0).collect() }
     }
@@ -163,15 +182,122 @@ pub fn run_adaptive_bake(
     Ok(out)
 }
 
-/// `lightvol bake --adaptive`.
+/// Label of a level-0 shard's method in its `.lvacc` metadata: `merge` refuses it (its
+/// volume needs the refinement levels), and assembly checks it.
+fn base_label(method: &str) -> String {
+    format!("{method}{BASE_SUFFIX}")
+}
+
+/// The suffix of [`base_label`].
+pub(crate) const BASE_SUFFIX: &str = " adaptive-level-0";
+
+/// What `--from-shards` holds, merged and checked: the level-0 sums with their sampling
+/// rays, and the refinement levels 1, 2, … in order.
+struct AdaptiveInputs {
+    base: lightvol_volume::Accumulator,
+    base_samples: u64,
+    levels: Vec<LevelSums>,
+}
+
+/// Reads, checks and merges the shard files of a level-by-level bake whose scene and
+/// settings hash to `hash` (one line for each problem; nothing is baked before).
+fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<AdaptiveInputs> {
+    let mut seen = Vec::new();
+    let mut base_files: Vec<(BakeMetadata, PathBuf)> = Vec::new();
+    let mut level_files: Vec<(LevelShardHeader, LevelSums, PathBuf)> = Vec::new();
+    for p in files {
+        let canon = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+        if seen.contains(&canon) {
+            bail!("{} is given twice (its samples would count twice)", p.display());
+        }
+        seen.push(canon);
+        match p.extension().and_then(|e| e.to_str()) {
+            Some("lvacc") => {
+                let m = read_accumulator_metadata(p).with_context(|| format!("reading {}", p.display()))?;
+                if m.method != base_label(method) || m.scene_hash != hash {
+                    bail!(
+                        "{} is not a level-0 shard of this adaptive bake (method '{}', scene and settings {}; this bake: '{}', {hash})",
+                        p.display(),
+                        m.method,
+                        m.scene_hash,
+                        base_label(method)
+                    );
+                }
+                base_files.push((m, p.clone()));
+            }
+            Some("lvref") => {
+                let (l, h) = read_level(p).with_context(|| format!("reading {}", p.display()))?;
+                if h.scene_hash != hash {
+                    bail!(
+                        "{} belongs to another bake (scene and settings {}; this bake: {hash})",
+                        p.display(),
+                        h.scene_hash
+                    );
+                }
+                level_files.push((h, l, p.clone()));
+            }
+            _ => bail!("{}: --from-shards takes level-0 .lvacc and level .lvref files", p.display()),
+        }
+    }
+    let indices = |what: &str, count: u32, have: &mut Vec<u32>| -> anyhow::Result<()> {
+        have.sort_unstable();
+        if let Some(w) = have.windows(2).find(|w| w[0] == w[1]) {
+            bail!("{what}: shard {} of {count} given twice", w[0]);
+        }
+        let missing: Vec<String> = (0..count).filter(|k| !have.contains(k)).map(|k| k.to_string()).collect();
+        if !missing.is_empty() {
+            bail!("incomplete set: {what} shards {} of {count} are missing; nothing written", missing.join(", "));
+        }
+        Ok(())
+    };
+    let Some(first) = base_files.first() else {
+        bail!("--from-shards has no level-0 .lvacc shard (bake them with --adaptive --shard K/N)")
+    };
+    let count = first.0.shard_count;
+    if let Some((m, p)) = base_files.iter().find(|(m, _)| m.shard_count != count) {
+        bail!("{}: shard of {} where the others are of {count}", p.display(), m.shard_count);
+    }
+    indices("level-0", count, &mut base_files.iter().map(|(m, _)| m.shard_index).collect())?;
+    let mut base = None;
+    let mut base_samples = 0;
+    for (m, p) in &base_files {
+        let (a, _) = merge_accumulator_file(base.take(), p).with_context(|| format!("merging {}", p.display()))?;
+        base = Some(a);
+        base_samples += m.samples;
+    }
+    let mut levels: Vec<LevelSums> = Vec::new();
+    level_files.sort_by_key(|(h, _, _)| (h.level, h.shard_index));
+    let top = level_files.last().map_or(0, |(h, _, _)| h.level);
+    for level in 1..=top {
+        let set: Vec<&(LevelShardHeader, LevelSums, PathBuf)> =
+            level_files.iter().filter(|(h, _, _)| h.level == level).collect();
+        let Some(f) = set.first() else {
+            bail!("--from-shards has level-{top} shards but none of level {level}")
+        };
+        let count = f.0.shard_count;
+        if let Some((h, _, p)) = set.iter().find(|(h, _, _)| h.shard_count != count) {
+            bail!("{}: level-{level} shard of {} where the others are of {count}", p.display(), h.shard_count);
+        }
+        indices(&format!("level-{level}"), count, &mut set.iter().map(|(h, _, _)| h.shard_index).collect())?;
+        let mut merged = set[0].1.clone();
+        for (_, l, p) in &set[1..] {
+            merged.merge(l).with_context(|| format!("merging {}", p.display()))?;
+        }
+        levels.push(merged);
+    }
+    Ok(AdaptiveInputs { base: base.context("no level-0 shards")?, base_samples, levels })
+}
+
+/// `lightvol bake --adaptive`: whole, one shard of one level, or the assembly of shards.
 pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
-    if args.shard.is_some() || args.keep_accumulator {
-        bail!(
-            "--adaptive cannot be combined with --shard or --keep-accumulator (an octree bake is not sharded)"
-        );
+    if args.keep_accumulator {
+        bail!("--adaptive cannot be combined with --keep-accumulator (shard an octree bake with --shard and --level)");
     }
     if args.gradients.is_some() {
         bail!("--adaptive cannot be combined with --gradients (the octree stores no gradients)");
+    }
+    if args.sampling.fit != lightvol_sampler::fit::Fit::Average {
+        bail!("--adaptive cannot be combined with --fit {} (the octree levels use Eq. 6's average)", args.sampling.fit);
     }
     let method = parse_method(&args.method)?;
     let loaded = args.scene.load()?;
@@ -189,12 +315,101 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         ..BakeSettings::default()
     };
     let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let hash = scene_hash(
+        &loaded,
+        &format!(
+            "{:?} {:?} {} {} coeffs={} bounces={} {} {adaptive:?} lightvol={}",
+            grid.bounds(),
+            grid.res(),
+            args.method,
+            settings.samples,
+            coeffs,
+            args.sampling.bounces,
+            lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, args.sampling.bounces),
+            env!("CARGO_PKG_VERSION")
+        ),
+    );
+    let a = &args.adaptive;
+    let shard = match args.shard.as_deref() {
+        None if args.shards.is_some() => bail!("--shards N needs --shard auto"),
+        None => None,
+        s => Some(lightvol_sampler::shard::resolve_shard(s, args.shards, |k| std::env::var(k).ok())?),
+    };
+    match (shard, a.level, a.from_shards.is_empty()) {
+        (None, Some(_), _) => bail!("--level needs --shard K/N (or --shard auto)"),
+        (Some(_), Some(0) | None, false) => {
+            bail!("level 0 is baked from the scene alone: drop --from-shards, or bake a level >= 1 with --level L")
+        }
+        (Some(_), Some(l), true) if l > 0 => {
+            bail!("--level {l} needs the shard files of levels 0..{l} (--from-shards)")
+        }
+        _ => {}
+    }
+    if let Some(shard) = shard {
+        let level = a.level.unwrap_or(0);
+        return with_threads(args.sampling.threads, || -> anyhow::Result<ExitCode> {
+            let tracer = Tracer::new(&loaded.scene);
+            if level == 0 {
+                let s = BakeSettings { shard, ..settings };
+                let out = crate::cmd_bake::run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
+                let meta = BakeMetadata {
+                    method: base_label(&args.method),
+                    samples: out.stats.rays.sampling,
+                    seed: args.sampling.seed,
+                    shard_index: shard.0,
+                    shard_count: shard.1,
+                    scene_hash: hash.clone(),
+                    units: "relative".into(),
+                };
+                let path = args.output.with_extension("lvacc");
+                write_accumulator(&path, &out.accumulator, &meta)
+                    .with_context(|| format!("writing {}", path.display()))?;
+                eprintln!("wrote {} (adaptive level 0, shard {} of {})", path.display(), shard.0, shard.1);
+                return Ok(ExitCode::SUCCESS);
+            }
+            let inputs = load_inputs(&a.from_shards, &hash, &args.method)?;
+            if inputs.levels.len() != level as usize - 1 {
+                bail!(
+                    "--level {level} needs the complete shard sets of levels 1..{level} and no others; --from-shards has levels 1..={}",
+                    inputs.levels.len()
+                );
+            }
+            let part = crate::cmd_bake::with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
+                bake_adaptive_level_shard(t, &grid, &settings, &adaptive, &inputs.base, &inputs.levels, level, shard, c)
+            })?;
+            let path = args.output.with_extension("lvref");
+            write_level(&path, &part, shard, &hash).with_context(|| format!("writing {}", path.display()))?;
+            if part.units == 0 {
+                eprintln!("wrote {} (level {level}: nothing to refine)", path.display());
+            } else {
+                eprintln!(
+                    "wrote {} (adaptive level {level}, shard {} of {}: {} of the level's {} units)",
+                    path.display(),
+                    shard.0,
+                    shard.1,
+                    lightvol_sampler::shard::shard_range(part.units as usize, shard).len(),
+                    part.units
+                );
+            }
+            Ok(ExitCode::SUCCESS)
+        })?;
+    }
     let (vol, stats, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
-        let (v, s) =
-            run_adaptive_bake(&loaded, &tracer, &grid, &settings, &adaptive, ts, args.quiet, &args.method)?;
+        let (v, s) = if a.from_shards.is_empty() {
+            run_adaptive_bake(&loaded, &tracer, &grid, &settings, &adaptive, ts, args.quiet, &args.method)?
+        } else {
+            let inputs = load_inputs(&a.from_shards, &hash, &args.method)?;
+            let base_stats = lightvol_sampler::BakeStats {
+                rays: lightvol_sampler::RayCounts { sampling: inputs.base_samples, ..Default::default() },
+                ..Default::default()
+            };
+            crate::cmd_bake::with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
+                assemble_adaptive(t, &grid, &settings, &adaptive, &inputs.base, base_stats, &inputs.levels, c)
+            })?
+        };
         Ok((v, s, bvh_seconds))
     })??;
     let meta = BakeMetadata {
@@ -203,16 +418,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         seed: args.sampling.seed,
         shard_index: 0,
         shard_count: 1,
-        scene_hash: scene_hash(
-            &loaded,
-            &format!(
-                "{:?} {:?} {} {} {adaptive:?}",
-                grid.bounds(),
-                grid.res(),
-                args.method,
-                settings.samples
-            ),
-        ),
+        scene_hash: hash,
         units: "relative".into(),
     };
     let vol = vol.with_metadata(meta);

@@ -181,7 +181,7 @@ pub fn progress_bar(quiet: bool, len: u64, what: &str) -> ProgressBar {
 
 /// Runs `bake` with a transport over `loaded` and a progress bar labelled `label` (hidden
 /// when `quiet`), cleared when the bake ends.
-fn with_progress<T>(
+pub(crate) fn with_progress<T>(
     loaded: &LoadedScene,
     tracer: &Tracer,
     transport_settings: TransportSettings,

@@ -36,9 +36,15 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
     if p.extension().is_some_and(|e| e == "lvacc") {
         return Ok(p.to_owned());
     }
+    if p.extension().is_some_and(|e| e == "lvref") {
+        bail!(
+            "{} is a refinement level of a sharded adaptive bake; assemble those with `lightvol bake SCENE --adaptive ... --from-shards FILES`",
+            p.display()
+        );
+    }
     if crate::adaptive_files::is_adaptive(p) {
         bail!(
-            "{} is an adaptive (octree) volume; merge combines uniform shard bakes only (bake --adaptive is never sharded)",
+            "{} is an adaptive (octree) volume; merge combines uniform shard bakes only (sharded adaptive bakes are assembled by `bake --adaptive --from-shards`)",
             p.display()
         );
     }
@@ -79,6 +85,12 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     // Deterministic order (the sums are exact, so it changes no bit; it fixes the messages).
     parts.sort_by(|a, b| (a.0.shard_index, &a.1).cmp(&(b.0.shard_index, &b.1)));
     let (first, p0) = (&parts[0].0, &parts[0].1);
+    if first.method.ends_with(crate::adaptive_bake::BASE_SUFFIX) {
+        bail!(
+            "{} is a level-0 shard of an adaptive bake; assemble its levels with `lightvol bake SCENE --adaptive ... --from-shards FILES`",
+            p0.display()
+        );
+    }
     for (m, p) in &parts[1..] {
         if m.method != first.method
             || m.shard_count != first.shard_count
