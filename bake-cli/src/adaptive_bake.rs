@@ -13,8 +13,8 @@ use lightvol_sampler::adaptive::{
     AdaptiveSettings, AdaptiveStats, assemble_adaptive, bake_adaptive, bake_adaptive_level_shard,
 };
 use lightvol_sampler::adaptive_shard::{LevelShardHeader, LevelSums, read_level, write_level};
-use lightvol_volume::accumulator_io::{merge_accumulator_file, read_accumulator_metadata, write_accumulator};
 use lightvol_sampler::{BakeControl, BakeSettings, Progress, Tracer, Transport, TransportSettings};
+use lightvol_volume::accumulator_io::{merge_accumulator_file, read_accumulator_metadata, write_accumulator};
 use lightvol_volume::adaptive_io::write_adaptive_exr;
 use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
 use serde_json::json;
@@ -246,7 +246,10 @@ fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<Ad
         }
         let missing: Vec<String> = (0..count).filter(|k| !have.contains(k)).map(|k| k.to_string()).collect();
         if !missing.is_empty() {
-            bail!("incomplete set: {what} shards {} of {count} are missing; nothing written", missing.join(", "));
+            bail!(
+                "incomplete set: {what} shards {} of {count} are missing; nothing written",
+                missing.join(", ")
+            );
         }
         Ok(())
     };
@@ -261,7 +264,8 @@ fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<Ad
     let mut base = None;
     let mut base_samples = 0;
     for (m, p) in &base_files {
-        let (a, _) = merge_accumulator_file(base.take(), p).with_context(|| format!("merging {}", p.display()))?;
+        let (a, _) =
+            merge_accumulator_file(base.take(), p).with_context(|| format!("merging {}", p.display()))?;
         base = Some(a);
         base_samples += m.samples;
     }
@@ -276,7 +280,11 @@ fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<Ad
         };
         let count = f.0.shard_count;
         if let Some((h, _, p)) = set.iter().find(|(h, _, _)| h.shard_count != count) {
-            bail!("{}: level-{level} shard of {} where the others are of {count}", p.display(), h.shard_count);
+            bail!(
+                "{}: level-{level} shard of {} where the others are of {count}",
+                p.display(),
+                h.shard_count
+            );
         }
         indices(&format!("level-{level}"), count, &mut set.iter().map(|(h, _, _)| h.shard_index).collect())?;
         let mut merged = set[0].1.clone();
@@ -291,13 +299,18 @@ fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<Ad
 /// `lightvol bake --adaptive`: whole, one shard of one level, or the assembly of shards.
 pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     if args.keep_accumulator {
-        bail!("--adaptive cannot be combined with --keep-accumulator (shard an octree bake with --shard and --level)");
+        bail!(
+            "--adaptive cannot be combined with --keep-accumulator (shard an octree bake with --shard and --level)"
+        );
     }
     if args.gradients.is_some() {
         bail!("--adaptive cannot be combined with --gradients (the octree stores no gradients)");
     }
     if args.sampling.fit != lightvol_sampler::fit::Fit::Average {
-        bail!("--adaptive cannot be combined with --fit {} (the octree levels use Eq. 6's average)", args.sampling.fit);
+        bail!(
+            "--adaptive cannot be combined with --fit {} (the octree levels use Eq. 6's average)",
+            args.sampling.fit
+        );
     }
     let method = parse_method(&args.method)?;
     let loaded = args.scene.load()?;
@@ -338,7 +351,9 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     match (shard, a.level, a.from_shards.is_empty()) {
         (None, Some(_), _) => bail!("--level needs --shard K/N (or --shard auto)"),
         (Some(_), Some(0) | None, false) => {
-            bail!("level 0 is baked from the scene alone: drop --from-shards, or bake a level >= 1 with --level L")
+            bail!(
+                "level 0 is baked from the scene alone: drop --from-shards, or bake a level >= 1 with --level L"
+            )
         }
         (Some(_), Some(l), true) if l > 0 => {
             bail!("--level {l} needs the shard files of levels 0..{l} (--from-shards)")
@@ -351,7 +366,8 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             let tracer = Tracer::new(&loaded.scene);
             if level == 0 {
                 let s = BakeSettings { shard, ..settings };
-                let out = crate::cmd_bake::run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
+                let out =
+                    crate::cmd_bake::run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
                 let meta = BakeMetadata {
                     method: base_label(&args.method),
                     samples: out.stats.rays.sampling,
@@ -374,9 +390,20 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     inputs.levels.len()
                 );
             }
-            let part = crate::cmd_bake::with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
-                bake_adaptive_level_shard(t, &grid, &settings, &adaptive, &inputs.base, &inputs.levels, level, shard, c)
-            })?;
+            let part =
+                crate::cmd_bake::with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
+                    bake_adaptive_level_shard(
+                        t,
+                        &grid,
+                        &settings,
+                        &adaptive,
+                        &inputs.base,
+                        &inputs.levels,
+                        level,
+                        shard,
+                        c,
+                    )
+                })?;
             let path = args.output.with_extension("lvref");
             write_level(&path, &part, shard, &hash).with_context(|| format!("writing {}", path.display()))?;
             if part.units == 0 {

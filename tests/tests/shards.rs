@@ -19,96 +19,169 @@ fn bake(out: &Path, extra: &[&str]) {
     ok(&a);
 }
 
-/// Whole bake = 1, 3 and 7 shards merged in forward, reverse and shuffled order = 1 and 2
-/// threads: identical coefficients, weights and metadata.
+/// The bake modes that shard, each with its own files: the Eq. 6 average (`doi`), the
+/// least-squares fit (mass matrix in the shard files), both gradient estimators, and the
+/// adaptive octree (level by level).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    Doi,
+    Lsq,
+    BasisGradients,
+    CentralGradients,
+    Adaptive,
+}
+
+const MODES: [Mode; 5] = [Mode::Doi, Mode::Lsq, Mode::BasisGradients, Mode::CentralGradients, Mode::Adaptive];
+
+/// The adaptive bake's finest level.
+const MAX_LEVEL: u32 = 2;
+
+fn mode_args(m: Mode) -> &'static [&'static str] {
+    match m {
+        Mode::Doi => &[],
+        Mode::Lsq => &["--fit", "lsq:0.25"],
+        Mode::BasisGradients => &["--gradients", "basis"],
+        Mode::CentralGradients => &["--gradients", "central"],
+        Mode::Adaptive => &["--adaptive", "--max-level", "2", "--depth-rays", "8"],
+    }
+}
+
+fn bake_mode(out: &Path, m: Mode, extra: &[&str]) {
+    let mut a = mode_args(m).to_vec();
+    a.extend_from_slice(extra);
+    bake(out, &a);
+}
+
+fn ok_owned(a: &[String]) {
+    ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
+}
+
+/// Bakes `n` shards of `m` (shard `k` on `threads[k % len]` threads), then merges them —
+/// for an adaptive bake, level by level, each level's shards reading the lower levels'
+/// files in `order` — and returns the merged volume's path.
+fn sharded(d: &Path, m: Mode, n: u32, order: &[usize], threads: &[u32]) -> std::path::PathBuf {
+    let tag = format!("{m:?}{n}");
+    let t = |k: u32| threads[k as usize % threads.len()].to_string();
+    let in_order = |files: &[std::path::PathBuf]| -> Vec<String> {
+        order.iter().map(|&i| s(&files[i]).to_owned()).collect()
+    };
+    let merged = d.join(format!("{tag}-merged.exr"));
+    let base: Vec<std::path::PathBuf> = (0..n)
+        .map(|k| {
+            let out = d.join(format!("{tag}-l0-{k}.exr"));
+            bake_mode(&out, m, &["--shard", &format!("{k}/{n}"), "--threads", &t(k)]);
+            out.with_extension("lvacc")
+        })
+        .collect();
+    if m != Mode::Adaptive {
+        let mut a = vec!["merge".to_owned()];
+        a.extend(in_order(&base));
+        a.extend(["-o".to_owned(), s(&merged).to_owned()]);
+        ok_owned(&a);
+        return merged;
+    }
+    let mut lower = in_order(&base);
+    for level in 1..=MAX_LEVEL {
+        let files: Vec<std::path::PathBuf> = (0..n)
+            .map(|k| {
+                let out = d.join(format!("{tag}-l{level}-{k}.exr"));
+                let mut a: Vec<String> = ["bake", "builtin:maze", "-o", s(&out)].map(str::to_owned).to_vec();
+                a.extend(BAKE.map(str::to_owned));
+                a.extend(mode_args(m).iter().map(|x| (*x).to_owned()));
+                let lv = level.to_string();
+                a.extend(
+                    ["--shard", &format!("{k}/{n}"), "--threads", &t(k + level), "--level", &lv]
+                        .map(str::to_owned),
+                );
+                a.push("--from-shards".to_owned());
+                a.extend(lower.iter().cloned());
+                ok_owned(&a);
+                out.with_extension("lvref")
+            })
+            .collect();
+        lower.extend(in_order(&files));
+    }
+    let mut a: Vec<String> = ["bake", "builtin:maze", "-o", s(&merged)].map(str::to_owned).to_vec();
+    a.extend(BAKE.map(str::to_owned));
+    a.extend(mode_args(m).iter().map(|x| (*x).to_owned()));
+    a.push("--from-shards".to_owned());
+    a.extend(lower);
+    ok_owned(&a);
+    merged
+}
+
+/// For every mode: whole bake on 1 thread = on 2 threads = 1, 3 and 7 shards merged in
+/// forward, reverse and shuffled order with shards on 1 and 2 threads, byte for byte.
 #[test]
 fn any_shard_count_order_and_thread_count_gives_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let whole = d.join("whole.exr");
-    bake(&whole, &["--threads", "1"]);
-    let w = read_exr(&whole).unwrap();
-    let two = d.join("two.exr");
-    bake(&two, &["--threads", "2"]);
-    assert!(std::fs::read(&two).unwrap() == std::fs::read(&whole).unwrap(), "1 and 2 threads differ");
-    for n in [1u32, 3, 7] {
-        let mut shards = Vec::new();
-        for k in 0..n {
-            let out = d.join(format!("s{n}_{k}.exr"));
-            let threads = if k % 2 == 0 { "1" } else { "2" };
-            bake(&out, &["--shard", &format!("{k}/{n}"), "--threads", threads]);
-            shards.push(out.with_extension("lvacc"));
+    for m in MODES {
+        let whole = d.join(format!("{m:?}-whole.exr"));
+        bake_mode(&whole, m, &["--threads", "1"]);
+        let two = d.join(format!("{m:?}-two.exr"));
+        bake_mode(&two, m, &["--threads", "2"]);
+        let w = std::fs::read(&whole).unwrap();
+        assert!(std::fs::read(&two).unwrap() == w, "{m:?}: 1 and 2 threads differ");
+        for n in [1u32, 3, 7] {
+            let orders: Vec<Vec<usize>> = vec![
+                (0..n as usize).collect(),
+                (0..n as usize).rev().collect(),
+                (0..n as usize).map(|i| (i * 5 + 2) % n as usize).collect(),
+            ];
+            for (o, order) in orders.iter().enumerate() {
+                let sub = d.join(format!("{m:?}-{n}-{o}"));
+                std::fs::create_dir(&sub).unwrap();
+                let merged = sharded(&sub, m, n, order, &[1, 2]);
+                assert!(
+                    std::fs::read(&merged).unwrap() == w,
+                    "{m:?}, {n} shards, order {order:?}: the files differ"
+                );
+            }
         }
-        let orders: Vec<Vec<usize>> = vec![
-            (0..n as usize).collect(),
-            (0..n as usize).rev().collect(),
-            (0..n as usize).map(|i| (i * 5 + 2) % n as usize).collect(),
-        ];
-        for (o, order) in orders.iter().enumerate() {
-            let merged = d.join(format!("m{n}_{o}.exr"));
-            let mut a = vec!["merge".to_owned()];
-            a.extend(order.iter().map(|&i| s(&shards[i]).to_owned()));
-            a.extend(["-o".to_owned(), s(&merged).to_owned()]);
-            ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
-            let m = read_exr(&merged).unwrap();
-            assert!(
-                std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(),
-                "{n} shards, order {order:?}: the files differ"
-            );
-            assert_eq!(m.data(), w.data(), "{n} shards, order {order:?}");
-            assert_eq!(m.weights(), w.weights());
-            assert_eq!((m.metadata().shard_index, m.metadata().shard_count), (0, 1));
-            assert_eq!(m.metadata().samples, w.metadata().samples);
+        if m == Mode::Doi {
+            let (a, b) =
+                (read_exr(&whole).unwrap(), read_exr(&d.join("Doi-7-2").join("Doi7-merged.exr")).unwrap());
+            assert_eq!(a.data(), b.data());
+            assert_eq!((b.metadata().shard_index, b.metadata().shard_count), (0, 1));
+            assert_eq!(b.metadata().samples, a.metadata().samples);
         }
     }
 }
 
 proptest::proptest! {
     #![proptest_config(proptest::test_runner::Config {
-        cases: 12,
+        cases: 16,
         rng_seed: proptest::test_runner::RngSeed::Fixed(17),
         failure_persistence: None,
         ..proptest::test_runner::Config::default()
     })]
 
-    /// As a property: for any shard count 1..=7, any merge order and any thread count per
-    /// shard, with either node fit, the merged file is the whole bake's file.
+    /// As a property: for any mode, any shard count 1..=7, any merge order and any thread
+    /// count per shard, the merged file is the whole bake's file.
     #[test]
     fn merged_file_is_the_whole_file_for_any_split(
+        mode in 0usize..MODES.len(),
         n in 1u32..=7,
         order_seed in proptest::prelude::any::<u64>(),
         threads in proptest::collection::vec(1u32..=2, 7),
-        lsq in proptest::prelude::any::<bool>(),
     ) {
+        let m = MODES[mode];
         let dir = tempfile::tempdir().unwrap();
         let d = dir.path();
-        let fit: &[&str] = if lsq { &["--fit", "lsq:0.25"] } else { &[] };
         let whole = d.join("whole.exr");
-        bake(&whole, fit);
-        let mut shards: Vec<std::path::PathBuf> = (0..n)
-            .map(|k| {
-                let out = d.join(format!("s{k}.exr"));
-                let t = threads[k as usize].to_string();
-                let mut extra = vec!["--shard".to_owned(), format!("{k}/{n}"), "--threads".to_owned(), t];
-                extra.extend(fit.iter().map(|x| (*x).to_owned()));
-                bake(&out, &extra.iter().map(String::as_str).collect::<Vec<_>>());
-                out.with_extension("lvacc")
-            })
-            .collect();
+        bake_mode(&whole, m, &[]);
         // A seeded shuffle of the merge order.
+        let mut order: Vec<usize> = (0..n as usize).collect();
         let mut state = order_seed | 1;
-        for i in (1..shards.len()).rev() {
+        for i in (1..order.len()).rev() {
             state ^= state << 13;
             state ^= state >> 7;
             state ^= state << 17;
-            shards.swap(i, (state % (i as u64 + 1)) as usize);
+            order.swap(i, (state % (i as u64 + 1)) as usize);
         }
-        let merged = d.join("merged.exr");
-        let mut a = vec!["merge".to_owned()];
-        a.extend(shards.iter().map(|p| s(p).to_owned()));
-        a.extend(["-o".to_owned(), s(&merged).to_owned()]);
-        ok(&a.iter().map(String::as_str).collect::<Vec<_>>());
-        proptest::prop_assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "{n} shards, lsq {lsq}");
+        let merged = sharded(d, m, n, &order, &threads);
+        proptest::prop_assert!(std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(), "{m:?}, {n} shards, order {order:?}");
     }
 }
 

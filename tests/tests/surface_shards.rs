@@ -51,7 +51,36 @@ fn surface_shards_assemble_to_the_whole_bake() {
         surface_util::run(&a)
     };
     let whole = d.join("whole");
-    assert_eq!(run(&["-o", s(&whole)]), Ok(ExitCode::SUCCESS));
+    assert_eq!(run(&["-o", s(&whole), "--threads", "1"]), Ok(ExitCode::SUCCESS));
+    let whole2 = d.join("whole2");
+    assert_eq!(run(&["-o", s(&whole2), "--threads", "2"]), Ok(ExitCode::SUCCESS));
+    let w = files(&whole);
+    assert!(files(&whole2) == w, "1 and 2 threads differ");
+    // 1 and 7 shards (shards alternating between 1 and 2 threads, assembled in reverse and
+    // shuffled order) give the whole bake's files too.
+    for n in [1u32, 7] {
+        let dir_n = d.join(format!("shards{n}"));
+        for k in 0..n {
+            let t = (1 + k % 2).to_string();
+            assert_eq!(
+                run(&["--shard", &format!("{k}/{n}"), "--threads", &t, "-o", s(&dir_n)]),
+                Ok(ExitCode::SUCCESS)
+            );
+        }
+        let mut lvtex: Vec<String> = std::fs::read_dir(&dir_n)
+            .unwrap()
+            .map(|e| e.unwrap().path().to_string_lossy().into_owned())
+            .collect();
+        lvtex.sort();
+        assert_eq!(lvtex.len(), 2 * n as usize);
+        let len = lvtex.len();
+        let shuffled: Vec<String> = (0..len).map(|i| lvtex[(i * 5 + 3) % len].clone()).collect();
+        let out = d.join(format!("merged{n}"));
+        let mut a = vec!["-o", s(&out), "--from-shards"];
+        a.extend(shuffled.iter().map(String::as_str));
+        assert_eq!(run(&a), Ok(ExitCode::SUCCESS));
+        assert!(files(&out) == w, "{n} shards: the assembled files differ from the whole bake's");
+    }
     let shards = d.join("shards");
     for k in [2, 0, 1] {
         assert_eq!(run(&["--shard", &format!("{k}/3"), "-o", s(&shards)]), Ok(ExitCode::SUCCESS));
@@ -67,7 +96,7 @@ fn surface_shards_assemble_to_the_whole_bake() {
     let mut a = vec!["-o", s(&merged), "--from-shards"];
     a.extend(lvtex.iter().map(String::as_str));
     assert_eq!(run(&a), Ok(ExitCode::SUCCESS));
-    let (w, m) = (files(&whole), files(&merged));
+    let m = files(&merged);
     assert!(!w.is_empty());
     assert_eq!(w.keys().collect::<Vec<_>>(), m.keys().collect::<Vec<_>>());
     for (name, bytes) in &w {
