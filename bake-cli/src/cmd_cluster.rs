@@ -167,10 +167,50 @@ fn shard_count(bake: &BakeArgs) -> anyhow::Result<u32> {
     if bake.shard.is_some() {
         bail!("--shard is set by the jobs (--shard auto); give only --shards N");
     }
-    if bake.adaptive.adaptive {
-        bail!("--adaptive bakes cannot be sharded yet; use a whole bake");
+    if bake.adaptive.level.is_some() || !bake.adaptive.from_shards.is_empty() {
+        bail!("--level and --from-shards are set by the jobs of an adaptive bake; give only --shards N");
     }
     Ok(n)
+}
+
+/// One job array of a sharded bake: its file stem and what follows the bake's options.
+struct Stage {
+    name: String,
+    tail: String,
+}
+
+/// The job arrays of a sharded bake, in dependency order, and the final command's words
+/// after the lightvol executable. A uniform bake is one array and a `merge`; an adaptive
+/// bake is one array per level (each reading the levels below) and an assembling `bake`.
+/// `shards` is the shell-quoted shard folder, `index` the shell text of the task index.
+fn stages(
+    bake: &BakeArgs,
+    words: &str,
+    n: u32,
+    shards: &str,
+    index: &str,
+    out: &str,
+) -> anyhow::Result<(Vec<Stage>, String)> {
+    if !bake.adaptive.adaptive {
+        let st = Stage {
+            name: "bake".into(),
+            tail: format!("--shard auto --shards {n} -o {shards}/shard-{index}.exr"),
+        };
+        return Ok((vec![st], format!("merge {shards}/*.lvacc -o {out}")));
+    }
+    let max_level = bake.adaptive.settings(bake.grid.coeffs())?.max_level;
+    let mut inputs = vec![format!("{shards}/level0-*.lvacc")];
+    let mut out_stages = Vec::new();
+    for level in 0..=max_level {
+        let mut tail = format!("--shard auto --shards {n}");
+        if level > 0 {
+            tail += &format!(" --level {level} --from-shards {}", inputs.join(" "));
+            inputs.push(format!("{shards}/level{level}-*.lvref"));
+        }
+        tail += &format!(" -o {shards}/level{level}-{index}.exr");
+        out_stages.push(Stage { name: format!("bake-level{level}"), tail });
+    }
+    Ok((out_stages, format!("bake {words} --from-shards {} -o {out}", inputs.join(" "))))
 }
 
 /// Checks what both verbs need and returns (shards, work folder, merged output, lightvol).
@@ -220,68 +260,114 @@ pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> 
             head.push(format!("#SBATCH --{k}={}", sh_quote(v)));
         }
     }
-    let bake_cmd: Vec<String> = [q(&exe), "bake".to_owned()]
-        .into_iter()
-        .chain(bake.iter().map(|a| sh_quote(a)))
-        .chain(quiet(&bake))
-        .collect();
-    let bake_script = format!(
-        "{}\n# Written by `lightvol slurm`: one array task per shard. `--shard auto` maps the task's\n# SLURM_ARRAY_TASK_ID (with _MIN/_MAX/_STEP) to a dense shard index.\nset -euo pipefail\nexec {} --shard auto --shards {n} -o {}\"$SLURM_ARRAY_TASK_ID\".exr\n",
-        head.join("\n"),
-        bake_cmd.join(" "),
-        q(&work.join("shards/shard-"))
-    );
+    let words: Vec<String> = bake.iter().map(|a| sh_quote(a)).chain(quiet(&bake)).collect();
+    let words = words.join(" ");
+    let (stages, last) =
+        stages(&args.bake, &words, n, &q(&work.join("shards")), "\"$SLURM_ARRAY_TASK_ID\"", &q(&out))?;
+    let mut files: Vec<(String, String)> = Vec::new();
+    for st in &stages {
+        let mut h = head.clone();
+        h[1] = format!("#SBATCH --job-name=lightvol-{}", st.name);
+        h[3] = format!("#SBATCH --output={}", q(&work.join(format!("logs/{}-%A_%a.log", st.name))));
+        files.push((
+            format!("{}.sbatch", st.name),
+            format!(
+                "{}\n# Written by `lightvol slurm`: one array task per shard. `--shard auto` maps the task's\n# SLURM_ARRAY_TASK_ID (with _MIN/_MAX/_STEP) to a dense shard index.\nset -euo pipefail\nexec {} bake {words} {}\n",
+                h.join("\n"),
+                q(&exe),
+                st.tail
+            ),
+        ));
+    }
     let mut mhead = vec![
         "#!/bin/bash".to_owned(),
         "#SBATCH --job-name=lightvol-merge".to_owned(),
         format!("#SBATCH --output={}", q(&work.join("logs/merge-%j.log"))),
         format!("#SBATCH --chdir={}", q(&cwd)),
     ];
+    if let Some(c) = args.cpus.filter(|_| args.bake.adaptive.adaptive) {
+        // The assembly replays the heuristics: it uses the shards' CPUs.
+        mhead.push(format!("#SBATCH --cpus-per-task={c}"));
+    }
     for (k, v) in [("partition", &args.partition), ("time", &args.time), ("mem", &args.mem)] {
         if let Some(v) = v {
             mhead.push(format!("#SBATCH --{k}={}", sh_quote(v)));
         }
     }
-    let merge_script = format!(
-        "{}\n# Written by `lightvol slurm`: merges the shards' exact sums (refuses an incomplete set).\nset -euo pipefail\nexec {} merge {}/*.lvacc -o {}\n",
-        mhead.join("\n"),
-        q(&exe),
-        q(&work.join("shards")),
-        q(&out)
+    files.push((
+        "merge.sbatch".into(),
+        format!(
+            "{}\n# Written by `lightvol slurm`: {} (refuses an incomplete set).\nset -euo pipefail\nexec {} {last}\n",
+            mhead.join("\n"),
+            if args.bake.adaptive.adaptive {
+                "assembles the levels' exact sums into the octree volume"
+            } else {
+                "merges the shards' exact sums"
+            },
+            q(&exe),
+        ),
+    ));
+    let mut submit = String::from(
+        "#!/bin/bash\n# Written by `lightvol slurm`: submits the shard arrays in order, each running only if\n# every task of the one before succeeded (and cancelled if one failed), then the merge.\nset -euo pipefail\n",
     );
-    let submit_script = format!(
-        "#!/bin/bash\n# Written by `lightvol slurm`: submits the shard array, then the merge, which runs only\n# if every shard succeeds and is cancelled if one fails.\nset -euo pipefail\nbake=$(sbatch --parsable {})\nbake=${{bake%%;*}}\nmerge=$(sbatch --parsable --dependency=afterok:\"$bake\" --kill-on-invalid-dep=yes {})\nmerge=${{merge%%;*}}\necho \"bake array $bake, merge $merge\"\n",
-        q(&work.join("bake.sbatch")),
-        q(&work.join("merge.sbatch"))
-    );
-    for d in ["shards", "logs"] {
-        std::fs::create_dir_all(work.join(d))
-            .with_context(|| format!("creating {}", work.join(d).display()))?;
+    let mut prev: Option<String> = None;
+    let mut names: Vec<String> = stages.iter().map(|st| st.name.clone()).collect();
+    names.push("merge".into());
+    for (i, name) in names.iter().enumerate() {
+        let var = format!("job{i}");
+        let dep = prev.as_ref().map_or_else(String::new, |p| {
+            format!("--dependency=afterok:\"${p}\" --kill-on-invalid-dep=yes ")
+        });
+        submit += &format!(
+            "{var}=$(sbatch --parsable {dep}{})\n{var}=${{{var}%%;*}}\necho \"{name} ${var}\"\n",
+            q(&work.join(format!("{name}.sbatch")))
+        );
+        prev = Some(var);
     }
-    for (name, body) in
-        [("bake.sbatch", &bake_script), ("merge.sbatch", &merge_script), ("submit.sh", &submit_script)]
-    {
+    for d in ["shards", "logs"] {
+        std::fs::create_dir_all(work.join(d)).with_context(|| format!("creating {}", work.display()))?;
+    }
+    files.push(("submit.sh".into(), submit));
+    for (name, body) in &files {
         let p = work.join(name);
         crate::imaging::write_atomic(&p, body.as_bytes())
             .with_context(|| format!("writing {}", p.display()))?;
         make_executable(&p)?;
     }
     eprintln!(
-        "wrote {}/{{bake.sbatch,merge.sbatch,submit.sh}} ({n} shards → {})",
+        "wrote {}/{{{}}} ({n} shards → {})",
         work.display(),
+        files.iter().map(|f| f.0.as_str()).collect::<Vec<_>>().join(","),
         out.display()
     );
     if !args.submit {
         println!("{}", work.join("submit.sh").display());
         return Ok(ExitCode::SUCCESS);
     }
-    let bake_id = sbatch(&[s(&work.join("bake.sbatch"))])?;
+    let mut bake_ids: Vec<String> = Vec::new();
+    for st in &stages {
+        let file = work.join(format!("{}.sbatch", st.name));
+        let id = match bake_ids.last() {
+            None => sbatch(&[s(&file)])?,
+            Some(p) => {
+                sbatch(&[&format!("--dependency=afterok:{p}"), "--kill-on-invalid-dep=yes", s(&file)])?
+            }
+        };
+        bake_ids.push(id);
+    }
+    let last_id = bake_ids.last().expect("at least one stage").clone();
     let merge_id = sbatch(&[
-        &format!("--dependency=afterok:{bake_id}"),
+        &format!("--dependency=afterok:{last_id}"),
         "--kill-on-invalid-dep=yes",
         s(&work.join("merge.sbatch")),
     ])?;
-    println!("bake array {bake_id}, merge {merge_id}");
+    if bake_ids.len() == 1 {
+        println!("bake array {last_id}, merge {merge_id}");
+    } else {
+        let list: Vec<String> =
+            stages.iter().zip(&bake_ids).map(|(st, id)| format!("{} array {id}", st.name)).collect();
+        println!("{}, merge {merge_id}", list.join(", "));
+    }
     if !args.wait {
         return Ok(ExitCode::SUCCESS);
     }
@@ -290,12 +376,18 @@ pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> 
         eprintln!("merge {merge_id} completed: {}", out.display());
         return Ok(ExitCode::SUCCESS);
     }
-    let failed: Vec<String> = job_lines(&bake_id)?
+    let mut lines = Vec::new();
+    for (st, id) in stages.iter().zip(&bake_ids) {
+        // A multi-level bake names the array each task belongs to.
+        let prefix = if stages.len() > 1 { format!("{} ", st.name) } else { String::new() };
+        lines.extend(job_lines(id)?.into_iter().map(|j| (prefix.clone(), j)));
+    }
+    let failed: Vec<String> = lines
         .into_iter()
-        .filter(|j| j.state != "COMPLETED" && FINAL.contains(&j.state.as_str()))
-        .map(|j| {
+        .filter(|(_, j)| j.state != "COMPLETED" && FINAL.contains(&j.state.as_str()))
+        .map(|(prefix, j)| {
             format!(
-                "array task {} ({}) {} exit {}",
+                "{prefix}array task {} ({}) {} exit {}",
                 j.task.as_deref().unwrap_or("?"),
                 j.id,
                 j.state,

@@ -207,6 +207,49 @@ fn slurm_submit_wait_equals_the_whole_bake() {
     );
 }
 
+/// An adaptive bake on the cluster: one job array per octree level, each after the one
+/// below, and an assembling job: the whole adaptive bake's file, byte for byte.
+#[test]
+fn slurm_adaptive_bake_equals_the_whole_bake() {
+    if !slurm_available("slurm_adaptive_bake_equals_the_whole_bake") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let adaptive = ["--adaptive", "--max-level", "1", "--depth-rays", "8"];
+    let whole = d.join("whole.exr");
+    let mut a = vec!["bake", "builtin:city", "-o", s(&whole)];
+    a.extend_from_slice(&BAKE);
+    a.extend_from_slice(&adaptive);
+    ok(&a, &[]);
+    let merged = d.join("cluster.exr");
+    let mut a = vec![
+        "slurm",
+        "builtin:city",
+        "--shards",
+        "3",
+        "--submit",
+        "--wait",
+        "-o",
+        s(&merged),
+        "--lightvol",
+        BIN,
+    ];
+    a.extend_from_slice(&BAKE);
+    a.extend_from_slice(&adaptive);
+    let o = ok(&a, &[]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("bake-level0 array") && out.contains("bake-level1 array"), "{out}");
+    same_file(&merged, &whole);
+    let count = |ext: &str| {
+        std::fs::read_dir(d.join("cluster.slurm/shards"))
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == ext))
+            .count()
+    };
+    assert_eq!((count("lvacc"), count("lvref")), (3, 3));
+}
+
 /// A hand-written sparse array (`--array=1-8:2`: tasks 1, 3, 5, 7) with `--shard auto`,
 /// merged, gives the whole bake too.
 #[test]
