@@ -12,6 +12,11 @@
 //!   exits with its status, and names any failed array task.
 //! - `k8s` writes `bake-job.yaml` (an Indexed Job) and `merge-job.yaml`; Kubernetes has no
 //!   job dependencies, so the merge is applied after `kubectl wait` (printed).
+//!
+//! An adaptive bake (`--adaptive`) shards level by level (`lightvol_sampler::adaptive_shard`):
+//! one job array per octree level (`bake-levelL`), each reading the complete shard sets of
+//! the levels below and started only after them, and a final job that assembles the levels
+//! with `bake --adaptive --from-shards` instead of `merge`.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command as Proc, ExitCode};
@@ -559,13 +564,11 @@ pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
         .map_or_else(|| "lightvol".to_owned(), |s| s.to_string_lossy().into_owned());
     let work = absolute(&args.job.workdir.clone().unwrap_or_else(|| PathBuf::from(format!("{stem}.k8s"))))?;
     let raw = bake_arguments(argv);
-    let bake: Vec<String> = raw.iter().map(|a| sh_quote(a)).chain(quiet(&raw)).collect();
+    let words: Vec<String> = raw.iter().map(|a| sh_quote(a)).chain(quiet(&raw)).collect();
+    let words = words.join(" ");
     let shards = sh_quote(&format!("{mount}/shards"));
-    let bake_cmd = format!(
-        "mkdir -p {shards} && exec lightvol bake {} --shard auto --shards {n} -o {shards}/shard-\"$JOB_COMPLETION_INDEX\".exr",
-        bake.join(" ")
-    );
-    let merge_cmd = format!("exec lightvol merge {shards}/*.lvacc -o {}", sh_quote(&out));
+    let (stages, last) =
+        stages(&args.bake, &words, n, &shards, "\"$JOB_COMPLETION_INDEX\"", &sh_quote(&out))?;
     let volume = serde_json::json!([{"name": "data", "persistentVolumeClaim": {"claimName": args.pvc}}]);
     let mounts = serde_json::json!([{"name": "data", "mountPath": args.mount}]);
     let job = |name: &str, cmd: &str, indexed: bool| {
@@ -587,20 +590,44 @@ pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
         serde_json::json!({"apiVersion": "batch/v1", "kind": "Job", "metadata": {"name": format!("lightvol-{name}")}, "spec": spec})
     };
     std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
+    // Kubernetes has no job dependencies: each job is applied after the one before completes.
+    let mut files: Vec<(String, serde_json::Value)> = stages
+        .iter()
+        .map(|st| {
+            let cmd = format!("mkdir -p {shards} && exec lightvol bake {words} {}", st.tail);
+            (format!("{}-job.yaml", st.name), job(&st.name, &cmd, true))
+        })
+        .collect();
+    files.push(("merge-job.yaml".into(), job("merge", &format!("exec lightvol {last}"), false)));
+    let steps: Vec<String> = stages
+        .iter()
+        .zip(&files)
+        .map(|(st, (file, _))| {
+            format!(
+                "kubectl apply -f {0}/{file} && kubectl wait --for=condition=complete --timeout=24h job/lightvol-{1}",
+                work.display(),
+                st.name
+            )
+        })
+        .chain(std::iter::once(format!("kubectl apply -f {}/merge-job.yaml", work.display())))
+        .collect();
     // JSON is YAML (YAML 1.2 is a superset), and kubectl reads either.
-    let header = "# Written by `lightvol k8s`. Apply the bake, wait for it, then apply the merge:\n#   kubectl apply -f bake-job.yaml\n#   kubectl wait --for=condition=complete --timeout=24h job/lightvol-bake\n#   kubectl apply -f merge-job.yaml\n";
-    for (file, j) in
-        [("bake-job.yaml", job("bake", &bake_cmd, true)), ("merge-job.yaml", job("merge", &merge_cmd, false))]
-    {
+    let header = format!(
+        "# Written by `lightvol k8s`. Apply each job after the one before completes, the merge last:\n{}",
+        steps.iter().map(|l| format!("#   {l}\n")).collect::<String>()
+    );
+    for (file, j) in &files {
         let p = work.join(file);
-        let body = format!("{header}{}\n", serde_json::to_string_pretty(&j).expect("plain data"));
+        let body = format!("{header}{}\n", serde_json::to_string_pretty(j).expect("plain data"));
         crate::imaging::write_atomic(&p, body.as_bytes())
             .with_context(|| format!("writing {}", p.display()))?;
     }
     println!("{}", work.display());
     eprintln!(
-        "wrote {0}/bake-job.yaml and {0}/merge-job.yaml; run: kubectl apply -f {0}/bake-job.yaml && kubectl wait --for=condition=complete --timeout=24h job/lightvol-bake && kubectl apply -f {0}/merge-job.yaml",
-        work.display()
+        "wrote {}/{{{}}}; run: {}",
+        work.display(),
+        files.iter().map(|f| f.0.as_str()).collect::<Vec<_>>().join(","),
+        steps.join(" && ")
     );
     Ok(ExitCode::SUCCESS)
 }

@@ -150,6 +150,34 @@ fn k8s_writes_an_indexed_job_and_a_merge_job() {
     let merge = read("merge-job.yaml");
     let mcmd = merge["spec"]["template"]["spec"]["containers"][0]["command"][2].as_str().unwrap();
     assert!(mcmd.contains("merge /data/shards/*.lvacc -o /data/city.exr"), "{mcmd}");
+
+    // An adaptive bake: one Indexed Job per level, each reading the levels below, and an
+    // assembling job.
+    let work2 = dir.path().join("adaptive");
+    let mut a2 = a.clone();
+    let at = a2.iter().position(|x| *x == "--workdir").unwrap() + 1;
+    a2[at] = s(&work2);
+    a2.extend_from_slice(&["--adaptive", "--max-level", "1"]);
+    ok(&a2, &[]);
+    let cmd_of = |f: &str| -> String {
+        let t = std::fs::read_to_string(work2.join(f)).unwrap();
+        let body: String = t.lines().filter(|l| !l.starts_with('#')).collect::<Vec<_>>().join("\n");
+        let v: serde_json::Value = serde_json::from_str(&body).unwrap();
+        v["spec"]["template"]["spec"]["containers"][0]["command"][2].as_str().unwrap().to_owned()
+    };
+    let l0 = cmd_of("bake-level0-job.yaml");
+    assert!(l0.contains("--shard auto --shards 3 -o /data/shards/level0-"), "{l0}");
+    let l1 = cmd_of("bake-level1-job.yaml");
+    assert!(
+        l1.contains("--level 1 --from-shards /data/shards/level0-*.lvacc -o /data/shards/level1-"),
+        "{l1}"
+    );
+    let m = cmd_of("merge-job.yaml");
+    assert!(
+        m.contains("--from-shards /data/shards/level0-*.lvacc /data/shards/level1-*.lvref -o /data/city.exr"),
+        "{m}"
+    );
+    assert!(!work2.join("bake-level2-job.yaml").exists());
 }
 
 /// Whether a usable Slurm is here; otherwise one loud line, and a failure when
