@@ -13,8 +13,8 @@
 //!   resampled (`AdaptiveVolume::to_uniform`: the exact f64 lookup at every node, rounded
 //!   to f32) at `--res NX,NY,NZ`, by default the finest level's resolution, which
 //!   reproduces every finest-level node exactly. The resolution is printed.
-//! - `merge`: adaptive bakes are never sharded (`bake --adaptive` refuses `--shard`), so
-//!   there is nothing to merge; an adaptive input is refused with a clear error.
+//! - `merge`: an adaptive volume is refused with a clear error; sharded adaptive bakes are
+//!   assembled level by level by `bake --adaptive --from-shards` instead.
 
 use std::path::Path;
 
