@@ -6,9 +6,10 @@
 //! whose random seed differs per map and per process; the EXR writers put them in a fixed
 //! order).
 //!
-//! Two exceptions, both measurements rather than data: `compare`'s `report.json` holds the
-//! wall time of each method (`"seconds"`), compared here with those fields left out; and the
-//! shard accumulators (`.lvacc`) are checked by their own tests.
+//! Shard files are included: accumulators (`.lvacc`, also of central-gradient and adaptive
+//! level-0 shards), adaptive level files (`.lvref`) and surface texel shards (`.lvtex`). One exception, a measurement rather
+//! than data: `compare`'s `report.json` holds the wall time of each method (`"seconds"`),
+//! compared here with those fields left out.
 
 mod common;
 mod surface_util;
@@ -54,6 +55,17 @@ fn write_everything(out: &Path, gltf: &Path) {
     bake(&f("shard0.exr"), &["--shard", "0/2"]);
     bake(&f("shard1.exr"), &["--shard", "1/2"]);
     ok(&["merge", s(&f("shard0.exr")), s(&f("shard1.exr")), "-o", s(&f("merged.exr"))]);
+    // Shard files of the other modes: central gradients, and an adaptive bake's level 0 and
+    // level 1 (.lvacc, .lvref).
+    bake(&f("central0.exr"), &["--gradients", "central", "--shard", "0/2"]);
+    let adaptive = ["--adaptive", "--max-level", "1", "--depth-rays", "4"];
+    let mut a0 = adaptive.to_vec();
+    a0.extend(["--shard", "0/1"]);
+    bake(&f("oct-l0.exr"), &a0);
+    let l0 = f("oct-l0.lvacc");
+    let mut a1 = adaptive.to_vec();
+    a1.extend(["--shard", "0/1", "--level", "1", "--from-shards", s(&l0)]);
+    bake(&f("oct-l1.exr"), &a1);
     // Engine exports of the uniform and the adaptive volume.
     for format in ["ktx2", "dds", "bevy", "json"] {
         ok(&["export", s(&f("v.exr")), "--format", format, "-o", s(&f(&format!("v.{format}")))]);
@@ -90,6 +102,12 @@ fn write_everything(out: &Path, gltf: &Path) {
         args.extend_from_slice(encode);
         assert_eq!(surface_util::run(&args), Ok(ExitCode::SUCCESS), "{args:?}");
     }
+    // A texel shard of the surface bake (.lvtex).
+    let mut args =
+        vec!["bake-surface", s(gltf), "--basis", "sh9", "--texels-per-unit", "2", "--samples", "8"];
+    args.extend_from_slice(&["--quiet", "--shard", "0/2", "-o", s(&f("texel_shards"))]);
+    args.extend_from_slice(&light);
+    assert_eq!(surface_util::run(&args), Ok(ExitCode::SUCCESS), "{args:?}");
     // The lightmapped render of those maps.
     let (maps, view) = (f("maps"), f("surface_view"));
     let mut args = vec!["render", s(gltf), "--surface", s(&maps)];
@@ -154,9 +172,6 @@ fn assert_same_files(a: &Path, b: &Path) {
     let mut compared = 0;
     for (name, x) in &fa {
         let y = &fb[name];
-        if name.ends_with(".lvacc") {
-            continue; // the accumulator format has its own reproducibility tests
-        }
         if name == "compare/report.json" {
             let parse = |bytes: &[u8]| {
                 let mut v: serde_json::Value = serde_json::from_slice(bytes).unwrap();
@@ -173,7 +188,20 @@ fn assert_same_files(a: &Path, b: &Path) {
         compared += 1;
     }
     // Everything written above, bar the report: make sure the walk saw the files.
-    for must in ["v.exr", "grad.exr", "oct.exr", "merged.exr", "v.ktx2", "v.dds", "v.dds.json", "v.bevy"] {
+    for must in [
+        "v.exr",
+        "grad.exr",
+        "oct.exr",
+        "merged.exr",
+        "shard0.lvacc",
+        "central0.lvacc",
+        "oct-l0.lvacc",
+        "oct-l1.lvref",
+        "v.ktx2",
+        "v.dds",
+        "v.dds.json",
+        "v.bevy",
+    ] {
         assert!(fa.contains_key(must), "{must} was not written");
     }
     for must in
@@ -182,6 +210,7 @@ fn assert_same_files(a: &Path, b: &Path) {
         assert!(fa.contains_key(must), "{must} was not written");
     }
     assert!(fa.keys().any(|k| k.starts_with("maps_png/") && k.ends_with(".png")));
+    assert!(fa.keys().any(|k| k.starts_with("texel_shards/") && k.ends_with(".lvtex")));
     assert!(fa.keys().any(|k| k.starts_with("maps_bc/") && k.ends_with(".bc7.ktx2")));
     assert!(fa.keys().any(|k| k.starts_with("surface_view/") && k.ends_with(".png")));
     assert!(compared > 40, "only {compared} files compared");
