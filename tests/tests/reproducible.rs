@@ -103,9 +103,10 @@ fn write_everything(out: &Path, gltf: &Path) {
         assert_eq!(surface_util::run(&args), Ok(ExitCode::SUCCESS), "{args:?}");
     }
     // A texel shard of the surface bake (.lvtex).
+    let texel_shards = f("texel_shards");
     let mut args =
         vec!["bake-surface", s(gltf), "--basis", "sh9", "--texels-per-unit", "2", "--samples", "8"];
-    args.extend_from_slice(&["--quiet", "--shard", "0/2", "-o", s(&f("texel_shards"))]);
+    args.extend_from_slice(&["--quiet", "--shard", "0/2", "-o", s(&texel_shards)]);
     args.extend_from_slice(&light);
     assert_eq!(surface_util::run(&args), Ok(ExitCode::SUCCESS), "{args:?}");
     // The lightmapped render of those maps.
