@@ -159,7 +159,7 @@ fn bad_adaptive_options_are_refused() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("v.exr");
     let o = s(&out);
-    let cases: [(&[&str], &str); 11] = [
+    let cases: [(&[&str], &str); 15] = [
         (&["--adaptive", "--min-level", "3", "--max-level", "2"], "--min-level"),
         (&["--adaptive", "--max-level", "9"], "--max-level"),
         (&["--adaptive", "--gradient-threshold", "-1"], "--gradient-threshold"),
@@ -169,7 +169,11 @@ fn bad_adaptive_options_are_refused() {
         (&["--adaptive", "--node-budget", "0"], "--node-budget"),
         (&["--adaptive", "--node-budget", "10"], "budget"),
         (&["--max-level", "3"], "--max-level needs --adaptive"),
-        (&["--adaptive", "--shard", "0/2"], "--shard"),
+        (&["--adaptive", "--keep-accumulator"], "--keep-accumulator"),
+        (&["--adaptive", "--level", "1"], "--level needs --shard"),
+        (&["--adaptive", "--shard", "0/2", "--level", "1"], "--from-shards"),
+        (&["--adaptive", "--shard", "0/2", "--level", "3", "--from-shards", "x.lvacc"], "x.lvacc"),
+        (&["--adaptive", "--fit", "lsq"], "--fit"),
         (&["--adaptive", "--gradients"], "--gradients"),
     ];
     for (extra, want) in cases {
