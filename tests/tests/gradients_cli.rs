@@ -213,11 +213,8 @@ fn bad_gradient_options_are_refused() {
     let small = ["--samples", "4", "--res", "3,3,3", "--quiet"];
     let cases: [(&[&str], &str); 4] = [
         (&["--gradients", "basis", "--method", "point"], "--gradients basis needs cell samples"),
-        (
-            &["--gradients", "central", "--shard", "0/2"],
-            "--gradients central cannot be combined with --shard",
-        ),
-        (&["--gradients", "central", "--keep-accumulator"], "--keep-accumulator"),
+        (&["--gradients", "central", "--fit", "lsq"], "cannot be combined with --gradients"),
+        (&["--gradients", "central", "--adaptive"], "--adaptive cannot be combined with --gradients"),
         (&["--gradients", "sideways"], "sideways"),
     ];
     for (extra, want) in cases {
