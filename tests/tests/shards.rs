@@ -74,7 +74,7 @@ fn sharded(d: &Path, m: Mode, n: u32, order: &[usize], threads: &[u32]) -> std::
         })
         .collect();
     if m != Mode::Adaptive {
-        let mut a = vec!["merge".to_owned()];
+        let mut a = vec!["merge".to_owned(), "--keep-accumulator".to_owned()];
         a.extend(in_order(&base));
         a.extend(["-o".to_owned(), s(&merged).to_owned()]);
         ok_owned(&a);
@@ -111,14 +111,17 @@ fn sharded(d: &Path, m: Mode, n: u32, order: &[usize], threads: &[u32]) -> std::
 }
 
 /// For every mode: whole bake on 1 thread = on 2 threads = 1, 3 and 7 shards merged in
-/// forward, reverse and shuffled order with shards on 1 and 2 threads, byte for byte.
+/// forward, reverse and shuffled order with shards on 1 and 2 threads, byte for byte — the
+/// volume and, for the uniform modes, the exact accumulator (`--keep-accumulator`).
 #[test]
 fn any_shard_count_order_and_thread_count_gives_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     for m in MODES {
         let whole = d.join(format!("{m:?}-whole.exr"));
-        bake_mode(&whole, m, &["--threads", "1"]);
+        let keep: &[&str] = if m == Mode::Adaptive { &[] } else { &["--keep-accumulator"] };
+        bake_mode(&whole, m, &[&["--threads", "1"][..], keep].concat());
+        let whole_acc = (!keep.is_empty()).then(|| std::fs::read(whole.with_extension("lvacc")).unwrap());
         let two = d.join(format!("{m:?}-two.exr"));
         bake_mode(&two, m, &["--threads", "2"]);
         let w = std::fs::read(&whole).unwrap();
@@ -137,6 +140,13 @@ fn any_shard_count_order_and_thread_count_gives_the_whole_bake() {
                     std::fs::read(&merged).unwrap() == w,
                     "{m:?}, {n} shards, order {order:?}: the files differ"
                 );
+                // The merged exact sums are the whole bake's accumulator file, too.
+                if let Some(acc) = &whole_acc {
+                    assert!(
+                        std::fs::read(merged.with_extension("lvacc")).unwrap() == *acc,
+                        "{m:?}, {n} shards, order {order:?}: the .lvacc files differ"
+                    );
+                }
             }
         }
         if m == Mode::Doi {
