@@ -376,6 +376,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     shard_count: shard.1,
                     scene_hash: hash.clone(),
                     units: "relative".into(),
+                    frame: loaded.frame,
                 };
                 let path = args.output.with_extension("lvacc");
                 write_accumulator(&path, &out.accumulator, &meta)
@@ -447,6 +448,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         shard_count: 1,
         scene_hash: hash,
         units: "relative".into(),
+        frame: loaded.frame,
     };
     let vol = vol.with_metadata(meta);
     write_adaptive_exr(&args.output, &vol).with_context(|| format!("writing {}", args.output.display()))?;

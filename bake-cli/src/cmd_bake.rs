@@ -382,6 +382,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             ),
         ),
         units: "relative".into(),
+        frame: loaded.frame,
     };
     if args.shard.is_some() || args.keep_accumulator {
         let acc_path = args.output.with_extension("lvacc");

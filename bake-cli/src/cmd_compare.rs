@@ -477,7 +477,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
         }
         let report = CompareReport {
             scene: loaded.label.clone(),
-            up: loaded.up.to_owned(),
+            up: loaded.frame.name().to_owned(),
             plate: PlateJson {
                 height,
                 res: [plate.res[0] as u32, plate.res[1] as u32],

@@ -132,8 +132,8 @@ pub struct SceneSummary {
 }
 
 fn bounds_to_file(up: UpAxis, lo: DVec3, hi: DVec3) -> Bounds {
-    let (a, b) = (up.to_file(lo), up.to_file(hi));
-    Bounds { min: a.min(b).to_array(), max: a.max(b).to_array() }
+    let (min, max) = up.box_to_file(lo.to_array(), hi.to_array());
+    Bounds { min, max }
 }
 
 /// Summarises a loaded scene.
@@ -173,7 +173,7 @@ pub fn summarize(label: &str, scene: &Scene, up: UpAxis) -> SceneSummary {
         .filter(|(m, _)| m.alpha_mode != AlphaMode::Opaque)
         .map(|(_, &n)| n)
         .sum();
-    let f = |p: DVec3| up.to_file(p).to_array();
+    let f = |p: DVec3| up.to_file(p.to_array());
     let v = |p: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", p[0], p[1], p[2]);
     let lights = scene
         .punctual
@@ -335,7 +335,7 @@ fn text(s: &SceneSummary) -> String {
 /// Runs `lightvol inspect`.
 pub fn run(args: &InspectArgs) -> anyhow::Result<ExitCode> {
     let loaded = args.scene.load_quiet()?;
-    let up = if loaded.up == "z" { UpAxis::Z } else { UpAxis::Y };
+    let up = loaded.frame;
     let s = summarize(&loaded.label, &loaded.scene, up);
     let body = if args.json {
         serde_json::to_string_pretty(&s).context("serialising the summary")? + "\n"

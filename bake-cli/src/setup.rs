@@ -95,8 +95,9 @@ pub struct LoadedScene {
     pub plate_heights: Vec<f64>,
     /// Label for reports.
     pub label: String,
-    /// Up axis of the source: "y" or "z".
-    pub up: &'static str,
+    /// The source file's frame (built-in scenes: the internal +Z-up frame). Coordinates on
+    /// the command line and in reports are in it.
+    pub frame: UpAxis,
 }
 
 fn parse_floats<const N: usize>(what: &str, s: &str) -> anyhow::Result<[f64; N]> {
@@ -172,7 +173,7 @@ impl SceneArgs {
                 grid: Some(b.grid),
                 plate_heights: b.plate_heights,
                 label: format!("builtin:{name}"),
-                up: "z",
+                frame: UpAxis::Z,
             }
         } else {
             if !(self.scale.is_finite() && self.scale > 0.0) {
@@ -181,13 +182,7 @@ impl SceneArgs {
             let path = Path::new(&self.scene);
             let opts = LoadOptions { up, scale: self.scale, ..LoadOptions::default() };
             let scene = load_scene(path, &opts).with_context(|| format!("loading {}", path.display()))?;
-            LoadedScene {
-                scene,
-                grid: None,
-                plate_heights: Vec::new(),
-                label: self.scene.clone(),
-                up: if self.up == "z" { "z" } else { "y" },
-            }
+            LoadedScene { scene, grid: None, plate_heights: Vec::new(), label: self.scene.clone(), frame: up }
         };
         let s = &mut loaded.scene;
         if let Some(sky) = &self.sky {

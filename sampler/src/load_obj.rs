@@ -122,7 +122,7 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
                 f64::from(mesh.positions[i + 1]),
                 f64::from(mesh.positions[i + 2]),
             );
-            opts.up.to_world(p * opts.scale)
+            DVec3::from_array(opts.up.to_world((p * opts.scale).to_array()))
         };
         let uv = |i: u32| -> DVec2 {
             let i = i as usize * 2;

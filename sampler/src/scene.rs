@@ -223,38 +223,9 @@ pub struct ExtensionReport {
     pub treatment: String,
 }
 
-/// The axis that points up in a source file. The world frame is always +Z up.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum UpAxis {
-    /// +Y up (glTF 2.0, most OBJ exports): rotated by +90° about X, `(x, y, z) -> (x, -z, y)`.
-    #[default]
-    Y,
-    /// +Z up: no rotation.
-    Z,
-}
-
-impl UpAxis {
-    /// Maps a file-space point or direction into the world frame (a rotation, so it keeps
-    /// handedness and winding).
-    #[must_use]
-    #[inline]
-    pub fn to_world(self, p: DVec3) -> DVec3 {
-        match self {
-            Self::Y => DVec3::new(p.x, -p.z, p.y),
-            Self::Z => p,
-        }
-    }
-    /// The inverse of [`to_world`](Self::to_world): a world-frame point or direction in the
-    /// file's axes.
-    #[must_use]
-    #[inline]
-    pub fn to_file(self, p: DVec3) -> DVec3 {
-        match self {
-            Self::Y => DVec3::new(p.x, p.z, -p.y),
-            Self::Z => p,
-        }
-    }
-}
+/// The axis that points up in a source file (lightvol-volume's [`lightvol_volume::frame`]);
+/// the world frame of a [`Scene`] is always +Z up.
+pub use lightvol_volume::frame::UpAxis;
 
 /// The scene: geometry, materials, textures and lights. Build one with [`SceneBuilder`],
 /// a loader ([`load_scene`](crate::load_scene)) or a built-in ([`builtin`](mod@crate::builtin)).
@@ -579,21 +550,6 @@ impl SceneBuilder {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn up_axis_rotation_keeps_handedness() {
-        let (x, y, z) = (DVec3::X, DVec3::Y, DVec3::Z);
-        let r = UpAxis::Y;
-        assert_eq!(r.to_world(y), DVec3::Z);
-        // A rotation maps x × y to (Rx) × (Ry).
-        assert_eq!(r.to_world(x).cross(r.to_world(y)), r.to_world(x.cross(y)));
-        assert_eq!(r.to_world(z).length(), 1.0);
-        for up in [UpAxis::Y, UpAxis::Z] {
-            let p = DVec3::new(1.5, -2.0, 3.25);
-            assert_eq!(up.to_file(up.to_world(p)), p);
-            assert_eq!(up.to_world(up.to_file(p)), p);
-        }
-    }
 
     #[test]
     fn builder_skips_degenerate_and_rejects_nan() {

@@ -23,21 +23,27 @@ use crate::volume::IrradianceVolume;
 
 const F: FileFormat = FileFormat::Dds;
 
+/// Both the texture and the sidecar are in the scene file's frame
+/// ([`crate::frame::to_file_frame`]).
+///
 /// The sidecar that [`write_dds`] writes beside a DDS file named `file` (with the checksum
 /// of the volume as the DDS decodes to); errors if a value exceeds the f16 range.
 pub fn dds_sidecar(vol: &IrradianceVolume, file: Option<String>) -> Result<Sidecar, VolumeError> {
+    let vol = &crate::frame::to_file_frame(vol, vol.metadata().frame)?;
     let mut s = Sidecar::describe(
         vol,
         Encoding::F16,
         file,
         &format!("DDS DXGI_FORMAT_R16G16B16A16_FLOAT volume texture; {SLAB_LAYOUT}"),
-    );
+    )
+    .in_frame(vol.metadata().frame);
     s.checksum = Some(to_hex(volume_checksum(&through_f16(vol, true)?)));
     Ok(s)
 }
 
 /// Serialises `vol` as an RGBA16F DDS volume texture in memory (the texture only).
 pub fn dds_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
+    let vol = &crate::frame::to_file_frame(vol, vol.metadata().frame)?;
     let [nx, ny, nz] = vol.spec().res();
     let depth = (vol.coeffs() as u32)
         .checked_mul(nz)

@@ -11,7 +11,8 @@
 //!   (int vec3), `lightvol.bounds_min` / `lightvol.bounds_max` / `lightvol.to_world` (text:
 //!   JSON arrays of f64, exact), `lightvol.sh_coeffs`, `lightvol.sh_bands` (i32),
 //!   `lightvol.convention`, `lightvol.quantity`, `lightvol.encoding`, `lightvol.units`,
-//!   `lightvol.bake.method`, `lightvol.bake.scene_hash` (text), `lightvol.bake.samples`,
+//!   `lightvol.bake.method`, `lightvol.bake.scene_hash`, `lightvol.frame` (text; the source
+//!   file's frame, `y-up` or `z-up`, see `crate::frame`; absent in older files: `z-up`), `lightvol.bake.samples`,
 //!   `lightvol.bake.seed` (text, decimal u64), `lightvol.bake.shard` (int vec2: index,
 //!   count).
 //!
@@ -247,6 +248,7 @@ pub(crate) fn base_layers(
     put("lightvol.encoding", AttributeValue::Text(text(enc_name)?))?;
     put("lightvol.units", AttributeValue::Text(text(&meta.units)?))?;
     put("lightvol.bake.method", AttributeValue::Text(text(&meta.method)?))?;
+    put("lightvol.frame", AttributeValue::Text(text(meta.frame.name())?))?;
     put("lightvol.bake.scene_hash", AttributeValue::Text(text(&meta.scene_hash)?))?;
     put("lightvol.bake.samples", AttributeValue::Text(text(&meta.samples.to_string())?))?;
     put("lightvol.bake.seed", AttributeValue::Text(text(&meta.seed.to_string())?))?;
@@ -530,6 +532,14 @@ fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeErr
         shard_count,
         scene_hash: a.text("lightvol.bake.scene_hash")?,
         units: a.text("lightvol.units")?,
+        frame: match a.opt("lightvol.frame") {
+            None => crate::frame::UpAxis::INTERNAL,
+            Some(_) => {
+                let f = a.text("lightvol.frame")?;
+                crate::frame::UpAxis::parse(&f)
+                    .ok_or_else(|| VolumeError::malformed(F, format!("lightvol.frame {f:?}")))?
+            }
+        },
     };
     let checksum = a.text("lightvol.checksum")?;
     let gradients = match a.opt("lightvol.gradients") {

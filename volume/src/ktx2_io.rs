@@ -146,8 +146,12 @@ pub(crate) fn parse_ktx2_rgba16f(bytes: &[u8], format_tag: FileFormat) -> Result
     Ok((dims, kvd, level.data.to_vec()))
 }
 
-/// Serialises `vol` as an RGBA16F KTX2 3D texture in memory.
+/// Serialises `vol` as an RGBA16F KTX2 3D texture in memory, in its scene file's frame
+/// ([`crate::frame::to_file_frame`]; the sidecar's `frame` says which), so that engine
+/// positions and normals need no conversion.
 pub fn ktx2_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
+    let frame = vol.metadata().frame;
+    let vol = &crate::frame::to_file_frame(vol, frame)?;
     let [nx, ny, nz] = vol.spec().res();
     let depth = (vol.coeffs() as u32)
         .checked_mul(nz)
@@ -157,7 +161,8 @@ pub fn ktx2_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
         Encoding::F16,
         None,
         &format!("KTX2 R16G16B16A16_SFLOAT 3D texture; {SLAB_LAYOUT}"),
-    );
+    )
+    .in_frame(frame);
     sidecar.checksum = Some(to_hex(volume_checksum(&through_f16(vol, true)?)));
     let json = sidecar.to_json();
     Ok(ktx2_rgba16f_bytes(

@@ -14,6 +14,7 @@ pub mod error;
 pub mod exr_io;
 pub mod fill;
 pub mod fixed;
+pub mod frame;
 pub mod gradient;
 pub mod grid;
 pub mod io_util;

@@ -109,6 +109,14 @@ pub struct Sidecar {
     pub storage: StorageJson,
     /// Bake metadata.
     pub bake: BakeJson,
+    /// The frame of the described file's data (`y-up` or `z-up`): its world positions
+    /// (`grid.to_world`) and SH directions are in it. Engine exports are in the scene
+    /// file's frame; the native EXR is in lightvol's internal `z-up` frame.
+    #[serde(default = "internal_frame")]
+    pub frame: crate::frame::UpAxis,
+    /// The frame of the scene file the volume was baked from.
+    #[serde(default = "internal_frame")]
+    pub source_frame: crate::frame::UpAxis,
     /// FNV-1a checksum (16 hex digits) of the volume as the described file decodes to
     /// ([`crate::checksum::volume_checksum`]); written by the KTX2 and DDS exports and
     /// required by their readers.
@@ -117,7 +125,8 @@ pub struct Sidecar {
 }
 
 impl Sidecar {
-    /// Describes `vol` stored with `encoding` in the given `layout`.
+    /// Describes `vol` stored with `encoding` in the given `layout`, its data in the
+    /// internal frame (see [`Self::in_frame`] for exports in the file's frame).
     #[must_use]
     pub fn describe(vol: &IrradianceVolume, encoding: Encoding, file: Option<String>, layout: &str) -> Self {
         let spec = vol.spec();
@@ -149,6 +158,8 @@ impl Sidecar {
                 shard_count: m.shard_count,
                 scene_hash: m.scene_hash.clone(),
             },
+            frame: crate::frame::UpAxis::INTERNAL,
+            source_frame: m.frame,
             checksum: None,
         }
     }
@@ -226,7 +237,22 @@ impl Sidecar {
             shard_count: self.bake.shard_count,
             scene_hash: self.bake.scene_hash.clone(),
             units: self.units.clone(),
+            frame: self.source_frame,
         }
+    }
+}
+
+fn internal_frame() -> crate::frame::UpAxis {
+    crate::frame::UpAxis::INTERNAL
+}
+
+impl Sidecar {
+    /// The same description with the data in `frame` (an export converted by
+    /// [`crate::frame::to_file_frame`]).
+    #[must_use]
+    pub fn in_frame(mut self, frame: crate::frame::UpAxis) -> Self {
+        self.frame = frame;
+        self
     }
 }
 

@@ -45,6 +45,15 @@ pub struct BakeMetadata {
     /// The radiometric unit of the coefficients, e.g. `"W sr^-1 m^-2"` or
     /// `"relative"` (default).
     pub units: String,
+    /// The frame of the scene file the volume was baked from ([`crate::frame`]). The grid
+    /// and coefficients stay in lightvol's internal +Z-up frame; coordinates shown to users
+    /// and engine exports are converted to this frame. Absent in older files: internal.
+    #[serde(default = "internal_frame")]
+    pub frame: crate::frame::UpAxis,
+}
+
+fn internal_frame() -> crate::frame::UpAxis {
+    crate::frame::UpAxis::INTERNAL
 }
 
 impl Default for BakeMetadata {
@@ -57,6 +66,7 @@ impl Default for BakeMetadata {
             shard_count: 1,
             scene_hash: String::new(),
             units: "relative".into(),
+            frame: crate::frame::UpAxis::INTERNAL,
         }
     }
 }

@@ -181,9 +181,9 @@ impl Loader<'_> {
     fn root_matrix(&self) -> DMat4 {
         let (up, s) = (self.opts.up, self.opts.scale);
         DMat4::from_cols(
-            up.to_world(DVec3::X).extend(0.0) * s,
-            up.to_world(DVec3::Y).extend(0.0) * s,
-            up.to_world(DVec3::Z).extend(0.0) * s,
+            DVec3::from_array(up.to_world(DVec3::X.to_array())).extend(0.0) * s,
+            DVec3::from_array(up.to_world(DVec3::Y.to_array())).extend(0.0) * s,
+            DVec3::from_array(up.to_world(DVec3::Z.to_array())).extend(0.0) * s,
             DVec4::W,
         )
     }

@@ -66,5 +66,6 @@ pub fn random_volume(coeffs: usize, res: [u32; 3], seed: u64) -> IrradianceVolum
         shard_count: 7,
         scene_hash: "a1b2c3d4e5f60718".into(),
         units: "W sr^-1 m^-2".into(),
+        frame: lightvol_volume::frame::UpAxis::Z,
     })
 }
