@@ -457,7 +457,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         "scene": loaded.label,
         "method": args.method,
         "adaptive": true,
-        "grid": crate::cmd_bake::GridJson::of(&grid),
+        "grid": crate::cmd_bake::GridJson::of(&grid, loaded.frame),
         "samples": args.sampling.samples,
         "seed": args.sampling.seed,
         "rays": rays,

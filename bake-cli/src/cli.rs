@@ -75,11 +75,14 @@ pub struct InfoArgs {
 /// Engine export formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub enum ExportFormat {
-    /// KTX2 3D texture, RGBA16F, coefficient slabs along z, weight in alpha (+ JSON sidecar).
+    /// KTX2 3D texture, RGBA16F, coefficient slabs along z, weight in alpha (+ JSON sidecar),
+    /// in the scene file's frame.
     Ktx2,
-    /// DDS volume texture, RGBA16F (+ JSON sidecar).
+    /// DDS volume texture, RGBA16F (+ JSON sidecar), in the scene file's frame.
     Dds,
-    /// Bevy irradiance volume: ambient cube of six irradiances per voxel (KTX2, RGBA16F).
+    /// Bevy irradiance volume: ambient cube per voxel in Bevy's units (E/π), in the scene
+    /// file's frame (KTX2, RGBA16F or --bevy-format rgb9e5, + JSON with the Transform and
+    /// intensity to use).
     Bevy,
     /// The JSON sidecar alone (grid transform, SH convention, encoding, units).
     Json,
@@ -101,4 +104,17 @@ pub struct ExportArgs {
     /// reproduces every finest-level node exactly). The resolution used is printed.
     #[arg(long, value_name = "NX,NY,NZ")]
     pub res: Option<String>,
+    /// Texel format of `--format bevy`: `rgba16f` (default) or `rgb9e5` (shared exponent,
+    /// half the memory, as Bevy's example volume; negative values clamp to 0).
+    #[arg(long, value_enum, default_value = "rgba16f")]
+    pub bevy_format: BevyFormatArg,
+}
+
+/// `--bevy-format`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum BevyFormatArg {
+    /// RGBA16F.
+    Rgba16f,
+    /// RGB9E5 (E5B9G9R9_UFLOAT_PACK32).
+    Rgb9e5,
 }

@@ -128,17 +128,21 @@ pub struct GradientsJson {
 /// Grid description in reports.
 #[derive(Debug, Serialize, Clone)]
 pub struct GridJson {
-    /// Nodes per axis.
+    /// Nodes per axis, along the scene file's axes.
     pub res: [u32; 3],
-    /// Min and max corners.
+    /// Min and max corners in the scene file's frame.
     pub bounds: [[f64; 3]; 2],
+    /// The frame of `res` and `bounds` (the scene file's: `y-up` or `z-up`).
+    pub frame: lightvol_sampler::UpAxis,
 }
 
 impl GridJson {
-    /// Describes a grid.
-    pub fn of(spec: &GridSpec) -> Self {
-        let (a, b) = spec.bounds();
-        Self { res: spec.res(), bounds: [a, b] }
+    /// Describes an (unplaced) internal grid in the scene file's frame `frame`, so that
+    /// `--bounds` and `--res` with these values give the same grid back.
+    pub fn of(spec: &GridSpec, frame: lightvol_sampler::UpAxis) -> Self {
+        let f = lightvol_volume::frame::grid_in_file_frame(spec, frame).unwrap_or_else(|_| spec.clone());
+        let (a, b) = f.bounds();
+        Self { res: f.res(), bounds: [a, b], frame }
     }
 }
 
@@ -434,7 +438,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let report = BakeReport {
         scene: loaded.label.clone(),
         method: method_label,
-        grid: GridJson::of(&grid),
+        grid: GridJson::of(&grid, loaded.frame),
         samples: args.sampling.samples,
         seed: args.sampling.seed,
         rays: RaysJson::of(&s.rays),

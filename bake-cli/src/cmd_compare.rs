@@ -36,7 +36,8 @@ pub struct CompareArgs {
     /// Sampling (the same budget for every method).
     #[command(flatten)]
     pub sampling: SampleArgs,
-    /// Height of the horizontal evaluation plate (normal = up). Default: the built-in
+    /// Height of the horizontal evaluation plate along the scene file's up axis (normal =
+    /// up; the same number in either frame, since the internal +Z is the file's up). Default: the built-in
     /// scene's first recommended height, or 10% of the scene's height above its floor.
     #[arg(long)]
     pub plate_height: Option<f64>,
@@ -484,7 +485,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
                 valid_points: plate.valid.iter().filter(|&&v| v).count(),
                 near_points: (0..plate.points.len()).filter(|&i| plate.valid[i] && plate.near[i]).count(),
             },
-            grid: GridJson::of(&grid),
+            grid: GridJson::of(&grid, loaded.frame),
             reference: ReferenceJson {
                 samples: args.reference_samples,
                 mean: mean_truth,

@@ -31,7 +31,13 @@ fn write_uniform(args: &ExportArgs, vol: &IrradianceVolume) -> anyhow::Result<()
     match args.format {
         ExportFormat::Ktx2 => lightvol_volume::ktx2_io::write_ktx2(out, vol).with_context(ctx)?,
         ExportFormat::Dds => lightvol_volume::dds_io::write_dds(out, vol).with_context(ctx)?,
-        ExportFormat::Bevy => lightvol_volume::bevy::write_bevy(out, vol).with_context(ctx)?,
+        ExportFormat::Bevy => {
+            let format = match args.bevy_format {
+                crate::cli::BevyFormatArg::Rgba16f => lightvol_volume::bevy::BevyFormat::Rgba16f,
+                crate::cli::BevyFormatArg::Rgb9e5 => lightvol_volume::bevy::BevyFormat::Rgb9e5,
+            };
+            lightvol_volume::bevy::write_bevy(out, vol, format).with_context(ctx)?;
+        }
         ExportFormat::Json => {
             let file = adaptive_files::described_file_name(&args.volume);
             let sc = Sidecar::describe(vol, Encoding::F32, file, "native-exr");

@@ -21,16 +21,20 @@ pub fn describe(path: &Path) -> anyhow::Result<Value> {
         read_exr_with_gradients(path).with_context(|| format!("reading {}", path.display()))?;
     let has_grads = grads.is_some();
     let floats = floats_per_sample(vol.bands(), has_grads);
-    let spec = vol.spec();
+    // Coordinates in the scene file's frame (the file stores the internal one).
+    let frame = vol.metadata().frame;
+    let spec = &lightvol_volume::frame::grid_in_file_frame(vol.spec(), frame)
+        .with_context(|| format!("{}: grid in the {} frame", path.display(), frame.name()))?;
     let (min, max) = spec.bounds();
     let zero_weight = vol.weights().iter().filter(|&&w| w == 0.0).count();
     Ok(json!({
         "file": path.display().to_string(),
         "kind": "uniform",
-        "grid": { "res": spec.res(), "bounds": [min, max], "cell_size": spec.cell_size(),
+        "grid": { "frame": frame, "res": spec.res(), "bounds": [min, max], "cell_size": spec.cell_size(),
                   "nodes": spec.node_count(), "placement": spec.placement().map(|p| p.to_world_matrix()) },
         "sh": { "coeffs": vol.coeffs(), "bands": vol.bands(),
                 "convention": "real orthonormal, index l(l+1)+m, no Condon-Shortley phase, +z polar",
+                "frame": "z-up (lightvol's internal frame; exports are in the grid's frame)",
                 "quantity": "incident radiance" },
         "bake": vol.metadata(),
         "zero_weight_nodes": zero_weight,
@@ -52,7 +56,14 @@ fn print_text(info: &Value) {
     let res = |i: usize| g["res"][i].as_u64().unwrap_or(0);
     let b = |k: usize, i: usize| f(&g["bounds"][k][i]);
     println!("volume      {}", info["file"].as_str().unwrap_or("?"));
-    println!("grid        {} x {} x {} nodes ({} total)", res(0), res(1), res(2), g["nodes"]);
+    println!(
+        "grid        {} x {} x {} nodes ({} total), {} frame",
+        res(0),
+        res(1),
+        res(2),
+        g["nodes"],
+        g["frame"].as_str().unwrap_or("?")
+    );
     println!(
         "bounds      [{:.4}, {:.4}, {:.4}] .. [{:.4}, {:.4}, {:.4}]",
         b(0, 0),

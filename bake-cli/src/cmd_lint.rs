@@ -67,8 +67,9 @@ pub fn run(args: &LintArgs) -> anyhow::Result<ExitCode> {
     if grid_args.bounds.is_none() {
         // Shrink by a hair so that probe points never sit exactly on the outer surfaces.
         let e = (hi - lo) * 1e-4;
-        let (a, b) = (lo + e, hi - e);
-        grid_args.bounds = Some(format!("{},{},{},{},{},{}", a.x, a.y, a.z, b.x, b.y, b.z));
+        // (--bounds is read in the file's frame.)
+        let (a, b) = loaded.frame.box_to_file((lo + e).to_array(), (hi - e).to_array());
+        grid_args.bounds = Some(format!("{},{},{},{},{},{}", a[0], a[1], a[2], b[0], b[1], b[2]));
     }
     let grid = grid_args.grid(&loaded)?;
     let weld = args.weld.unwrap_or(1e-6 * (hi - lo).length().max(1e-12));

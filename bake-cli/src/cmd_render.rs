@@ -25,7 +25,8 @@ pub struct RenderArgs {
     /// The baked volume to shade with (required unless --reference).
     #[arg(long)]
     pub volume: Option<PathBuf>,
-    /// Camera `EYE_X,EYE_Y,EYE_Z:TARGET_X,TARGET_Y,TARGET_Z[:FOV_DEG]`, or `gltf:NAME` /
+    /// Camera `EYE_X,EYE_Y,EYE_Z:TARGET_X,TARGET_Y,TARGET_Z[:FOV_DEG]` in the scene file's
+    /// frame (glTF +Y up, OBJ per --up), or `gltf:NAME` /
     /// `gltf:INDEX` for a camera of the scene file (its yfov, and its aspect ratio unless
     /// --height is given; `lightvol inspect` lists them). Default: a view from above one
     /// corner of the scene bounds, looking at their centre.
@@ -107,8 +108,13 @@ impl Camera {
 
     /// Resolves `--camera`: `gltf:NAME|INDEX` against the scene's cameras, else
     /// [`parse`](Self::parse). Returns the camera and the file camera's aspect ratio.
-    pub fn resolve(s: &str, scene: &lightvol_sampler::Scene) -> anyhow::Result<(Self, Option<f64>)> {
-        let Some(key) = s.strip_prefix("gltf:") else { return Ok((Self::parse(s)?, None)) };
+    /// `EYE:TARGET` are in the scene file's frame `frame` (glTF +Y up, OBJ per `--up`).
+    pub fn resolve(
+        s: &str,
+        scene: &lightvol_sampler::Scene,
+        frame: lightvol_sampler::UpAxis,
+    ) -> anyhow::Result<(Self, Option<f64>)> {
+        let Some(key) = s.strip_prefix("gltf:") else { return Ok((Self::parse(s, frame)?, None)) };
         let found = match key.parse::<usize>() {
             Ok(i) => scene.cameras.get(i),
             Err(_) => scene.cameras.iter().find(|c| c.name == key),
@@ -143,8 +149,8 @@ impl Camera {
         Self::look_at(eye, DVec3::new(c.x, c.y, lo.z + 0.15 * ext.z), 50.0)
     }
 
-    /// Parses `EYE:TARGET[:FOV]`.
-    pub fn parse(s: &str) -> anyhow::Result<Self> {
+    /// Parses `EYE:TARGET[:FOV]`, points in the file frame `frame`.
+    pub fn parse(s: &str, frame: lightvol_sampler::UpAxis) -> anyhow::Result<Self> {
         let parts: Vec<&str> = s.split(':').collect();
         if !(2..=3).contains(&parts.len()) {
             bail!("--camera: expected EYE_X,EYE_Y,EYE_Z:TARGET_X,TARGET_Y,TARGET_Z[:FOV_DEG]");
@@ -157,7 +163,7 @@ impl Camera {
             if x.len() != 3 || x.iter().any(|v| !v.is_finite()) {
                 bail!("--camera: '{t}' is not three finite numbers");
             }
-            Ok(DVec3::new(x[0], x[1], x[2]))
+            Ok(DVec3::from_array(frame.to_world([x[0], x[1], x[2]])))
         };
         let fov = match parts.get(2) {
             Some(f) => f.trim().parse::<f64>().context("--camera: field of view is not a number")?,
@@ -222,7 +228,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         (None, false) => bail!("render needs --volume V.exr (or --reference for the path-traced view)"),
     };
     let (cam, aspect) = match &args.camera {
-        Some(c) => Camera::resolve(c, &loaded.scene)?,
+        Some(c) => Camera::resolve(c, &loaded.scene, loaded.frame)?,
         None => {
             // Frame the volume (or the built-in's recommended grid), else the scene.
             let grid = vol.as_ref().map(|v| v.spec().clone()).or_else(|| loaded.grid.clone());

@@ -362,7 +362,7 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
         }
     }
     let (cam, aspect) = match &args.camera {
-        Some(c) => Camera::resolve(c, &loaded.scene)?,
+        Some(c) => Camera::resolve(c, &loaded.scene, loaded.frame)?,
         None => {
             let (lo, hi) = loaded.scene.bounds();
             (Camera::overview(lo, hi)?, None)

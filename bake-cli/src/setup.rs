@@ -28,8 +28,8 @@ pub struct SceneArgs {
     /// Ground radiance R,G,B below the horizon (with --sky).
     #[arg(long, value_name = "R,G,B")]
     pub ground: Option<String>,
-    /// A sun: direction towards it, irradiance on a facing surface, optional angular
-    /// radius in degrees (0 = directional light).
+    /// A sun: direction towards it (in the scene file's frame), irradiance on a facing
+    /// surface, optional angular radius in degrees (0 = directional light).
     #[arg(long, value_name = "DX,DY,DZ:INTENSITY[:ANGLE_DEG]", allow_hyphen_values = true)]
     pub sun: Option<String>,
     /// Remove the scene's sun (e.g. to bake sky and bounce light only and add the sun at run
@@ -44,11 +44,12 @@ pub struct SceneArgs {
 /// The grid: bounds and resolution (or spacing), and the SH order.
 #[derive(Debug, Clone, Args)]
 pub struct GridArgs {
-    /// Grid bounds `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` (default: the built-in scene's recommended
-    /// grid, or the scene bounds grown by 5%).
+    /// Grid bounds `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` in the scene file's frame (glTF: +Y up;
+    /// OBJ: per --up) (default: the built-in scene's recommended grid, or the scene bounds
+    /// grown by 5%).
     #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
     pub bounds: Option<String>,
-    /// Nodes per axis `NX,NY,NZ` (each at least 2).
+    /// Nodes per axis `NX,NY,NZ` along the scene file's axes (each at least 2).
     #[arg(long, value_name = "NX,NY,NZ", conflicts_with = "spacing", allow_hyphen_values = true)]
     pub res: Option<String>,
     /// Node spacing (sets the resolution from the bounds).
@@ -197,7 +198,10 @@ impl SceneArgs {
             s.environment = Environment::Map(map);
         }
         if let Some(sun) = &self.sun {
-            s.sun = Some(parse_sun(sun)?);
+            // The direction is in the file's frame, like every coordinate on the command line.
+            let mut parsed = parse_sun(sun)?;
+            parsed.direction = DVec3::from_array(loaded.frame.to_world(parsed.direction.to_array()));
+            s.sun = Some(parsed);
         }
         if self.no_sun {
             s.sun = None;
@@ -255,7 +259,8 @@ impl GridArgs {
                 if (0..3).any(|i| min[i] >= max[i]) {
                     bail!("--bounds: min {min:?} must be below max {max:?} on every axis");
                 }
-                (min, max)
+                // Given in the file's frame; the grid is built in the internal one.
+                scene.frame.box_to_world(min, max)
             }
             None => match &scene.grid {
                 Some(g) => g.bounds(),
@@ -271,7 +276,8 @@ impl GridArgs {
             if v.iter().any(|&x| x < 2.0 || x.fract() != 0.0 || x > f64::from(u32::MAX)) {
                 bail!("--res: each axis needs a whole number of at least 2 nodes, got {r}");
             }
-            v.map(|x| x as u64)
+            // NX,NY,NZ count nodes along the file's axes.
+            res_to_world(scene.frame, v.map(|x| x as u64))
         } else if let Some(s) = self.spacing {
             if !(s.is_finite() && s > 0.0) {
                 bail!("--spacing must be a positive finite number");
@@ -309,6 +315,22 @@ impl GridArgs {
         }
         Ok(spec)
     }
+}
+
+/// A per-axis count along the file's axes (`--res`) as the count along the internal axes.
+#[must_use]
+pub fn res_to_world(up: UpAxis, file: [u64; 3]) -> [u64; 3] {
+    let mut out = [0; 3];
+    for (a, (axis, _)) in up.file_axes().into_iter().enumerate() {
+        out[axis] = file[a];
+    }
+    out
+}
+
+/// An internal per-axis count as the count along the file's axes (for reports).
+#[must_use]
+pub fn res_to_file(up: UpAxis, internal: [u32; 3]) -> [u32; 3] {
+    up.file_axes().map(|(axis, _)| internal[axis])
 }
 
 /// Parses a method name.

@@ -5,7 +5,7 @@ use serde_json::Value;
 
 fn check_schema(r: &Value) {
     assert!(r["scene"].is_string());
-    assert!(matches!(r["up"].as_str(), Some("y" | "z")));
+    assert!(matches!(r["up"].as_str(), Some("y-up" | "z-up")));
     assert!(r["plate"]["height"].is_f64());
     let res = r["plate"]["res"].as_array().expect("plate.res");
     assert_eq!(res.len(), 2);

@@ -88,7 +88,7 @@ fn write_everything(out: &Path, gltf: &Path) {
         s(&f("view.png")),
     ]);
     // Surface maps: EXR + JSON, and each texture encoding.
-    let light = ["--sky", "0.25,0.35,0.6", "--sun", "1,0.2,0.1:5"];
+    let light = ["--sky", "0.25,0.35,0.6", "--sun", "1,0.1,-0.2:5"];
     for (dir, encode) in [
         ("maps", &[][..]),
         ("maps_png", &["--encode", "png"][..]),
@@ -112,7 +112,7 @@ fn write_everything(out: &Path, gltf: &Path) {
     // The lightmapped render of those maps.
     let (maps, view) = (f("maps"), f("surface_view"));
     let mut args = vec!["render", s(gltf), "--surface", s(&maps)];
-    args.extend_from_slice(&["--camera", "0,0,1:0,0,0:40", "--width", "8", "--height", "6"]);
+    args.extend_from_slice(&["--camera", "0,1,0:0,0,0:40", "--width", "8", "--height", "6"]);
     args.extend_from_slice(&["--reference-samples", "2", "-o", s(&view)]);
     args.extend_from_slice(&light);
     ok(&args);

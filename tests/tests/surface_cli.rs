@@ -154,7 +154,8 @@ fn assert_files_measured(out: &Path, tag: &str, key: &str, how: Stored) {
 
 /// The grazing light of [Ish11] §3.2 in lightvol's +Z-up frame: a sun 5.7° above the
 /// horizon (irradiance 5 on a facing surface) and a blue sky.
-const SUN: &str = "1,0.2,0.1:5";
+/// The sun, in the glTF scenes' +Y-up frame (internal +Z-up (1, 0.2, 0.1)).
+const SUN: &str = "1,0.1,-0.2:5";
 const SKY: &str = "0.25,0.35,0.6";
 
 #[test]
@@ -363,7 +364,7 @@ fn render_matches_maps_to_objects_and_refuses_another_scene() {
         "--surface",
         m,
         "--camera",
-        "-1,-1,1:0,0,0.1:50",
+        "-1,1,1:0,0.1,0:50",
         "--width",
         "24",
         "--height",
@@ -394,7 +395,7 @@ fn render_matches_maps_to_objects_and_refuses_another_scene() {
 /// Runs `render --surface maps` of `scene` with `light` into `out` (tiny image).
 fn render_surface(scene: &Path, maps: &Path, out: &Path, light: &[&str]) -> Result<ExitCode, String> {
     let mut args = vec!["render", scene.to_str().unwrap(), "--surface", maps.to_str().unwrap()];
-    args.extend_from_slice(&["--camera", "0,0,1:0,0,0:40", "--width", "8", "--height", "6"]);
+    args.extend_from_slice(&["--camera", "0,1,0:0,0,0:40", "--width", "8", "--height", "6"]);
     args.extend_from_slice(&["--reference-samples", "2", "-o", out.to_str().unwrap()]);
     args.extend_from_slice(light);
     run(&args)
@@ -426,7 +427,7 @@ fn render_refuses_maps_baked_under_other_lighting_and_stale_maps() {
     assert!(!err.contains('\n'));
     assert!(!out.exists());
     // A sun the bake did not have is refused too.
-    let err = render_surface(&scene, &maps, &out, &["--sky", SKY, "--sun", "0,0,1:1"]).unwrap_err();
+    let err = render_surface(&scene, &maps, &out, &["--sky", SKY, "--sun", "0,1,0:1"]).unwrap_err();
     assert!(err.contains("other lighting") && err.contains("sun"), "{err}");
     assert!(!out.exists());
     // The bounce count is part of the lighting; the render takes it from the maps (the

@@ -43,7 +43,7 @@ fn surface_shards_assemble_to_the_whole_bake() {
         "--sky",
         "0.3,0.4,0.6",
         "--sun",
-        "1,0.2,0.3:4",
+        "1,0.3,-0.2:4",
     ];
     let run = |extra: &[&str]| -> Result<ExitCode, String> {
         let mut a: Vec<&str> = base.to_vec();

@@ -41,7 +41,7 @@ use crate::checksum::{fnv1a, from_hex, to_hex};
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::GridSpec;
 use crate::io_util::{f16_bytes, guard, read_bounded, write_atomic};
-use crate::ktx2_io::{KTX2_WRITER, ktx2_rgba16f_bytes, parse_ktx2_rgba16f};
+use crate::ktx2_io::{KTX2_WRITER, parse_ktx2};
 use crate::volume::IrradianceVolume;
 
 const F: FileFormat = FileFormat::Bevy;
@@ -104,21 +104,132 @@ impl Face {
     }
 }
 
-/// What the embedded JSON says about a Bevy export.
+/// Texel format of a Bevy export.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BevyFormat {
+    /// `VK_FORMAT_R16G16B16A16_SFLOAT` (vkFormat 97), alpha 1.
+    #[default]
+    Rgba16f,
+    /// `VK_FORMAT_E5B9G9R9_UFLOAT_PACK32` (vkFormat 123), the format of Bevy's own example
+    /// volume: half the memory; negative irradiance (SH ringing) is clamped to 0.
+    Rgb9e5,
+}
+
+/// A Bevy `Transform` (translation, rotation, scale), as the light probe's entity needs it.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct BevyTransform {
+    /// `Transform::translation`.
+    pub translation: [f64; 3],
+    /// `Transform::rotation` as a unit quaternion `[x, y, z, w]` (`Quat::from_xyzw`).
+    pub rotation: [f64; 4],
+    /// `Transform::scale`.
+    pub scale: [f64; 3],
+}
+
+impl BevyTransform {
+    /// The 3×4 matrix `T · R · S` Bevy builds from it (`Transform::compute_affine`).
+    #[must_use]
+    pub fn matrix(&self) -> [[f64; 4]; 3] {
+        let [x, y, z, w] = self.rotation;
+        let r = [
+            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w)],
+            [2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w)],
+            [2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y)],
+        ];
+        std::array::from_fn(|i| {
+            let mut row = [0.0; 4];
+            for j in 0..3 {
+                row[j] = r[i][j] * self.scale[j];
+            }
+            row[3] = self.translation[i];
+            row
+        })
+    }
+}
+
+/// Tolerance of the rotation test in [`bevy_transform`]: the columns of the linear part,
+/// each divided by its length, must be orthonormal to this (f64 rounding of a placement
+/// built from a rotation is ~1e-16; a shear visible to a user is far larger).
+const ORTHONORMAL_TOLERANCE: f64 = 1e-9;
+
+/// Decomposes the probe matrix ([`bevy_world_from_probe`]) into translation, rotation and
+/// per-axis scale.
+///
+/// # Errors
+/// [`VolumeError::InvalidGrid`] when the placement shears or mirrors the grid: Bevy's
+/// `Transform` cannot hold either.
+pub fn bevy_transform(spec: &GridSpec) -> Result<BevyTransform, VolumeError> {
+    let m = bevy_world_from_probe(spec);
+    let col = |j: usize| [m[0][j], m[1][j], m[2][j]];
+    let scale: [f64; 3] = std::array::from_fn(|j| col(j).iter().map(|v| v * v).sum::<f64>().sqrt());
+    let r: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| m[i][j] / scale[j]));
+    for a in 0..3 {
+        for b in 0..3 {
+            let dot: f64 = (0..3).map(|i| r[i][a] * r[i][b]).sum();
+            if (dot - f64::from(u8::from(a == b))).abs() > ORTHONORMAL_TOLERANCE {
+                return Err(VolumeError::InvalidGrid(
+                    "the volume's placement shears the grid; a Bevy Transform holds translation, rotation and scale only"
+                        .into(),
+                ));
+            }
+        }
+    }
+    let det = r[0][0] * (r[1][1] * r[2][2] - r[1][2] * r[2][1])
+        - r[0][1] * (r[1][0] * r[2][2] - r[1][2] * r[2][0])
+        + r[0][2] * (r[1][0] * r[2][1] - r[1][1] * r[2][0]);
+    if det < 0.0 {
+        return Err(VolumeError::InvalidGrid(
+            "the volume's placement mirrors the grid; a Bevy Transform cannot hold a reflection".into(),
+        ));
+    }
+    // Shepperd's method: the largest of 4w², 4x², 4y², 4z² first, for accuracy.
+    let t = r[0][0] + r[1][1] + r[2][2];
+    let q = if t > 0.0 {
+        let s = 2.0 * (1.0 + t).sqrt();
+        [(r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s, 0.25 * s]
+    } else if r[0][0] > r[1][1] && r[0][0] > r[2][2] {
+        let s = 2.0 * (1.0 + r[0][0] - r[1][1] - r[2][2]).sqrt();
+        [0.25 * s, (r[0][1] + r[1][0]) / s, (r[0][2] + r[2][0]) / s, (r[2][1] - r[1][2]) / s]
+    } else if r[1][1] > r[2][2] {
+        let s = 2.0 * (1.0 + r[1][1] - r[0][0] - r[2][2]).sqrt();
+        [(r[0][1] + r[1][0]) / s, 0.25 * s, (r[1][2] + r[2][1]) / s, (r[0][2] - r[2][0]) / s]
+    } else {
+        let s = 2.0 * (1.0 + r[2][2] - r[0][0] - r[1][1]).sqrt();
+        [(r[0][2] + r[2][0]) / s, (r[1][2] + r[2][1]) / s, 0.25 * s, (r[1][0] - r[0][1]) / s]
+    };
+    // Canonical sign (w ≥ 0) so equal inputs give equal files.
+    let q = if q[3] < 0.0 { q.map(|v| -v) } else { q };
+    Ok(BevyTransform { translation: [m[0][3], m[1][3], m[2][3]], rotation: q, scale })
+}
+
+/// What the embedded JSON (and the `.json` beside the file) says about a Bevy export.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BevyInfo {
     /// Voxels per axis `(Rx, Ry, Rz)`.
     pub res: [u32; 3],
-    /// Row-major 3×4 world-from-probe matrix for Bevy's light-probe transform (maps the
-    /// unit cube `[-0.5, 0.5]³` so that voxel centres land on the volume's nodes).
+    /// The light probe's `Transform`: with it, every voxel centre lies on its node.
+    pub transform: BevyTransform,
+    /// `IrradianceVolume::intensity` to use: 1 (the texels are already in Bevy's units;
+    /// Bevy's default intensity is 0, which shows nothing).
+    pub intensity: f64,
+    /// Row-major 3×4 world-from-probe matrix, the transform's matrix (maps the unit cube
+    /// `[-0.5, 0.5]³` so that voxel centres land on the volume's nodes).
     pub world_from_probe: [[f64; 4]; 3],
+    /// The texel format.
+    pub format: BevyFormat,
+    /// The frame of positions and face directions: the scene file's (`y-up` or `z-up`).
+    pub frame: crate::frame::UpAxis,
     /// The stored quantity.
     pub quantity: String,
-    /// The irradiance unit (the volume's radiance unit times steradians).
+    /// The unit of the texels.
     pub units: String,
     /// FNV-1a checksum (16 hex digits) of the level data.
     pub texel_checksum: String,
 }
+
+/// What the texels hold (see [`bevy_to_bytes`]).
+pub const BEVY_QUANTITY: &str = "E(+-axis)/pi ambient cube: the exitant radiance of a white Lambertian surface facing each axis (Bevy irradiance volume)";
 
 /// The grid-to-world-consistent probe transform of the module docs (row-major 3×4).
 #[must_use]
@@ -173,38 +284,75 @@ pub fn ambient_cubes(vol: &IrradianceVolume) -> Vec<[[f64; 3]; 6]> {
         .collect()
 }
 
-/// Serialises the Bevy export of `vol` (KTX2 RGBA16F, alpha 1) in memory.
-pub fn bevy_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
+/// Serialises the Bevy export of `vol` in memory: the volume in its scene file's frame
+/// ([`crate::frame::to_file_frame`]; Bevy's shader picks faces by the world normal and
+/// never rotates it into probe space, so the faces must be the file's axes), each face
+/// holding `E(±e_a)/π`. Bevy adds `volume × diffuse_color × intensity` with no further
+/// `1/π` (`pbr_functions.wesl`), while its own lights give a white Lambertian surface the
+/// radiance `E/π`; with these texels and `intensity = 1` the volume lights like them.
+///
+/// # Errors
+/// A placement Bevy's `Transform` cannot hold, or (RGBA16F) a value beyond f16.
+pub fn bevy_to_bytes(vol: &IrradianceVolume, format: BevyFormat) -> Result<Vec<u8>, VolumeError> {
+    let frame = vol.metadata().frame;
+    let vol = &crate::frame::to_file_frame(vol, frame)?;
     let spec = vol.spec();
     let res = spec.res();
+    let transform = bevy_transform(spec)?;
     let [rx, ry, rz] = res.map(|v| v as usize);
     let dims = [res[0], 2 * res[1], 3 * res[2]];
-    let mut texels = vec![0u8; rx * 2 * ry * 3 * rz * 8];
+    let (vk, tb) = match format {
+        BevyFormat::Rgba16f => (ktx2::Format::R16G16B16A16_SFLOAT, 8),
+        BevyFormat::Rgb9e5 => (ktx2::Format::E5B9G9R9_UFLOAT_PACK32, 4),
+    };
+    let mut texels = vec![0u8; rx * 2 * ry * 3 * rz * tb];
+    let inv_pi = 1.0 / std::f64::consts::PI;
     for (node, cube) in ambient_cubes(vol).iter().enumerate() {
         let voxel = spec.node_coords(node);
         for (fi, face) in Face::ALL.iter().enumerate() {
             let [s, t, p] = face.texel(voxel, res).map(|v| v as usize);
-            let at = ((p * 2 * ry + t) * rx + s) * 8;
-            let c = cube[fi];
-            for (i, v) in [c[0] as f32, c[1] as f32, c[2] as f32, 1.0].into_iter().enumerate() {
-                texels[at + 2 * i..at + 2 * i + 2].copy_from_slice(&f16_bytes(v, "ambient-cube irradiance")?);
+            let at = ((p * 2 * ry + t) * rx + s) * tb;
+            let c = cube[fi].map(|v| v * inv_pi);
+            match format {
+                BevyFormat::Rgba16f => {
+                    for (i, v) in [c[0] as f32, c[1] as f32, c[2] as f32, 1.0].into_iter().enumerate() {
+                        texels[at + 2 * i..at + 2 * i + 2]
+                            .copy_from_slice(&f16_bytes(v, "ambient-cube irradiance")?);
+                    }
+                }
+                BevyFormat::Rgb9e5 => {
+                    texels[at..at + 4].copy_from_slice(&crate::rgb9e5::pack(c).to_le_bytes());
+                }
             }
         }
     }
     let info = BevyInfo {
         res,
-        world_from_probe: bevy_world_from_probe(spec),
-        quantity: "irradiance E(+-axis) ambient cube (Bevy irradiance volume)".into(),
-        units: format!("({}) * sr", vol.metadata().units),
+        transform,
+        intensity: 1.0,
+        world_from_probe: transform.matrix(),
+        format,
+        frame,
+        quantity: BEVY_QUANTITY.into(),
+        units: format!("({}) (radiance of a white Lambertian surface)", vol.metadata().units),
         texel_checksum: to_hex(fnv1a(&texels)),
     };
     let json = serde_json::to_string(&info).expect("plain data");
-    Ok(ktx2_rgba16f_bytes(dims, &texels, &[("KTXwriter", KTX2_WRITER), (BEVY_INFO_KEY, &json)]))
+    Ok(crate::ktx2_io::ktx2_bytes(vk, dims, &texels, &[("KTXwriter", KTX2_WRITER), (BEVY_INFO_KEY, &json)]))
 }
 
-/// Writes the Bevy export (temporary file and rename).
-pub fn write_bevy(path: &Path, vol: &IrradianceVolume) -> Result<(), VolumeError> {
-    write_atomic(path, &bevy_to_bytes(vol)?)
+/// Writes the Bevy export and its JSON description beside it (`PATH.json`: the transform,
+/// the intensity, the frame), each by temporary file and rename.
+///
+/// # Errors
+/// As [`bevy_to_bytes`], and I/O errors.
+pub fn write_bevy(path: &Path, vol: &IrradianceVolume, format: BevyFormat) -> Result<(), VolumeError> {
+    let bytes = bevy_to_bytes(vol, format)?;
+    let info = bevy_from_bytes(&bytes)?.info;
+    write_atomic(path, &bytes)?;
+    let mut json = serde_json::to_string_pretty(&info).expect("plain data");
+    json.push('\n');
+    write_atomic(&crate::sidecar::sidecar_path(path), json.as_bytes())
 }
 
 /// A Bevy irradiance volume read back: its info and the six f16-rounded colours per voxel.
@@ -237,7 +385,8 @@ impl BevyVolume {
 /// and finiteness).
 pub fn bevy_from_bytes(bytes: &[u8]) -> Result<BevyVolume, VolumeError> {
     guard(F, || {
-        let (dims, kvd, data) = parse_ktx2_rgba16f(bytes, F)?;
+        let (vk, (dims, kvd, data)) =
+            parse_ktx2(bytes, F, &[ktx2::Format::R16G16B16A16_SFLOAT, ktx2::Format::E5B9G9R9_UFLOAT_PACK32])?;
         let raw = kvd
             .iter()
             .find(|(k, _)| k == BEVY_INFO_KEY)
@@ -253,6 +402,17 @@ pub fn bevy_from_bytes(bytes: &[u8]) -> Result<BevyVolume, VolumeError> {
         {
             return Err(VolumeError::malformed(F, format!("texture {dims:?} does not fit {res:?} voxels")));
         }
+        let want = match info.format {
+            BevyFormat::Rgba16f => ktx2::Format::R16G16B16A16_SFLOAT,
+            BevyFormat::Rgb9e5 => ktx2::Format::E5B9G9R9_UFLOAT_PACK32,
+        };
+        if vk != want {
+            return Err(VolumeError::malformed(
+                F,
+                format!("texels are {vk:?} but the info says {:?}", info.format),
+            ));
+        }
+        let tb = crate::ktx2_io::texel_bytes(vk);
         if from_hex(&info.texel_checksum) != Some(fnv1a(&data)) {
             return Err(VolumeError::malformed(F, "texel checksum mismatch: the file is damaged"));
         }
@@ -262,14 +422,20 @@ pub fn bevy_from_bytes(bytes: &[u8]) -> Result<BevyVolume, VolumeError> {
             let voxel = [(vi % rx) as u32, ((vi / rx) % ry) as u32, (vi / (rx * ry)) as u32];
             for (fi, face) in Face::ALL.iter().enumerate() {
                 let [s, t, p] = face.texel(voxel, res).map(|v| v as usize);
-                let at = ((p * 2 * ry + t) * rx + s) * 8;
-                for ch in 0..3 {
-                    let v = half::f16::from_le_bytes([data[at + 2 * ch], data[at + 2 * ch + 1]]).to_f32();
-                    if !v.is_finite() {
-                        return Err(VolumeError::NonFinite { what: "Bevy texel", index: at / 8 });
-                    }
-                    cube[fi][ch] = v;
+                let at = ((p * 2 * ry + t) * rx + s) * tb;
+                let rgb: [f32; 3] = match info.format {
+                    BevyFormat::Rgba16f => std::array::from_fn(|ch| {
+                        half::f16::from_le_bytes([data[at + 2 * ch], data[at + 2 * ch + 1]]).to_f32()
+                    }),
+                    BevyFormat::Rgb9e5 => crate::rgb9e5::unpack(u32::from_le_bytes(
+                        data[at..at + 4].try_into().expect("4 bytes"),
+                    ))
+                    .map(|v| v as f32),
+                };
+                if rgb.iter().any(|v| !v.is_finite()) {
+                    return Err(VolumeError::NonFinite { what: "Bevy texel", index: at / tb });
                 }
+                cube[fi] = rgb;
             }
         }
         Ok(BevyVolume { info, cubes })

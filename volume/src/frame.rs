@@ -95,6 +95,35 @@ impl UpAxis {
     }
 }
 
+/// The nodes of the internal grid `spec` described in the file frame `up`, for reports: an
+/// unplaced grid becomes the axis-aligned file-frame box (bounds by [`UpAxis::box_to_file`],
+/// node counts along the file's axes); a placed grid keeps its grid space and gets the
+/// rotation appended to its placement.
+///
+/// # Errors
+/// None in practice (a rotation of a valid grid is valid).
+pub fn grid_in_file_frame(spec: &GridSpec, up: UpAxis) -> Result<GridSpec, VolumeError> {
+    if up == UpAxis::Z {
+        return Ok(spec.clone());
+    }
+    let (lo, hi) = spec.bounds();
+    match spec.placement() {
+        None => {
+            let (a, b) = up.box_to_file(lo, hi);
+            let res = spec.res();
+            GridSpec::new(a, b, up.file_axes().map(|(axis, _)| res[axis]))
+        }
+        Some(p) => {
+            let base = p.to_world_matrix();
+            let m: [[f64; 4]; 3] = std::array::from_fn(|a| {
+                let (axis, sign) = up.file_axes()[a];
+                base[axis].map(|v| sign * v)
+            });
+            Ok(GridSpec::new(lo, hi, spec.res())?.with_placement(Placement::new(m)?))
+        }
+    }
+}
+
 /// `vol` (baked in the internal frame) expressed in the file frame `up`: the same grid in
 /// grid space, its placement followed by the rotation into the file's axes (so world
 /// positions are file positions), and every node's SH rotated by it (so SH directions are

@@ -32,16 +32,26 @@ pub const KTX2_SIDECAR_KEY: &str = "lightvol.sidecar";
 pub const KTX2_WRITER: &str = concat!("lightvol-volume ", env!("CARGO_PKG_VERSION"));
 use crate::slab::TEXEL_BYTES;
 
-/// Assembles a single-level, uncompressed RGBA16F 3D KTX2 file (shared with the Bevy
-/// export). `texels` is the level data (x fastest, then y, then z); `kvd` the key/value
-/// pairs, which must be sorted by key.
+/// Bytes per texel of the uncompressed formats lightvol writes (RGBA16F 8, RGB9E5 4).
+pub(crate) fn texel_bytes(format: Format) -> usize {
+    if format == Format::E5B9G9R9_UFLOAT_PACK32 { 4 } else { TEXEL_BYTES }
+}
+
+/// Assembles a single-level, uncompressed RGBA16F 3D KTX2 file. `texels` is the level data
+/// (x fastest, then y, then z); `kvd` the key/value pairs, which must be sorted by key.
 pub(crate) fn ktx2_rgba16f_bytes(dims: [u32; 3], texels: &[u8], kvd: &[(&str, &str)]) -> Vec<u8> {
-    debug_assert_eq!(texels.len(), dims.iter().map(|&d| d as usize).product::<usize>() * TEXEL_BYTES);
+    ktx2_bytes(Format::R16G16B16A16_SFLOAT, dims, texels, kvd)
+}
+
+/// [`ktx2_rgba16f_bytes`] for `format` (RGBA16F or RGB9E5, whose data-format descriptors the
+/// `ktx2` crate generates).
+pub(crate) fn ktx2_bytes(format: Format, dims: [u32; 3], texels: &[u8], kvd: &[(&str, &str)]) -> Vec<u8> {
+    debug_assert_eq!(texels.len(), dims.iter().map(|&d| d as usize).product::<usize>() * texel_bytes(format));
     // KTX2 requires the key/value pairs sorted by key; a fixed order also keeps the bytes
     // reproducible.
     debug_assert!(kvd.windows(2).all(|w| w[0].0.as_bytes() < w[1].0.as_bytes()), "unsorted KTX2 keys");
-    let format = Format::R16G16B16A16_SFLOAT;
-    let (dfd, type_size) = ktx2::dfd::Basic::from_format(format).expect("RGBA16F has a generated DFD");
+    let (dfd, type_size) =
+        ktx2::dfd::Basic::from_format(format).expect("lightvol's formats have generated DFDs");
     let dfd_block = ktx2::dfd::Block::Basic(dfd).to_vec();
     let mut dfd_bytes = Vec::with_capacity(4 + dfd_block.len());
     dfd_bytes.extend_from_slice(&((4 + dfd_block.len()) as u32).to_le_bytes());
@@ -106,17 +116,27 @@ pub(crate) type ParsedKtx2 = ([u32; 3], Vec<(String, Vec<u8>)>, Vec<u8>);
 /// layers, one level, no supercompression), the level length against the dimensions, and
 /// returns `(dims, key/value pairs, level data)`.
 pub(crate) fn parse_ktx2_rgba16f(bytes: &[u8], format_tag: FileFormat) -> Result<ParsedKtx2, VolumeError> {
+    parse_ktx2(bytes, format_tag, &[Format::R16G16B16A16_SFLOAT]).map(|(_, p)| p)
+}
+
+/// [`parse_ktx2_rgba16f`] for any of `formats` (RGBA16F, RGB9E5), also returning which.
+pub(crate) fn parse_ktx2(
+    bytes: &[u8],
+    format_tag: FileFormat,
+    formats: &[Format],
+) -> Result<(Format, ParsedKtx2), VolumeError> {
     let bad = |r: String| VolumeError::malformed(format_tag, r);
     let reader = ktx2::Reader::new(bytes).map_err(|e| bad(e.to_string()))?;
     let h = reader.header();
-    if h.format != Some(Format::R16G16B16A16_SFLOAT) {
+    let Some(format) = h.format.filter(|f| formats.contains(f)) else {
         return Err(VolumeError::unsupported(
             format_tag,
-            format!("pixel format {:?} (expected RGBA16F)", h.format),
+            format!("pixel format {:?} (expected one of {formats:?})", h.format),
         ));
-    }
-    if h.type_size != 2 {
-        return Err(bad(format!("type size {} (RGBA16F needs 2)", h.type_size)));
+    };
+    let type_size = if format == Format::E5B9G9R9_UFLOAT_PACK32 { 4 } else { 2 };
+    if h.type_size != type_size {
+        return Err(bad(format!("type size {} ({format:?} needs {type_size})", h.type_size)));
     }
     if h.supercompression_scheme.is_some() {
         return Err(VolumeError::unsupported(format_tag, "supercompressed data"));
@@ -136,14 +156,14 @@ pub(crate) fn parse_ktx2_rgba16f(bytes: &[u8], format_tag: FileFormat) -> Result
     let dims = [h.pixel_width, h.pixel_height, h.pixel_depth];
     let want = dims
         .iter()
-        .try_fold(TEXEL_BYTES, |acc, &d| acc.checked_mul(d as usize))
+        .try_fold(texel_bytes(format), |acc, &d| acc.checked_mul(d as usize))
         .ok_or_else(|| bad("dimensions overflow".into()))?;
     let level = reader.levels().next().ok_or_else(|| bad("no mip level".into()))?;
     if level.data.len() != want || level.uncompressed_byte_length != want as u64 {
         return Err(bad(format!("level 0 has {} bytes, dimensions need {want}", level.data.len())));
     }
     let kvd = reader.key_value_data().map(|(k, v)| (k.to_string(), v.to_vec())).collect();
-    Ok((dims, kvd, level.data.to_vec()))
+    Ok((format, (dims, kvd, level.data.to_vec())))
 }
 
 /// Serialises `vol` as an RGBA16F KTX2 3D texture in memory, in its scene file's frame

@@ -20,6 +20,7 @@ pub mod grid;
 pub mod io_util;
 pub mod ktx2_io;
 pub mod lookup;
+pub mod rgb9e5;
 pub mod sidecar;
 pub mod slab;
 pub mod volume;

@@ -15,7 +15,7 @@ use proptest::test_runner::{Config, RngSeed};
 
 use lightvol_volume::IrradianceVolume;
 use lightvol_volume::accumulator_io::{accumulator_from_bytes, accumulator_to_bytes};
-use lightvol_volume::bevy::{BevyVolume, bevy_from_bytes, bevy_to_bytes};
+use lightvol_volume::bevy::{BevyFormat, BevyVolume, bevy_from_bytes, bevy_to_bytes};
 use lightvol_volume::dds_io::{dds_from_bytes, dds_sidecar, dds_to_bytes};
 use lightvol_volume::exr_io::{ExrCompression, ExrOptions, ExrSample, exr_from_bytes, exr_to_bytes};
 use lightvol_volume::ktx2_io::{ktx2_from_bytes, ktx2_to_bytes};
@@ -125,7 +125,7 @@ proptest! {
     #[test]
     fn bevy_mutations(e in edits()) {
         let vol = common::physical_volume(4, [3, 2, 2], 5);
-        let bytes = bevy_to_bytes(&vol).unwrap();
+        let bytes = bevy_to_bytes(&vol, BevyFormat::Rgba16f).unwrap();
         let original: BevyVolume = bevy_from_bytes(&bytes).unwrap();
         match bevy_from_bytes(&mutate(&bytes, &e)) {
             Err(_) => {}
@@ -149,7 +149,7 @@ proptest! {
         prop_assert!(dds_from_bytes(&dds[..cut.index(dds.len())], &side).is_err());
         let json = side.to_json();
         prop_assert!(Sidecar::from_json(&json[..cut.index(json.len())]).is_err());
-        let bevy = bevy_to_bytes(&common::physical_volume(4, [3, 2, 2], 5)).unwrap();
+        let bevy = bevy_to_bytes(&common::physical_volume(4, [3, 2, 2], 5), BevyFormat::Rgba16f).unwrap();
         prop_assert!(bevy_from_bytes(&bevy[..cut.index(bevy.len())]).is_err());
     }
 }

@@ -94,7 +94,8 @@ fn exr_rejects_garbage_and_values_out_of_range() {
 mod ktx2_dds_bevy {
     use super::*;
     use lightvol_volume::bevy::{
-        Face, ambient_cubes, bevy_from_bytes, bevy_to_bytes, bevy_world_from_probe, read_bevy, write_bevy,
+        BevyFormat, Face, ambient_cubes, bevy_from_bytes, bevy_to_bytes, bevy_world_from_probe, read_bevy,
+        write_bevy,
     };
     use lightvol_volume::dds_io::{dds_from_bytes, dds_sidecar, dds_to_bytes, read_dds, write_dds};
     use lightvol_volume::ktx2_io::{KTX2_SIDECAR_KEY, ktx2_from_bytes, ktx2_to_bytes, read_ktx2, write_ktx2};
@@ -187,7 +188,7 @@ mod ktx2_dds_bevy {
         let dir = tempfile::tempdir().unwrap();
         let vol = common::physical_volume(9, [4, 3, 5], 12);
         let path = dir.path().join("bevy.ktx2");
-        write_bevy(&path, &vol).unwrap();
+        write_bevy(&path, &vol, BevyFormat::Rgba16f).unwrap();
         let bevy = read_bevy(&path).unwrap();
         assert_eq!(bevy.info.res, [4, 3, 5]);
         let spec = vol.spec();
@@ -196,8 +197,9 @@ mod ktx2_dds_bevy {
             let [i, j, k] = spec.node_coords(node);
             let x = spec.node_position_world(i, j, k);
             for (fi, face) in Face::ALL.iter().enumerate() {
-                // Independent evaluation: the volume's f64 Algorithm 1 reference at the node.
-                let want = vol.irradiance_reference(x, face.dir());
+                // Independent evaluation: the volume's f64 Algorithm 1 reference at the node,
+                // in Bevy's units (E/π: the radiance of a white Lambertian surface).
+                let want = vol.irradiance_reference(x, face.dir()).map(|v| v / std::f64::consts::PI);
                 for ch in 0..3 {
                     let got = bevy.cubes[node][fi][ch];
                     // One f16 rounding (2^-11 relative) after an f32 rounding (2^-24) of
@@ -224,7 +226,7 @@ mod ktx2_dds_bevy {
         let bytes = std::fs::read(&path).unwrap();
         let h = ktx2::Reader::new(&bytes[..]).unwrap().header();
         assert_eq!([h.pixel_width, h.pixel_height, h.pixel_depth], [4, 6, 15]);
-        assert_eq!(bevy_from_bytes(&bevy_to_bytes(&vol).unwrap()).unwrap(), bevy);
+        assert_eq!(bevy_from_bytes(&bevy_to_bytes(&vol, BevyFormat::Rgba16f).unwrap()).unwrap(), bevy);
         assert_eq!(ambient_cubes(&vol).len(), 60);
     }
 

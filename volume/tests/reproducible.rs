@@ -5,7 +5,7 @@
 
 mod common;
 
-use lightvol_volume::bevy::bevy_to_bytes;
+use lightvol_volume::bevy::{BevyFormat, bevy_to_bytes};
 use lightvol_volume::dds_io::{dds_sidecar, dds_to_bytes, write_dds};
 use lightvol_volume::encode::Encoding;
 use lightvol_volume::exr_io::{
@@ -101,7 +101,7 @@ fn engine_exports_and_sidecars_are_byte_identical() {
     assert_reproducible("dds sidecar", || {
         dds_sidecar(&vol, Some("v.dds".into())).unwrap().to_json().into_bytes()
     });
-    assert_reproducible("bevy", || bevy_to_bytes(&vol).unwrap());
+    assert_reproducible("bevy", || bevy_to_bytes(&vol, BevyFormat::Rgba16f).unwrap());
     assert_reproducible("json sidecar", || {
         Sidecar::describe(&vol, Encoding::F32, Some("v.exr".into()), "native-exr").to_json().into_bytes()
     });
