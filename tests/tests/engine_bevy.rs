@@ -21,6 +21,7 @@
 //! far more than the tolerance. The JSON's `Transform` puts every voxel centre on its node.
 
 mod common;
+#[allow(dead_code, reason = "shared test helpers, of which this test uses the glTF writer")]
 mod surface_util;
 
 use std::path::{Path, PathBuf};
