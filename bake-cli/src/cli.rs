@@ -60,6 +60,9 @@ pub enum Command {
     K8s(crate::cmd_cluster::K8sArgs),
     /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).
     Export(ExportArgs),
+    /// Shader functions that sample a volume (world position to texel, trilinear, SH
+    /// irradiance) in WGSL, HLSL or GLSL, for the KTX2 or the native layout.
+    Shader(crate::cmd_shader::ShaderArgs),
 }
 
 /// `lightvol info`.

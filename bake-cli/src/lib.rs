@@ -19,6 +19,7 @@ pub mod cmd_merge;
 pub mod cmd_proxies;
 pub mod cmd_render;
 pub mod cmd_render_surface;
+pub mod cmd_shader;
 pub mod compare_entries;
 pub mod gradients;
 pub mod imaging;
@@ -88,6 +89,7 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::Proxies(a) => cmd_proxies::run(&a),
         cli::Command::Render(a) => cmd_render::run(&a),
         cli::Command::Export(a) => cmd_export::run(&a),
+        cli::Command::Shader(a) => cmd_shader::run(&a),
         cli::Command::Slurm(_) | cli::Command::K8s(_) => {
             anyhow::bail!("the slurm and k8s verbs need the command line: call run_from_args")
         }

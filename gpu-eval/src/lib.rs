@@ -6,6 +6,7 @@
 
 pub mod buffer;
 pub mod context;
+pub mod engine_shader;
 pub mod error;
 pub mod info;
 pub mod lookup;

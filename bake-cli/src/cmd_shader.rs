@@ -1,0 +1,66 @@
+//! `lightvol shader`: the sampling code for engines (lightvol-gpu's `engine_shader`), in
+//! WGSL, HLSL or GLSL, for the KTX2 export's texture or the native f32 layout.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use lightvol_gpu::engine_shader::{Language, Layout, shader_source};
+
+/// `--lang`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LangArg {
+    /// WGSL (the source the others are translated from).
+    Wgsl,
+    /// HLSL (shader model 5.1), translated by naga.
+    Hlsl,
+    /// GLSL 4.50, translated by naga.
+    Glsl,
+}
+
+/// `--layout`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LayoutArg {
+    /// The KTX2 export (`export --format ktx2`): an RGBA16F 3D texture of coefficient slabs.
+    Ktx2,
+    /// The native `[node][coeff][rgb]` f32 array, in a storage buffer.
+    Native,
+}
+
+/// `lightvol shader`.
+#[derive(Debug, Args)]
+pub struct ShaderArgs {
+    /// Shading language.
+    #[arg(long, value_enum, default_value = "wgsl")]
+    pub lang: LangArg,
+    /// Where the coefficients live.
+    #[arg(long, value_enum, default_value = "ktx2")]
+    pub layout: LayoutArg,
+    /// Output file (default: standard output).
+    #[arg(short, long)]
+    pub output: Option<PathBuf>,
+}
+
+/// Runs `lightvol shader`.
+pub fn run(args: &ShaderArgs) -> anyhow::Result<ExitCode> {
+    let lang = match args.lang {
+        LangArg::Wgsl => Language::Wgsl,
+        LangArg::Hlsl => Language::Hlsl,
+        LangArg::Glsl => Language::Glsl,
+    };
+    let layout = match args.layout {
+        LayoutArg::Ktx2 => Layout::Ktx2,
+        LayoutArg::Native => Layout::Native,
+    };
+    let src = shader_source(lang, layout).context("generating the sampling code")?;
+    match &args.output {
+        None => print!("{src}"),
+        Some(p) => {
+            crate::imaging::write_atomic(p, src.as_bytes())
+                .with_context(|| format!("writing {}", p.display()))?;
+            eprintln!("wrote {}", p.display());
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
