@@ -364,3 +364,35 @@ fn bevy_client_reproduces_lightvol_in_both_frames() {
     assert_eq!(natives[0].data(), natives[2].data(), "the Y-up glTF and the Z-up OBJ bake differently");
     assert_eq!(natives[0].spec().bounds(), natives[2].spec().bounds());
 }
+
+/// The numbers of `docs/ENGINES.md`'s worked example: one node's red channel with
+/// `L_00 = 1`, `L_10 = 0.5`, looked up, exported from the Y-up frame, and as Bevy's face.
+#[test]
+fn worked_example_of_the_engine_doc() {
+    use lightvol_volume::{BakeMetadata, GridSpec};
+    let spec = GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+    let mut data = vec![0.0f32; 8 * 9 * 3];
+    for node in 0..8 {
+        data[node * 27] = 1.0; // L_00, red
+        data[node * 27 + 2 * 3] = 0.5; // L_10, red
+    }
+    let vol = IrradianceVolume::new(spec, 9, data, vec![1.0; 8]).unwrap();
+    let e_up = vol.irradiance_reference([0.5; 3], [0.0, 0.0, 1.0])[0];
+    let e_down = vol.irradiance_reference([0.5; 3], [0.0, 0.0, -1.0])[0];
+    // The doc's eight digits; f64 sums of f32 coefficients 1 and 0.5 (exact), so the only
+    // error is the doc's rounding.
+    const DOC_DIGITS: f64 = 5e-9;
+    assert!((e_up - 1.397_890_28).abs() < DOC_DIGITS, "{e_up}");
+    assert!((e_down - 0.374_563_57).abs() < DOC_DIGITS, "{e_down}");
+    assert!((e_up / std::f64::consts::PI - 0.444_962_30).abs() < DOC_DIGITS);
+    // From a Y-up file: the lobe is along the file's +Y (index 1), not its z (index 2).
+    let yup = vol.clone().with_metadata(BakeMetadata { frame: UpAxis::Y, ..BakeMetadata::default() });
+    let file = lightvol_volume::frame::to_file_frame(&yup, UpAxis::Y).unwrap();
+    let c = file.node(0);
+    assert!((c[3] - 0.5).abs() < 1e-7 && c[6].abs() < 1e-7, "{:?}", &c[..12]);
+    // Bevy's +Y face (Face::ALL order +X, -X, +Y, ...) holds E/π rounded to f16.
+    let bytes =
+        lightvol_volume::bevy::bevy_to_bytes(&yup, lightvol_volume::bevy::BevyFormat::Rgba16f).unwrap();
+    let bevy = lightvol_volume::bevy::bevy_from_bytes(&bytes).unwrap();
+    assert_eq!(bevy.cubes[0][2][0], 0.445_068_36);
+}

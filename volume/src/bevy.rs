@@ -4,13 +4,18 @@
 //! *ambient cube* (Mitchell 2006, "Shading in Valve's Source Engine", slide 28) per voxel:
 //! six colours for the cardinal directions, blended by the squared normal,
 //! `E(n) ≈ n_x² C[sign n_x, X] + n_y² C[sign n_y, Y] + n_z² C[sign n_z, Z]`.
-//! We store the six irradiances `C[±, a] = E(±e_a)` of the SH volume (Kontkanen & Laine
-//! Eq. 1 at the node, evaluated in f64 and rounded once to f16).
+//! We store `C[±, a] = E(±e_a)/π` of the SH volume (Kontkanen & Laine Eq. 1 at the node,
+//! evaluated in f64 and rounded once to f16 or RGB9E5): Bevy's units, in which a white
+//! Lambertian surface lit by the volume at `intensity = 1` reflects what lightvol predicts
+//! (see [`bevy_to_bytes`]). The axes `e_a` are the scene file's (the export is written in
+//! its frame, [`crate::frame`]), because Bevy's shader picks faces by the world normal.
 //!
 //! ## Texture layout (the authority is Bevy's shader `irradiance_volume.wgsl`)
 //! Checked against `crates/bevy_pbr/src/light_probe/irradiance_volume.wgsl` (bevyengine/bevy
 //! at commit 00620e1d, the version with `light_from_world` and `(unit_pos + 0.5) *
-//! resolution`; older versions mapped world to voxel coordinates directly).
+//! resolution`; older versions mapped world to voxel coordinates directly) and its `.wesl`
+//! successor at 190a5aca (same sampling; the test `tests/tests/engine_bevy.rs` re-implements
+//! it).
 //! For a volume of `(Rx, Ry, Rz)` voxels the texture is `Rx × 2Ry × 3Rz`. The shader computes
 //! `uvw` of the voxel inside the first block and samples face `a` at
 //! `uvw + (0, neg_a ? 0.5 : 0, a/3)`. Hence the texel of voxel `(x, y, z)` and side `S`:
@@ -27,7 +32,8 @@
 //! corners. [`bevy_world_from_probe`] gives the probe transform that makes the two
 //! coincide: the box grown by half a cell on every side (`size · R/(R-1)`), centred on
 //! the box, then the volume's placement. Bevy's `Transform` holds translation, rotation
-//! and scale only; a sheared placement cannot be represented there.
+//! and scale only ([`bevy_transform`] decomposes the matrix); a sheared or mirrored
+//! placement cannot be represented there and is refused.
 
 use std::path::Path;
 
