@@ -72,12 +72,15 @@ pub fn octree_json(vol: &AdaptiveVolume) -> Value {
 pub fn describe(path: &Path) -> anyhow::Result<Value> {
     let vol = read(path)?;
     let base = vol.base();
-    let spec = base.spec();
+    // The base grid in the scene file's frame (the file stores the internal one).
+    let frame = vol.metadata().frame;
+    let spec = &lightvol_volume::frame::grid_in_file_frame(base.spec(), frame)
+        .with_context(|| format!("{}: grid in the {} frame", path.display(), frame.name()))?;
     let (min, max) = spec.bounds();
     Ok(json!({
         "file": path.display().to_string(),
         "kind": "adaptive",
-        "grid": { "res": spec.res(), "bounds": [min, max], "cell_size": spec.cell_size(),
+        "grid": { "frame": frame, "res": spec.res(), "bounds": [min, max], "cell_size": spec.cell_size(),
                   "nodes": spec.node_count(), "placement": spec.placement().map(|p| p.to_world_matrix()) },
         "sh": { "coeffs": base.coeffs(), "bands": base.bands(),
                 "convention": "real orthonormal, index l(l+1)+m, no Condon-Shortley phase, +z polar",

@@ -359,6 +359,35 @@ fn bevy_client_reproduces_lightvol_in_both_frames() {
             natives.push(c.native);
         }
     }
+    // `--camera` in each file's frame: the same view of the same volume, pixel for pixel.
+    let shots: Vec<Vec<u8>> =
+        [(&gltf, "yup", "3,2.5,3.5:0,0.5,0:45", "y"), (&obj, "zup", "3,-3.5,2.5:0,0,0.5:45", "z")]
+            .iter()
+            .map(|(scene, tag, cam, up)| {
+                let png = d.join(format!("{tag}-view.png"));
+                let vol = d.join(format!("{tag}.exr"));
+                ok(&[
+                    "render",
+                    s(scene),
+                    "--up",
+                    up,
+                    "--volume",
+                    s(&vol),
+                    "--camera",
+                    cam,
+                    "--width",
+                    "24",
+                    "--height",
+                    "16",
+                    "--sky",
+                    "0.3,0.4,0.6",
+                    "-o",
+                    s(&png),
+                ]);
+                std::fs::read(&png).unwrap()
+            })
+            .collect();
+    assert!(shots[0] == shots[1], "the same camera in the two frames renders differently");
     // The same physical bake: the glTF's and the OBJ twin's volumes are the same in the
     // internal frame, bit for bit (the rotation between the frames is exact).
     assert_eq!(natives[0].data(), natives[2].data(), "the Y-up glTF and the Z-up OBJ bake differently");
@@ -395,4 +424,112 @@ fn worked_example_of_the_engine_doc() {
         lightvol_volume::bevy::bevy_to_bytes(&yup, lightvol_volume::bevy::BevyFormat::Rgba16f).unwrap();
     let bevy = lightvol_volume::bevy::bevy_from_bytes(&bytes).unwrap();
     assert_eq!(bevy.cubes[0][2][0], 0.445_068_36);
+}
+
+/// Coordinates round-trip in the file's frame: the grid a Y-up glTF bake reports (JSON and
+/// `info`) is the `--bounds`/`--res` it was given, in the glTF's axes, and baking again
+/// from the reported values gives the same file; a Z-up OBJ reports its own axes. Exports
+/// of uniform and adaptive volumes say which frame they are in.
+#[test]
+fn coordinates_round_trip_in_the_file_frame() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (p, t) = room_yup();
+    let gltf = write_gltf(
+        d,
+        "room.gltf",
+        &[Mesh { name: "room", positions: p.clone(), uv0: None, uv1: None, indices: t.clone() }],
+    );
+    let obj = write_obj_twin(d, &p, &t);
+    for (scene, frame, bounds, res) in [
+        (&gltf, UpAxis::Y, [-1.9, 0.1, -1.7, 1.8, 1.9, 1.6], [5u32, 4, 6]),
+        (&obj, UpAxis::Z, [-1.9, -1.7, 0.1, 1.8, 1.6, 1.9], [5, 6, 4]),
+    ] {
+        let b = bounds.map(|v| v.to_string()).join(",");
+        let r = res.map(|v| v.to_string()).join(",");
+        let up = if frame == UpAxis::Z { "z" } else { "y" };
+        let bake = |out: &Path, b: &str, r: &str| {
+            ok(&[
+                "bake",
+                s(scene),
+                "--up",
+                up,
+                "--bounds",
+                b,
+                "--res",
+                r,
+                "--samples",
+                "4",
+                "--quiet",
+                "--sky",
+                "0.5,0.5,0.5",
+                "-o",
+                s(out),
+            ]);
+        };
+        let first = d.join(format!("{up}-1.exr"));
+        bake(&first, &b, &r);
+        // What `info` and the bake report (the same `GridJson`) say.
+        let info = lightvol::cmd_info::describe(&first).unwrap();
+        let native = read_exr(&first).unwrap();
+        let report = serde_json::to_value(lightvol::cmd_bake::GridJson::of(native.spec(), frame)).unwrap();
+        assert_eq!(info["grid"]["frame"], frame.name());
+        assert_eq!(report["frame"], frame.name());
+        assert_eq!(info["grid"]["bounds"], report["bounds"]);
+        assert_eq!(info["grid"]["res"], report["res"]);
+        let got_b: Vec<f64> = report["bounds"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .flat_map(|c| c.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()))
+            .collect();
+        let got_r: Vec<u32> =
+            report["res"].as_array().unwrap().iter().map(|v| v.as_u64().unwrap() as u32).collect();
+        assert_eq!(got_b, bounds.to_vec(), "{up}: reported bounds");
+        assert_eq!(got_r, res.to_vec(), "{up}: reported res");
+        // Feed the report back: the same grid, the same file.
+        let again = d.join(format!("{up}-2.exr"));
+        let b2 = got_b.iter().map(f64::to_string).collect::<Vec<_>>().join(",");
+        let r2 = got_r.iter().map(u32::to_string).collect::<Vec<_>>().join(",");
+        bake(&again, &b2, &r2);
+        assert!(
+            std::fs::read(&first).unwrap() == std::fs::read(&again).unwrap(),
+            "{up}: the reported grid is another grid"
+        );
+        // Exports record their frame, also when resampled from an adaptive volume.
+        let oct = d.join(format!("{up}-oct.exr"));
+        ok(&[
+            "bake",
+            s(scene),
+            "--up",
+            up,
+            "--bounds",
+            &b,
+            "--res",
+            &r,
+            "--samples",
+            "4",
+            "--quiet",
+            "--adaptive",
+            "--max-level",
+            "1",
+            "--depth-rays",
+            "4",
+            "--sky",
+            "0.5,0.5,0.5",
+            "-o",
+            s(&oct),
+        ]);
+        for v in [&first, &oct] {
+            let k = d.join(format!("{up}-{}.ktx2", v.file_stem().unwrap().to_string_lossy()));
+            ok(&["export", s(v), "--format", "ktx2", "-o", s(&k)]);
+            let bytes = std::fs::read(&k).unwrap();
+            let r = ktx2::Reader::new(&bytes[..]).unwrap();
+            let (_, json) = r.key_value_data().find(|(key, _)| *key == "lightvol.sidecar").unwrap();
+            let sc: serde_json::Value =
+                serde_json::from_slice(json.strip_suffix(&[0]).unwrap_or(json)).unwrap();
+            assert_eq!(sc["frame"], frame.name(), "{}", k.display());
+            assert_eq!(sc["source_frame"], frame.name(), "{}", k.display());
+        }
+    }
 }
