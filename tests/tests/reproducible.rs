@@ -71,6 +71,10 @@ fn write_everything(out: &Path, gltf: &Path) {
         ok(&["export", s(&f("v.exr")), "--format", format, "-o", s(&f(&format!("v.{format}")))]);
         ok(&["export", s(&f("oct.exr")), "--format", format, "-o", s(&f(&format!("oct.{format}")))]);
     }
+    // Sampling code for engines, in each language.
+    for lang in ["wgsl", "hlsl", "glsl"] {
+        ok(&["shader", "--lang", lang, "--layout", "ktx2", "-o", s(&f(&format!("sample.{lang}")))]);
+    }
     // What the loader understood, as JSON and as text.
     ok(&["inspect", s(gltf), "--json", "-o", s(&f("inspect.json"))]);
     ok(&["inspect", s(gltf), "-o", s(&f("inspect.txt"))]);
@@ -202,6 +206,10 @@ fn assert_same_files(a: &Path, b: &Path) {
         "v.dds",
         "v.dds.json",
         "v.bevy",
+        "v.bevy.json",
+        "sample.wgsl",
+        "sample.hlsl",
+        "sample.glsl",
     ] {
         assert!(fa.contains_key(must), "{must} was not written");
     }
