@@ -313,7 +313,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let method = parse_method(&args.method)?;
-    let loaded = args.scene.load()?;
+    let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded)?;
     if args.sampling.samples == 0 {
         bail!("--samples must be at least 1");

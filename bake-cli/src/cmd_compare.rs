@@ -412,7 +412,7 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     if args.reference_samples == 0 || args.sampling.samples == 0 {
         bail!("--samples and --reference-samples must be at least 1");
     }
-    let loaded = args.scene.load()?;
+    let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded)?;
     if grid.placement().is_some() {
         bail!("compare needs an axis-aligned grid (no placement transform)");

@@ -129,6 +129,23 @@ pub struct SceneSummary {
     pub bounds_internal: Bounds,
     /// Loader warnings.
     pub warnings: Vec<String>,
+    /// The memory estimate made before loading (`lightvol_sampler::estimate`), bytes.
+    pub memory: MemoryJson,
+}
+
+/// The scene-memory estimate in a summary.
+#[derive(Debug, Clone, Serialize)]
+pub struct MemoryJson {
+    /// Triangles after instancing the estimate counted.
+    pub triangles: u64,
+    /// Triangles and vertex attributes.
+    pub geometry_bytes: u64,
+    /// The ray tracer (BVH build peak and its arrays).
+    pub tracer_bytes: u64,
+    /// Decoded textures.
+    pub texture_bytes: u64,
+    /// All three.
+    pub total_bytes: u64,
 }
 
 fn bounds_to_file(up: UpAxis, lo: DVec3, hi: DVec3) -> Bounds {
@@ -138,7 +155,12 @@ fn bounds_to_file(up: UpAxis, lo: DVec3, hi: DVec3) -> Bounds {
 
 /// Summarises a loaded scene.
 #[must_use]
-pub fn summarize(label: &str, scene: &Scene, up: UpAxis) -> SceneSummary {
+pub fn summarize(
+    label: &str,
+    scene: &Scene,
+    up: UpAxis,
+    memory: &lightvol_sampler::estimate::SceneMemory,
+) -> SceneSummary {
     let mut per_material = vec![0usize; scene.materials.len()];
     for t in &scene.triangles {
         per_material[t.material as usize] += 1;
@@ -250,6 +272,13 @@ pub fn summarize(label: &str, scene: &Scene, up: UpAxis) -> SceneSummary {
         bounds_file: bounds_to_file(up, lo, hi),
         bounds_internal: Bounds { min: lo.to_array(), max: hi.to_array() },
         warnings: scene.report.warnings.clone(),
+        memory: MemoryJson {
+            triangles: memory.triangles,
+            geometry_bytes: memory.geometry_bytes,
+            tracer_bytes: memory.tracer_bytes,
+            texture_bytes: memory.texture_bytes,
+            total_bytes: memory.total(),
+        },
     }
 }
 
@@ -267,6 +296,14 @@ fn text(s: &SceneSummary) -> String {
         s.instanced_triangles, s.unique_triangles, s.degenerate_skipped, s.instances, s.objects
     );
     println!("alpha-tested triangles: {}", s.alpha_triangles);
+    let mib = |b: u64| b as f64 / f64::from(1u32 << 20);
+    println!(
+        "memory estimate: {:.1} MiB (geometry {:.1}, ray tracer {:.1}, textures {:.1}; a bake adds its grid)",
+        mib(s.memory.total_bytes),
+        mib(s.memory.geometry_bytes),
+        mib(s.memory.tracer_bytes),
+        mib(s.memory.texture_bytes)
+    );
     println!("bounds (file frame):     {} .. {}", v(s.bounds_file.min), v(s.bounds_file.max));
     println!("bounds (internal +Z up): {} .. {}", v(s.bounds_internal.min), v(s.bounds_internal.max));
     println!("materials: {}", s.materials.len());
@@ -336,7 +373,7 @@ fn text(s: &SceneSummary) -> String {
 pub fn run(args: &InspectArgs) -> anyhow::Result<ExitCode> {
     let loaded = args.scene.load_quiet()?;
     let up = loaded.frame;
-    let s = summarize(&loaded.label, &loaded.scene, up);
+    let s = summarize(&loaded.label, &loaded.scene, up, &loaded.memory);
     let body = if args.json {
         serde_json::to_string_pretty(&s).context("serialising the summary")? + "\n"
     } else {

@@ -7,6 +7,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_sampler::builtin::{BUILTIN_NAMES, builtin};
 use lightvol_sampler::envmap::EnvMap;
+use lightvol_sampler::estimate::SceneMemory;
 use lightvol_sampler::{DVec3, Environment, LoadOptions, Method, Scene, Sun, UpAxis, load_scene};
 use lightvol_volume::GridSpec;
 
@@ -58,8 +59,9 @@ pub struct GridArgs {
     /// SH order: 2, 3 or 4 bands (4, 9 or 16 coefficients per channel).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(2..=4))]
     pub order: u32,
-    /// Refuse grids whose bake would need more memory than this many MiB (default: half of
-    /// the available memory).
+    /// Refuse bakes that would need more memory than this many MiB — the scene's geometry,
+    /// ray tracer and textures, estimated before the scene is loaded, plus the grid's sums
+    /// (default: half of the available memory).
     #[arg(long)]
     pub max_memory_mib: Option<u64>,
 }
@@ -99,6 +101,8 @@ pub struct LoadedScene {
     /// The source file's frame (built-in scenes: the internal +Z-up frame). Coordinates on
     /// the command line and in reports are in it.
     pub frame: UpAxis,
+    /// The scene's estimated memory (geometry, ray tracer, textures), checked before load.
+    pub memory: SceneMemory,
 }
 
 fn parse_floats<const N: usize>(what: &str, s: &str) -> anyhow::Result<[f64; N]> {
@@ -155,7 +159,14 @@ impl SceneArgs {
     /// Loads (or builds) the scene and applies the light options; loader warnings go to
     /// standard error.
     pub fn load(&self) -> anyhow::Result<LoadedScene> {
-        let loaded = self.load_quiet()?;
+        self.load_within(memory_limit(None))
+    }
+
+    /// [`load`](Self::load), refusing a scene whose estimated memory
+    /// (`lightvol_sampler::estimate`: geometry, ray tracer, textures) exceeds `limit` bytes
+    /// before its geometry is read.
+    pub fn load_within(&self, limit: u128) -> anyhow::Result<LoadedScene> {
+        let loaded = self.load_quiet_within(limit)?;
         for w in &loaded.scene.report.warnings {
             eprintln!("warning: {w}");
         }
@@ -164,17 +175,23 @@ impl SceneArgs {
 
     /// As [`load`](Self::load), leaving the warnings in the scene's report only.
     pub fn load_quiet(&self) -> anyhow::Result<LoadedScene> {
+        self.load_quiet_within(memory_limit(None))
+    }
+
+    fn load_quiet_within(&self, limit: u128) -> anyhow::Result<LoadedScene> {
         let up = if self.up == "z" { UpAxis::Z } else { UpAxis::Y };
         let mut loaded = if let Some(name) = self.scene.strip_prefix("builtin:") {
             let b = builtin(name).with_context(|| {
                 format!("unknown built-in scene '{name}' (choose from {})", BUILTIN_NAMES.join(", "))
             })?;
+            let memory = SceneMemory::from_counts(b.scene.triangles.len() as u64, 0, 0);
             LoadedScene {
                 scene: b.scene,
                 grid: Some(b.grid),
                 plate_heights: b.plate_heights,
                 label: format!("builtin:{name}"),
                 frame: UpAxis::Z,
+                memory,
             }
         } else {
             if !(self.scale.is_finite() && self.scale > 0.0) {
@@ -182,8 +199,29 @@ impl SceneArgs {
             }
             let path = Path::new(&self.scene);
             let opts = LoadOptions { up, scale: self.scale, ..LoadOptions::default() };
+            // Estimate first: a scene too large for memory is one line, not an abort mid-load.
+            let memory = lightvol_sampler::estimate::estimate_scene(path, &opts)
+                .with_context(|| format!("loading {}", path.display()))?;
+            if u128::from(memory.total()) > limit {
+                let (what, bytes) = memory.biggest();
+                bail!(
+                    "{} needs about {} ({} triangles after instancing; the {what} alone {}), more than the {} allowed (--max-memory-mib)",
+                    path.display(),
+                    gib(u128::from(memory.total())),
+                    memory.triangles,
+                    gib(u128::from(bytes)),
+                    gib(limit)
+                );
+            }
             let scene = load_scene(path, &opts).with_context(|| format!("loading {}", path.display()))?;
-            LoadedScene { scene, grid: None, plate_heights: Vec::new(), label: self.scene.clone(), frame: up }
+            LoadedScene {
+                scene,
+                grid: None,
+                plate_heights: Vec::new(),
+                label: self.scene.clone(),
+                frame: up,
+                memory,
+            }
         };
         let s = &mut loaded.scene;
         if let Some(sky) = &self.sky {
@@ -242,7 +280,24 @@ fn available_memory_bytes() -> u128 {
         .map_or(8 << 30, |kib| kib * 1024)
 }
 
+/// The memory limit: `--max-memory-mib`, or half of the available memory.
+#[must_use]
+pub fn memory_limit(mib: Option<u64>) -> u128 {
+    mib.map_or_else(|| available_memory_bytes() / 2, |m| u128::from(m) << 20)
+}
+
+/// Bytes as `1.23 GiB`.
+fn gib(b: u128) -> String {
+    format!("{:.2} GiB", b as f64 / f64::from(1u32 << 30))
+}
+
 impl GridArgs {
+    /// The bake's memory limit in bytes (scene, ray tracer and grid together).
+    #[must_use]
+    pub fn memory_limit(&self) -> u128 {
+        memory_limit(self.max_memory_mib)
+    }
+
     /// SH coefficients per channel.
     #[must_use]
     pub fn coeffs(&self) -> usize {
@@ -291,16 +346,21 @@ impl GridArgs {
             core::array::from_fn(|i| (((max[i] - min[i]) / longest * 16.0).ceil() as u64 + 1).max(2))
         };
         let coeffs = self.coeffs();
-        let need = bake_memory_bytes(res, coeffs);
-        let limit = self.max_memory_mib.map_or_else(|| available_memory_bytes() / 2, |m| u128::from(m) << 20);
+        let grid_bytes = bake_memory_bytes(res, coeffs);
+        let scene_bytes = u128::from(scene.memory.total());
+        let need = grid_bytes.saturating_add(scene_bytes);
+        let limit = self.memory_limit();
         if need > limit {
+            let (what, bytes) = if grid_bytes >= scene_bytes {
+                (format!("grid {}x{}x{} with {coeffs} coefficients", res[0], res[1], res[2]), grid_bytes)
+            } else {
+                (format!("scene ({})", scene.memory.biggest().0), scene_bytes)
+            };
             bail!(
-                "grid {}x{}x{} with {coeffs} coefficients needs about {:.1} GiB, more than the {:.1} GiB allowed (lower --res or raise --max-memory-mib)",
-                res[0],
-                res[1],
-                res[2],
-                need as f64 / f64::from(1u32 << 30),
-                limit as f64 / f64::from(1u32 << 30)
+                "the bake needs about {} (the {what} {} of it), more than the {} allowed (lower --res or raise --max-memory-mib)",
+                gib(need),
+                gib(bytes),
+                gib(limit)
             );
         }
         let res32 = res.map(|r| u32::try_from(r).expect("bounded by the memory check"));

@@ -10,6 +10,7 @@ pub mod diagnostics;
 pub mod domain;
 pub mod envmap;
 pub mod error;
+pub mod estimate;
 pub mod fit;
 pub mod gradients;
 pub mod light_sampler;

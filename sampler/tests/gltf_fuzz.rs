@@ -50,7 +50,7 @@
 //! explained by the scene the file describes. The two failures proptest cannot catch, a load
 //! that would exhaust memory and a load that never ends, are turned into a test failure
 //! that prints the case by a watchdog thread ([`HARD_MEMORY_LIMIT`] on the resident size,
-//! [`CASE_TIME_LIMIT`]; see [`status_bytes`]).
+//! [`CASE_TIME_LIMIT`]; see `common::status_bytes`).
 //!
 //! A valid file can still describe a scene too large for memory (`EXT_mesh_gpu_instancing`
 //! over a large stored accessor multiplies a mesh thousands of times); the loader flattens
@@ -65,6 +65,9 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, Once, OnceLock};
 use std::time::{Duration, Instant};
 
+mod common;
+
+use common::{reset_peak, status_bytes};
 use lightvol_sampler::load_gltf::load_gltf_slice;
 use lightvol_sampler::{LoadOptions, PunctualLight};
 use proptest::prelude::*;
@@ -102,28 +105,6 @@ const TINY_PNG: &str = "data:image/png;base64,iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCA
 
 // ---------------------------------------------------------------------------------------
 // Memory and time guard.
-
-/// Resident memory of this process, from `/proc/self/status` (`VmRSS` now, `VmHWM` the peak
-/// since the last [`reset_peak`]); 0 where the file is missing (non-Linux), which turns the
-/// memory checks off. Resident pages are what a load really touched: zeroed memory that
-/// nothing writes is not counted, so the budget is a floor, and the watchdog stops a runaway
-/// load well before the machine's memory is gone. (A counting global allocator would be
-/// exact, but it needs `unsafe`, which this workspace keeps to the GPU crate.)
-fn status_bytes(key: &str) -> usize {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with(key))
-                .and_then(|l| l.split_whitespace().nth(1)?.parse::<usize>().ok())
-        })
-        .map_or(0, |kib| kib * 1024)
-}
-
-/// Resets `VmHWM` to the current resident size (`/proc/self/clear_refs`, value 5).
-fn reset_peak() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
 
 /// The case being run, for the watchdog to print.
 static CURRENT_CASE: Mutex<String> = Mutex::new(String::new());

@@ -39,6 +39,21 @@ fn every_vendored_scene_is_inspected_and_bakes() {
         assert_eq!(fmin[1], imin[2], "{file}");
         assert_eq!(fmax[1], imax[2], "{file}");
         assert!(!j["materials"].as_array().unwrap().is_empty());
+        // The memory estimate, made before loading, counted exactly the triangles the load
+        // made, and its bytes follow the model.
+        let m = &j["memory"];
+        assert_eq!(m["triangles"].as_u64().unwrap() as usize, instanced, "{file}: estimated triangles");
+        let tri = m["triangles"].as_u64().unwrap();
+        let per = lightvol_sampler::estimate::tracer_bytes_per_triangle()
+            + lightvol_sampler::estimate::BVH_BUILD_BYTES_PER_TRIANGLE;
+        assert_eq!(m["tracer_bytes"].as_u64().unwrap(), tri * per, "{file}");
+        let parts: u64 =
+            ["geometry_bytes", "tracer_bytes", "texture_bytes"].iter().map(|k| m[*k].as_u64().unwrap()).sum();
+        assert_eq!(m["total_bytes"].as_u64().unwrap(), parts);
+        if file.starts_with("breakfast_room") {
+            // Its textures: marble.jpg, picture3.jpg and tiles.png, 16 bytes a texel.
+            assert!(m["texture_bytes"].as_u64().unwrap() > 0, "{file}: textures counted");
+        }
         // The text form names the same counts.
         let txt = dir.path().join("inspect.txt");
         ok(&["inspect", s(&path), "-o", s(&txt)]);
@@ -112,4 +127,26 @@ fn breakfast_room_renders_through_its_glb_cameras() {
     let cornell = scene("cornell_original/CornellBox-Original.obj");
     let e = run(&["render", s(&cornell), "--reference", "--camera", "gltf:0", "-o", s(&out)]).unwrap_err();
     assert!(e.contains("no perspective camera"), "{e}");
+}
+
+/// A scene over `--max-memory-mib` is refused before its geometry is loaded: one line that
+/// names the estimate and its biggest consumer, and no output file.
+#[test]
+fn a_scene_over_the_memory_limit_is_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("never.exr");
+    let room = scene("breakfast_room/BreakfastRoom.gltf");
+    let e = run(&["bake", s(&room), "--max-memory-mib", "64", "--quiet", "-o", s(&out)]).unwrap_err();
+    assert!(
+        e.contains("needs about") && e.contains("262687 triangles") && e.contains("--max-memory-mib"),
+        "{e}"
+    );
+    assert!(!e.contains('\n'), "{e}");
+    assert!(!out.exists());
+    // The grid counts too: a scene that fits, with a grid that does not.
+    let e =
+        run(&["bake", s(&room), "--max-memory-mib", "400", "--res", "90,90,90", "--quiet", "-o", s(&out)])
+            .unwrap_err();
+    assert!(e.contains("the bake needs about") && e.contains("grid 90x90x90"), "{e}");
+    assert!(!out.exists());
 }

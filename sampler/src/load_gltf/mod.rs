@@ -17,7 +17,7 @@
 //! ([`Scene::triangle_refs`]).
 
 mod accessor;
-mod container;
+pub(crate) mod container;
 #[cfg(test)]
 pub(crate) use container::base64_encode;
 pub mod extensions;

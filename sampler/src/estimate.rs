@@ -1,0 +1,277 @@
+//! Memory a scene will take, estimated before its geometry is loaded: a pass over the glTF
+//! JSON (accessor counts, instance counts, image headers) or the OBJ's face lines, so that
+//! a scene too large for memory is refused in one line instead of aborting mid-load.
+//!
+//! The scene is flattened (every instance of a mesh is its own triangles), so the
+//! geometry and the tracer grow with *instanced* triangles:
+//!
+//! - geometry: a [`Triangle`] and its `Option<TriangleRef>` per triangle, and a lightmap
+//!   object's vertex attributes per vertex ([`VERTEX_BYTES`]);
+//! - tracer ([`crate::Tracer`]): per triangle the BVH's f32 triangle, the primitive order,
+//!   the unit normal, the sidedness flag and the f64 copy, plus the BVH nodes and the build's
+//!   transient arrays ([`BVH_BUILD_BYTES_PER_TRIANGLE`], measured);
+//! - textures: 12 bytes (RGB f32) per texel, 4 more for alpha — counted as if every image
+//!   had alpha, since the header does not say whether its alpha is used.
+
+use std::path::Path;
+
+use glam::DVec3;
+use serde_json::Value;
+
+use crate::error::SceneError;
+use crate::load_obj::LoadOptions;
+use crate::scene::{Triangle, TriangleRef};
+
+/// Bytes the BVH build of `obvhs` (medium quality) holds per triangle beyond the arrays the
+/// tracer keeps: primitive bounds, Morton codes and the PLOC clustering buffers during the
+/// build, then the compressed wide nodes. Measured as the peak-RSS growth of building the
+/// tracer for 400 k triangles, less the tracer's own arrays; the test
+/// `tracer_estimate_bounds_the_measured_peak` keeps it honest.
+pub const BVH_BUILD_BYTES_PER_TRIANGLE: u64 = 200;
+
+/// Bytes of a lightmap object's attributes per vertex: position, normal, tangent (f64) and
+/// two UV sets (f64).
+pub const VERTEX_BYTES: u64 = (3 + 3 + 4 + 2 + 2) * 8;
+
+/// Decoded texture bytes per texel: RGB f32 plus an alpha f32.
+pub const TEXEL_BYTES: u64 = 16;
+
+/// The tracer's own arrays per triangle (see the module docs).
+#[must_use]
+pub fn tracer_bytes_per_triangle() -> u64 {
+    // obvhs' RtTriangle (its vertex and edges as 16-byte Vec3A).
+    let rt = size_of::<obvhs::rt_triangle::RtTriangle>() as u64;
+    rt + 4 + size_of::<DVec3>() as u64 + 1 + size_of::<[DVec3; 3]>() as u64
+}
+
+/// The geometry's bytes per triangle (see the module docs).
+#[must_use]
+pub fn geometry_bytes_per_triangle() -> u64 {
+    (size_of::<Triangle>() + size_of::<Option<TriangleRef>>()) as u64
+}
+
+/// What a scene will take, by consumer.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct SceneMemory {
+    /// Triangles after flattening instances.
+    pub triangles: u64,
+    /// Vertices after flattening (attributes kept for lightmap objects).
+    pub vertices: u64,
+    /// Texels of all images.
+    pub texels: u64,
+    /// Bytes of triangles and vertex attributes.
+    pub geometry_bytes: u64,
+    /// Bytes of the ray tracer (BVH and its arrays, build peak).
+    pub tracer_bytes: u64,
+    /// Bytes of decoded textures.
+    pub texture_bytes: u64,
+}
+
+impl SceneMemory {
+    /// From counts, by the module's model.
+    #[must_use]
+    pub fn from_counts(triangles: u64, vertices: u64, texels: u64) -> Self {
+        Self {
+            triangles,
+            vertices,
+            texels,
+            geometry_bytes: triangles
+                .saturating_mul(geometry_bytes_per_triangle())
+                .saturating_add(vertices.saturating_mul(VERTEX_BYTES)),
+            tracer_bytes: triangles
+                .saturating_mul(tracer_bytes_per_triangle() + BVH_BUILD_BYTES_PER_TRIANGLE),
+            texture_bytes: texels.saturating_mul(TEXEL_BYTES),
+        }
+    }
+
+    /// All of it.
+    #[must_use]
+    pub fn total(&self) -> u64 {
+        self.geometry_bytes.saturating_add(self.tracer_bytes).saturating_add(self.texture_bytes)
+    }
+
+    /// The largest consumer, named for a message.
+    #[must_use]
+    pub fn biggest(&self) -> (&'static str, u64) {
+        [
+            ("geometry", self.geometry_bytes),
+            ("ray tracer", self.tracer_bytes),
+            ("textures", self.texture_bytes),
+        ]
+        .into_iter()
+        .max_by_key(|&(_, b)| b)
+        .expect("three entries")
+    }
+}
+
+/// Estimates the memory of the scene file at `path` without loading its geometry (a glTF's
+/// JSON and image headers; an OBJ's face lines). Built-in scenes are small and not
+/// estimated.
+///
+/// # Errors
+/// [`SceneError::NotFound`], I/O errors, and a glTF whose JSON does not parse (the loader
+/// would refuse it too).
+pub fn estimate_scene(path: &Path, opts: &LoadOptions) -> Result<SceneMemory, SceneError> {
+    let _ = opts;
+    if !path.is_file() {
+        return Err(SceneError::NotFound(path.to_owned()));
+    }
+    let io = |source| SceneError::Io { path: path.to_owned(), source };
+    let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    if ext.as_deref() == Some("obj") {
+        let text = std::fs::read(path).map_err(io)?;
+        return Ok(obj_counts(&text));
+    }
+    let bytes = std::fs::read(path).map_err(io)?;
+    let doc = crate::load_gltf::container::parse(&bytes)
+        .map_err(|message| SceneError::Gltf { path: path.to_owned(), message })?;
+    let (triangles, vertices) = gltf_counts(&doc.json);
+    // Buffers are read anyway by the load; images in them are measured from their headers.
+    let buffers = crate::load_gltf::container::load_buffers(&doc, path.parent()).unwrap_or_default();
+    let texels = gltf_texels(&doc.json, &buffers, path.parent());
+    Ok(SceneMemory::from_counts(triangles, vertices, texels))
+}
+
+/// Triangles (faces with `n` corners give `n − 2`) and corners of an OBJ.
+#[must_use]
+pub fn obj_counts(text: &[u8]) -> SceneMemory {
+    let (mut tris, mut verts) = (0u64, 0u64);
+    for line in text.split(|&b| b == b'\n') {
+        let line = line.trim_ascii_start();
+        if let Some(rest) = line.strip_prefix(b"f ").or_else(|| line.strip_prefix(b"f\t")) {
+            let corners = rest.split(|b| b.is_ascii_whitespace()).filter(|w| !w.is_empty()).count() as u64;
+            tris += corners.saturating_sub(2);
+            verts += corners;
+        }
+    }
+    SceneMemory::from_counts(tris, verts, 0)
+}
+
+fn arr<'v>(v: &'v Value, key: &str) -> &'v [Value] {
+    v.get(key).and_then(Value::as_array).map_or(&[], Vec::as_slice)
+}
+
+fn accessor_count(json: &Value, a: Option<u64>) -> u64 {
+    a.and_then(|a| arr(json, "accessors").get(a as usize))
+        .and_then(|x| x.get("count"))
+        .and_then(Value::as_u64)
+        .unwrap_or(0)
+}
+
+/// Triangles and vertices of every mesh instance the default scene (or, without one, every
+/// root node) places: per primitive, `count / 3` for triangle lists and `count − 2` for
+/// strips and fans (`count` of the indices, else of `POSITION`), times the node's
+/// `EXT_mesh_gpu_instancing` count.
+#[must_use]
+pub fn gltf_counts(json: &Value) -> (u64, u64) {
+    let meshes = arr(json, "meshes");
+    let per_mesh: Vec<(u64, u64)> = meshes
+        .iter()
+        .map(|m| {
+            arr(m, "primitives").iter().fold((0u64, 0u64), |(t, v), p| {
+                let positions =
+                    accessor_count(json, p.pointer("/attributes/POSITION").and_then(Value::as_u64));
+                let count = match p.get("indices").and_then(Value::as_u64) {
+                    Some(i) => accessor_count(json, Some(i)),
+                    None => positions,
+                };
+                let tris = match p.get("mode").and_then(Value::as_u64).unwrap_or(4) {
+                    4 => count / 3,
+                    5 | 6 => count.saturating_sub(2),
+                    _ => 0,
+                };
+                (t.saturating_add(tris), v.saturating_add(positions))
+            })
+        })
+        .collect();
+    let nodes = arr(json, "nodes");
+    let (mut tris, mut verts) = (0u64, 0u64);
+    // Every node counted once (nodes form a tree; the loader refuses anything else).
+    for n in nodes {
+        let Some(mesh) = n.get("mesh").and_then(Value::as_u64) else { continue };
+        let Some(&(t, v)) = per_mesh.get(mesh as usize) else { continue };
+        let inst = n
+            .pointer("/extensions/EXT_mesh_gpu_instancing/attributes")
+            .and_then(|a| {
+                ["TRANSLATION", "ROTATION", "SCALE"].iter().find_map(|k| a.get(*k).and_then(Value::as_u64))
+            })
+            .map_or(1, |a| accessor_count(json, Some(a)).max(1));
+        tris = tris.saturating_add(t.saturating_mul(inst));
+        verts = verts.saturating_add(v.saturating_mul(inst));
+    }
+    (tris, verts)
+}
+
+/// Texels of every image, from the image headers (in a buffer, in `data:` URIs or in files
+/// beside the glTF); an image whose header cannot be read counts 0 (the loader falls back
+/// to the factor for it).
+fn gltf_texels(json: &Value, buffers: &[Vec<u8>], base: Option<&Path>) -> u64 {
+    let views = arr(json, "bufferViews");
+    arr(json, "images")
+        .iter()
+        .map(|img| {
+            let dims = if let Some(v) = img.get("bufferView").and_then(Value::as_u64) {
+                views.get(v as usize).and_then(|view| {
+                    let off = view.get("byteOffset").and_then(Value::as_u64).unwrap_or(0) as usize;
+                    let len = view.get("byteLength").and_then(Value::as_u64)? as usize;
+                    let buffer = buffers.get(view.get("buffer").and_then(Value::as_u64)? as usize)?;
+                    let data = buffer.get(off..off.checked_add(len)?)?;
+                    image::ImageReader::new(std::io::Cursor::new(data))
+                        .with_guessed_format()
+                        .ok()?
+                        .into_dimensions()
+                        .ok()
+                })
+            } else if let Some(uri) = img.get("uri").and_then(Value::as_str) {
+                if uri.starts_with("data:") {
+                    crate::load_gltf::container::read_uri(uri, base).ok().and_then(|d| {
+                        image::ImageReader::new(std::io::Cursor::new(d))
+                            .with_guessed_format()
+                            .ok()?
+                            .into_dimensions()
+                            .ok()
+                    })
+                } else {
+                    base.and_then(|b| {
+                        image::ImageReader::open(b.join(uri))
+                            .ok()?
+                            .with_guessed_format()
+                            .ok()?
+                            .into_dimensions()
+                            .ok()
+                    })
+                }
+            } else {
+                None
+            };
+            dims.map_or(0, |(w, h)| u64::from(w) * u64::from(h))
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The model's bytes per triangle from the types, and the counts of a glTF with an
+    /// instanced mesh (two primitives: a list and a strip) and a plain node.
+    #[test]
+    fn counts_follow_the_file() {
+        let json: Value = serde_json::from_str(
+            r#"{"accessors":[{"count":9},{"count":12},{"count":6},{"count":1000}],
+                "meshes":[{"primitives":[{"attributes":{"POSITION":0},"indices":1},{"attributes":{"POSITION":2},"mode":5}]}],
+                "nodes":[{"mesh":0,"extensions":{"EXT_mesh_gpu_instancing":{"attributes":{"TRANSLATION":3}}}},{"mesh":0},{"children":[0,1]}]}"#,
+        )
+        .unwrap();
+        // Per instance: 12/3 + (6 − 2) = 8 triangles, 9 + 6 = 15 vertices; 1000 + 1 instances.
+        assert_eq!(gltf_counts(&json), (8 * 1001, 15 * 1001));
+        let obj = obj_counts(b"v 0 0 0\nf 1 2 3\nf 1 2 3 4\n  f 1 2 3 4 5\n# f 1 2 3\n");
+        assert_eq!((obj.triangles, obj.vertices), (1 + 2 + 3, 12));
+        let m = SceneMemory::from_counts(10, 20, 30);
+        assert_eq!(m.geometry_bytes, 10 * geometry_bytes_per_triangle() + 20 * VERTEX_BYTES);
+        assert_eq!(m.total(), m.geometry_bytes + m.tracer_bytes + 30 * TEXEL_BYTES);
+        // Triangle: 9 + 6 f64 and a u32, padded to 8 (128); TriangleRef: 5 u32 and the
+        // Option tag (24).
+        assert_eq!(geometry_bytes_per_triangle(), 128 + 24);
+    }
+}
