@@ -35,6 +35,11 @@ pub struct BenchArgs {
     /// Vulkan device, see `lightvol gpu-info`).
     #[arg(long)]
     pub gpu: bool,
+    /// Instead: lightvol's tracer against Embree 3 on the same triangles and rays (closest
+    /// hit and occlusion, 1 and 2 threads, with ray-by-ray agreement). `--scene` may then
+    /// also be a glTF/OBJ file (+Y up). Needs Debian's `libembree-dev` and a C compiler.
+    #[arg(long)]
+    pub embree: bool,
 }
 
 fn rays_per_second(tracer: &Tracer, origins: &[(DVec3, DVec3)], pool: &rayon::ThreadPool) -> f64 {
@@ -87,6 +92,20 @@ fn lookups_per_second(
 
 /// Runs `lightvol bench`.
 pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+    if args.embree {
+        let scene = match builtin(args.scene.trim_start_matches("builtin:")) {
+            Some(b) => b.scene,
+            None => {
+                let path = std::path::Path::new(&args.scene);
+                lightvol_sampler::load_scene(path, &lightvol_sampler::LoadOptions::default())
+                    .with_context(|| format!("loading {} (not a built-in scene either)", path.display()))?
+            }
+        };
+        let mut report = crate::embree_baseline::compare(&scene, args.rays, 42)?;
+        report["scene"] = json!(args.scene);
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(ExitCode::SUCCESS);
+    }
     let b = builtin(&args.scene).with_context(|| format!("unknown built-in scene '{}'", args.scene))?;
     let cores = std::thread::available_parallelism().map_or(1, std::num::NonZeroUsize::get);
     let (one, all) = (pool(1)?, pool(cores)?);

@@ -1,0 +1,205 @@
+//! `lightvol bench --embree`: lightvol's tracer against Embree 3 on the same triangles and
+//! the same rays, in one run.
+//!
+//! Embree is reached through a small C program (`embree/embree_trace.c`, compiled here with
+//! the system C compiler against Debian's `libembree-dev`) that reads the triangles and rays
+//! from a file, traces them with Embree's single-ray API on 1 or more threads (best of
+//! several passes) and writes every ray's result back. The default build therefore stays
+//! pure Rust, and no Rust code calls C (the workspace keeps `unsafe` to the GPU crate).
+//!
+//! Two workloads, as in a bake: closest hit with origins uniform in the scene bounds and
+//! uniform directions, and occlusion toward one direction (a sun). Results are compared ray
+//! by ray: hit/miss agreement and, where both hit, the relative distance difference.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use lightvol_sampler::{DVec3, Scene, Tracer};
+use lightvol_sh::lowdisc::SplitMix64;
+use lightvol_sh::sampling::sample_uniform_sphere;
+use serde_json::{Value, json};
+
+const SOURCE: &str = include_str!("../embree/embree_trace.c");
+
+/// Passes per measurement; the best is reported (the least disturbed by other load).
+const REPEATS: u32 = 3;
+
+/// Relative distance difference below which two hits count as the same surface point:
+/// both tracers intersect in f32, with differently ordered arithmetic (a few ulps, 1e-6),
+/// at distances up to the scene size; 1e-4 leaves room for grazing hits.
+const SAME_HIT_REL: f64 = 1e-4;
+
+/// Compiles the Embree harness into `dir`.
+fn build_harness(dir: &Path) -> anyhow::Result<PathBuf> {
+    let src = dir.join("embree_trace.c");
+    std::fs::write(&src, SOURCE).context("writing the Embree harness")?;
+    let exe = dir.join("embree_trace");
+    let cc = std::env::var("CC").unwrap_or_else(|_| "cc".to_owned());
+    let out = Command::new(&cc)
+        .args(["-O2", "-o"])
+        .arg(&exe)
+        .arg(&src)
+        .args(["-lembree3", "-lpthread", "-lm"])
+        .output()
+        .with_context(|| format!("running the C compiler '{cc}' (set CC)"))?;
+    if !out.status.success() {
+        bail!(
+            "building the Embree baseline failed (it needs Debian's libembree-dev and a C compiler): {}",
+            String::from_utf8_lossy(&out.stderr).lines().next().unwrap_or("")
+        );
+    }
+    Ok(exe)
+}
+
+/// One workload through Embree: `(best seconds, build seconds, per-ray results)`.
+fn run_embree(
+    exe: &Path,
+    dir: &Path,
+    scene: &Scene,
+    rays: &[(DVec3, DVec3)],
+    occlusion: bool,
+    threads: u32,
+) -> anyhow::Result<(f64, f64, Vec<f32>)> {
+    let mut input = Vec::with_capacity(24 + scene.triangles.len() * 36 + rays.len() * 24);
+    input.extend_from_slice(b"LVEB");
+    for v in [u32::from(occlusion), threads, REPEATS, scene.triangles.len() as u32] {
+        input.extend_from_slice(&v.to_le_bytes());
+    }
+    for t in &scene.triangles {
+        for p in t.v {
+            for c in p.to_array() {
+                input.extend_from_slice(&(c as f32).to_le_bytes());
+            }
+        }
+    }
+    input.extend_from_slice(&(rays.len() as u32).to_le_bytes());
+    for (o, d) in rays {
+        for c in o.to_array().into_iter().chain(d.to_array()) {
+            input.extend_from_slice(&(c as f32).to_le_bytes());
+        }
+    }
+    input.extend_from_slice(&f32::INFINITY.to_le_bytes());
+    let (inp, outp) = (dir.join("rays.bin"), dir.join("hits.bin"));
+    std::fs::write(&inp, &input).context("writing the rays for Embree")?;
+    let st = Command::new(exe).arg(&inp).arg(&outp).output().context("running the Embree harness")?;
+    if !st.status.success() {
+        bail!("the Embree harness failed: {}", String::from_utf8_lossy(&st.stderr).trim());
+    }
+    let b = std::fs::read(&outp).context("reading Embree's results")?;
+    if b.len() != 16 + 4 * rays.len() {
+        bail!("the Embree harness wrote {} bytes for {} rays", b.len(), rays.len());
+    }
+    let f64_at = |i: usize| f64::from_le_bytes(b[i..i + 8].try_into().expect("8 bytes"));
+    let res = b[16..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
+    Ok((f64_at(0), f64_at(8), res))
+}
+
+/// One workload through lightvol's tracer on `threads` threads: `(best seconds, results)`
+/// in Embree's encoding.
+fn run_lightvol(
+    tracer: &Tracer,
+    rays: &[(DVec3, DVec3)],
+    occlusion: bool,
+    threads: usize,
+) -> anyhow::Result<(f64, Vec<f32>)> {
+    use rayon::prelude::*;
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("thread pool")?;
+    let mut best = f64::INFINITY;
+    let mut out = Vec::new();
+    for _ in 0..REPEATS {
+        let t0 = Instant::now();
+        out = pool.install(|| {
+            rays.par_iter()
+                .with_min_len(4096)
+                .map(|(o, d)| {
+                    if occlusion {
+                        f32::from(u8::from(tracer.occluded(*o, *d, 0.0, f64::INFINITY)))
+                    } else {
+                        tracer.closest_hit(*o, *d, 0.0, f64::INFINITY).map_or(-1.0, |h| h.t as f32)
+                    }
+                })
+                .collect()
+        });
+        best = best.min(t0.elapsed().as_secs_f64());
+    }
+    Ok((best, out))
+}
+
+/// Ray-by-ray agreement of two result lists.
+fn agreement(a: &[f32], b: &[f32], occlusion: bool) -> Value {
+    let (mut same_kind, mut both_hit, mut same_point, mut worst) = (0usize, 0usize, 0usize, 0.0f64);
+    for (&x, &y) in a.iter().zip(b) {
+        let (hx, hy) = if occlusion { (x > 0.5, y > 0.5) } else { (x >= 0.0, y >= 0.0) };
+        same_kind += usize::from(hx == hy);
+        if !occlusion && hx && hy {
+            both_hit += 1;
+            let rel = f64::from((x - y).abs()) / f64::from(x.abs().max(y.abs()).max(1e-6));
+            worst = worst.max(rel);
+            same_point += usize::from(rel <= SAME_HIT_REL);
+        }
+    }
+    let n = a.len().max(1) as f64;
+    json!({
+        "hit_or_miss_agree": same_kind as f64 / n,
+        "both_hit": both_hit,
+        "same_hit_point": if both_hit == 0 { 1.0 } else { same_point as f64 / both_hit as f64 },
+        "same_hit_tolerance_rel": SAME_HIT_REL,
+        "largest_distance_difference_rel": worst,
+    })
+}
+
+/// The comparison on `scene` with `count` rays (seeded), for 1 and 2 threads: throughputs
+/// in Mrays/s, their ratios (lightvol / Embree), hit agreement, and BVH build times.
+///
+/// # Errors
+/// When the harness cannot be built (no `libembree-dev` or no C compiler) or fails.
+pub fn compare(scene: &Scene, count: usize, seed: u64) -> anyhow::Result<Value> {
+    let dir = tempfile::tempdir().context("temporary folder")?;
+    let exe = build_harness(dir.path())?;
+    let (lo, hi) = scene.bounds();
+    let mut rng = SplitMix64::new(seed);
+    let closest: Vec<(DVec3, DVec3)> = (0..count)
+        .map(|_| {
+            let o = DVec3::new(rng.range(lo.x, hi.x), rng.range(lo.y, hi.y), rng.range(lo.z, hi.z));
+            (o, DVec3::from(sample_uniform_sphere([rng.next_f64(), rng.next_f64()])))
+        })
+        .collect();
+    let sun = DVec3::new(0.3, 0.2, 1.0).normalize();
+    let shadow: Vec<(DVec3, DVec3)> = closest.iter().map(|(o, _)| (*o, sun)).collect();
+    let t0 = Instant::now();
+    let tracer = pool_build(scene)?;
+    let lightvol_build = t0.elapsed().as_secs_f64();
+    let mut out = json!({
+        "triangles": scene.triangles.len(),
+        "rays": count,
+        "repeats_best_of": REPEATS,
+        "build_seconds": { "lightvol_1_thread": lightvol_build },
+    });
+    for (name, rays, occ) in [("closest_hit", &closest, false), ("occlusion", &shadow, true)] {
+        let mut entry = json!({});
+        for threads in [1u32, 2] {
+            let (le, lres) = run_lightvol(&tracer, rays, occ, threads as usize)?;
+            let (ee, build, eres) = run_embree(&exe, dir.path(), scene, rays, occ, threads)?;
+            if threads == 1 && !occ {
+                out["build_seconds"]["embree_1_thread"] = json!(build);
+            }
+            let (lm, em) = (count as f64 / le / 1e6, count as f64 / ee / 1e6);
+            entry[format!("{threads}_thread")] = json!({
+                "lightvol_mrays_per_second": lm,
+                "embree_mrays_per_second": em,
+                "lightvol_over_embree": lm / em,
+                "agreement": agreement(&lres, &eres, occ),
+            });
+        }
+        out[name] = entry;
+    }
+    Ok(out)
+}
+
+/// The tracer built on one thread (as the build time above is reported).
+fn pool_build(scene: &Scene) -> anyhow::Result<Tracer> {
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().context("thread pool")?;
+    Ok(pool.install(|| Tracer::new(scene)))
+}
