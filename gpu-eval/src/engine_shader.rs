@@ -293,7 +293,9 @@ fn validate_with(
 }
 
 /// The sampling code for `layout` in `language`: the WGSL source, or naga's translation of
-/// the validated module. The GLSL is parsed and validated again by naga's GLSL front end.
+/// the validated module. The GLSL is parsed and validated again by naga's GLSL front end;
+/// naga has no HLSL front end, so the HLSL is checked only as the translation of the
+/// validated module.
 ///
 /// # Errors
 /// [`GpuError::Invalid`] with naga's diagnostic (a bug in the source or in naga).
@@ -339,9 +341,7 @@ pub fn shader_source(language: Language, layout: Layout) -> Result<String, GpuEr
             )
             .map_err(|e| GpuError::Invalid(format!("GLSL backend: {e}")))?;
             w.write().map_err(|e| GpuError::Invalid(format!("GLSL backend: {e}")))?;
-            if layout == Layout::Native {
-                validate_glsl(&out)?;
-            }
+            validate_glsl(&out)?;
             Ok(out)
         }
     }
@@ -353,9 +353,25 @@ pub fn shader_source(language: Language, layout: Layout) -> Result<String, GpuEr
 /// # Errors
 /// [`GpuError::Invalid`] with the parse or validation errors.
 pub fn validate_glsl(src: &str) -> Result<(), GpuError> {
-    // naga's GLSL front end does not implement the `readonly` buffer qualifier its own
-    // backend writes (it changes access, not meaning), so it is dropped before parsing.
-    let src = src.replace("readonly buffer", "buffer");
+    // naga's GLSL front end implements neither the `readonly` buffer qualifier its own
+    // backend writes (it changes access, not meaning) nor combined `sampler3D` uniforms
+    // (Vulkan GLSL's separate texture and sampler, combined at the call, mean the same
+    // fetch), so both are rewritten before parsing.
+    let mut src = src.replace("readonly buffer", "buffer");
+    let combined: Vec<String> = src
+        .lines()
+        .filter_map(|l| {
+            l.split("uniform sampler3D ").nth(1).map(|n| n.trim_end_matches(';').trim().to_owned())
+        })
+        .collect();
+    for name in combined {
+        src = src
+            .replace(
+                &format!("uniform sampler3D {name};"),
+                &format!("uniform texture3D {name}_t;\nlayout(binding = 15) uniform sampler {name}_s;"),
+            )
+            .replace(&format!("texelFetch({name},"), &format!("texelFetch(sampler3D({name}_t, {name}_s),"));
+    }
     let mut frontend = naga::front::glsl::Frontend::default();
     let module = frontend
         .parse(&naga::front::glsl::Options::from(naga::ShaderStage::Compute), &src)
@@ -401,6 +417,14 @@ mod tests {
             }
             assert!(selftest_spirv(layout).unwrap()[0] == 0x0723_0203);
         }
+        // Negative control: the GLSL check really rejects broken code.
+        let broken =
+            "#version 450\nlayout(local_size_x = 1) in;\nvoid main() { float x = undefined_name * 2.0; }\n";
+        assert!(validate_glsl(broken).is_err());
+        assert!(
+            validate_glsl("#version 450\nlayout(local_size_x = 1) in;\nvoid main() { float x = 2.0; }\n")
+                .is_ok()
+        );
     }
 
     /// The literals read back to the host's f32 constants.
