@@ -40,6 +40,9 @@ pub struct BenchArgs {
     /// also be a glTF/OBJ file (+Y up). Needs Debian's `libembree-dev` and a C compiler.
     #[arg(long)]
     pub embree: bool,
+    /// With --embree: lightvol's BVH build quality (`fast`, `medium`, `slow`: spatial splits).
+    #[arg(long, default_value = "medium", value_parser = ["fast", "medium", "slow"])]
+    pub bvh_quality: String,
 }
 
 fn rays_per_second(tracer: &Tracer, origins: &[(DVec3, DVec3)], pool: &rayon::ThreadPool) -> f64 {
@@ -101,7 +104,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
                     .with_context(|| format!("loading {} (not a built-in scene either)", path.display()))?
             }
         };
-        let mut report = crate::embree_baseline::compare(&scene, args.rays, 42)?;
+        let quality = match args.bvh_quality.as_str() {
+            "fast" => lightvol_sampler::BuildQuality::Fast,
+            "slow" => lightvol_sampler::BuildQuality::Slow,
+            _ => lightvol_sampler::BuildQuality::Medium,
+        };
+        let mut report = crate::embree_baseline::compare(&scene, args.rays, 42, quality)?;
         report["scene"] = json!(args.scene);
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(ExitCode::SUCCESS);

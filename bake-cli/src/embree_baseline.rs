@@ -16,7 +16,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use lightvol_sampler::{DVec3, Scene, Tracer};
+use lightvol_sampler::{BuildQuality, DVec3, Scene, Tracer};
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use serde_json::{Value, json};
@@ -150,12 +150,13 @@ fn agreement(a: &[f32], b: &[f32], occlusion: bool) -> Value {
     })
 }
 
-/// The comparison on `scene` with `count` rays (seeded), for 1 and 2 threads: throughputs
+/// The comparison on `scene` with `count` rays (seeded), lightvol's BVH built at `quality`
+/// (Embree's at its medium quality), for 1 and 2 threads: throughputs
 /// in Mrays/s, their ratios (lightvol / Embree), hit agreement, and BVH build times.
 ///
 /// # Errors
 /// When the harness cannot be built (no `libembree-dev` or no C compiler) or fails.
-pub fn compare(scene: &Scene, count: usize, seed: u64) -> anyhow::Result<Value> {
+pub fn compare(scene: &Scene, count: usize, seed: u64, quality: BuildQuality) -> anyhow::Result<Value> {
     let dir = tempfile::tempdir().context("temporary folder")?;
     let exe = build_harness(dir.path())?;
     let (lo, hi) = scene.bounds();
@@ -169,12 +170,13 @@ pub fn compare(scene: &Scene, count: usize, seed: u64) -> anyhow::Result<Value> 
     let sun = DVec3::new(0.3, 0.2, 1.0).normalize();
     let shadow: Vec<(DVec3, DVec3)> = closest.iter().map(|(o, _)| (*o, sun)).collect();
     let t0 = Instant::now();
-    let tracer = pool_build(scene)?;
+    let tracer = pool_build(scene, quality)?;
     let lightvol_build = t0.elapsed().as_secs_f64();
     let mut out = json!({
         "triangles": scene.triangles.len(),
         "rays": count,
         "repeats_best_of": REPEATS,
+        "lightvol_bvh_quality": format!("{quality:?}").to_lowercase(),
         "build_seconds": { "lightvol_1_thread": lightvol_build },
     });
     for (name, rays, occ) in [("closest_hit", &closest, false), ("occlusion", &shadow, true)] {
@@ -199,7 +201,7 @@ pub fn compare(scene: &Scene, count: usize, seed: u64) -> anyhow::Result<Value> 
 }
 
 /// The tracer built on one thread (as the build time above is reported).
-fn pool_build(scene: &Scene) -> anyhow::Result<Tracer> {
+fn pool_build(scene: &Scene, quality: BuildQuality) -> anyhow::Result<Tracer> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().context("thread pool")?;
-    Ok(pool.install(|| Tracer::new(scene)))
+    Ok(pool.install(|| Tracer::with_quality(scene, quality)))
 }
