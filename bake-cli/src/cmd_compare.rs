@@ -457,6 +457,9 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
                     gradient_run(gv, name, lookup, args.sampling.samples, &plate)?
                 }
                 Entry::Adaptive(levels) => adaptive_run(&loaded, &tracer, &grid, args, name, levels, &plate)?,
+                Entry::Baseline(b) => {
+                    crate::compare_entries::baseline_run(&loaded, &tracer, &grid, args, name, b, &plate)?
+                }
             };
             write_panels(&args.output, name, &plate, &run.estimate, mean_truth)?;
             runs.push(run);

@@ -22,6 +22,7 @@ use std::collections::BTreeMap;
 
 use anyhow::bail;
 use lightvol_sampler::adaptive::{AdaptiveSettings, AdaptiveStats};
+use lightvol_sampler::baselines::{Baseline, bake_baseline, validity_weighted_irradiance};
 use lightvol_sampler::fit::Fit;
 use lightvol_sampler::{BakeSettings, BakeStats, Method, Tracer, TransportSettings};
 use lightvol_volume::gradient::{GradientLookup, floats_per_sample, irradiance as gradient_irradiance};
@@ -48,6 +49,9 @@ pub enum Entry {
     /// \[Oat05\]'s adaptive octree at the uniform grid's memory, with this finest level
     /// (module docs). Named `adaptive` (level 2) or `adaptiveL`.
     Adaptive(u32),
+    /// Point sampling with an engine's leak fix (lightvol-sampler's `baselines`):
+    /// `point+validity` (Unity APV), `point+vlm` (Unreal), `point+ddgi` (DDGI/RTXGI).
+    Baseline(Baseline),
 }
 
 /// Level 0 of the `adaptive` entry: the compare grid's cell counts times this.
@@ -63,8 +67,8 @@ pub const ADAPTIVE_MAX_LEVEL: u32 = 2;
 /// Largest `L` accepted in `adaptiveL`.
 pub const ADAPTIVE_LEVELS_MAX: u32 = 3;
 
-/// Parses `point|prefilter|doi`, `adaptive[L]`, or `BASE+LOOKUP` with LOOKUP one of `taylor`,
-/// `gtrilinear`, `hermite`.
+/// Parses `point|prefilter|doi`, `adaptive[L]`, `point+validity|vlm|ddgi`, or `BASE+LOOKUP`
+/// with LOOKUP one of `taylor`, `gtrilinear`, `hermite`.
 pub fn parse_entry(s: &str) -> anyhow::Result<Entry> {
     if s == "adaptive" {
         return Ok(Entry::Adaptive(ADAPTIVE_MAX_LEVEL));
@@ -74,6 +78,11 @@ pub fn parse_entry(s: &str) -> anyhow::Result<Entry> {
             Ok(l) if (1..=ADAPTIVE_LEVELS_MAX).contains(&l) => Ok(Entry::Adaptive(l)),
             _ => bail!("'{s}': adaptiveL needs a finest level L from 1 to {ADAPTIVE_LEVELS_MAX}"),
         };
+    }
+    for b in [Baseline::Apv, Baseline::Vlm, Baseline::Ddgi] {
+        if s == b.name() {
+            return Ok(Entry::Baseline(b));
+        }
     }
     match s.split_once('+') {
         None => Ok(Entry::Uniform(parse_method(s)?)),
@@ -252,6 +261,65 @@ pub fn adaptive_run(
                 samples: args.sampling.samples,
                 rays: RaysJson::of(&stats.rays),
                 seconds: stats.wall_time.as_secs_f64(),
+                metrics,
+            },
+            estimate,
+        },
+        extra,
+    ))
+}
+
+/// Runs an engine baseline on the compare grid (point samples, `--samples` per node, plus
+/// the validity rays, which its ray count includes).
+pub fn baseline_run(
+    loaded: &LoadedScene,
+    tracer: &Tracer,
+    grid: &GridSpec,
+    args: &CompareArgs,
+    name: &str,
+    baseline: Baseline,
+    plate: &PlateData,
+) -> anyhow::Result<(MethodRun, Map<String, Value>)> {
+    let settings = BakeSettings {
+        method: Method::Point,
+        samples: args.sampling.samples,
+        coeffs: args.grid.coeffs(),
+        seed: args.sampling.seed,
+        ..BakeSettings::default()
+    };
+    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let transport = lightvol_sampler::Transport::new(&loaded.scene, tracer, ts);
+    let t0 = std::time::Instant::now();
+    let b = bake_baseline(&transport, grid, &settings, baseline)?;
+    let seconds = t0.elapsed().as_secs_f64();
+    let estimate: Vec<[f64; 3]> = match baseline {
+        Baseline::Apv => plate
+            .points
+            .par_iter()
+            .map(|p| validity_weighted_irradiance(&b.volume, &b.valid, p.to_array(), [0.0, 0.0, 1.0]))
+            .collect(),
+        Baseline::Vlm | Baseline::Ddgi => crate::cmd_compare::evaluate(&b.volume, plate),
+    };
+    let metrics = plate_metrics(plate, &estimate);
+    let mut extra = uniform_extra(grid, args.grid.coeffs());
+    extra.insert("invalid_nodes".into(), json!(b.valid.iter().filter(|v| !**v).count()));
+    let moved = b
+        .capture
+        .iter()
+        .enumerate()
+        .filter(|(i, c)| {
+            let [x, y, z] = grid.node_coords(*i);
+            lightvol_sampler::DVec3::from_array(grid.node_position_world(x, y, z)) != **c
+        })
+        .count();
+    extra.insert("moved_nodes".into(), json!(moved));
+    Ok((
+        MethodRun {
+            name: name.to_owned(),
+            json: MethodJson {
+                samples: args.sampling.samples,
+                rays: RaysJson::of(&b.rays),
+                seconds,
                 metrics,
             },
             estimate,

@@ -138,6 +138,17 @@ pub fn central_differences_of(
 /// Returns `3 · coeffs` coefficients `[coeff][rgb]`.
 #[must_use]
 pub fn point_projection(t: &Transport<'_>, settings: &BakeSettings, x: DVec3, stream: u64) -> Vec<f64> {
+    point_projection_counted(t, settings, x, stream).0
+}
+
+/// [`point_projection`] with the rays it traced.
+#[must_use]
+pub fn point_projection_counted(
+    t: &Transport<'_>,
+    settings: &BakeSettings,
+    x: DVec3,
+    stream: u64,
+) -> (Vec<f64>, BakeStats) {
     let bands = bands_of(settings.coeffs).unwrap_or(3);
     let h = Qmc::<2>::new(settings.seed, stream);
     let mut y = vec![0.0; settings.coeffs];
@@ -159,7 +170,8 @@ pub fn point_projection(t: &Transport<'_>, settings: &BakeSettings, x: DVec3, st
     }
     let inv = 1.0 / f64::from(settings.samples);
     out.iter_mut().for_each(|v| *v *= inv);
-    out
+    stats.rays.sampling += u64::from(settings.samples);
+    (out, stats)
 }
 
 /// Estimator (a) on a scene: central differences of [`point_projection`]s at offset `h`

@@ -4,6 +4,7 @@ pub mod adaptive;
 pub mod adaptive_shard;
 pub mod alpha;
 pub mod bake;
+pub mod baselines;
 pub mod builtin;
 pub mod bvh;
 pub mod diagnostics;

@@ -229,3 +229,41 @@ fn reference_matches_uniform_sky() {
     let r = report(&out);
     assert_eq!(r["plate"]["valid_points"].as_u64(), Some(144));
 }
+
+/// The engine baselines run through `compare` beside point and doi at equal samples per
+/// node: on the city (whose buildings are closed solids, so grid nodes inside them see back
+/// faces) each one finds invalid or moved probes, counts its validity rays, and every one
+/// of them is closer to the truth than naive point sampling. (Whether doi beats them is
+/// what the comparison measures; it is not asserted here.)
+#[test]
+fn engine_baselines_run_through_compare() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    run(&[
+        "compare",
+        "builtin:city",
+        "--samples",
+        "32",
+        "--plate-res",
+        "24",
+        "--reference-samples",
+        "64",
+        "--methods",
+        "point,point+validity,point+vlm,point+ddgi,doi",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    let r = report(&out);
+    println!("{}", summary(&r));
+    let point = metric(&r, "point", "rel_rmse");
+    for b in ["point+validity", "point+vlm", "point+ddgi"] {
+        let m = &r["methods"][b];
+        let touched = m["invalid_nodes"].as_u64().unwrap() + m["moved_nodes"].as_u64().unwrap();
+        assert!(touched > 0, "{b} changed no probe");
+        assert!(total_rays(&r, b) > total_rays(&r, "point"), "{b}: validity rays not counted");
+        assert!(metric(&r, b, "rel_rmse") < point, "{b} is not better than point sampling");
+    }
+    assert_eq!(r["methods"]["point+vlm"]["moved_nodes"], 0, "VLM does not move probes");
+    assert_eq!(r["methods"]["point+ddgi"]["invalid_nodes"], 0, "DDGI relocates instead of invalidating");
+}
