@@ -97,7 +97,8 @@ pub struct CameraInfo {
 pub struct SceneSummary {
     /// The scene argument.
     pub scene: String,
-    /// The file's up axis (`y` or `z`); the internal frame is +Z up.
+    /// The file's frame (`y-up` or `z-up`, as in reports and sidecars); the internal frame is
+    /// +Z up.
     pub up: &'static str,
     /// Triangles after instancing (what is traced), without degenerate ones.
     pub instanced_triangles: usize,
@@ -227,10 +228,7 @@ pub fn summarize(
     let (lo, hi) = scene.bounds();
     SceneSummary {
         scene: label.to_owned(),
-        up: match up {
-            UpAxis::Y => "y",
-            UpAxis::Z => "z",
-        },
+        up: up.name(),
         instanced_triangles: scene.triangles.len(),
         unique_triangles: scene.report.unique_triangles,
         degenerate_skipped: scene.report.degenerate_skipped,
@@ -290,7 +288,11 @@ fn text(s: &SceneSummary) -> String {
         ($($t:tt)*) => { let _ = writeln!(out, $($t)*); };
     }
     let v = |p: [f64; 3]| format!("({:.4}, {:.4}, {:.4})", p[0], p[1], p[2]);
-    println!("scene: {} (+{} up in the file; lightvol works +Z up)", s.scene, s.up.to_uppercase());
+    println!(
+        "scene: {} (+{} up in the file; lightvol works +Z up)",
+        s.scene,
+        s.up.trim_end_matches("-up").to_uppercase()
+    );
     println!(
         "triangles: {} instanced, {} unique, {} degenerate dropped; {} instances, {} objects",
         s.instanced_triangles, s.unique_triangles, s.degenerate_skipped, s.instances, s.objects

@@ -32,7 +32,7 @@ fn every_vendored_scene_is_inspected_and_bakes() {
         assert_eq!(n("instanced_triangles") + n("degenerate_skipped"), instanced, "{file}");
         assert_eq!(n("unique_triangles"), unique, "{file}");
         assert_eq!(j["cameras"].as_array().unwrap().len(), cameras, "{file}");
-        assert_eq!(j["up"], "y");
+        assert_eq!(j["up"], "y-up");
         // The file frame is +Y up: its y extent is the internal z extent.
         let (fmin, fmax) = (&j["bounds_file"]["min"], &j["bounds_file"]["max"]);
         let (imin, imax) = (&j["bounds_internal"]["min"], &j["bounds_internal"]["max"]);
