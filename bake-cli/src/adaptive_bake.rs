@@ -327,7 +327,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         seed: args.sampling.seed,
         ..BakeSettings::default()
     };
-    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let ts = args.sampling.transport();
     let hash = scene_hash(
         &loaded,
         &format!(
@@ -337,8 +337,8 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             args.method,
             settings.samples,
             coeffs,
-            args.sampling.bounces,
-            lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, args.sampling.bounces),
+            args.sampling.transport().label(),
+            lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, &args.sampling.transport()),
             env!("CARGO_PKG_VERSION")
         ),
     );

@@ -333,7 +333,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
         );
     }
-    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let ts = args.sampling.transport();
     let (mut out, grads, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
@@ -380,8 +380,8 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                 method_label,
                 settings.samples,
                 settings.coeffs,
-                args.sampling.bounces,
-                lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, args.sampling.bounces),
+                args.sampling.transport().label(),
+                lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, &args.sampling.transport()),
                 env!("CARGO_PKG_VERSION")
             ),
         ),

@@ -41,8 +41,12 @@ use lightvol_sampler::surface::shard_io::{TexelShardHeader, read_texels, write_t
 
 /// What shards of one surface bake share: the scene's geometry and lighting, every setting
 /// and the lightvol version.
-fn shard_fingerprint(loaded: &crate::setup::LoadedScene, settings: &SurfaceSettings, bounces: u32) -> String {
-    let lighting = lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, bounces);
+fn shard_fingerprint(
+    loaded: &crate::setup::LoadedScene,
+    settings: &SurfaceSettings,
+    ts: &TransportSettings,
+) -> String {
+    let lighting = lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, ts);
     let extra = format!("{settings:?} {lighting} lightvol={}", env!("CARGO_PKG_VERSION"));
     crate::cmd_bake::scene_hash(loaded, &extra)
 }
@@ -172,9 +176,13 @@ pub struct BakeSurfaceArgs {
     /// In-domain path samples per texel.
     #[arg(long, default_value_t = 256)]
     pub samples: u32,
-    /// Diffuse bounces before Russian roulette.
-    #[arg(long, default_value_t = 2)]
-    pub bounces: u32,
+    /// At most N diffuse bounces (0: the first surface's direct light only). Without it,
+    /// paths are unbiased: 2 bounces, then Russian roulette.
+    #[arg(long, value_name = "N")]
+    pub bounces: Option<u32>,
+    /// With --bounces N: continue after the N bounces under Russian roulette (unbiased).
+    #[arg(long, requires = "bounces")]
+    pub russian_roulette: bool,
     /// Seed of every random stream (results are bit-identical for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -467,7 +475,7 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     };
     let loaded = args.scene.load()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };
-    let ts = TransportSettings { bounces: args.bounces, ..TransportSettings::default() };
+    let ts = crate::setup::transport_settings(args.bounces, args.russian_roulette);
 
     // Bake every basis (nothing is written until all succeeded).
     let mut bakes = Vec::with_capacity(bases.len());
@@ -495,7 +503,7 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
             };
             let control = BakeControl { progress: Some(&report), cancel: None };
             let t0 = Instant::now();
-            let fingerprint = shard_fingerprint(&loaded, &settings, args.bounces);
+            let fingerprint = shard_fingerprint(&loaded, &settings, &ts);
             if let Some(shard) = shard {
                 let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
                 let part = bake_surface_texels(&transport, &geo, &settings, &control, shard)

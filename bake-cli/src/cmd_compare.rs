@@ -10,9 +10,7 @@ use clap::Args;
 use lightvol_sampler::domain::classify_point;
 use lightvol_sampler::envmap::luminance;
 use lightvol_sampler::fit::Fit;
-use lightvol_sampler::{
-    BakeSettings, DVec3, Method, Tracer, Transport, TransportSettings, reference_irradiance_many,
-};
+use lightvol_sampler::{BakeSettings, DVec3, Method, Tracer, Transport, reference_irradiance_many};
 use lightvol_sh::lowdisc::hash2;
 use lightvol_volume::{GridSpec, IrradianceVolume};
 use rayon::prelude::*;
@@ -217,11 +215,7 @@ pub fn plate(
             (valid, nearest < half_cell)
         })
         .collect();
-    let transport = Transport::new(
-        &loaded.scene,
-        tracer,
-        TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() },
-    );
+    let transport = Transport::new(&loaded.scene, tracer, args.sampling.transport());
     let t0 = Instant::now();
     let pb = progress_bar(args.quiet, 1, "reference");
     let pts: Vec<(DVec3, DVec3)> = points.iter().map(|&p| (p, DVec3::Z)).collect();
@@ -380,7 +374,7 @@ pub fn run_method(
         seed: args.sampling.seed,
         ..BakeSettings::default()
     };
-    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let ts = args.sampling.transport();
     let (vol, stats) = run_bake_fitted(loaded, tracer, grid, &settings, ts, args.quiet, name, fit)?;
     let estimate = evaluate(&vol, plate);
     let metrics = plate_metrics(plate, &estimate);

@@ -81,7 +81,9 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
         grid: GridArgs { bounds: None, res: None, spacing: None, order: 3, max_memory_mib: None },
         sampling: SampleArgs {
             samples: level.samples,
-            bounces: 2,
+            // Unbiased paths (2 bounces, then Russian roulette).
+            bounces: None,
+            russian_roulette: false,
             seed: 1,
             threads: args.threads,
             fit: lightvol_sampler::fit::Fit::Average,

@@ -265,14 +265,18 @@ fn file_name(p: &Path) -> String {
     p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned())
 }
 
-/// The bounce count recorded in a lighting fingerprint (`bounces=B`, its last part).
-fn fingerprint_bounces(lighting: &str) -> Option<u32> {
-    lighting.split("; ").find_map(|p| p.strip_prefix("bounces=")).and_then(|b| b.trim().parse().ok())
+/// The path settings recorded in a lighting fingerprint (`bounces=LABEL`, its last part).
+fn fingerprint_bounces(lighting: &str) -> Option<TransportSettings> {
+    lighting.split("; ").find_map(|p| p.strip_prefix("bounces=")).and_then(TransportSettings::from_label)
 }
 
 /// Checks that every map in `sets` was baked under one lighting, and that it is the lighting
 /// of `scene` with the maps' bounce count; returns that bounce count (for the reference).
-fn check_lighting(sets: &[BasisMaps], dir: &Path, scene: &lightvol_sampler::Scene) -> anyhow::Result<u32> {
+fn check_lighting(
+    sets: &[BasisMaps],
+    dir: &Path,
+    scene: &lightvol_sampler::Scene,
+) -> anyhow::Result<TransportSettings> {
     let first = &sets[0];
     let lighting = &first.maps[0].lighting;
     for s in sets {
@@ -289,7 +293,7 @@ fn check_lighting(sets: &[BasisMaps], dir: &Path, scene: &lightvol_sampler::Scen
     let bounces = fingerprint_bounces(lighting).with_context(|| {
         format!("{}: the maps' lighting record has no bounce count ('{lighting}')", first.path.display())
     })?;
-    let own = lighting_fingerprint(scene, bounces);
+    let own = lighting_fingerprint(scene, &bounces);
     if &own != lighting {
         bail!(
             "--surface: the maps in {} were baked under other lighting than this render's scene and lights ({}); pass the bake's --sky/--sun/--ground or re-bake",
@@ -383,11 +387,7 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
     // Per pixel: reference colour, then one colour per image; lightmapped flag.
     let rows = with_threads(args.threads, || -> Vec<(bool, [f32; 3], Vec<[f32; 3]>)> {
         let tracer = Tracer::new(&loaded.scene);
-        let transport = Transport::new(
-            &loaded.scene,
-            &tracer,
-            TransportSettings { bounces, ..TransportSettings::default() },
-        );
+        let transport = Transport::new(&loaded.scene, &tracer, bounces);
         let scene = &loaded.scene;
         (0..w * h)
             .into_par_iter()

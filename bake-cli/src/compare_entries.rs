@@ -24,7 +24,7 @@ use anyhow::bail;
 use lightvol_sampler::adaptive::{AdaptiveSettings, AdaptiveStats};
 use lightvol_sampler::baselines::{Baseline, bake_baseline, validity_weighted_irradiance};
 use lightvol_sampler::fit::Fit;
-use lightvol_sampler::{BakeSettings, BakeStats, Method, Tracer, TransportSettings};
+use lightvol_sampler::{BakeSettings, BakeStats, Method, Tracer};
 use lightvol_volume::gradient::{GradientLookup, floats_per_sample, irradiance as gradient_irradiance};
 use lightvol_volume::{AdaptiveVolume, GridSpec, IrradianceVolume, VolumeGradients};
 use rayon::prelude::*;
@@ -130,7 +130,7 @@ pub fn gradient_volume(
         seed: args.sampling.seed,
         ..BakeSettings::default()
     };
-    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let ts = args.sampling.transport();
     let estimator = estimator.unwrap_or_else(|| GradientEstimator::default_for(base));
     let g = bake_with(&loaded.scene, tracer, grid, &settings, ts, estimator, args.quiet, label)?;
     let (volume, _) = g.output.accumulator.finalize();
@@ -215,7 +215,7 @@ pub fn adaptive_volume(
         ..BakeSettings::default()
     };
     let adaptive = AdaptiveSettings { max_level, memory_budget: Some(budget), ..AdaptiveSettings::default() };
-    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let ts = args.sampling.transport();
     let (vol, stats) = run_adaptive_bake(loaded, tracer, &base, &settings, &adaptive, ts, args.quiet, label)?;
     Ok((vol, stats, budget))
 }
@@ -287,7 +287,7 @@ pub fn baseline_run(
         seed: args.sampling.seed,
         ..BakeSettings::default()
     };
-    let ts = TransportSettings { bounces: args.sampling.bounces, ..TransportSettings::default() };
+    let ts = args.sampling.transport();
     let transport = lightvol_sampler::Transport::new(&loaded.scene, tracer, ts);
     let t0 = std::time::Instant::now();
     let b = bake_baseline(&transport, grid, &settings, baseline)?;

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
 use clap::Args;
+use lightvol_sampler::TransportSettings;
 use lightvol_sampler::builtin::{BUILTIN_NAMES, builtin};
 use lightvol_sampler::envmap::EnvMap;
 use lightvol_sampler::estimate::SceneMemory;
@@ -72,9 +73,14 @@ pub struct SampleArgs {
     /// Samples per cell (prefilter, doi) or directions per node (point).
     #[arg(long, default_value_t = 256)]
     pub samples: u32,
-    /// Diffuse bounces before Russian roulette.
-    #[arg(long, default_value_t = 2)]
-    pub bounces: u32,
+    /// At most N diffuse bounces (0: the first surface's direct light only). Without it,
+    /// paths are unbiased: 2 bounces, then Russian roulette.
+    #[arg(long, value_name = "N")]
+    pub bounces: Option<u32>,
+    /// With --bounces N: continue after the N bounces under Russian roulette (unbiased)
+    /// instead of stopping.
+    #[arg(long, requires = "bounces")]
+    pub russian_roulette: bool,
     /// Seed of every random stream (results are bit-identical for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -391,6 +397,24 @@ pub fn res_to_world(up: UpAxis, file: [u64; 3]) -> [u64; 3] {
 #[must_use]
 pub fn res_to_file(up: UpAxis, internal: [u32; 3]) -> [u32; 3] {
     up.file_axes().map(|(axis, _)| internal[axis])
+}
+
+/// The path settings of `--bounces N [--russian-roulette]` (module docs of
+/// lightvol-sampler's `transport`): unbiased by default, else at most N bounces.
+#[must_use]
+pub fn transport_settings(bounces: Option<u32>, russian_roulette: bool) -> TransportSettings {
+    match bounces {
+        None => TransportSettings::default(),
+        Some(n) => TransportSettings { bounces: n, russian_roulette, ..TransportSettings::default() },
+    }
+}
+
+impl SampleArgs {
+    /// The path settings ([`transport_settings`]).
+    #[must_use]
+    pub fn transport(&self) -> TransportSettings {
+        transport_settings(self.bounces, self.russian_roulette)
+    }
 }
 
 /// Parses a method name.

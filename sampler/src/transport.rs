@@ -1,8 +1,10 @@
 //! Light transport: `incidentRadiance` of Kontkanen & Laine 2006 Algorithm 2, by path
 //! tracing with the diffuse BRDF, next-event estimation and multiple importance sampling.
 //!
-//! A path bounces `bounces` times (default 2) unconditionally, then continues under
-//! Russian roulette, so the estimate is unbiased for any albedo < 1. Back-face hits on
+//! A path bounces `bounces` times (default 2) unconditionally, then either continues under
+//! Russian roulette, so the estimate is unbiased for any albedo < 1 (the default), or stops
+//! after the last surface's direct light ([`TransportSettings::truncated`]: at most N
+//! bounces, 0 meaning direct light only). Back-face hits on
 //! single-sided materials end a path with zero radiance (the inside of a solid is dark;
 //! that is exactly what point sampling picks up inside buildings).
 //!
@@ -27,8 +29,8 @@ pub const SHADOW_MARGIN: f64 = 1e-4;
 /// Path-tracing settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TransportSettings {
-    /// Diffuse bounces traced before Russian roulette starts (0 = direct light only on the
-    /// first surface, then roulette).
+    /// Diffuse bounces traced unconditionally (0: the first surface's direct light only);
+    /// then Russian roulette or the end of the path, per `russian_roulette`.
     pub bounces: u32,
     /// Continue with Russian roulette after `bounces` (unbiased); `false` truncates.
     pub russian_roulette: bool,
@@ -39,6 +41,32 @@ pub struct TransportSettings {
 impl Default for TransportSettings {
     fn default() -> Self {
         Self { bounces: 2, russian_roulette: true, max_depth: 64 }
+    }
+}
+
+impl TransportSettings {
+    /// At most `bounces` diffuse bounces (0: the first surface's direct light only), no
+    /// roulette: what a user asking for `N` bounces means.
+    #[must_use]
+    pub fn truncated(bounces: u32) -> Self {
+        Self { bounces, russian_roulette: false, ..Self::default() }
+    }
+
+    /// The path length in words for records: `N` (truncated after N bounces) or `N+roulette`
+    /// (N bounces, then unbiased Russian roulette).
+    #[must_use]
+    pub fn label(&self) -> String {
+        if self.russian_roulette { format!("{}+roulette", self.bounces) } else { self.bounces.to_string() }
+    }
+
+    /// Parses [`Self::label`] (`max_depth` is the default's).
+    #[must_use]
+    pub fn from_label(s: &str) -> Option<Self> {
+        let (n, rr) = match s.strip_suffix("+roulette") {
+            Some(n) => (n, true),
+            None => (s, false),
+        };
+        Some(Self { bounces: n.trim().parse().ok()?, russian_roulette: rr, ..Self::default() })
     }
 }
 

@@ -320,7 +320,7 @@ pub fn assemble_surface(
         )));
     }
     let k = settings.basis.basis().len();
-    let lighting = lighting_fingerprint(transport.scene(), transport.settings().bounces);
+    let lighting = lighting_fingerprint(transport.scene(), transport.settings());
     let mut report = SurfaceReport { objects: prep.atlases.len(), ..SurfaceReport::default() };
     let mut maps = Vec::new();
     let mut first = 0usize;

@@ -16,7 +16,8 @@
 //! - `emissive materials=M triangles=T emission_area=[r, g, b]`: the emissive materials used
 //!   by some triangle, the emissive triangles, and `Σ area · emission · sides` over them
 //!   (emitted flux / π, W/π in scene units; sides = 2 for double-sided materials);
-//! - `bounces=B`: the transport's bounce count before Russian roulette.
+//! - `bounces=B`: the path length, `TransportSettings::label` (`N`, truncated after N
+//!   bounces, or `N+roulette`).
 //!
 //! Numbers are Rust's shortest round-trip `f64` text (`-0` written as `0`), so two scenes
 //! share a fingerprint exactly when these values are bit-identical.
@@ -100,11 +101,11 @@ fn punctual(l: &PunctualLight) -> String {
     }
 }
 
-/// The lighting fingerprint of `scene` baked with `bounces` diffuse bounces (format in the
+/// The lighting fingerprint of `scene` baked with the path settings `transport` (format in the
 /// module docs). Stored in every [`CoefficientMap`](super::CoefficientMap) as `lighting` and
 /// in the EXR part attribute `lightvol.lighting`.
 #[must_use]
-pub fn lighting_fingerprint(scene: &Scene, bounces: u32) -> String {
+pub fn lighting_fingerprint(scene: &Scene, transport: &crate::transport::TransportSettings) -> String {
     let mut parts = vec!["lighting=1".to_owned()];
     parts.push(match &scene.environment {
         Environment::Black => "environment=black".to_owned(),
@@ -155,7 +156,7 @@ pub fn lighting_fingerprint(scene: &Scene, bounces: u32) -> String {
     }
     let materials = used.iter().filter(|&&u| u).count();
     parts.push(format!("emissive materials={materials} triangles={triangles} emission_area={}", vec3(total)));
-    parts.push(format!("bounces={bounces}"));
+    parts.push(format!("bounces={}", transport.label()));
     parts.join("; ")
 }
 
@@ -210,6 +211,10 @@ mod tests {
         b
     }
 
+    fn rr(bounces: u32) -> crate::transport::TransportSettings {
+        crate::transport::TransportSettings { bounces, ..crate::transport::TransportSettings::default() }
+    }
+
     /// The text of a known scene, written out by hand; each lighting input changes it, the
     /// geometry's albedo alone does not.
     #[test]
@@ -218,36 +223,42 @@ mod tests {
         b.environment = Environment::UniformSky { sky: [1.0, 0.5, 0.25], ground: None };
         b.sun = Some(Sun { direction: DVec3::Z, irradiance: [3.0; 3], angular_radius: 0.0 });
         let s = b.build().unwrap();
-        let f = lighting_fingerprint(&s, 2);
+        let f = lighting_fingerprint(&s, &rr(2));
         assert_eq!(
             f,
             "lighting=1; environment=uniform_sky sky=[1.0, 0.5, 0.25] ground=none; \
              sun direction=[0.0, 0.0, 1.0] irradiance=[3.0, 3.0, 3.0] angular_radius=0.0; punctual=0; \
-             emissive materials=1 triangles=1 emission_area=[8.0, 4.0, 2.0]; bounces=2"
+             emissive materials=1 triangles=1 emission_area=[8.0, 4.0, 2.0]; bounces=2+roulette"
         );
-        assert_eq!(lighting_fingerprint(&s, 2), f, "deterministic");
-        assert_ne!(lighting_fingerprint(&s, 3), f);
+        assert_eq!(lighting_fingerprint(&s, &rr(2)), f, "deterministic");
+        assert_ne!(lighting_fingerprint(&s, &rr(3)), f);
+        // Truncated paths are another lighting; the label reads back.
+        let cut = crate::transport::TransportSettings::truncated(2);
+        assert!(lighting_fingerprint(&s, &cut).ends_with("bounces=2"));
+        for t in [cut, rr(2), crate::transport::TransportSettings::truncated(0)] {
+            assert_eq!(crate::transport::TransportSettings::from_label(&t.label()), Some(t));
+        }
         let mut s2 = s.clone();
         s2.sun.as_mut().unwrap().angular_radius = 0.01;
-        assert_ne!(lighting_fingerprint(&s2, 2), f);
+        assert_ne!(lighting_fingerprint(&s2, &rr(2)), f);
         let mut s3 = s.clone();
         s3.punctual.push(PunctualLight::Point { position: DVec3::new(1.0, -0.0, 2.0), intensity: [1.0; 3] });
-        let f3 = lighting_fingerprint(&s3, 2);
+        let f3 = lighting_fingerprint(&s3, &rr(2));
         assert!(f3.contains("punctual=1 | point position=[1.0, 0.0, 2.0] intensity=[1.0, 1.0, 1.0]"), "{f3}");
         let mut s4 = s.clone();
         s4.materials[1].emission[0] = 2.5;
-        assert_ne!(lighting_fingerprint(&s4, 2), f);
+        assert_ne!(lighting_fingerprint(&s4, &rr(2)), f);
         let mut s5 = s.clone();
         s5.materials[0].albedo = [0.9; 3];
-        assert_eq!(lighting_fingerprint(&s5, 2), f);
+        assert_eq!(lighting_fingerprint(&s5, &rr(2)), f);
         // Many punctual lights: count and hash, and the hash sees each one.
         let mut s6 = s.clone();
         for i in 0..=MAX_LISTED_PUNCTUAL {
             s6.punctual.push(PunctualLight::Directional { to_light: DVec3::Z, irradiance: [i as f64; 3] });
         }
-        let f6 = lighting_fingerprint(&s6, 2);
+        let f6 = lighting_fingerprint(&s6, &rr(2));
         assert!(f6.contains(&format!("punctual={} fnv1a64=", MAX_LISTED_PUNCTUAL + 1)), "{f6}");
         s6.punctual[3] = PunctualLight::Directional { to_light: DVec3::Z, irradiance: [0.5; 3] };
-        assert_ne!(lighting_fingerprint(&s6, 2), f6);
+        assert_ne!(lighting_fingerprint(&s6, &rr(2)), f6);
     }
 }

@@ -367,8 +367,14 @@ fn intersecting_boxes_do_not_leak_dark_with_domain_of_interest() {
         );
         for m in &bake.maps {
             assert!(m.invalid.invalid_texels > 0, "{}: {:?}", m.object, m.invalid);
-            assert_eq!(m.lighting, lighting_fingerprint(&scene, 1));
-            assert!(m.lighting.ends_with("; bounces=1"), "{}", m.lighting);
+            assert_eq!(
+                m.lighting,
+                lighting_fingerprint(
+                    &scene,
+                    &TransportSettings { bounces: 1, ..TransportSettings::default() }
+                )
+            );
+            assert!(m.lighting.ends_with("; bounces=1+roulette"), "{}", m.lighting);
         }
     }
     for m in &fixed.maps {
@@ -888,7 +894,7 @@ fn bake_writes_and_reads_exr() {
     write_surface_exr(&p, &bake.maps).unwrap();
     assert_eq!(read_surface_exr(&p).unwrap(), bake.maps);
     // The lighting fingerprint of the scene and the transport's bounces travel with the maps.
-    assert_eq!(bake.maps[0].lighting, lighting_fingerprint(&scene, TransportSettings::default().bounces));
+    assert_eq!(bake.maps[0].lighting, lighting_fingerprint(&scene, &TransportSettings::default()));
     assert!(bake.maps[0].lighting.contains("environment=uniform_sky sky=[1.0, 1.0, 1.0] ground=none"));
     assert_eq!(bake.maps[0].invalid, InvalidCounts::default());
     let _: &dyn HemiBasis = bake.maps[0].basis().unwrap().as_ref();
