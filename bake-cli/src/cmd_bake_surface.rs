@@ -183,6 +183,10 @@ pub struct BakeSurfaceArgs {
     /// With --bounces N: continue after the N bounces under Russian roulette (unbiased).
     #[arg(long, requires = "bounces")]
     pub russian_roulette: bool,
+    /// Which light counts when it reaches a texel directly: `all`, `sky+indirect` or
+    /// `indirect` (as `bake --light`).
+    #[arg(long, default_value = "all", value_parser = ["all", "sky+indirect", "indirect"])]
+    pub light: String,
     /// Seed of every random stream (results are bit-identical for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -475,7 +479,7 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     };
     let loaded = args.scene.load()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };
-    let ts = crate::setup::transport_settings(args.bounces, args.russian_roulette);
+    let ts = crate::setup::transport_settings(args.bounces, args.russian_roulette, &args.light);
 
     // Bake every basis (nothing is written until all succeeded).
     let mut bakes = Vec::with_capacity(bases.len());

@@ -84,6 +84,7 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
             // Unbiased paths (2 bounces, then Russian roulette).
             bounces: None,
             russian_roulette: false,
+            light: "all".into(),
             seed: 1,
             threads: args.threads,
             fit: lightvol_sampler::fit::Fit::Average,

@@ -81,6 +81,11 @@ pub struct SampleArgs {
     /// instead of stopping.
     #[arg(long, requires = "bounces")]
     pub russian_roulette: bool,
+    /// Which light counts when it reaches a probe directly: `all`, `sky+indirect` (not the
+    /// sun nor punctual lights, which engines often add at run time) or `indirect` (only
+    /// light that bounced). Applies to the bake and to the reference alike.
+    #[arg(long, default_value = "all", value_parser = ["all", "sky+indirect", "indirect"])]
+    pub light: String,
     /// Seed of every random stream (results are bit-identical for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -402,10 +407,11 @@ pub fn res_to_file(up: UpAxis, internal: [u32; 3]) -> [u32; 3] {
 /// The path settings of `--bounces N [--russian-roulette]` (module docs of
 /// lightvol-sampler's `transport`): unbiased by default, else at most N bounces.
 #[must_use]
-pub fn transport_settings(bounces: Option<u32>, russian_roulette: bool) -> TransportSettings {
+pub fn transport_settings(bounces: Option<u32>, russian_roulette: bool, light: &str) -> TransportSettings {
+    let direct = lightvol_sampler::transport::DirectLight::parse(light).unwrap_or_default();
     match bounces {
-        None => TransportSettings::default(),
-        Some(n) => TransportSettings { bounces: n, russian_roulette, ..TransportSettings::default() },
+        None => TransportSettings { direct, ..TransportSettings::default() },
+        Some(n) => TransportSettings { bounces: n, russian_roulette, direct, ..TransportSettings::default() },
     }
 }
 
@@ -413,7 +419,7 @@ impl SampleArgs {
     /// The path settings ([`transport_settings`]).
     #[must_use]
     pub fn transport(&self) -> TransportSettings {
-        transport_settings(self.bounces, self.russian_roulette)
+        transport_settings(self.bounces, self.russian_roulette, &self.light)
     }
 }
 

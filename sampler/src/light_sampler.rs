@@ -30,6 +30,21 @@ pub struct LightSample {
     pub delta: bool,
     /// The emissive triangle sampled, if any (shadow rays must stop short of it).
     pub emitter: Option<u32>,
+    /// Which kind of light it is.
+    pub source: LightSource,
+}
+
+/// The kinds of light a sample can come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSource {
+    /// The sun.
+    Sun,
+    /// The environment (sky or map).
+    Environment,
+    /// An emissive surface.
+    Emitter,
+    /// A punctual light (point, spot, directional).
+    Punctual,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -126,6 +141,7 @@ impl LightSampler {
                         pdf: sel,
                         delta: true,
                         emitter: None,
+                        source: LightSource::Sun,
                     });
                 }
                 let local = sample_uniform_cone([u[1], u[2]], sun.cos_max());
@@ -137,6 +153,7 @@ impl LightSampler {
                     pdf: sel / sun.solid_angle(),
                     delta: false,
                     emitter: None,
+                    source: LightSource::Sun,
                 })
             }
             Strategy::EnvMap => {
@@ -149,6 +166,7 @@ impl LightSampler {
                     pdf: sel * pdf,
                     delta: false,
                     emitter: None,
+                    source: LightSource::Environment,
                 })
             }
             Strategy::Emitters => {
@@ -175,11 +193,27 @@ impl LightSampler {
                     return None;
                 }
                 let pdf = sel * self.emitter_pdf_area[tri as usize] * dist2 / cos_l.abs();
-                Some(LightSample { dir, dist, radiance: m.emission, pdf, delta: false, emitter: Some(tri) })
+                Some(LightSample {
+                    dir,
+                    dist,
+                    radiance: m.emission,
+                    pdf,
+                    delta: false,
+                    emitter: Some(tri),
+                    source: LightSource::Emitter,
+                })
             }
             Strategy::Punctual(i) => {
                 let (dir, dist, e) = scene.punctual[i].incident(x)?;
-                Some(LightSample { dir, dist, radiance: e, pdf: sel, delta: true, emitter: None })
+                Some(LightSample {
+                    dir,
+                    dist,
+                    radiance: e,
+                    pdf: sel,
+                    delta: true,
+                    emitter: None,
+                    source: LightSource::Punctual,
+                })
             }
         }
     }

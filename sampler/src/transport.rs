@@ -18,7 +18,7 @@ use lightvol_sh::lowdisc::{SplitMix64, hash2};
 use lightvol_sh::sampling::{Frame, sample_cosine_hemisphere};
 
 use crate::bvh::{Hit, Tracer};
-use crate::light_sampler::{LightSampler, power_heuristic};
+use crate::light_sampler::{LightSampler, LightSource, power_heuristic};
 use crate::scene::Scene;
 use crate::stats::RayCounts;
 
@@ -36,11 +36,56 @@ pub struct TransportSettings {
     pub russian_roulette: bool,
     /// Hard cap on path length (guards against albedo ≥ 1 scenes).
     pub max_depth: u32,
+    /// Which light may reach the receiver directly ([`DirectLight`]).
+    pub direct: DirectLight,
+}
+
+/// Which light counts when it reaches the receiver (a probe or texel) directly, without a
+/// bounce. Light that bounced at least once always counts. Engines often bake sky and bounce
+/// light into probes and add the sun from shadow maps at run time.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DirectLight {
+    /// Everything (`all`).
+    #[default]
+    All,
+    /// The sky (environment) and emissive surfaces, not the sun nor punctual lights
+    /// (`sky+indirect`).
+    SkyAndIndirect,
+    /// Nothing direct: only light that bounced (`indirect`).
+    Indirect,
+}
+
+impl DirectLight {
+    /// Whether light of `source` counts when it arrives directly.
+    #[must_use]
+    pub fn allows(self, source: LightSource) -> bool {
+        match self {
+            Self::All => true,
+            Self::SkyAndIndirect => matches!(source, LightSource::Environment | LightSource::Emitter),
+            Self::Indirect => false,
+        }
+    }
+
+    /// The command-line name.
+    #[must_use]
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::All => "all",
+            Self::SkyAndIndirect => "sky+indirect",
+            Self::Indirect => "indirect",
+        }
+    }
+
+    /// Parses [`Self::name`].
+    #[must_use]
+    pub fn parse(s: &str) -> Option<Self> {
+        [Self::All, Self::SkyAndIndirect, Self::Indirect].into_iter().find(|d| d.name() == s)
+    }
 }
 
 impl Default for TransportSettings {
     fn default() -> Self {
-        Self { bounces: 2, russian_roulette: true, max_depth: 64 }
+        Self { bounces: 2, russian_roulette: true, max_depth: 64, direct: DirectLight::All }
     }
 }
 
@@ -56,17 +101,30 @@ impl TransportSettings {
     /// (N bounces, then unbiased Russian roulette).
     #[must_use]
     pub fn label(&self) -> String {
-        if self.russian_roulette { format!("{}+roulette", self.bounces) } else { self.bounces.to_string() }
+        let mut s = if self.russian_roulette {
+            format!("{}+roulette", self.bounces)
+        } else {
+            self.bounces.to_string()
+        };
+        if self.direct != DirectLight::All {
+            s.push_str(" light=");
+            s.push_str(self.direct.name());
+        }
+        s
     }
 
     /// Parses [`Self::label`] (`max_depth` is the default's).
     #[must_use]
     pub fn from_label(s: &str) -> Option<Self> {
+        let (s, direct) = match s.split_once(" light=") {
+            Some((a, d)) => (a, DirectLight::parse(d.trim())?),
+            None => (s, DirectLight::All),
+        };
         let (n, rr) = match s.strip_suffix("+roulette") {
             Some(n) => (n, true),
             None => (s, false),
         };
-        Some(Self { bounces: n.trim().parse().ok()?, russian_roulette: rr, ..Self::default() })
+        Some(Self { bounces: n.trim().parse().ok()?, russian_roulette: rr, direct, ..Self::default() })
     }
 }
 
@@ -187,8 +245,10 @@ impl<'a> Transport<'a> {
         let mut beta = [1.0; 3];
         let (mut d, mut hit, mut prev_pdf) = (dir, hit, dir_pdf);
         for depth in 0..=self.settings.max_depth {
+            // The first segment arrives at the receiver directly.
+            let direct = if depth == 0 { self.settings.direct } else { DirectLight::All };
             let Some(h) = hit else {
-                self.add_escaped(&mut l, beta, d, prev_pdf);
+                self.add_escaped(&mut l, beta, d, prev_pdf, direct);
                 break;
             };
             if h.back_face {
@@ -200,7 +260,7 @@ impl<'a> Transport<'a> {
             // Shading normal: the geometric normal on the side the ray came from.
             let n = if h.from_behind { -h.normal } else { h.normal };
             let x = t.point(h.bary[0], h.bary[1]);
-            if m.is_emissive() {
+            if m.is_emissive() && direct.allows(LightSource::Emitter) {
                 let w = match prev_pdf {
                     Some(p) => power_heuristic(p, self.lights.pdf_emitter(scene, tri, d, h.t)),
                     None => 1.0,
@@ -249,12 +309,23 @@ impl<'a> Transport<'a> {
     }
 
     /// Environment and sun radiance for an escaped ray, MIS-weighted against light sampling.
-    fn add_escaped(&self, l: &mut [f64; 3], beta: [f64; 3], d: DVec3, prev_pdf: Option<f64>) {
+    fn add_escaped(
+        &self,
+        l: &mut [f64; 3],
+        beta: [f64; 3],
+        d: DVec3,
+        prev_pdf: Option<f64>,
+        direct: DirectLight,
+    ) {
         let scene = self.scene;
-        let env = scene.environment.radiance(d);
-        let w_env = prev_pdf.map_or(1.0, |p| power_heuristic(p, self.lights.pdf_env(scene, d)));
-        add_scaled(l, mul(beta, env), w_env);
-        if let Some(sun) = scene.sun {
+        if direct.allows(LightSource::Environment) {
+            let env = scene.environment.radiance(d);
+            let w_env = prev_pdf.map_or(1.0, |p| power_heuristic(p, self.lights.pdf_env(scene, d)));
+            add_scaled(l, mul(beta, env), w_env);
+        }
+        if let Some(sun) = scene.sun
+            && direct.allows(LightSource::Sun)
+        {
             let ls = sun.radiance_along(d);
             if ls.iter().any(|&v| v > 0.0) {
                 let w = prev_pdf.map_or(1.0, |p| power_heuristic(p, self.lights.pdf_sun(scene, d)));
@@ -316,7 +387,8 @@ impl<'a> Transport<'a> {
         rays: &mut RayCounts,
     ) -> Option<(DVec3, [f64; 3])> {
         let s = self.lights.sample(self.scene, x, u)?;
-        if !self.visible(x, &s, rays) {
+        // The receiver's own light sample is direct light.
+        if !self.settings.direct.allows(s.source) || !self.visible(x, &s, rays) {
             return None;
         }
         let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, dir_pdf) };
@@ -347,7 +419,9 @@ impl<'a> Transport<'a> {
             // L cos / pdf = π L.
             add_scaled(&mut e, l, PI);
         }
-        if let Some(s) = self.lights.sample(self.scene, x, u_light) {
+        if let Some(s) = self.lights.sample(self.scene, x, u_light)
+            && self.settings.direct.allows(s.source)
+        {
             let cos = n.dot(s.dir);
             if cos > 0.0 && self.visible(x, &s, rays) {
                 let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, cos / PI) };

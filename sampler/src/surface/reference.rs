@@ -62,7 +62,9 @@ pub fn reference_surface_irradiance(
                 sum[c] += PI * l[c];
             }
         }
-        if let Some(s) = lights.sample(scene, o, [p[2], p[3], p[4]]) {
+        if let Some(s) = lights.sample(scene, o, [p[2], p[3], p[4]])
+            && t.settings().direct.allows(s.source)
+        {
             let cos = n.dot(s.dir);
             if cos > 0.0 && frame.n.dot(s.dir) > 0.0 {
                 rays.shadow += 1;
