@@ -8,12 +8,12 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use lightvol_sampler::{DVec3, Tracer, Transport, TransportSettings, reference_irradiance};
+use lightvol_sampler::{DVec3, Tracer, Transport, reference_irradiance};
 use lightvol_sh::lowdisc::hash2;
 use lightvol_volume::exr_io::read_exr;
 use rayon::prelude::*;
 
-use crate::imaging::{Rgb32, write_png_linear};
+use crate::imaging::Rgb32;
 use crate::setup::{SceneArgs, with_threads};
 
 /// `lightvol render`.
@@ -53,9 +53,26 @@ pub struct RenderArgs {
     /// Worker threads.
     #[arg(long)]
     pub threads: Option<usize>,
-    /// Output PNG (with --surface: output directory, default `surface_render`).
+    /// Output image: `.png` (sRGB, scaled by --exposure) or `.exr` (linear HDR, unscaled, for
+    /// numeric comparison in other tools) (with --surface: output directory, default
+    /// `surface_render`).
     #[arg(short, long, default_value = "render.png")]
     pub output: PathBuf,
+    /// What a pixel holds: `shaded` (emission + albedo · E / π, what a camera sees),
+    /// `radiosity` (albedo · E / π, the reflected light alone) or `irradiance` (E at the
+    /// surface point and normal).
+    #[arg(long, default_value = "shaded", value_parser = ["shaded", "radiosity", "irradiance"])]
+    pub quantity: String,
+    /// With --reference: at most N diffuse bounces (as `bake --bounces`; default unbiased).
+    #[arg(long, value_name = "N")]
+    pub bounces: Option<u32>,
+    /// With --reference and --bounces: continue under Russian roulette (as `bake`).
+    #[arg(long, requires = "bounces")]
+    pub russian_roulette: bool,
+    /// With --reference: which light counts when it reaches a surface directly (as `bake
+    /// --light`).
+    #[arg(long, default_value = "all", value_parser = ["all", "sky+indirect", "indirect"])]
+    pub light: String,
     /// Shade lightmapped surfaces from the coefficient maps that `bake-surface` wrote to this
     /// directory, one image per basis next to a path-traced reference, with `report.json`
     /// (Ishmukhametov 2011 Fig. 3.5).
@@ -213,6 +230,11 @@ impl AnyVolume {
 /// Runs `lightvol render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.surface {
+        if args.quantity != "shaded" || args.bounces.is_some() || args.light != "all" {
+            anyhow::bail!(
+                "--quantity, --bounces and --light do not apply to --surface (its maps record their own lighting)"
+            );
+        }
         return crate::cmd_render_surface::run(args, dir, args.normal_map.as_deref().unwrap_or("procedural"));
     }
     args.size(None)?;
@@ -247,7 +269,11 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let shade_vol = if args.reference { None } else { vol.as_ref() };
     let img = with_threads(args.threads, || -> Rgb32 {
         let tracer = Tracer::new(&loaded.scene);
-        let transport = Transport::new(&loaded.scene, &tracer, TransportSettings::default());
+        let transport = Transport::new(
+            &loaded.scene,
+            &tracer,
+            crate::setup::transport_settings(args.bounces, args.russian_roulette, &args.light),
+        );
         let scene = &loaded.scene;
         let pixels: Vec<[f32; 3]> = (0..w * h)
             .into_par_iter()
@@ -255,7 +281,12 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                 let (x, y) = (i % w, i / w);
                 let d = cam.ray(x, y, w, h);
                 let Some(hit) = tracer.closest_hit(cam.eye, d, 0.0, f64::INFINITY) else {
-                    return scene.environment.radiance(d).map(|v| v as f32);
+                    // The sky behind the scene is seen, not a surface: only `shaded` shows it.
+                    return if args.quantity == "shaded" {
+                        scene.environment.radiance(d).map(|v| v as f32)
+                    } else {
+                        [0.0; 3]
+                    };
                 };
                 let p = cam.eye + d * hit.t;
                 // Shade the side the camera sees.
@@ -278,7 +309,14 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
                         .0
                     }
                 };
-                core::array::from_fn(|c| (emission[c] + albedo[c] * e[c] / std::f64::consts::PI) as f32)
+                core::array::from_fn(|c| {
+                    let reflected = albedo[c] * e[c] / std::f64::consts::PI;
+                    (match args.quantity.as_str() {
+                        "irradiance" => e[c],
+                        "radiosity" => reflected,
+                        _ => emission[c] + reflected,
+                    }) as f32
+                })
             })
             .collect();
         Rgb32 { width: w as usize, height: h as usize, pixels }
@@ -288,7 +326,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             / img.pixels.len() as f64;
         if mean > 0.0 { (0.35 / mean) as f32 } else { 1.0 }
     });
-    write_png_linear(&args.output, &img, exposure)?;
+    crate::imaging::write_image(&args.output, &img, exposure)?;
     eprintln!("wrote {}", args.output.display());
     Ok(ExitCode::SUCCESS)
 }

@@ -71,6 +71,44 @@ pub fn write_png_linear(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Resu
     write_png_rgb8(path, img.width, img.height, &bytes)
 }
 
+/// Writes `img` as a linear HDR OpenEXR (channels R, G, B, f32, row 0 at the top), with no
+/// exposure applied, byte-reproducible (attributes in a fixed order), atomically.
+pub fn write_exr_linear(path: &Path, img: &Rgb32) -> anyhow::Result<()> {
+    use exr::prelude::*;
+    let (w, h) = (img.width, img.height);
+    let channel = |c: usize| -> Vec<f32> { img.pixels.iter().map(|p| p[c]).collect() };
+    let channels = vec![
+        AnyChannel::new("R", FlatSamples::F32(channel(0))),
+        AnyChannel::new("G", FlatSamples::F32(channel(1))),
+        AnyChannel::new("B", FlatSamples::F32(channel(2))),
+    ];
+    let layer = Layer::new(
+        (w, h),
+        LayerAttributes::default(),
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels.into()),
+    );
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    Image::from_layer(layer)
+        .write()
+        .non_parallel()
+        .to_buffered(&mut bytes)
+        .map_err(|e| anyhow::anyhow!("encoding {}: {e}", path.display()))?;
+    let mut bytes = bytes.into_inner();
+    lightvol_volume::exr_io::canonical_attribute_order(&mut bytes)?;
+    write_atomic(path, &bytes)
+}
+
+/// Writes `img` by the output's extension: `.exr` linear HDR ([`write_exr_linear`]), else
+/// an sRGB PNG scaled by `exposure`.
+pub fn write_image(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()> {
+    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        write_exr_linear(path, img)
+    } else {
+        write_png_linear(path, img, exposure)
+    }
+}
+
 /// Blue (negative) - white (0) - red (positive) colour for a signed value in [-1, 1].
 pub fn diverging(t: f32) -> [f32; 3] {
     let t = t.clamp(-1.0, 1.0);

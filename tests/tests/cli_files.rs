@@ -64,3 +64,66 @@ fn bad_input_gives_one_clear_error_and_no_output() {
     assert!(run(&["frobnicate"]).is_err());
     assert!(run(&["export", "x.exr", "--format", "png", "-o", "y"]).is_err());
 }
+
+/// `render -o view.exr` writes linear HDR values, unscaled: the shaded pixel is emission +
+/// radiosity, the radiosity is albedo · E / π ≤ E for albedo ≤ 1, and background pixels
+/// are the sky only in the shaded image; `--light indirect` darkens the path-traced view.
+#[test]
+fn render_writes_linear_hdr_exr_per_quantity() {
+    let dir = tempfile::tempdir().unwrap();
+    let read = |p: &std::path::Path| -> Vec<[f32; 3]> {
+        let img = exr::prelude::read_all_flat_layers_from_file(p).expect("an EXR");
+        let layer = &img.layer_data[0];
+        let ch = |name: &str| -> Vec<f32> {
+            let c = layer.channel_data.list.iter().find(|c| c.name.to_string() == name).expect(name);
+            c.sample_data.values_as_f32().collect()
+        };
+        let (r, g, b) = (ch("R"), ch("G"), ch("B"));
+        (0..r.len()).map(|i| [r[i], g[i], b[i]]).collect()
+    };
+    let shot = |q: &str, light: &str| {
+        let out = dir.path().join(format!("{q}-{light}.exr"));
+        let args = [
+            "render",
+            "builtin:city",
+            "--reference",
+            "--reference-samples",
+            "8",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--camera",
+            "-14,-14,2:0,0,9:70",
+            "--quantity",
+            q,
+            "--light",
+            light,
+            "-o",
+            out.to_str().unwrap(),
+        ];
+        assert_eq!(run(&args), Ok(ExitCode::SUCCESS), "{args:?}");
+        read(&out)
+    };
+    let (shaded, radiosity, irradiance) =
+        (shot("shaded", "all"), shot("radiosity", "all"), shot("irradiance", "all"));
+    assert_eq!(shaded.len(), 24 * 16);
+    let (mut surface, mut sky) = (0, 0);
+    for i in 0..shaded.len() {
+        for c in 0..3 {
+            assert!(radiosity[i][c] <= irradiance[i][c] + 1e-6, "pixel {i}: ρE/π above E");
+        }
+        if irradiance[i] == [0.0; 3] && radiosity[i] == [0.0; 3] {
+            sky += 1;
+            assert!(shaded[i].iter().any(|&v| v > 0.0), "the sky shows in the shaded view");
+        } else {
+            surface += 1;
+            // The city has no emitters: shaded = radiosity exactly.
+            assert_eq!(shaded[i], radiosity[i], "pixel {i}");
+        }
+    }
+    assert!(surface > 0 && sky > 0, "{surface} surface and {sky} sky pixels");
+    let indirect = shot("irradiance", "indirect");
+    let sum = |v: &[[f32; 3]]| v.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>();
+    assert!(sum(&indirect) < 0.8 * sum(&irradiance), "indirect light only is not darker");
+}

@@ -91,6 +91,22 @@ fn write_everything(out: &Path, gltf: &Path) {
         "-o",
         s(&f("view.png")),
     ]);
+    // A linear HDR render (EXR) of the path-traced view.
+    ok(&[
+        "render",
+        "builtin:city",
+        "--reference",
+        "--reference-samples",
+        "2",
+        "--width",
+        "8",
+        "--height",
+        "6",
+        "--quantity",
+        "irradiance",
+        "-o",
+        s(&f("view.exr")),
+    ]);
     // Surface maps: EXR + JSON, and each texture encoding.
     let light = ["--sky", "0.25,0.35,0.6", "--sun", "1,0.1,-0.2:5"];
     for (dir, encode) in [
@@ -210,6 +226,7 @@ fn assert_same_files(a: &Path, b: &Path) {
         "sample.wgsl",
         "sample.hlsl",
         "sample.glsl",
+        "view.exr",
     ] {
         assert!(fa.contains_key(must), "{must} was not written");
     }
