@@ -176,17 +176,9 @@ pub struct BakeSurfaceArgs {
     /// In-domain path samples per texel.
     #[arg(long, default_value_t = 256)]
     pub samples: u32,
-    /// At most N diffuse bounces (0: the first surface's direct light only). Without it,
-    /// paths are unbiased: 2 bounces, then Russian roulette.
-    #[arg(long, value_name = "N")]
-    pub bounces: Option<u32>,
-    /// With --bounces N: continue after the N bounces under Russian roulette (unbiased).
-    #[arg(long, requires = "bounces")]
-    pub russian_roulette: bool,
-    /// Which light counts when it reaches a texel directly: `all`, `sky+indirect` or
-    /// `indirect` (as `bake --light`).
-    #[arg(long, default_value = "all", value_parser = ["all", "sky+indirect", "indirect"])]
-    pub light: String,
+    /// Path length and direct light.
+    #[command(flatten)]
+    pub path: crate::setup::PathArgs,
     /// Seed of every random stream (results are bit-identical for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -479,7 +471,7 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     };
     let loaded = args.scene.load()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };
-    let ts = crate::setup::transport_settings(args.bounces, args.russian_roulette, &args.light);
+    let ts = args.path.transport();
 
     // Bake every basis (nothing is written until all succeeded).
     let mut bakes = Vec::with_capacity(bases.len());

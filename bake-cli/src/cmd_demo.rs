@@ -81,10 +81,8 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
         grid: GridArgs { bounds: None, res: None, spacing: None, order: 3, max_memory_mib: None },
         sampling: SampleArgs {
             samples: level.samples,
-            // Unbiased paths (2 bounces, then Russian roulette).
-            bounces: None,
-            russian_roulette: false,
-            light: "all".into(),
+            // Unbiased paths (2 bounces, then Russian roulette), all light.
+            path: crate::setup::PathArgs::default(),
             seed: 1,
             threads: args.threads,
             fit: lightvol_sampler::fit::Fit::Average,

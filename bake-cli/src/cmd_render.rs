@@ -63,16 +63,9 @@ pub struct RenderArgs {
     /// surface point and normal).
     #[arg(long, default_value = "shaded", value_parser = ["shaded", "radiosity", "irradiance"])]
     pub quantity: String,
-    /// With --reference: at most N diffuse bounces (as `bake --bounces`; default unbiased).
-    #[arg(long, value_name = "N")]
-    pub bounces: Option<u32>,
-    /// With --reference and --bounces: continue under Russian roulette (as `bake`).
-    #[arg(long, requires = "bounces")]
-    pub russian_roulette: bool,
-    /// With --reference: which light counts when it reaches a surface directly (as `bake
-    /// --light`).
-    #[arg(long, default_value = "all", value_parser = ["all", "sky+indirect", "indirect"])]
-    pub light: String,
+    /// Path length and direct light of the path-traced view (--reference), as for `bake`.
+    #[command(flatten)]
+    pub path: crate::setup::PathArgs,
     /// Shade lightmapped surfaces from the coefficient maps that `bake-surface` wrote to this
     /// directory, one image per basis next to a path-traced reference, with `report.json`
     /// (Ishmukhametov 2011 Fig. 3.5).
@@ -230,7 +223,7 @@ impl AnyVolume {
 /// Runs `lightvol render`.
 pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     if let Some(dir) = &args.surface {
-        if args.quantity != "shaded" || args.bounces.is_some() || args.light != "all" {
+        if args.quantity != "shaded" || !args.path.is_default() {
             anyhow::bail!(
                 "--quantity, --bounces and --light do not apply to --surface (its maps record their own lighting)"
             );
@@ -269,11 +262,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let shade_vol = if args.reference { None } else { vol.as_ref() };
     let img = with_threads(args.threads, || -> Rgb32 {
         let tracer = Tracer::new(&loaded.scene);
-        let transport = Transport::new(
-            &loaded.scene,
-            &tracer,
-            crate::setup::transport_settings(args.bounces, args.russian_roulette, &args.light),
-        );
+        let transport = Transport::new(&loaded.scene, &tracer, args.path.transport());
         let scene = &loaded.scene;
         let pixels: Vec<[f32; 3]> = (0..w * h)
             .into_par_iter()

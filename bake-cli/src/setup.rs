@@ -67,12 +67,10 @@ pub struct GridArgs {
     pub max_memory_mib: Option<u64>,
 }
 
-/// Sampling options.
+/// How far paths go and which light counts directly (bake, surface bake and the path-traced
+/// references alike).
 #[derive(Debug, Clone, Args)]
-pub struct SampleArgs {
-    /// Samples per cell (prefilter, doi) or directions per node (point).
-    #[arg(long, default_value_t = 256)]
-    pub samples: u32,
+pub struct PathArgs {
     /// At most N diffuse bounces (0: the first surface's direct light only). Without it,
     /// paths are unbiased: 2 bounces, then Russian roulette.
     #[arg(long, value_name = "N")]
@@ -81,11 +79,53 @@ pub struct SampleArgs {
     /// instead of stopping.
     #[arg(long, requires = "bounces")]
     pub russian_roulette: bool,
-    /// Which light counts when it reaches a probe directly: `all`, `sky+indirect` (not the
-    /// sun nor punctual lights, which engines often add at run time) or `indirect` (only
-    /// light that bounced). Applies to the bake and to the reference alike.
+    /// Which light counts when it reaches a probe or surface directly: `all`, `sky+indirect`
+    /// (not the sun nor punctual lights, which engines often add at run time) or `indirect`
+    /// (only light that bounced). Applies to the bake and to the reference alike.
     #[arg(long, default_value = "all", value_parser = ["all", "sky+indirect", "indirect"])]
     pub light: String,
+}
+
+impl Default for PathArgs {
+    /// Unbiased paths and all light: what no option gives.
+    fn default() -> Self {
+        Self { bounces: None, russian_roulette: false, light: "all".into() }
+    }
+}
+
+impl PathArgs {
+    /// The path settings (module docs of lightvol-sampler's `transport`): unbiased by
+    /// default, else at most N bounces.
+    #[must_use]
+    pub fn transport(&self) -> TransportSettings {
+        let direct = lightvol_sampler::transport::DirectLight::parse(&self.light).unwrap_or_default();
+        match self.bounces {
+            None => TransportSettings { direct, ..TransportSettings::default() },
+            Some(n) => TransportSettings {
+                bounces: n,
+                russian_roulette: self.russian_roulette,
+                direct,
+                ..TransportSettings::default()
+            },
+        }
+    }
+
+    /// Whether no path option was given.
+    #[must_use]
+    pub fn is_default(&self) -> bool {
+        self.bounces.is_none() && self.light == "all"
+    }
+}
+
+/// Sampling options.
+#[derive(Debug, Clone, Args)]
+pub struct SampleArgs {
+    /// Samples per cell (prefilter, doi) or directions per node (point).
+    #[arg(long, default_value_t = 256)]
+    pub samples: u32,
+    /// Path length and direct light.
+    #[command(flatten)]
+    pub path: PathArgs,
     /// Seed of every random stream (results are bit-identical for a seed).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -404,22 +444,11 @@ pub fn res_to_file(up: UpAxis, internal: [u32; 3]) -> [u32; 3] {
     up.file_axes().map(|(axis, _)| internal[axis])
 }
 
-/// The path settings of `--bounces N [--russian-roulette]` (module docs of
-/// lightvol-sampler's `transport`): unbiased by default, else at most N bounces.
-#[must_use]
-pub fn transport_settings(bounces: Option<u32>, russian_roulette: bool, light: &str) -> TransportSettings {
-    let direct = lightvol_sampler::transport::DirectLight::parse(light).unwrap_or_default();
-    match bounces {
-        None => TransportSettings { direct, ..TransportSettings::default() },
-        Some(n) => TransportSettings { bounces: n, russian_roulette, direct, ..TransportSettings::default() },
-    }
-}
-
 impl SampleArgs {
-    /// The path settings ([`transport_settings`]).
+    /// The path settings ([`PathArgs::transport`]).
     #[must_use]
     pub fn transport(&self) -> TransportSettings {
-        transport_settings(self.bounces, self.russian_roulette, &self.light)
+        self.path.transport()
     }
 }
 
