@@ -44,7 +44,6 @@ use crate::stats::RayCounts;
 
 const MAGIC: &[u8; 6] = b"LVREF\0";
 const VERSION: u16 = 1;
-const MAX_HEADER: usize = 1 << 20;
 /// Values per node a level file may declare (3 · the largest coefficient count).
 const MAX_VALUES_PER_NODE: usize = 3 * 64;
 
@@ -138,12 +137,7 @@ pub fn level_to_bytes(l: &LevelSums, shard: (u32, u32), scene_hash: &str) -> Vec
         rays: [l.rays.sampling, l.rays.query, l.rays.bounce, l.rays.shadow],
         scene_hash: scene_hash.to_owned(),
     };
-    let json = serde_json::to_vec(&header).expect("plain data");
     let mut out = Vec::new();
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    out.extend_from_slice(&json);
     for &n in &s.nodes {
         out.extend_from_slice(&(n as u64).to_le_bytes());
     }
@@ -162,9 +156,7 @@ pub fn level_to_bytes(l: &LevelSums, shard: (u32, u32), scene_hash: &str) -> Vec
     for p in poisoned {
         out.extend_from_slice(&p.to_le_bytes());
     }
-    let sum = fnv1a(&out);
-    out.extend_from_slice(&sum.to_le_bytes());
-    out
+    crate::shard::frame_shard_file(MAGIC, VERSION, &header, &out)
 }
 
 /// Parses one shard of a level.
@@ -173,26 +165,8 @@ pub fn level_to_bytes(l: &LevelSums, shard: (u32, u32), scene_hash: &str) -> Vec
 /// [`BakeError::Settings`] naming what is damaged; every length is checked against the
 /// file before anything is allocated.
 pub fn level_from_bytes(bytes: &[u8]) -> Result<(LevelSums, LevelShardHeader), BakeError> {
-    if bytes.len() < 20 {
-        return Err(err(format!("level shard of {} bytes is too short", bytes.len())));
-    }
-    let (body, tail) = bytes.split_at(bytes.len() - 8);
-    if fnv1a(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
-        return Err(err("level shard checksum mismatch: the file is damaged or truncated".into()));
-    }
-    if &body[..6] != MAGIC {
-        return Err(err("not a lightvol level shard (bad magic)".into()));
-    }
-    let version = u16::from_le_bytes([body[6], body[7]]);
-    if version != VERSION {
-        return Err(err(format!("level shard version {version} (this lightvol reads {VERSION})")));
-    }
-    let h = u32::from_le_bytes(body[8..12].try_into().expect("4 bytes")) as usize;
-    if h > MAX_HEADER || 12 + h > body.len() {
-        return Err(err(format!("level shard header length {h} does not fit the file")));
-    }
-    let header: LevelShardHeader =
-        serde_json::from_slice(&body[12..12 + h]).map_err(|e| err(format!("level shard header: {e}")))?;
+    let (header, data): (LevelShardHeader, &[u8]) =
+        crate::shard::unframe_shard_file(bytes, MAGIC, VERSION, "level shard").map_err(err)?;
     if header.shard_count == 0
         || header.shard_index >= header.shard_count
         || header.level == 0
@@ -203,7 +177,6 @@ pub fn level_from_bytes(bytes: &[u8]) -> Result<(LevelSums, LevelShardHeader), B
             header.shard_index, header.shard_count, header.level, header.k
         )));
     }
-    let data = &body[12 + h..];
     // Bytes per node: its index, k numerators, a denominator and an outside sum.
     let per_node = 8 + 16 * (header.k as u64 + 2);
     if header.nodes > data.len() as u64 / per_node {

@@ -140,6 +140,64 @@ pub fn resolve_shard(
     }
 }
 
+/// Largest JSON header a shard file may declare.
+const MAX_SHARD_HEADER: usize = 1 << 20;
+
+/// The framing every shard file shares (`.lvtex`, `.lvref`): a 6-byte magic, the version
+/// (u16), the length of the JSON header (u32) and the header, the body, then the FNV-1a 64
+/// of every preceding byte. Equal inputs give equal bytes.
+#[must_use]
+pub fn frame_shard_file(
+    magic: &[u8; 6],
+    version: u16,
+    header: &impl serde::Serialize,
+    body: &[u8],
+) -> Vec<u8> {
+    let json = serde_json::to_vec(header).expect("plain data");
+    let mut out = Vec::with_capacity(12 + json.len() + body.len() + 8);
+    out.extend_from_slice(magic);
+    out.extend_from_slice(&version.to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(&json);
+    out.extend_from_slice(body);
+    let sum = lightvol_volume::checksum::fnv1a(&out);
+    out.extend_from_slice(&sum.to_le_bytes());
+    out
+}
+
+/// Checks a [`frame_shard_file`] framing (checksum first, then magic, version and header
+/// length) and returns its header and body; `what` names the file kind in the messages.
+///
+/// # Errors
+/// A one-line message naming what is damaged.
+pub fn unframe_shard_file<'a, H: serde::de::DeserializeOwned>(
+    bytes: &'a [u8],
+    magic: &[u8; 6],
+    version: u16,
+    what: &str,
+) -> Result<(H, &'a [u8]), String> {
+    if bytes.len() < 20 {
+        return Err(format!("{what} of {} bytes is too short", bytes.len()));
+    }
+    let (body, tail) = bytes.split_at(bytes.len() - 8);
+    if lightvol_volume::checksum::fnv1a(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
+        return Err(format!("{what} checksum mismatch: the file is damaged or truncated"));
+    }
+    if &body[..6] != magic {
+        return Err(format!("not a lightvol {what} (bad magic)"));
+    }
+    let v = u16::from_le_bytes([body[6], body[7]]);
+    if v != version {
+        return Err(format!("{what} version {v} (this lightvol reads {version})"));
+    }
+    let h = u32::from_le_bytes(body[8..12].try_into().expect("4 bytes")) as usize;
+    if h > MAX_SHARD_HEADER || 12 + h > body.len() {
+        return Err(format!("{what} header length {h} does not fit the file"));
+    }
+    let header = serde_json::from_slice(&body[12..12 + h]).map_err(|e| format!("{what} header: {e}"))?;
+    Ok((header, &body[12 + h..]))
+}
+
 /// The contiguous range of `units` (cells, nodes, texels, ...) that shard `k` of `n` takes:
 /// `units·k/n .. units·(k+1)/n`. The ranges of `0..n` tile `0..units` in order.
 #[must_use]

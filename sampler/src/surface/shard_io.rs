@@ -15,7 +15,6 @@
 
 use std::path::Path;
 
-use lightvol_volume::checksum::fnv1a;
 use lightvol_volume::io_util::{read_bounded, write_atomic};
 use serde::{Deserialize, Serialize};
 
@@ -25,7 +24,6 @@ use crate::stats::RayCounts;
 
 const MAGIC: &[u8; 6] = b"LVTEX\0";
 const VERSION: u16 = 1;
-const MAX_HEADER: usize = 1 << 20;
 
 /// What a shard file says about its bake.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -53,12 +51,7 @@ fn err(m: String) -> SurfaceError {
 /// Serialises a shard.
 #[must_use]
 pub fn texels_to_bytes(t: &SurfaceTexels, header: &TexelShardHeader) -> Vec<u8> {
-    let json = serde_json::to_vec(header).expect("plain data");
     let mut out = Vec::new();
-    out.extend_from_slice(MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
-    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
-    out.extend_from_slice(&json);
     for r in &t.records {
         out.extend_from_slice(&r.index.to_le_bytes());
         out.push(u8::from(r.coeffs.is_some()) | (u8::from(r.invalid) << 1));
@@ -71,9 +64,7 @@ pub fn texels_to_bytes(t: &SurfaceTexels, header: &TexelShardHeader) -> Vec<u8> 
             }
         }
     }
-    let sum = fnv1a(&out);
-    out.extend_from_slice(&sum.to_le_bytes());
-    out
+    crate::shard::frame_shard_file(MAGIC, VERSION, header, &out)
 }
 
 /// Parses a shard.
@@ -81,26 +72,8 @@ pub fn texels_to_bytes(t: &SurfaceTexels, header: &TexelShardHeader) -> Vec<u8> 
 /// # Errors
 /// [`SurfaceError::Settings`] naming what is damaged.
 pub fn texels_from_bytes(bytes: &[u8]) -> Result<(SurfaceTexels, TexelShardHeader), SurfaceError> {
-    if bytes.len() < 20 {
-        return Err(err(format!("texel shard of {} bytes is too short", bytes.len())));
-    }
-    let (body, tail) = bytes.split_at(bytes.len() - 8);
-    if fnv1a(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
-        return Err(err("texel shard checksum mismatch: the file is damaged or truncated".into()));
-    }
-    if &body[..6] != MAGIC {
-        return Err(err("not a lightvol texel shard (bad magic)".into()));
-    }
-    let version = u16::from_le_bytes([body[6], body[7]]);
-    if version != VERSION {
-        return Err(err(format!("texel shard version {version} (this lightvol reads {VERSION})")));
-    }
-    let h = u32::from_le_bytes(body[8..12].try_into().expect("4 bytes")) as usize;
-    if h > MAX_HEADER || 12 + h > body.len() {
-        return Err(err(format!("texel shard header length {h} does not fit the file")));
-    }
-    let header: TexelShardHeader =
-        serde_json::from_slice(&body[12..12 + h]).map_err(|e| err(format!("texel shard header: {e}")))?;
+    let (header, data): (TexelShardHeader, &[u8]) =
+        crate::shard::unframe_shard_file(bytes, MAGIC, VERSION, "texel shard").map_err(err)?;
     if header.shard_count == 0
         || header.shard_index >= header.shard_count
         || header.coeffs == 0
@@ -111,8 +84,7 @@ pub fn texels_from_bytes(bytes: &[u8]) -> Result<(SurfaceTexels, TexelShardHeade
             header.shard_index, header.shard_count, header.coeffs
         )));
     }
-    let mut at = 12 + h;
-    let data = body;
+    let mut at = 0;
     let take = |at: &mut usize, n: usize| -> Result<&[u8], SurfaceError> {
         let s = data.get(*at..*at + n).ok_or_else(|| err("texel shard records run past the file".into()))?;
         *at += n;
