@@ -32,7 +32,7 @@
 //! corners. [`bevy_world_from_probe`] gives the probe transform that makes the two
 //! coincide: the box grown by half a cell on every side (`size · R/(R-1)`), centred on
 //! the box, then the volume's placement. Bevy's `Transform` holds translation, rotation
-//! and scale only ([`bevy_transform`] decomposes the matrix); a sheared or mirrored
+//! and scale only ([`bevy_transform`] decomposes the matrix, glam's `DQuat::from_mat3`); a sheared or mirrored
 //! placement cannot be represented there and is refused.
 
 use std::path::Path;
@@ -138,15 +138,11 @@ impl BevyTransform {
     #[must_use]
     pub fn matrix(&self) -> [[f64; 4]; 3] {
         let [x, y, z, w] = self.rotation;
-        let r = [
-            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w)],
-            [2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w)],
-            [2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y)],
-        ];
+        let r = glam::DMat3::from_quat(glam::DQuat::from_xyzw(x, y, z, w));
         std::array::from_fn(|i| {
             let mut row = [0.0; 4];
             for j in 0..3 {
-                row[j] = r[i][j] * self.scale[j];
+                row[j] = r.col(j)[i] * self.scale[j];
             }
             row[3] = self.translation[i];
             row
@@ -189,21 +185,10 @@ pub fn bevy_transform(spec: &GridSpec) -> Result<BevyTransform, VolumeError> {
             "the volume's placement mirrors the grid; a Bevy Transform cannot hold a reflection".into(),
         ));
     }
-    // Shepperd's method: the largest of 4w², 4x², 4y², 4z² first, for accuracy.
-    let t = r[0][0] + r[1][1] + r[2][2];
-    let q = if t > 0.0 {
-        let s = 2.0 * (1.0 + t).sqrt();
-        [(r[2][1] - r[1][2]) / s, (r[0][2] - r[2][0]) / s, (r[1][0] - r[0][1]) / s, 0.25 * s]
-    } else if r[0][0] > r[1][1] && r[0][0] > r[2][2] {
-        let s = 2.0 * (1.0 + r[0][0] - r[1][1] - r[2][2]).sqrt();
-        [0.25 * s, (r[0][1] + r[1][0]) / s, (r[0][2] + r[2][0]) / s, (r[2][1] - r[1][2]) / s]
-    } else if r[1][1] > r[2][2] {
-        let s = 2.0 * (1.0 + r[1][1] - r[0][0] - r[2][2]).sqrt();
-        [(r[0][1] + r[1][0]) / s, 0.25 * s, (r[1][2] + r[2][1]) / s, (r[0][2] - r[2][0]) / s]
-    } else {
-        let s = 2.0 * (1.0 + r[2][2] - r[0][0] - r[1][1]).sqrt();
-        [(r[0][2] + r[2][0]) / s, (r[1][2] + r[2][1]) / s, 0.25 * s, (r[1][0] - r[0][1]) / s]
-    };
+    let q = glam::DQuat::from_mat3(&glam::DMat3::from_cols_array_2d(&std::array::from_fn(|c| {
+        std::array::from_fn(|row| r[row][c])
+    })))
+    .to_array();
     // Canonical sign (w ≥ 0) so equal inputs give equal files.
     let q = if q[3] < 0.0 { q.map(|v| -v) } else { q };
     Ok(BevyTransform { translation: [m[0][3], m[1][3], m[2][3]], rotation: q, scale })
