@@ -343,11 +343,10 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         ),
     );
     let a = &args.adaptive;
-    let shard = match args.shard.as_deref() {
-        None if args.shards.is_some() => bail!("--shards N needs --shard auto"),
-        None => None,
-        s => Some(lightvol_sampler::shard::resolve_shard(s, args.shards, |k| std::env::var(k).ok())?),
-    };
+    let shard = lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
+        std::env::var(k).ok()
+    })?;
+    let shard = args.shard.is_some().then_some(shard);
     match (shard, a.level, a.from_shards.is_empty()) {
         (None, Some(_), _) => bail!("--level needs --shard K/N (or --shard auto)"),
         (Some(_), Some(0) | None, false) => {

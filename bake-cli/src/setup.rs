@@ -251,7 +251,7 @@ impl SceneArgs {
             let path = Path::new(&self.scene);
             let opts = LoadOptions { up, scale: self.scale, ..LoadOptions::default() };
             // Estimate first: a scene too large for memory is one line, not an abort mid-load.
-            let memory = lightvol_sampler::estimate::estimate_scene(path, &opts)
+            let memory = lightvol_sampler::estimate::estimate_scene(path)
                 .with_context(|| format!("loading {}", path.display()))?;
             if u128::from(memory.total()) > limit {
                 let (what, bytes) = memory.biggest();

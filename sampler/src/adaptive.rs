@@ -454,7 +454,7 @@ fn drive(
         }
     };
     done.fetch_add(planned.load(Ordering::Relaxed), Ordering::Relaxed);
-    let used_levels = AtomicUsize::new(0);
+    let mut used_levels = 0usize;
 
     let tracer = transport.tracer();
     let tris: Vec<[DVec3; 3]> = if adaptive.geometry {
@@ -569,7 +569,7 @@ fn drive(
                         ))
                         .into());
                     }
-                    used_levels.fetch_max(level as usize, Ordering::Relaxed);
+                    used_levels = used_levels.max(level as usize);
                     (l.sums.clone(), BakeStats { rays: l.rays, ..BakeStats::default() })
                 }
                 None => match target {
@@ -637,7 +637,7 @@ fn drive(
         Err(BuildError::Volume(v)) => return Err(BakeError::Settings(v.to_string())),
     };
     if let Source::Replay { levels, target: None, .. } = source {
-        let used = used_levels.load(Ordering::Relaxed);
+        let used = used_levels;
         if let Some(l) = levels[used..].iter().find(|l| l.units > 0) {
             return Err(BakeError::Settings(format!(
                 "the level-{} sums refine {} units, but this replay stops at level {used}: they were baked from other inputs",

@@ -19,7 +19,6 @@ use glam::DVec3;
 use serde_json::Value;
 
 use crate::error::SceneError;
-use crate::load_obj::LoadOptions;
 use crate::scene::{Triangle, TriangleRef};
 
 /// Bytes the BVH build of `obvhs` (medium quality) holds per triangle beyond the arrays the
@@ -111,8 +110,7 @@ impl SceneMemory {
 /// # Errors
 /// [`SceneError::NotFound`], I/O errors, and a glTF whose JSON does not parse (the loader
 /// would refuse it too).
-pub fn estimate_scene(path: &Path, opts: &LoadOptions) -> Result<SceneMemory, SceneError> {
-    let _ = opts;
+pub fn estimate_scene(path: &Path) -> Result<SceneMemory, SceneError> {
     if !path.is_file() {
         return Err(SceneError::NotFound(path.to_owned()));
     }

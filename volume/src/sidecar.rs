@@ -125,6 +125,14 @@ pub struct Sidecar {
 }
 
 impl Sidecar {
+    /// The same description with the data in `frame` (an export converted by
+    /// [`crate::frame::to_file_frame`]).
+    #[must_use]
+    pub fn in_frame(mut self, frame: crate::frame::UpAxis) -> Self {
+        self.frame = frame;
+        self
+    }
+
     /// Describes `vol` stored with `encoding` in the given `layout`, its data in the
     /// internal frame (see [`Self::in_frame`] for exports in the file's frame).
     #[must_use]
@@ -244,16 +252,6 @@ impl Sidecar {
 
 fn internal_frame() -> crate::frame::UpAxis {
     crate::frame::UpAxis::INTERNAL
-}
-
-impl Sidecar {
-    /// The same description with the data in `frame` (an export converted by
-    /// [`crate::frame::to_file_frame`]).
-    #[must_use]
-    pub fn in_frame(mut self, frame: crate::frame::UpAxis) -> Self {
-        self.frame = frame;
-        self
-    }
 }
 
 /// Writes a sidecar atomically (temporary file and rename).
