@@ -7,6 +7,8 @@
 //! they say so in one loud line and pass, unless `LIGHTVOL_REQUIRE_SLURM=1` (set by
 //! `.ci/run`), which turns the missing cluster into a failure.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -183,21 +185,13 @@ fn k8s_writes_an_indexed_job_and_a_merge_job() {
 /// Whether a usable Slurm is here; otherwise one loud line, and a failure when
 /// `LIGHTVOL_REQUIRE_SLURM=1`.
 fn slurm_available(test: &str) -> bool {
-    let ok = Command::new("sinfo").arg("-h").output().is_ok_and(|o| o.status.success());
-    if !ok {
-        let msg = format!(
+    common::available_or_loud(
+        Command::new("sinfo").arg("-h").output().is_ok_and(|o| o.status.success()),
+        "LIGHTVOL_REQUIRE_SLURM",
+        &format!(
             "SLURM TESTS NOT RUN ({test}): no working sinfo/sbatch (start one with ci/slurm-up.sh and source its env)"
-        );
-        assert!(
-            std::env::var("LIGHTVOL_REQUIRE_SLURM").as_deref() != Ok("1"),
-            "{msg}, and LIGHTVOL_REQUIRE_SLURM=1"
-        );
-        // Straight to the process's stderr, past the test harness's capture, so that a run
-        // without a cluster says so.
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), "\n!!!!! {msg} !!!!!\n");
-    }
-    ok
+        ),
+    )
 }
 
 /// `lightvol slurm --shards 4 --submit --wait` gives the whole bake's file, byte for byte.

@@ -6,22 +6,18 @@
 //! Without Embree (no `embree3/rtcore.h` or no C compiler) the test says so in one loud line
 //! and passes, unless `LIGHTVOL_REQUIRE_EMBREE=1` (set by `.ci/run`).
 
+mod common;
+
 use std::process::Command;
 
 const BIN: &str = env!("CARGO_BIN_EXE_lightvol");
 
 fn embree_available() -> bool {
-    let ok = std::path::Path::new("/usr/include/embree3/rtcore.h").is_file();
-    if !ok {
-        let msg = "EMBREE BASELINE NOT RUN: no /usr/include/embree3/rtcore.h (apt-get install libembree-dev)";
-        assert!(
-            std::env::var("LIGHTVOL_REQUIRE_EMBREE").as_deref() != Ok("1"),
-            "{msg}, and LIGHTVOL_REQUIRE_EMBREE=1"
-        );
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), "\n!!!!! {msg} !!!!!\n");
-    }
-    ok
+    common::available_or_loud(
+        std::path::Path::new("/usr/include/embree3/rtcore.h").is_file(),
+        "LIGHTVOL_REQUIRE_EMBREE",
+        "EMBREE BASELINE NOT RUN: no /usr/include/embree3/rtcore.h (apt-get install libembree-dev)",
+    )
 }
 
 #[test]

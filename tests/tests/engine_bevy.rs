@@ -71,6 +71,17 @@ fn write_obj_twin(dir: &Path, p: &[[f32; 3]], t: &[[u16; 3]]) -> PathBuf {
     path
 }
 
+/// The room as a +Y-up glTF and as its +Z-up OBJ twin, written into `dir`.
+fn twin_scenes(dir: &Path) -> (PathBuf, PathBuf) {
+    let (p, t) = room_yup();
+    let gltf = write_gltf(
+        dir,
+        "room_yup.gltf",
+        &[Mesh { name: "room", positions: p.clone(), uv0: None, uv1: None, indices: t.clone() }],
+    );
+    (gltf, write_obj_twin(dir, &p, &t))
+}
+
 /// A Bevy KTX2 as Bevy's loader reads it: dimensions, format and RGB texels as f32.
 struct Texture {
     dims: [usize; 3],
@@ -309,13 +320,7 @@ fn bake_and_export(dir: &Path, scene: &Path, frame: UpAxis, tag: &str, format: &
 fn bevy_client_reproduces_lightvol_in_both_frames() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let (p, t) = room_yup();
-    let gltf = write_gltf(
-        d,
-        "room_yup.gltf",
-        &[Mesh { name: "room", positions: p.clone(), uv0: None, uv1: None, indices: t.clone() }],
-    );
-    let obj = write_obj_twin(d, &p, &t);
+    let (gltf, obj) = twin_scenes(d);
     let mut natives = Vec::new();
     for (scene, frame, tag) in [(&gltf, UpAxis::Y, "yup"), (&obj, UpAxis::Z, "zup")] {
         for format in ["rgba16f", "rgb9e5"] {
@@ -434,13 +439,7 @@ fn worked_example_of_the_engine_doc() {
 fn coordinates_round_trip_in_the_file_frame() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let (p, t) = room_yup();
-    let gltf = write_gltf(
-        d,
-        "room.gltf",
-        &[Mesh { name: "room", positions: p.clone(), uv0: None, uv1: None, indices: t.clone() }],
-    );
-    let obj = write_obj_twin(d, &p, &t);
+    let (gltf, obj) = twin_scenes(d);
     for (scene, frame, bounds, res) in [
         (&gltf, UpAxis::Y, [-1.9, 0.1, -1.7, 1.8, 1.9, 1.6], [5u32, 4, 6]),
         (&obj, UpAxis::Z, [-1.9, -1.7, 0.1, 1.8, 1.6, 1.9], [5, 6, 4]),
