@@ -124,8 +124,14 @@ pub fn estimate_scene(path: &Path) -> Result<SceneMemory, SceneError> {
     let doc = crate::load_gltf::container::parse(&bytes)
         .map_err(|message| SceneError::Gltf { path: path.to_owned(), message })?;
     let (triangles, vertices) = gltf_counts(&doc.json);
-    // Buffers are read anyway by the load; images in them are measured from their headers.
-    let buffers = crate::load_gltf::container::load_buffers(&doc, path.parent()).unwrap_or_default();
+    // Images stored in buffers are measured from their headers; the buffers are read only
+    // when some image lives in one (the load reads them again).
+    let in_buffers = arr(&doc.json, "images").iter().any(|i| i.get("bufferView").is_some());
+    let buffers = if in_buffers {
+        crate::load_gltf::container::load_buffers(&doc, path.parent()).unwrap_or_default()
+    } else {
+        Vec::new()
+    };
     let texels = gltf_texels(&doc.json, &buffers, path.parent());
     Ok(SceneMemory::from_counts(triangles, vertices, texels))
 }
