@@ -277,11 +277,18 @@ pub fn scene_hash(loaded: &LoadedScene, extra: &str) -> String {
             h = h.wrapping_mul(0x0100_0000_01b3);
         }
     };
-    for t in &loaded.scene.triangles {
+    let scene = &loaded.scene;
+    for t in scene.triangles.iter().chain(scene.prototypes.iter().flat_map(|p| &p.triangles)) {
         for v in t.v {
             for c in v.to_array() {
                 eat(&c.to_le_bytes());
             }
+        }
+    }
+    for i in &scene.instances {
+        eat(&i.prototype.to_le_bytes());
+        for c in i.to_world.to_cols_array() {
+            eat(&c.to_le_bytes());
         }
     }
     eat(extra.as_bytes());

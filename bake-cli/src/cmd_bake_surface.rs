@@ -469,7 +469,7 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
         (0, 1) if args.shard.is_none() => None,
         s => Some(s),
     };
-    let loaded = args.scene.load()?;
+    let loaded = args.scene.load_flattened()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };
     let ts = args.path.transport();
 

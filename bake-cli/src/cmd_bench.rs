@@ -175,7 +175,7 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
 
     let mut report = json!({
         "scene": args.scene,
-        "triangles": b.scene.triangles.len(),
+        "triangles": b.scene.triangle_count(),
         "threads": cores,
         "rays": { "count": args.rays, "closest_hit_per_second_1_thread": r1, "closest_hit_per_second_all_threads": rn, "thread_scaling": rn / r1 },
         "lookups_per_second": lookups,

@@ -137,8 +137,12 @@ pub struct SceneSummary {
 /// The scene-memory estimate in a summary.
 #[derive(Debug, Clone, Serialize)]
 pub struct MemoryJson {
-    /// Triangles after instancing the estimate counted.
+    /// Triangles placed (every instance counted) the estimate counted.
     pub triangles: u64,
+    /// Triangles stored (each instanced mesh once).
+    pub unique_triangles: u64,
+    /// Instances (placements of meshes placed more than once).
+    pub instances: u64,
     /// Triangles and vertex attributes.
     pub geometry_bytes: u64,
     /// The ray tracer (BVH build peak and its arrays).
@@ -163,7 +167,7 @@ pub fn summarize(
     memory: &lightvol_sampler::estimate::SceneMemory,
 ) -> SceneSummary {
     let mut per_material = vec![0usize; scene.materials.len()];
-    for t in &scene.triangles {
+    for (_, t, _) in scene.stored_triangles() {
         per_material[t.material as usize] += 1;
     }
     let materials: Vec<MaterialInfo> = scene
@@ -229,7 +233,7 @@ pub fn summarize(
     SceneSummary {
         scene: label.to_owned(),
         up: up.name(),
-        instanced_triangles: scene.triangles.len(),
+        instanced_triangles: scene.triangle_count(),
         unique_triangles: scene.report.unique_triangles,
         degenerate_skipped: scene.report.degenerate_skipped,
         instances: scene.report.instances,
@@ -272,6 +276,8 @@ pub fn summarize(
         warnings: scene.report.warnings.clone(),
         memory: MemoryJson {
             triangles: memory.triangles,
+            unique_triangles: memory.unique_triangles,
+            instances: memory.instances,
             geometry_bytes: memory.geometry_bytes,
             tracer_bytes: memory.tracer_bytes,
             texture_bytes: memory.texture_bytes,

@@ -116,7 +116,7 @@ pub fn run(args: &LintArgs) -> anyhow::Result<ExitCode> {
         println!(
             "{}: {} triangles; probe points: {} clean, {} seeing some back faces, {} inside solids",
             loaded.label,
-            loaded.scene.triangles.len(),
+            loaded.scene.triangle_count(),
             bf.clean_points,
             bf.counted_points,
             bf.solid_points

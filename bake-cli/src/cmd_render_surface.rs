@@ -348,7 +348,7 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
         bail!("output {} exists and is not a directory", out_dir.display());
     }
     let (sets, invalid_texels) = read_dir_maps(dir)?;
-    let loaded = args.scene.load()?;
+    let loaded = args.scene.load_flattened()?;
     // The reference is traced with the maps' bounce count, under the same lighting.
     let bounces = check_lighting(&sets, dir, &loaded.scene)?;
     let uv_set = sets[0].maps[0].uv_set;

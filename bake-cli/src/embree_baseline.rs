@@ -62,12 +62,14 @@ fn run_embree(
     occlusion: bool,
     threads: u32,
 ) -> anyhow::Result<(f64, f64, Vec<f32>)> {
-    let mut input = Vec::with_capacity(24 + scene.triangles.len() * 36 + rays.len() * 24);
+    // Embree gets the triangles written out in the world frame (one level).
+    let n = scene.triangle_count();
+    let mut input = Vec::with_capacity(24 + n * 36 + rays.len() * 24);
     input.extend_from_slice(b"LVEB");
-    for v in [u32::from(occlusion), threads, REPEATS, scene.triangles.len() as u32] {
+    for v in [u32::from(occlusion), threads, REPEATS, n as u32] {
         input.extend_from_slice(&v.to_le_bytes());
     }
-    for t in &scene.triangles {
+    for t in scene.world_triangles() {
         for p in t.v {
             for c in p.to_array() {
                 input.extend_from_slice(&(c as f32).to_le_bytes());
@@ -173,7 +175,9 @@ pub fn compare(scene: &Scene, count: usize, seed: u64, quality: BuildQuality) ->
     let tracer = pool_build(scene, quality)?;
     let lightvol_build = t0.elapsed().as_secs_f64();
     let mut out = json!({
-        "triangles": scene.triangles.len(),
+        "triangles": scene.triangle_count(),
+        "unique_triangles": scene.unique_triangle_count(),
+        "instances": scene.instances.len(),
         "rays": count,
         "repeats_best_of": REPEATS,
         "lightvol_bvh_quality": format!("{quality:?}").to_lowercase(),

@@ -213,6 +213,16 @@ impl SceneArgs {
         self.load_within(memory_limit(None))
     }
 
+    /// [`load`](Self::load) with every placement of an instanced mesh written out as its
+    /// own triangles and lightmap object (the surface bake and its renders).
+    pub fn load_flattened(&self) -> anyhow::Result<LoadedScene> {
+        let loaded = self.load_quiet_with(memory_limit(None), true)?;
+        for w in &loaded.scene.report.warnings {
+            eprintln!("warning: {w}");
+        }
+        Ok(loaded)
+    }
+
     /// [`load`](Self::load), refusing a scene whose estimated memory
     /// (`lightvol_sampler::estimate`: geometry, ray tracer, textures) exceeds `limit` bytes
     /// before its geometry is read.
@@ -230,12 +240,16 @@ impl SceneArgs {
     }
 
     fn load_quiet_within(&self, limit: u128) -> anyhow::Result<LoadedScene> {
+        self.load_quiet_with(limit, false)
+    }
+
+    fn load_quiet_with(&self, limit: u128, flatten_instances: bool) -> anyhow::Result<LoadedScene> {
         let up = if self.up == "z" { UpAxis::Z } else { UpAxis::Y };
         let mut loaded = if let Some(name) = self.scene.strip_prefix("builtin:") {
             let b = builtin(name).with_context(|| {
                 format!("unknown built-in scene '{name}' (choose from {})", BUILTIN_NAMES.join(", "))
             })?;
-            let memory = SceneMemory::from_counts(b.scene.triangles.len() as u64, 0, 0);
+            let memory = SceneMemory::from_counts(b.scene.triangle_count() as u64, 0, 0);
             LoadedScene {
                 scene: b.scene,
                 grid: Some(b.grid),
@@ -249,17 +263,18 @@ impl SceneArgs {
                 bail!("--scale must be a positive finite number");
             }
             let path = Path::new(&self.scene);
-            let opts = LoadOptions { up, scale: self.scale, ..LoadOptions::default() };
+            let opts = LoadOptions { up, scale: self.scale, flatten_instances, ..LoadOptions::default() };
             // Estimate first: a scene too large for memory is one line, not an abort mid-load.
-            let memory = lightvol_sampler::estimate::estimate_scene(path)
+            let memory = lightvol_sampler::estimate::estimate_scene(path, flatten_instances)
                 .with_context(|| format!("loading {}", path.display()))?;
             if u128::from(memory.total()) > limit {
                 let (what, bytes) = memory.biggest();
                 bail!(
-                    "{} needs about {} ({} triangles after instancing; the {what} alone {}), more than the {} allowed (--max-memory-mib)",
+                    "{} needs about {} ({} triangles placed, {} stored; the {what} alone {}), more than the {} allowed (--max-memory-mib)",
                     path.display(),
                     gib(u128::from(memory.total())),
                     memory.triangles,
+                    memory.unique_triangles,
                     gib(u128::from(bytes)),
                     gib(limit)
                 );

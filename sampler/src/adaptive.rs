@@ -460,8 +460,7 @@ fn drive(
     let tris: Vec<[DVec3; 3]> = if adaptive.geometry {
         transport
             .scene()
-            .triangles
-            .iter()
+            .world_triangles()
             .map(|t| t.v.map(|p| DVec3::from_array(base_grid.to_grid(p.to_array()))))
             .collect()
     } else {

@@ -36,9 +36,13 @@ struct AlphaMaterial {
 }
 
 /// Per-triangle alpha data of a scene, detached from it so the tracer owns what it reads.
+///
+/// Triangles are numbered as *stored* ([`AlphaTable::new`]): the scene's directly placed
+/// triangles, then each prototype's once, so instancing costs the table nothing per
+/// instance. For a scene without instances that is the scene index.
 #[derive(Clone, Debug, Default)]
 pub struct AlphaTable {
-    /// Per scene triangle: [`OPAQUE`] or an index into `uvs` / `material`.
+    /// Per stored triangle: [`OPAQUE`] or an index into `uvs` / `material`.
     slot: Vec<u32>,
     uvs: Vec<[DVec2; 3]>,
     material: Vec<u32>,
@@ -47,7 +51,9 @@ pub struct AlphaTable {
 }
 
 impl AlphaTable {
-    /// Collects the `MASK` and `BLEND` triangles of `scene`. Materials whose alpha can
+    /// Collects the `MASK` and `BLEND` triangles of `scene`, numbered as stored:
+    /// [`Scene::triangles`](crate::Scene::triangles), then every prototype's triangles in
+    /// prototype order. Materials whose alpha can
     /// never fail (`MASK` with factor ≥ cutoff and no alpha texture, `BLEND` with alpha 1
     /// and no alpha texture) are treated as opaque.
     #[must_use]
@@ -81,6 +87,7 @@ impl AlphaTable {
         t.slot = scene
             .triangles
             .iter()
+            .chain(scene.prototypes.iter().flat_map(|p| &p.triangles))
             .map(|tri| match mat_map[tri.material as usize] {
                 Some(am) => {
                     t.uvs.push(tri.uv);
@@ -106,14 +113,15 @@ impl AlphaTable {
         self.uvs.len()
     }
 
-    /// True when scene triangle `tri` needs an alpha decision.
+    /// True when stored triangle `tri` needs an alpha decision.
     #[must_use]
     #[inline]
     pub fn needs_test(&self, tri: u32) -> bool {
         self.slot.get(tri as usize).is_some_and(|&s| s != OPAQUE)
     }
 
-    /// Base-colour alpha of an alpha triangle at barycentrics `(u, v)` (1 for opaque ones).
+    /// Base-colour alpha of stored triangle `tri` at barycentrics `(u, v)` of its stored
+    /// vertex order (1 for opaque ones).
     #[must_use]
     pub fn alpha(&self, tri: u32, u: f64, v: f64) -> f64 {
         let Some(&s) = self.slot.get(tri as usize).filter(|&&s| s != OPAQUE) else { return 1.0 };
@@ -128,13 +136,15 @@ impl AlphaTable {
         }
     }
 
-    /// Whether a hit on scene triangle `tri` at barycentrics `(u, v)` is a surface for the
-    /// ray whose [`ray_key`] is `key`.
+    /// Whether a hit on stored triangle `stored` at barycentrics `(u, v)` (of its stored
+    /// vertex order) is a surface for the ray whose [`ray_key`] is `key`. The `BLEND`
+    /// decision hashes the scene index `tri`, so instances of one pane decide apart, and an
+    /// instanced scene decides as its flattened copy does.
     #[must_use]
     #[inline]
-    pub fn is_surface(&self, tri: u32, u: f64, v: f64, key: u64) -> bool {
-        let Some(&s) = self.slot.get(tri as usize).filter(|&&s| s != OPAQUE) else { return true };
-        let a = self.alpha(tri, u, v);
+    pub fn is_surface(&self, stored: u32, tri: u32, u: f64, v: f64, key: u64) -> bool {
+        let Some(&s) = self.slot.get(stored as usize).filter(|&&s| s != OPAQUE) else { return true };
+        let a = self.alpha(stored, u, v);
         match self.materials[self.material[s as usize] as usize].mode {
             AlphaMode::Opaque => true,
             AlphaMode::Mask { cutoff } => a >= cutoff,

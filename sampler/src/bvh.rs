@@ -1,4 +1,14 @@
-//! Ray tracing with `obvhs` 0.4: a compressed-wide BVH (CwBvh) over the scene's triangles.
+//! Ray tracing with `obvhs` 0.4: compressed-wide BVHs (CwBvh) over the scene's triangles.
+//!
+//! Two levels: one bottom-level BVH over the directly placed triangles and one per
+//! prototype, in the prototype's frame ([`crate::instance`]), and a top-level BVH over the
+//! placements. A ray meets a placement's box in the top level, is carried into the
+//! prototype's frame by the inverse transform (direction unnormalised, so `t` is the same
+//! parameter in both frames) and continues in the prototype's BVH. A scene without
+//! instances has one bottom level and no top level: its rays take exactly the one-level
+//! path. Instanced triangles are intersected in their prototype's frame in f32, so their
+//! `t` and barycentrics differ from a flattened copy's by f32 rounding of the transform
+//! (`instanced_and_flattened_agree` states by how much).
 //!
 //! Known obvhs 0.4 pitfalls handled here:
 //! - the BVH reorders primitives: `primitive_id` indexes `primitive_indices`, which maps
@@ -18,16 +28,19 @@
 
 use std::time::Duration;
 
-use glam::{DVec3, Vec3A};
+use glam::{DAffine3, DVec3, Vec3A};
 use obvhs::BvhBuildParams;
+use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::build_cwbvh_from_tris;
+use obvhs::cwbvh::builder::{build_cwbvh, build_cwbvh_from_tris};
 use obvhs::ray::{Ray, RayHit};
 use obvhs::rt_triangle::RtTriangle;
 use obvhs::triangle::Triangle as ObTriangle;
+use rayon::prelude::*;
 
 use crate::alpha::{AlphaTable, ray_key};
-use crate::scene::Scene;
+use crate::instance::place;
+use crate::scene::{Scene, Triangle};
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,18 +75,46 @@ pub enum BuildQuality {
     Slow,
 }
 
+/// One bottom-level BVH: the directly placed triangles, or one prototype's.
+struct Blas {
+    bvh: CwBvh,
+    /// Triangles in BVH primitive order, in the BVH's own frame.
+    tris: Vec<RtTriangle>,
+    /// BVH primitive slot → triangle index within this geometry.
+    order: Vec<u32>,
+    /// Per triangle: unit normal in the BVH's frame.
+    normals: Vec<DVec3>,
+    /// Per triangle: back faces count (single-sided material).
+    single_sided: Vec<bool>,
+    /// Vertices (f64, the BVH's frame) for the reference queries.
+    source: Vec<[DVec3; 3]>,
+    /// Stored index ([`AlphaTable`]) of triangle 0.
+    stored_base: u32,
+}
+
+/// A placement of a [`Blas`]: the directly placed triangles (identity) or an instance.
+struct Placement {
+    blas: u32,
+    /// Scene index of triangle 0.
+    first: u32,
+    /// `None` for the identity.
+    to_world: Option<DAffine3>,
+    /// World → BVH frame.
+    to_local: DAffine3,
+    /// The transform mirrors: barycentrics `(u, v)` swap (the placed triangle's vertices 1
+    /// and 2 are the prototype's 2 and 1).
+    mirrored: bool,
+}
+
 /// Closest-hit and occlusion queries over a [`Scene`].
 pub struct Tracer {
-    bvh: CwBvh,
-    /// Triangles in BVH primitive order.
-    tris: Vec<RtTriangle>,
-    /// BVH primitive slot → scene triangle index.
-    order: Vec<u32>,
-    /// Per scene triangle: unit normal and whether back faces count (single-sided).
-    normals: Vec<DVec3>,
-    single_sided: Vec<bool>,
-    /// Scene triangles (f64) for brute-force reference queries.
-    scene_tris: Vec<[DVec3; 3]>,
+    blas: Vec<Blas>,
+    /// Ordered by `first`.
+    placements: Vec<Placement>,
+    /// Over `placements`; `None` when the only placement is the identity (one level).
+    tlas: Option<CwBvh>,
+    /// Scene triangles (instances included).
+    count: usize,
     /// Alpha decisions for `MASK`/`BLEND` triangles.
     alpha: AlphaTable,
 }
@@ -81,8 +122,10 @@ pub struct Tracer {
 impl std::fmt::Debug for Tracer {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("Tracer")
-            .field("triangles", &self.tris.len())
-            .field("nodes", &self.bvh.nodes.len())
+            .field("triangles", &self.count)
+            .field("unique_triangles", &self.unique_len())
+            .field("placements", &self.placements.len())
+            .field("nodes", &self.blas.iter().map(|b| b.bvh.nodes.len()).sum::<usize>())
             .finish()
     }
 }
@@ -100,6 +143,68 @@ fn make_ray(origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Ray {
     Ray::new(v3a(origin), v3a(dir) + Vec3A::ZERO, tmin as f32, tmax.min(f64::from(f32::MAX)) as f32)
 }
 
+/// obvhs skips a BVH node whose box the ray leaves before `t = 1e-4` (`cwbvh::node::EPSILON`,
+/// a clamp of the box test's entry distance). Placement boxes are widened by this much, so
+/// that the top level never drops a hit that the placement's own BVH would find.
+const TLAS_PAD: f64 = 1e-4;
+
+/// The f32 box of f64 bounds, widened by [`TLAS_PAD`] and one f32 step outward on each side
+/// so that rounding cannot shrink it.
+fn outward_aabb(lo: DVec3, hi: DVec3) -> Aabb {
+    let down = |x: f64| ((x - TLAS_PAD) as f32).next_down();
+    let up = |x: f64| ((x + TLAS_PAD) as f32).next_up();
+    Aabb {
+        min: Vec3A::new(down(lo.x), down(lo.y), down(lo.z)),
+        max: Vec3A::new(up(hi.x), up(hi.y), up(hi.z)),
+    }
+}
+
+fn build_params(quality: BuildQuality) -> BvhBuildParams {
+    match quality {
+        BuildQuality::Fast => BvhBuildParams::fast_build(),
+        BuildQuality::Medium => BvhBuildParams::medium_build(),
+        BuildQuality::Slow => BvhBuildParams::slow_build(),
+    }
+}
+
+impl Blas {
+    fn new(scene: &Scene, source: &[Triangle], stored_base: u32, quality: BuildQuality) -> Self {
+        let ob: Vec<ObTriangle> =
+            source.iter().map(|t| ObTriangle { v0: v3a(t.v[0]), v1: v3a(t.v[1]), v2: v3a(t.v[2]) }).collect();
+        let bvh = build_cwbvh_from_tris(&ob, build_params(quality), &mut Duration::default());
+        let order = bvh.primitive_indices.clone();
+        let tris = order.iter().map(|&i| RtTriangle::from(&ob[i as usize])).collect();
+        let normals = source.iter().map(Triangle::normal).collect();
+        let single_sided =
+            source.iter().map(|t| !scene.materials[t.material as usize].double_sided).collect();
+        Self {
+            bvh,
+            tris,
+            order,
+            normals,
+            single_sided,
+            source: source.iter().map(|t| t.v).collect(),
+            stored_base,
+        }
+    }
+}
+
+impl Placement {
+    /// The ray in this placement's BVH frame (the same `t` parametrises both).
+    #[inline]
+    fn local_ray(&self, origin: DVec3, dir: DVec3, tmin: f32, tmax: f32) -> Ray {
+        match self.to_world {
+            None => Ray::new(v3a(origin), v3a(dir) + Vec3A::ZERO, tmin, tmax),
+            Some(_) => Ray::new(
+                v3a(self.to_local.transform_point3(origin)),
+                v3a(self.to_local.transform_vector3(dir)) + Vec3A::ZERO,
+                tmin,
+                tmax,
+            ),
+        }
+    }
+}
+
 impl Tracer {
     /// Builds the BVH with the default (medium) quality.
     #[must_use]
@@ -107,30 +212,54 @@ impl Tracer {
         Self::with_quality(scene, BuildQuality::Medium)
     }
 
-    /// Builds the BVH with the given preset.
+    /// Builds the BVHs with the given preset (bottom levels in parallel; each build is
+    /// deterministic, so the tracer is the same on any thread count).
     #[must_use]
     pub fn with_quality(scene: &Scene, quality: BuildQuality) -> Self {
-        let ob: Vec<ObTriangle> = scene
-            .triangles
-            .iter()
-            .map(|t| ObTriangle { v0: v3a(t.v[0]), v1: v3a(t.v[1]), v2: v3a(t.v[2]) })
-            .collect();
-        let params = match quality {
-            BuildQuality::Fast => BvhBuildParams::fast_build(),
-            BuildQuality::Medium => BvhBuildParams::medium_build(),
-            BuildQuality::Slow => BvhBuildParams::slow_build(),
-        };
-        let bvh = build_cwbvh_from_tris(&ob, params, &mut Duration::default());
-        let order = bvh.primitive_indices.clone();
-        let tris = order.iter().map(|&i| RtTriangle::from(&ob[i as usize])).collect();
-        let normals = scene.triangles.iter().map(crate::scene::Triangle::normal).collect();
-        let single_sided =
-            scene.triangles.iter().map(|t| !scene.materials[t.material as usize].double_sided).collect();
-        let scene_tris = scene.triangles.iter().map(|t| t.v).collect();
-        Self { bvh, tris, order, normals, single_sided, scene_tris, alpha: AlphaTable::new(scene) }
+        let mut sources: Vec<(&[Triangle], u32)> = vec![(&scene.triangles, 0)];
+        let mut stored = scene.triangles.len() as u32;
+        for p in &scene.prototypes {
+            sources.push((&p.triangles, stored));
+            stored += p.triangles.len() as u32;
+        }
+        let blas: Vec<Blas> =
+            sources.par_iter().map(|&(src, base)| Blas::new(scene, src, base, quality)).collect();
+        let mut placements = Vec::with_capacity(scene.instances.len() + 1);
+        let mut boxes = Vec::with_capacity(scene.instances.len() + 1);
+        if !scene.triangles.is_empty() || scene.instances.is_empty() {
+            placements.push(Placement {
+                blas: 0,
+                first: 0,
+                to_world: None,
+                to_local: DAffine3::IDENTITY,
+                mirrored: false,
+            });
+            let (mut lo, mut hi) = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+            for t in &scene.triangles {
+                for v in t.v {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                }
+            }
+            boxes.push(outward_aabb(lo, hi));
+        }
+        for inst in &scene.instances {
+            placements.push(Placement {
+                blas: inst.prototype + 1,
+                first: inst.first,
+                to_world: Some(inst.to_world),
+                to_local: inst.to_world.inverse(),
+                mirrored: inst.mirrored(),
+            });
+            boxes.push(outward_aabb(inst.bounds.0, inst.bounds.1));
+        }
+        let one_level = placements.len() == 1 && placements[0].to_world.is_none();
+        let tlas = (!one_level).then(|| build_cwbvh(&boxes, build_params(quality), &mut Duration::default()));
+        Self { blas, placements, tlas, count: scene.triangle_count(), alpha: AlphaTable::new(scene) }
     }
 
-    /// Number of triangles whose hits need an alpha decision (`MASK` or `BLEND`).
+    /// Number of triangles whose hits need an alpha decision (`MASK` or `BLEND`), counted
+    /// as stored (a prototype's once).
     #[must_use]
     pub fn alpha_triangles(&self) -> usize {
         self.alpha.len()
@@ -142,52 +271,96 @@ impl Tracer {
         if self.alpha.is_empty() { 0 } else { ray_key(origin, dir) }
     }
 
-    /// The primitive test of BVH slot `slot`, with the alpha decision: `f32::INFINITY`
-    /// (no hit) for a candidate that is no surface.
+    /// The primitive test of BVH slot `slot` of placement `p`, with the alpha decision:
+    /// `f32::INFINITY` (no hit) for a candidate that is no surface.
     #[inline]
-    fn intersect(&self, r: &Ray, slot: usize, key: u64) -> f32 {
-        let t = self.tris[slot].intersect(r);
+    fn intersect(&self, b: &Blas, p: &Placement, r: &Ray, slot: usize, key: u64) -> f32 {
+        let t = b.tris[slot].intersect(r);
         if self.alpha.is_empty() || t == f32::INFINITY {
             return t;
         }
-        let tri = self.order[slot];
-        if !self.alpha.needs_test(tri) {
+        let local = b.order[slot];
+        let stored = b.stored_base + local;
+        if !self.alpha.needs_test(stored) {
             return t;
         }
-        let b = self.tris[slot].compute_barycentric(r);
-        if self.alpha.is_surface(tri, f64::from(b.x), f64::from(b.y), key) { t } else { f32::INFINITY }
+        let bc = b.tris[slot].compute_barycentric(r);
+        if self.alpha.is_surface(stored, p.first + local, f64::from(bc.x), f64::from(bc.y), key) {
+            t
+        } else {
+            f32::INFINITY
+        }
     }
 
-    /// Number of triangles.
+    /// Number of scene triangles (instances included).
     #[must_use]
     pub fn len(&self) -> usize {
-        self.tris.len()
+        self.count
+    }
+
+    /// Number of triangles stored in the BVHs (each prototype once).
+    #[must_use]
+    pub fn unique_len(&self) -> usize {
+        self.blas.iter().map(|b| b.tris.len()).sum()
+    }
+
+    /// Number of placements the top level holds (1 without instances).
+    #[must_use]
+    pub fn placements(&self) -> usize {
+        self.placements.len()
     }
 
     /// True when there are no triangles.
     #[must_use]
     pub fn is_empty(&self) -> bool {
-        self.tris.is_empty()
+        self.count == 0
+    }
+
+    /// The placement of scene triangle `tri` and its index in the placement's geometry.
+    #[inline]
+    fn locate(&self, tri: u32) -> (&Placement, u32) {
+        let k = self.placements.partition_point(|p| p.first <= tri).saturating_sub(1);
+        let p = &self.placements[k];
+        (p, tri - p.first)
+    }
+
+    /// Unit front-face normal, in the world frame, of triangle `local` of placement `p`:
+    /// for an instance, the normal of the placed f64 triangle ([`place`]), computed as
+    /// [`Triangle::normal`] computes it on a flattened copy, so the two agree bit for bit
+    /// (a shading frame built from it then does not flip where a component is near zero).
+    #[inline]
+    fn world_normal(&self, p: &Placement, local: u32) -> DVec3 {
+        let b = &self.blas[p.blas as usize];
+        match &p.to_world {
+            None => b.normals[local as usize],
+            Some(m) => {
+                let v = b.source[local as usize];
+                place(m, &Triangle { v, uv: [glam::DVec2::ZERO; 3], material: 0 }).normal()
+            }
+        }
     }
 
     /// Unit front-face normal of scene triangle `tri`.
     #[must_use]
     #[inline]
     pub fn normal(&self, tri: u32) -> DVec3 {
-        self.normals[tri as usize]
+        let (p, local) = self.locate(tri);
+        self.world_normal(p, local)
     }
 
-    fn make_hit(&self, tri: u32, t: f64, bary: [f64; 2], dir: DVec3) -> Hit {
-        let normal = self.normals[tri as usize];
+    /// The hit on triangle `local` of placement `p`; `bary` in the BVH frame's vertex order.
+    fn make_hit(&self, p: &Placement, local: u32, t: f64, bary: [f64; 2], dir: DVec3) -> Hit {
+        let normal = self.world_normal(p, local);
+        let single_sided = self.blas[p.blas as usize].single_sided[local as usize];
         let from_behind = normal.dot(dir) > 0.0;
         Hit {
-            triangle: tri,
+            triangle: p.first + local,
             t,
-            bary,
+            bary: if p.mirrored { [bary[1], bary[0]] } else { bary },
             normal,
             from_behind,
-            back_face: from_behind && self.single_sided[tri as usize],
-            single_sided: self.single_sided[tri as usize],
+            back_face: from_behind && single_sided,
+            single_sided,
         }
     }
 
@@ -195,15 +368,44 @@ impl Tracer {
     #[must_use]
     pub fn closest_hit(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
         let ray = make_ray(origin, dir, tmin, tmax);
-        let mut hit = RayHit::none();
         let key = self.key(origin, dir);
-        if !self.bvh.ray_traverse(ray, &mut hit, |r, id| self.intersect(r, id, key)) {
-            return None;
-        }
-        let slot = hit.primitive_id as usize;
-        let b = self.tris[slot].compute_barycentric(&ray);
-        let tri = self.order[slot];
-        Some(self.make_hit(tri, f64::from(hit.t), [f64::from(b.x), f64::from(b.y)], dir))
+        let Some(tlas) = &self.tlas else {
+            let (p, b) = (&self.placements[0], &self.blas[0]);
+            let mut hit = RayHit::none();
+            if !b.bvh.ray_traverse(ray, &mut hit, |r, id| self.intersect(b, p, r, id, key)) {
+                return None;
+            }
+            let slot = hit.primitive_id as usize;
+            let bc = b.tris[slot].compute_barycentric(&ray);
+            return Some(self.make_hit(
+                p,
+                b.order[slot],
+                f64::from(hit.t),
+                [f64::from(bc.x), f64::from(bc.y)],
+                dir,
+            ));
+        };
+        // (placement, slot, the ray in its frame)
+        let mut best: Option<(usize, usize, Ray)> = None;
+        let mut top = RayHit::none();
+        tlas.ray_traverse(ray, &mut top, |r, tslot| {
+            let k = tlas.primitive_indices[tslot] as usize;
+            let p = &self.placements[k];
+            let b = &self.blas[p.blas as usize];
+            let local = p.local_ray(origin, dir, r.tmin, r.tmax);
+            let mut hit = RayHit::none();
+            if b.bvh.ray_traverse(local, &mut hit, |lr, id| self.intersect(b, p, lr, id, key)) {
+                best = Some((k, hit.primitive_id as usize, local));
+                hit.t
+            } else {
+                f32::INFINITY
+            }
+        });
+        let (k, slot, local) = best?;
+        let p = &self.placements[k];
+        let b = &self.blas[p.blas as usize];
+        let bc = b.tris[slot].compute_barycentric(&local);
+        Some(self.make_hit(p, b.order[slot], f64::from(top.t), [f64::from(bc.x), f64::from(bc.y)], dir))
     }
 
     /// True when anything blocks `origin + t·dir` for `t ∈ [tmin, tmax]` (shadow rays).
@@ -211,45 +413,76 @@ impl Tracer {
     pub fn occluded(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> bool {
         let ray = make_ray(origin, dir, tmin, tmax);
         let key = self.key(origin, dir);
-        !self.bvh.ray_traverse_miss(ray, |r, id| self.intersect(r, id, key))
+        let Some(tlas) = &self.tlas else {
+            let (p, b) = (&self.placements[0], &self.blas[0]);
+            return !b.bvh.ray_traverse_miss(ray, |r, id| self.intersect(b, p, r, id, key));
+        };
+        !tlas.ray_traverse_miss(ray, |r, tslot| {
+            let p = &self.placements[tlas.primitive_indices[tslot] as usize];
+            let b = &self.blas[p.blas as usize];
+            let local = p.local_ray(origin, dir, r.tmin, r.tmax);
+            // Any value below tmax tells the top level that the ray is blocked.
+            if b.bvh.ray_traverse_miss(local, |lr, id| self.intersect(b, p, lr, id, key)) {
+                f32::INFINITY
+            } else {
+                f32::NEG_INFINITY
+            }
+        })
     }
 
-    /// Reference closest hit: the same f32 primitive test over every triangle in scene
-    /// order, no BVH (for tests and diagnostics).
+    /// Reference closest hit: the same f32 primitive test (in each placement's frame) over
+    /// every triangle, no BVH (for tests and diagnostics).
     #[must_use]
     pub fn closest_hit_brute_force(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
         let ray = make_ray(origin, dir, tmin, tmax);
         // Same acceptance rule as `CwBvh::ray_traverse`: strictly closer than the current tmax.
-        let mut best: Option<(usize, f32)> = None;
+        let mut best: Option<(usize, usize, f32, Ray)> = None;
         let key = self.key(origin, dir);
-        for slot in 0..self.tris.len() {
-            let d = self.intersect(&ray, slot, key);
-            if d < best.map_or(ray.tmax, |b| b.1) {
-                best = Some((slot, d));
+        for (k, p) in self.placements.iter().enumerate() {
+            let b = &self.blas[p.blas as usize];
+            let local = p.local_ray(origin, dir, ray.tmin, ray.tmax);
+            for slot in 0..b.tris.len() {
+                let d = self.intersect(b, p, &local, slot, key);
+                if d < best.map_or(ray.tmax, |x| x.2) {
+                    best = Some((k, slot, d, local));
+                }
             }
         }
-        let (slot, t) = best?;
-        let b = self.tris[slot].compute_barycentric(&ray);
-        Some(self.make_hit(self.order[slot], f64::from(t), [f64::from(b.x), f64::from(b.y)], dir))
+        let (k, slot, t, local) = best?;
+        let p = &self.placements[k];
+        let b = &self.blas[p.blas as usize];
+        let bc = b.tris[slot].compute_barycentric(&local);
+        Some(self.make_hit(p, b.order[slot], f64::from(t), [f64::from(bc.x), f64::from(bc.y)], dir))
     }
 
     /// Reference closest hit in f64 (Möller-Trumbore, independent of obvhs), in scene
-    /// order. Edge cases within ~1e-9 of an edge may differ from the f32 tracer.
+    /// order, on the triangles placed in the world frame. Edge cases within ~1e-9 of an
+    /// edge may differ from the f32 tracer.
     #[must_use]
     pub fn closest_hit_f64(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
-        let mut best: Option<(u32, f64, [f64; 2])> = None;
+        let mut best: Option<(usize, u32, f64, [f64; 2])> = None;
         let key = self.key(origin, dir);
-        for (i, v) in self.scene_tris.iter().enumerate() {
-            if let Some((t, u, w)) = intersect_f64(v, origin, dir)
-                && t >= tmin
-                && t <= best.map_or(tmax, |b| b.1)
-                && self.alpha.is_surface(i as u32, u, w, key)
-            {
-                best = Some((i as u32, t, [u, w]));
+        for (k, p) in self.placements.iter().enumerate() {
+            let b = &self.blas[p.blas as usize];
+            for (i, &v) in b.source.iter().enumerate() {
+                let w = match p.to_world {
+                    None => v,
+                    Some(m) => place(&m, &Triangle { v, uv: [glam::DVec2::ZERO; 3], material: 0 }).v,
+                };
+                if let Some((t, u, v)) = intersect_f64(&w, origin, dir)
+                    && t >= tmin
+                    && t <= best.map_or(tmax, |x| x.2)
+                {
+                    // Alpha reads the stored vertex order: swap back under a mirror.
+                    let (su, sv) = if p.mirrored { (v, u) } else { (u, v) };
+                    if self.alpha.is_surface(b.stored_base + i as u32, p.first + i as u32, su, sv, key) {
+                        best = Some((k, i as u32, t, [su, sv]));
+                    }
+                }
             }
         }
-        let (tri, t, bary) = best?;
-        Some(self.make_hit(tri, t, bary, dir))
+        let (k, local, t, bary) = best?;
+        Some(self.make_hit(&self.placements[k], local, t, bary, dir))
     }
 }
 

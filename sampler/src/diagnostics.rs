@@ -158,7 +158,7 @@ pub fn winding_report(scene: &Scene, weld: f64) -> WindingReport {
     // Undirected edge → list of (triangle, traversed from smaller to larger key).
     type EdgeKey = ([i64; 3], [i64; 3]);
     let mut edges: HashMap<EdgeKey, Vec<(u32, bool)>> = HashMap::new();
-    for (t, tri) in scene.triangles.iter().enumerate() {
+    for (t, tri) in scene.world_triangles().enumerate() {
         let k = tri.v.map(key);
         for e in 0..3 {
             let (a, b) = (k[e], k[(e + 1) % 3]);
@@ -188,11 +188,7 @@ pub fn winding_report(scene: &Scene, weld: f64) -> WindingReport {
     }
     report.suspects = score
         .into_iter()
-        .map(|(triangle, s)| Suspect {
-            triangle,
-            position: scene.triangles[triangle as usize].centroid(),
-            score: s,
-        })
+        .map(|(triangle, s)| Suspect { triangle, position: scene.triangle(triangle).centroid(), score: s })
         .collect();
     report.suspects.sort_by(|a, b| b.score.cmp(&a.score).then(a.triangle.cmp(&b.triangle)));
     report

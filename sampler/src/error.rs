@@ -66,6 +66,16 @@ pub enum SceneError {
     /// After loading, no (non-degenerate) triangle remained.
     #[error("scene {0} has no triangles")]
     Empty(String),
+    /// The scene places more triangles than a `u32` scene index can number.
+    #[error("scene {name} places {triangles} triangles, more than the {max} a scene can number")]
+    TooManyTriangles {
+        /// The scene.
+        name: String,
+        /// Triangles placed (instances included).
+        triangles: u64,
+        /// The limit (`u32::MAX`).
+        max: u32,
+    },
 }
 
 /// Errors of a bake ([`bake`](crate::bake())).

@@ -2,16 +2,25 @@
 //! JSON (accessor counts, instance counts, image headers) or the OBJ's face lines, so that
 //! a scene too large for memory is refused in one line instead of aborting mid-load.
 //!
-//! The scene is flattened (every instance of a mesh is its own triangles), so the
-//! geometry and the tracer grow with *instanced* triangles:
+//! A mesh the file places more than once is stored once and placed by instances
+//! ([`crate::instance`]); a mesh placed once is written out in the world frame with its
+//! lightmap object. So the geometry and the tracer grow with *unique* triangles plus
+//! instances:
 //!
-//! - geometry: a [`Triangle`] and its `Option<TriangleRef>` per triangle, and a lightmap
-//!   object's vertex attributes per vertex ([`VERTEX_BYTES`]);
-//! - tracer ([`crate::Tracer`]): per triangle the BVH's f32 triangle, the primitive order,
-//!   the unit normal, the sidedness flag and the f64 copy, plus the BVH nodes and the build's
-//!   transient arrays ([`BVH_BUILD_BYTES_PER_TRIANGLE`], measured);
+//! - geometry: per directly placed triangle a [`Triangle`] and its `Option<TriangleRef>`,
+//!   and its lightmap object's vertex attributes per vertex ([`VERTEX_BYTES`]); per
+//!   prototype triangle a [`Triangle`]; per instance an [`Instance`] and the loader's
+//!   placement record;
+//! - tracer ([`crate::Tracer`]): per stored triangle the BVH's f32 triangle, the primitive
+//!   order, the unit normal, the sidedness flag and the f64 copy, plus the BVH nodes and the
+//!   build's transient arrays ([`BVH_BUILD_BYTES_PER_TRIANGLE`], measured); per placement
+//!   its transforms and the top level's share ([`TLAS_BYTES_PER_PLACEMENT`]);
 //! - textures: 12 bytes (RGB f32) per texel, 4 more for alpha — counted as if every image
 //!   had alpha, since the header does not say whether its alpha is used.
+//!
+//! Loaded with [`LoadOptions::flatten_instances`](crate::LoadOptions) (the surface bake),
+//! every placement is written out, and the model is [`SceneMemory::from_counts`] of the
+//! placed triangles and vertices.
 
 use std::path::Path;
 
@@ -19,6 +28,7 @@ use glam::DVec3;
 use serde_json::Value;
 
 use crate::error::SceneError;
+use crate::instance::Instance;
 use crate::scene::{Triangle, TriangleRef};
 
 /// Bytes the BVH build of `obvhs` (medium quality) holds per triangle beyond the arrays the
@@ -27,6 +37,18 @@ use crate::scene::{Triangle, TriangleRef};
 /// tracer for 400 k triangles, less the tracer's own arrays; the test
 /// `tracer_estimate_bounds_the_measured_peak` keeps it honest.
 pub const BVH_BUILD_BYTES_PER_TRIANGLE: u64 = 200;
+
+/// Bytes the tracer holds per placement: its transforms (world → local, normal matrix, the
+/// placement record: about 200 bytes), its f32 box, and the top-level BVH build's arrays
+/// (as for triangles, [`BVH_BUILD_BYTES_PER_TRIANGLE`]).
+pub const TLAS_BYTES_PER_PLACEMENT: u64 = 200 + 32 + BVH_BUILD_BYTES_PER_TRIANGLE;
+
+/// Bytes per instance in the scene and the loader: the [`Instance`] and the loader's
+/// `(mesh, 4×4 matrix)` placement record.
+#[must_use]
+pub fn instance_bytes() -> u64 {
+    (size_of::<Instance>() + size_of::<(u64, glam::DMat4)>()) as u64
+}
 
 /// Bytes of a lightmap object's attributes per vertex: position, normal, tangent (f64) and
 /// two UV sets (f64).
@@ -52,9 +74,13 @@ pub fn geometry_bytes_per_triangle() -> u64 {
 /// What a scene will take, by consumer.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct SceneMemory {
-    /// Triangles after flattening instances.
+    /// Triangles placed (every instance counted).
     pub triangles: u64,
-    /// Vertices after flattening (attributes kept for lightmap objects).
+    /// Triangles stored: the directly placed ones plus each prototype's once.
+    pub unique_triangles: u64,
+    /// Instances (placements of prototypes); 0 when flattened.
+    pub instances: u64,
+    /// Vertices whose attributes are kept for lightmap objects.
     pub vertices: u64,
     /// Texels of all images.
     pub texels: u64,
@@ -67,11 +93,14 @@ pub struct SceneMemory {
 }
 
 impl SceneMemory {
-    /// From counts, by the module's model.
+    /// From counts of a flattened scene (every triangle placed directly), by the module's
+    /// model.
     #[must_use]
     pub fn from_counts(triangles: u64, vertices: u64, texels: u64) -> Self {
         Self {
             triangles,
+            unique_triangles: triangles,
+            instances: 0,
             vertices,
             texels,
             geometry_bytes: triangles
@@ -79,6 +108,30 @@ impl SceneMemory {
                 .saturating_add(vertices.saturating_mul(VERTEX_BYTES)),
             tracer_bytes: triangles
                 .saturating_mul(tracer_bytes_per_triangle() + BVH_BUILD_BYTES_PER_TRIANGLE),
+            texture_bytes: texels.saturating_mul(TEXEL_BYTES),
+        }
+    }
+
+    /// From the counts of a glTF loaded with instancing, by the module's model.
+    #[must_use]
+    pub fn instanced(c: &GltfCounts, texels: u64) -> Self {
+        let stored = c.direct_triangles.saturating_add(c.prototype_triangles);
+        let placements = c.instances.saturating_add(u64::from(c.direct_triangles > 0));
+        Self {
+            triangles: c.direct_triangles.saturating_add(c.instanced_triangles),
+            unique_triangles: stored,
+            instances: c.instances,
+            vertices: c.direct_vertices,
+            texels,
+            geometry_bytes: c
+                .direct_triangles
+                .saturating_mul(geometry_bytes_per_triangle())
+                .saturating_add(c.direct_vertices.saturating_mul(VERTEX_BYTES))
+                .saturating_add(c.prototype_triangles.saturating_mul(size_of::<Triangle>() as u64))
+                .saturating_add(c.instances.saturating_mul(instance_bytes())),
+            tracer_bytes: stored
+                .saturating_mul(tracer_bytes_per_triangle() + BVH_BUILD_BYTES_PER_TRIANGLE)
+                .saturating_add(placements.saturating_mul(TLAS_BYTES_PER_PLACEMENT)),
             texture_bytes: texels.saturating_mul(TEXEL_BYTES),
         }
     }
@@ -110,7 +163,7 @@ impl SceneMemory {
 /// # Errors
 /// [`SceneError::NotFound`], I/O errors, and a glTF whose JSON does not parse (the loader
 /// would refuse it too).
-pub fn estimate_scene(path: &Path) -> Result<SceneMemory, SceneError> {
+pub fn estimate_scene(path: &Path, flatten_instances: bool) -> Result<SceneMemory, SceneError> {
     if !path.is_file() {
         return Err(SceneError::NotFound(path.to_owned()));
     }
@@ -123,7 +176,7 @@ pub fn estimate_scene(path: &Path) -> Result<SceneMemory, SceneError> {
     let bytes = std::fs::read(path).map_err(io)?;
     let doc = crate::load_gltf::container::parse(&bytes)
         .map_err(|message| SceneError::Gltf { path: path.to_owned(), message })?;
-    let (triangles, vertices) = gltf_counts(&doc.json);
+    let counts = gltf_counts(&doc.json);
     // Images stored in buffers are measured from their headers; the buffers are read only
     // when some image lives in one (the load reads them again).
     let in_buffers = arr(&doc.json, "images").iter().any(|i| i.get("bufferView").is_some());
@@ -133,7 +186,11 @@ pub fn estimate_scene(path: &Path) -> Result<SceneMemory, SceneError> {
         Vec::new()
     };
     let texels = gltf_texels(&doc.json, &buffers, path.parent());
-    Ok(SceneMemory::from_counts(triangles, vertices, texels))
+    Ok(if flatten_instances {
+        SceneMemory::from_counts(counts.triangles(), counts.placed_vertices, texels)
+    } else {
+        SceneMemory::instanced(&counts, texels)
+    })
 }
 
 /// Triangles (faces with `n` corners give `n − 2`) and corners of an OBJ.
@@ -162,12 +219,37 @@ fn accessor_count(json: &Value, a: Option<u64>) -> u64 {
         .unwrap_or(0)
 }
 
-/// Triangles and vertices of every mesh instance the default scene (or, without one, every
-/// root node) places: per primitive, `count / 3` for triangle lists and `count − 2` for
-/// strips and fans (`count` of the indices, else of `POSITION`), times the node's
-/// `EXT_mesh_gpu_instancing` count.
+/// What a glTF places, counted from its JSON ([`gltf_counts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GltfCounts {
+    /// Triangles of meshes placed once.
+    pub direct_triangles: u64,
+    /// Vertices of meshes placed once.
+    pub direct_vertices: u64,
+    /// Triangles of meshes placed more than once, each counted once.
+    pub prototype_triangles: u64,
+    /// Placements of meshes placed more than once.
+    pub instances: u64,
+    /// Triangles those placements place.
+    pub instanced_triangles: u64,
+    /// Vertices of every placement (the flattened scene's lightmap vertices).
+    pub placed_vertices: u64,
+}
+
+impl GltfCounts {
+    /// Triangles placed in all.
+    #[must_use]
+    pub fn triangles(&self) -> u64 {
+        self.direct_triangles.saturating_add(self.instanced_triangles)
+    }
+}
+
+/// What every mesh placement of the file's nodes comes to: per primitive, `count / 3`
+/// triangles for triangle lists and `count − 2` for strips and fans (`count` of the
+/// indices, else of `POSITION`), each node's mesh placed once or `EXT_mesh_gpu_instancing`
+/// count times. A mesh placed more than once is a prototype, as the loader makes it.
 #[must_use]
-pub fn gltf_counts(json: &Value) -> (u64, u64) {
+pub fn gltf_counts(json: &Value) -> GltfCounts {
     let meshes = arr(json, "meshes");
     let per_mesh: Vec<(u64, u64)> = meshes
         .iter()
@@ -188,22 +270,37 @@ pub fn gltf_counts(json: &Value) -> (u64, u64) {
             })
         })
         .collect();
-    let nodes = arr(json, "nodes");
-    let (mut tris, mut verts) = (0u64, 0u64);
-    // Every node counted once (nodes form a tree; the loader refuses anything else).
-    for n in nodes {
+    // Placements per mesh; every node counted once (nodes form a tree; the loader refuses
+    // anything else).
+    let mut uses = vec![0u64; meshes.len()];
+    for n in arr(json, "nodes") {
         let Some(mesh) = n.get("mesh").and_then(Value::as_u64) else { continue };
-        let Some(&(t, v)) = per_mesh.get(mesh as usize) else { continue };
+        let Some(u) = uses.get_mut(mesh as usize) else { continue };
         let inst = n
             .pointer("/extensions/EXT_mesh_gpu_instancing/attributes")
             .and_then(|a| {
                 ["TRANSLATION", "ROTATION", "SCALE"].iter().find_map(|k| a.get(*k).and_then(Value::as_u64))
             })
             .map_or(1, |a| accessor_count(json, Some(a)).max(1));
-        tris = tris.saturating_add(t.saturating_mul(inst));
-        verts = verts.saturating_add(v.saturating_mul(inst));
+        *u = u.saturating_add(inst);
     }
-    (tris, verts)
+    let mut c = GltfCounts::default();
+    for (&(t, v), &n) in per_mesh.iter().zip(&uses) {
+        c.placed_vertices = c.placed_vertices.saturating_add(v.saturating_mul(n));
+        match n {
+            0 => {}
+            1 => {
+                c.direct_triangles = c.direct_triangles.saturating_add(t);
+                c.direct_vertices = c.direct_vertices.saturating_add(v);
+            }
+            _ => {
+                c.prototype_triangles = c.prototype_triangles.saturating_add(t);
+                c.instances = c.instances.saturating_add(n);
+                c.instanced_triangles = c.instanced_triangles.saturating_add(t.saturating_mul(n));
+            }
+        }
+    }
+    c
 }
 
 /// Texels of every image, from the image headers (in a buffer, in `data:` URIs or in files
@@ -268,7 +365,9 @@ mod tests {
         )
         .unwrap();
         // Per instance: 12/3 + (6 − 2) = 8 triangles, 9 + 6 = 15 vertices; 1000 + 1 instances.
-        assert_eq!(gltf_counts(&json), (8 * 1001, 15 * 1001));
+        let c = gltf_counts(&json);
+        assert_eq!((c.triangles(), c.placed_vertices), (8 * 1001, 15 * 1001));
+        assert_eq!((c.prototype_triangles, c.instances, c.direct_triangles), (8, 1001, 0));
         let obj = obj_counts(b"v 0 0 0\nf 1 2 3\nf 1 2 3 4\n  f 1 2 3 4 5\n# f 1 2 3\n");
         assert_eq!((obj.triangles, obj.vertices), (1 + 2 + 3, 12));
         let m = SceneMemory::from_counts(10, 20, 30);

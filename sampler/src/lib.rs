@@ -14,6 +14,7 @@ pub mod error;
 pub mod estimate;
 pub mod fit;
 pub mod gradients;
+pub mod instance;
 pub mod light_sampler;
 pub mod lights;
 pub mod load_gltf;
@@ -90,7 +91,7 @@ mod vendored_scene_tests {
         ];
         for (file, instanced, unique, cameras) in cases {
             let s = load_scene(&data(file), &LoadOptions::default()).unwrap();
-            let kept = s.triangles.len() + s.report.degenerate_skipped;
+            let kept = s.triangle_count() + s.report.degenerate_skipped;
             assert_eq!(kept, instanced, "{file}");
             assert_eq!(s.report.unique_triangles, unique, "{file}");
             assert_eq!(s.cameras.len(), cameras, "{file}");

@@ -62,8 +62,8 @@ pub struct LightSampler {
     /// Emissive triangles and their cumulative power.
     emitters: Vec<u32>,
     emitter_cdf: Vec<f64>,
-    /// Per scene triangle: probability of choosing it among emitters / its area (0 if not
-    /// an emitter).
+    /// Per emitter (parallel to `emitters`, which is in increasing scene index order): the
+    /// probability of choosing it / its area.
     emitter_pdf_area: Vec<f64>,
 }
 
@@ -84,24 +84,25 @@ impl LightSampler {
         }
         let mut emitters = Vec::new();
         let mut emitter_cdf = vec![0.0];
-        for (i, t) in scene.triangles.iter().enumerate() {
-            let m = &scene.materials[t.material as usize];
+        for (i, stored, inst) in scene.stored_triangles() {
+            let m = &scene.materials[stored.material as usize];
             if m.is_emissive() {
+                let t = inst.map_or(*stored, |x| x.place(stored));
                 let sides = if m.double_sided { 2.0 } else { 1.0 };
                 let power =
                     t.area() * luminance(m.emission).max(1e-12 * m.emission.iter().sum::<f64>()) * sides;
                 if power > 0.0 {
-                    emitters.push(i as u32);
+                    emitters.push(i);
                     emitter_cdf.push(emitter_cdf.last().unwrap() + power);
                 }
             }
         }
         let total = *emitter_cdf.last().unwrap();
-        let mut emitter_pdf_area = vec![0.0; scene.triangles.len()];
-        for (k, &tri) in emitters.iter().enumerate() {
-            let p = (emitter_cdf[k + 1] - emitter_cdf[k]) / total;
-            emitter_pdf_area[tri as usize] = p / scene.triangles[tri as usize].area();
-        }
+        let emitter_pdf_area = emitters
+            .iter()
+            .enumerate()
+            .map(|(k, &tri)| (emitter_cdf[k + 1] - emitter_cdf[k]) / total / scene.triangle(tri).area())
+            .collect();
         if !emitters.is_empty() {
             strategies.push(Strategy::Emitters);
         }
@@ -174,7 +175,7 @@ impl LightSampler {
                 let target = u0 * total;
                 let i = self.emitter_cdf[1..].partition_point(|&c| c <= target).min(self.emitters.len() - 1);
                 let tri = self.emitters[i];
-                let t = &scene.triangles[tri as usize];
+                let t = scene.triangle(tri);
                 let s = u[1].sqrt();
                 let (b1, b2) = (u[2] * s, 1.0 - s);
                 // Uniform on the triangle (Shirley's square-root warp): weights
@@ -192,7 +193,7 @@ impl LightSampler {
                 if cos_l <= 0.0 && !m.double_sided || cos_l == 0.0 {
                     return None;
                 }
-                let pdf = sel * self.emitter_pdf_area[tri as usize] * dist2 / cos_l.abs();
+                let pdf = sel * self.emitter_pdf_area[i] * dist2 / cos_l.abs();
                 Some(LightSample {
                     dir,
                     dist,
@@ -250,11 +251,12 @@ impl LightSampler {
     /// `x + t·dir` meets emissive triangle `tri` (per steradian).
     #[must_use]
     pub fn pdf_emitter(&self, scene: &Scene, tri: u32, dir: DVec3, t: f64) -> f64 {
-        let pa = self.emitter_pdf_area.get(tri as usize).copied().unwrap_or(0.0);
+        let Ok(k) = self.emitters.binary_search(&tri) else { return 0.0 };
+        let pa = self.emitter_pdf_area[k];
         if pa == 0.0 {
             return 0.0;
         }
-        let cos_l = scene.triangles[tri as usize].normal().dot(dir).abs();
+        let cos_l = scene.triangle(tri).normal().dot(dir).abs();
         if cos_l == 0.0 { 0.0 } else { self.selection() * pa * t * t / cos_l }
     }
 }

@@ -19,11 +19,16 @@ pub struct LoadOptions {
     /// Make every material double-sided (for files whose winding cannot be trusted; this
     /// disables domain-of-interest classification on them, see Kontkanen & Laine 2006 §7).
     pub force_double_sided: bool,
+    /// Write every placement of an instanced glTF mesh out as its own world-space
+    /// triangles and lightmap object, instead of storing the mesh once and placing it
+    /// ([`crate::instance`]). The surface bake needs this: each placement gets its own
+    /// lightmap. An OBJ has no instancing either way.
+    pub flatten_instances: bool,
 }
 
 impl Default for LoadOptions {
     fn default() -> Self {
-        Self { up: UpAxis::Y, scale: 1.0, force_double_sided: false }
+        Self { up: UpAxis::Y, scale: 1.0, force_double_sided: false, flatten_instances: false }
     }
 }
 

@@ -10,6 +10,7 @@
 use glam::{DVec2, DVec3, DVec4};
 
 use crate::error::SceneError;
+pub use crate::instance::{Instance, Prototype};
 use crate::lights::{Environment, PunctualLight, Sun};
 use crate::texture::Texture;
 
@@ -233,8 +234,14 @@ pub use lightvol_volume::frame::UpAxis;
 pub struct Scene {
     /// A label (file name or built-in name).
     pub name: String,
-    /// The triangles.
+    /// The triangles placed directly in the world frame (scene indices `0..len`; instanced
+    /// geometry follows, see [`crate::instance`]).
     pub triangles: Vec<Triangle>,
+    /// Meshes stored once in their own frame, placed by [`Scene::instances`].
+    pub prototypes: Vec<Prototype>,
+    /// Placements of [`Scene::prototypes`]; their triangles number after
+    /// [`Scene::triangles`], in instance order.
+    pub instances: Vec<Instance>,
     /// The materials.
     pub materials: Vec<Material>,
     /// Decoded textures.
@@ -275,7 +282,7 @@ pub struct SceneCamera {
 }
 
 impl Scene {
-    /// Axis-aligned bounds of the geometry.
+    /// Axis-aligned bounds of the geometry (instances included).
     #[must_use]
     pub fn bounds(&self) -> (DVec3, DVec3) {
         let mut lo = DVec3::splat(f64::INFINITY);
@@ -285,6 +292,10 @@ impl Scene {
                 lo = lo.min(v);
                 hi = hi.max(v);
             }
+        }
+        for i in &self.instances {
+            lo = lo.min(i.bounds.0);
+            hi = hi.max(i.bounds.1);
         }
         (lo, hi)
     }
@@ -301,7 +312,7 @@ impl Scene {
     /// Diffuse albedo of triangle `tri` at barycentrics `(u, v)`: factor × texture.
     #[must_use]
     pub fn albedo(&self, tri: u32, u: f64, v: f64) -> [f64; 3] {
-        let t = &self.triangles[tri as usize];
+        let (t, u, v) = self.stored_with_barycentrics(tri, u, v);
         let m = &self.materials[t.material as usize];
         match m.albedo_texture {
             Some(tex) => {
@@ -317,7 +328,7 @@ impl Scene {
     /// (glTF 2.0 §3.9.4); 1 for materials whose texture has no alpha channel.
     #[must_use]
     pub fn alpha(&self, tri: u32, u: f64, v: f64) -> f64 {
-        let t = &self.triangles[tri as usize];
+        let (t, u, v) = self.stored_with_barycentrics(tri, u, v);
         let m = &self.materials[t.material as usize];
         match m.albedo_texture {
             Some(tex) => {
@@ -328,11 +339,25 @@ impl Scene {
         }
     }
 
+    /// The stored triangle of `tri` with barycentrics `(u, v)` of the placed triangle
+    /// carried to its vertex order (swapped under a mirroring instance, whose placed
+    /// vertices 1 and 2 are the stored 2 and 1).
+    fn stored_with_barycentrics(&self, tri: u32, u: f64, v: f64) -> (&Triangle, f64, f64) {
+        match self.locate(tri) {
+            crate::instance::Located::World(i) => (&self.triangles[i as usize], u, v),
+            crate::instance::Located::Instanced { instance, local } => {
+                let inst = &self.instances[instance as usize];
+                let t = &self.prototypes[inst.prototype as usize].triangles[local as usize];
+                if inst.mirrored() { (t, v, u) } else { (t, u, v) }
+            }
+        }
+    }
+
     /// The material of triangle `tri`.
     #[must_use]
     #[inline]
     pub fn material_of(&self, tri: u32) -> &Material {
-        &self.materials[self.triangles[tri as usize].material as usize]
+        &self.materials[self.stored_triangle(tri).material as usize]
     }
 }
 
@@ -349,6 +374,8 @@ pub struct SceneBuilder {
     report: LoadReport,
     meshes: Vec<MeshAttributes>,
     triangle_refs: Vec<Option<TriangleRef>>,
+    prototypes: Vec<Prototype>,
+    instances: Vec<Instance>,
     /// Cameras to attach.
     pub cameras: Vec<SceneCamera>,
     /// Lights to attach.
@@ -406,9 +433,25 @@ impl SceneBuilder {
     /// [`SceneError::NonFinite`] for NaN/infinite coordinates, [`SceneError::BadMaterial`]
     /// for an unknown material.
     pub fn add_triangle(&mut self, v: [DVec3; 3], uv: [DVec2; 3], material: u32) -> Result<bool, SceneError> {
+        let Some(tri) = self.checked(v, uv, material, self.triangles.len())? else { return Ok(false) };
+        self.triangles.push(tri);
+        if !self.triangle_refs.is_empty() {
+            self.triangle_refs.push(None);
+        }
+        Ok(true)
+    }
+
+    /// Validates a triangle: `None` (counted) when it is degenerate.
+    fn checked(
+        &mut self,
+        v: [DVec3; 3],
+        uv: [DVec2; 3],
+        material: u32,
+        index: usize,
+    ) -> Result<Option<Triangle>, SceneError> {
         if !v.iter().all(|p| p.is_finite()) {
             return Err(SceneError::NonFinite {
-                what: format!("vertex of triangle {} in scene '{}'", self.triangles.len(), self.scene_name),
+                what: format!("vertex of triangle {index} in scene '{}'", self.scene_name),
             });
         }
         if material as usize >= self.materials.len() {
@@ -422,13 +465,61 @@ impl SceneBuilder {
             .max((v[0] - v[2]).length_squared());
         if !(tri.cross().length() > DEGENERATE_RELATIVE_AREA * longest) {
             self.report.degenerate_skipped += 1;
-            return Ok(false);
+            return Ok(None);
         }
-        self.triangles.push(tri);
-        if !self.triangle_refs.is_empty() {
-            self.triangle_refs.push(None);
-        }
+        Ok(Some(tri))
+    }
+
+    /// Starts a prototype (a mesh to instance), returning its index for
+    /// [`add_prototype_triangle`](Self::add_prototype_triangle) and
+    /// [`add_instance`](Self::add_instance).
+    pub fn add_prototype(&mut self, name: &str) -> u32 {
+        self.prototypes.push(Prototype { name: name.to_owned(), triangles: Vec::new() });
+        self.prototypes.len() as u32 - 1
+    }
+
+    /// Adds a triangle, in the prototype's frame, to prototype `p`. Returns `Ok(false)` (and
+    /// counts it) when it is degenerate there.
+    ///
+    /// # Errors
+    /// As [`add_triangle`](Self::add_triangle), and [`SceneError::BadMesh`] for an unknown
+    /// prototype.
+    pub fn add_prototype_triangle(
+        &mut self,
+        p: u32,
+        v: [DVec3; 3],
+        uv: [DVec2; 3],
+        material: u32,
+    ) -> Result<bool, SceneError> {
+        let Some(n) = self.prototypes.get(p as usize).map(|q| q.triangles.len()) else {
+            return Err(SceneError::BadMesh(format!("prototype {p} of {}", self.prototypes.len())));
+        };
+        let Some(tri) = self.checked(v, uv, material, n)? else { return Ok(false) };
+        self.prototypes[p as usize].triangles.push(tri);
         Ok(true)
+    }
+
+    /// Places prototype `p` with `to_world` (prototype frame → world frame).
+    ///
+    /// # Errors
+    /// [`SceneError::BadMesh`] for an unknown prototype, [`SceneError::NonFinite`] for a
+    /// transform with NaN or infinite entries.
+    pub fn add_instance(&mut self, p: u32, to_world: glam::DAffine3) -> Result<(), SceneError> {
+        if p as usize >= self.prototypes.len() {
+            return Err(SceneError::BadMesh(format!("prototype {p} of {}", self.prototypes.len())));
+        }
+        if !to_world.is_finite() {
+            return Err(SceneError::NonFinite {
+                what: format!("instance transform in scene '{}'", self.scene_name),
+            });
+        }
+        self.instances.push(Instance {
+            prototype: p,
+            to_world,
+            first: 0,
+            bounds: (DVec3::ZERO, DVec3::ZERO),
+        });
+        Ok(())
     }
 
     /// Adds a lightmap object's attributes, returning its index for [`TriangleRef::mesh`].
@@ -527,13 +618,21 @@ impl SceneBuilder {
     ///
     /// # Errors
     /// [`SceneError::Empty`] when no triangle was kept.
-    pub fn build(self) -> Result<Scene, SceneError> {
-        if self.triangles.is_empty() {
+    pub fn build(mut self) -> Result<Scene, SceneError> {
+        crate::instance::finish_instances(
+            self.triangles.len(),
+            &self.prototypes,
+            &mut self.instances,
+            &self.scene_name,
+        )?;
+        if self.triangles.is_empty() && self.instances.is_empty() {
             return Err(SceneError::Empty(self.scene_name));
         }
         Ok(Scene {
             name: self.scene_name,
             triangles: self.triangles,
+            prototypes: self.prototypes,
+            instances: self.instances,
             materials: self.materials,
             textures: self.textures,
             environment: self.environment,

@@ -255,7 +255,7 @@ impl<'a> Transport<'a> {
                 break;
             }
             let tri = h.triangle;
-            let t = &scene.triangles[tri as usize];
+            let t = scene.triangle(tri);
             let m = &scene.materials[t.material as usize];
             // Shading normal: the geometric normal on the side the ray came from.
             let n = if h.from_behind { -h.normal } else { h.normal };

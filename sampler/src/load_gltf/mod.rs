@@ -11,9 +11,14 @@
 //! checked here so that a corrupt file is a one-line error, never a panic. What it does
 //! with each extension is in [`extensions`] and in [`LoadReport::extensions`].
 //!
-//! Every node's mesh instance also becomes a lightmap object ([`MeshAttributes`]) with its
-//! world-space `NORMAL`, `TANGENT`, `TEXCOORD_0` and `TEXCOORD_1` (for the surface bake,
-//! [`crate::surface`]); each scene triangle records its object and vertices
+//! A mesh that the default scene places more than once (by several nodes, or by
+//! `EXT_mesh_gpu_instancing`) is stored once as a [`Prototype`](crate::instance::Prototype)
+//! and placed by [`Instance`](crate::instance::Instance)s, so memory grows with unique
+//! triangles ([`crate::instance`]); [`LoadOptions::flatten_instances`] writes every
+//! placement out instead. Every mesh placed once, and with `flatten_instances` every
+//! placement, becomes a lightmap object ([`MeshAttributes`]) with its world-space
+//! `NORMAL`, `TANGENT`, `TEXCOORD_0` and `TEXCOORD_1` (for the surface bake,
+//! [`crate::surface`]); each such triangle records its object and vertices
 //! ([`Scene::triangle_refs`]).
 
 mod accessor;
@@ -26,7 +31,7 @@ mod material;
 use std::collections::HashMap;
 use std::path::Path;
 
-use glam::{DMat3, DMat4, DQuat, DVec2, DVec3, DVec4};
+use glam::{DAffine3, DMat3, DMat4, DQuat, DVec2, DVec3, DVec4};
 use serde_json::Value;
 
 use crate::error::SceneError;
@@ -75,6 +80,7 @@ pub fn load_gltf_slice(
         opts: *opts,
         b: SceneBuilder::new(name),
         meshes: HashMap::new(),
+        prototypes: HashMap::new(),
         object_names: HashMap::new(),
         scene_name: name.to_owned(),
         unstored: std::cell::Cell::new(0),
@@ -122,6 +128,8 @@ struct Loader<'a> {
     opts: LoadOptions,
     b: SceneBuilder,
     meshes: HashMap<u64, std::rc::Rc<Vec<Primitive>>>,
+    /// Mesh index → its prototype, for meshes placed more than once.
+    prototypes: HashMap<u64, u32>,
     object_names: HashMap<String, usize>,
     scene_name: String,
     /// Values read so far from accessors without a bufferView (see [`Loader::charge`]).
@@ -216,6 +224,9 @@ impl Loader<'_> {
             }
         };
         let mut visited = vec![false; nodes.len()];
+        // (mesh, transform) in node order; placed after the walk, once the number of
+        // placements of each mesh is known.
+        let mut placements: Vec<(u64, DMat4)> = Vec::new();
         let root = self.root_matrix();
         let mut stack: Vec<(u64, DMat4)> = roots.into_iter().rev().map(|n| (n, root)).collect();
         while let Some((ni, parent)) = stack.pop() {
@@ -247,10 +258,58 @@ impl Loader<'_> {
                 if !m.is_finite() {
                     return Err(SceneError::NonFinite { what: format!("instance transform of node {ni}") });
                 }
+                placements.push((mesh, m));
+            }
+        }
+        let mut uses: HashMap<u64, usize> = HashMap::new();
+        for &(mesh, _) in &placements {
+            *uses.entry(mesh).or_default() += 1;
+        }
+        for (mesh, m) in placements {
+            if uses[&mesh] > 1 && !self.opts.flatten_instances {
+                let p = self.prototype(materials, mesh)?;
+                self.b.report_mut().instances += 1;
+                self.b.add_instance(p, DAffine3::from_mat4(m))?;
+            } else {
                 self.add_instance(materials, mesh, &m)?;
             }
         }
         Ok(())
+    }
+
+    /// The prototype of mesh `index`: its triangles in the mesh's frame, decoded once.
+    fn prototype(&mut self, materials: &mut Materials<'_>, index: u64) -> Result<u32, SceneError> {
+        if let Some(&p) = self.prototypes.get(&index) {
+            return Ok(p);
+        }
+        let prims = self.mesh(index)?;
+        let name = arr(self.json, "meshes")[index as usize]
+            .get("name")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("mesh{index}"), str::to_owned);
+        let p = self.b.add_prototype(&name);
+        for (pi, prim) in prims.iter().enumerate() {
+            let mu: MaterialUse = materials
+                .get(&mut self.b, prim.material)
+                .map_err(|e| gltf_err(format!("mesh '{name}' primitive {pi}: {e}")))?;
+            let base_uv = prim.uvs.get(&mu.uv_set);
+            for (f, tri) in prim.indices.chunks_exact(3).enumerate() {
+                let ids = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                let v = ids.map(|i| prim.positions[i]);
+                if !v.iter().all(|q| q.is_finite()) {
+                    return Err(SceneError::NonFinite {
+                        what: format!("vertex of face {f} in mesh '{name}' of {}", self.scene_name),
+                    });
+                }
+                let uv = ids.map(|i| {
+                    let t = base_uv.and_then(|u| u.get(i)).copied().unwrap_or(DVec2::ZERO);
+                    mu.uv_transform.as_ref().map_or(t, |m| material::apply(m, t))
+                });
+                self.b.add_prototype_triangle(p, v, uv, mu.id)?;
+            }
+        }
+        self.prototypes.insert(index, p);
+        Ok(p)
     }
 
     /// The instance transforms of a node: `EXT_mesh_gpu_instancing`'s TRS per instance, or

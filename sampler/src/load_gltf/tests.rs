@@ -248,7 +248,8 @@ fn png_rgba(w: u32, h: u32, px: impl Fn(u32, u32) -> [u8; 4]) -> Vec<u8> {
     png
 }
 
-const Z_UP: LoadOptions = LoadOptions { up: UpAxis::Z, scale: 1.0, force_double_sided: false };
+const Z_UP: LoadOptions =
+    LoadOptions { up: UpAxis::Z, scale: 1.0, force_double_sided: false, flatten_instances: false };
 
 fn load_str(text: &str) -> Result<Scene, SceneError> {
     load_gltf_slice(text.as_bytes(), None, "synthetic.gltf", &Z_UP)
@@ -428,8 +429,9 @@ fn texture_transform_moves_the_lookup() {
     assert_eq!(moved.meshes[0].uv0.as_ref().unwrap()[0], DVec2::ZERO);
 }
 
-/// `EXT_mesh_gpu_instancing`: each instance is an object at node × instance TRS; the mesh's
-/// triangles count once as unique.
+/// `EXT_mesh_gpu_instancing`: each instance places the mesh at node × instance TRS; the
+/// mesh's triangles are stored once, as a prototype. Flattened, each instance is an object
+/// with its own triangles, numbered as the instanced scene numbers them.
 #[test]
 fn gpu_instancing_places_every_instance() {
     let mut d = Doc::default();
@@ -444,13 +446,34 @@ fn gpu_instancing_places_every_instance() {
         "meshes": quad_mesh(pos, ind, 1, Value::Null)
     }));
     let s = load_str(&text).unwrap();
-    assert_eq!(s.triangles.len(), 6);
-    assert_eq!(s.meshes.len(), 3);
+    assert_eq!((s.triangles.len(), s.prototypes.len(), s.instances.len()), (0, 1, 3));
+    assert_eq!((s.triangle_count(), s.unique_triangle_count()), (6, 2));
+    assert!(s.meshes.is_empty());
     assert_eq!((s.report.unique_triangles, s.report.instances), (2, 3));
-    assert_eq!(s.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(), ["quad", "quad#2", "quad#3"]);
-    assert_eq!(s.triangles[2].v[1], DVec3::new(11.0, 0.0, 5.0));
+    assert_eq!(s.triangle(2).v[1], DVec3::new(11.0, 0.0, 5.0));
     // The half turn maps (1, 0) to (-1, 0) around the instance's origin (0, 10, 5).
-    assert!((s.triangles[4].v[1] - DVec3::new(-1.0, 10.0, 5.0)).length() < 1e-12, "{}", s.triangles[4].v[1]);
+    assert!((s.triangle(4).v[1] - DVec3::new(-1.0, 10.0, 5.0)).length() < 1e-12, "{}", s.triangle(4).v[1]);
+    assert_eq!(s.instances[2].bounds.0, DVec3::new(-1.0, 9.0, 5.0));
+
+    let flat = load_gltf_slice(
+        text.as_bytes(),
+        None,
+        "synthetic.gltf",
+        &LoadOptions { flatten_instances: true, ..Z_UP },
+    )
+    .unwrap();
+    assert_eq!((flat.triangles.len(), flat.instances.len()), (6, 0));
+    assert_eq!(flat.meshes.len(), 3);
+    assert_eq!((flat.report.unique_triangles, flat.report.instances), (2, 3));
+    assert_eq!(flat.meshes.iter().map(|m| m.name.as_str()).collect::<Vec<_>>(), ["quad", "quad#2", "quad#3"]);
+    for i in 0..6 {
+        let (a, b) = (s.triangle(i), flat.triangles[i as usize]);
+        assert_eq!(a.uv, b.uv);
+        for k in 0..3 {
+            // The same transform applied as an affine map instead of a 4x4 matrix.
+            assert!((a.v[k] - b.v[k]).length() < 1e-12, "{i}: {a:?} {b:?}");
+        }
+    }
 }
 
 /// Instances come from stored data: an instancing accessor without a bufferView (zeros,
@@ -485,7 +508,7 @@ fn gpu_instancing_needs_stored_instances() {
         "meshes": quad_mesh(pos, ind, 1, Value::Null)
     }));
     let s = load_str(&text).unwrap();
-    assert_eq!((s.report.instances, s.triangles[2].v[0]), (2, DVec3::new(2.0, 0.0, 0.0)));
+    assert_eq!((s.report.instances, s.triangle(2).v[0]), (2, DVec3::new(2.0, 0.0, 0.0)));
 }
 
 /// Zeros of accessors without a bufferView are budgeted for the whole load, not per

@@ -142,11 +142,12 @@ pub fn lighting_fingerprint(scene: &Scene, transport: &crate::transport::Transpo
     let mut used = vec![false; scene.materials.len()];
     let mut triangles = 0u64;
     let mut total = [0.0f64; 3];
-    for t in &scene.triangles {
-        let Some(m) = scene.materials.get(t.material as usize) else { continue };
+    for (_, stored, inst) in scene.stored_triangles() {
+        let Some(m) = scene.materials.get(stored.material as usize) else { continue };
         if !m.is_emissive() {
             continue;
         }
+        let t = inst.map_or(*stored, |i| i.place(stored));
         used[t.material as usize] = true;
         triangles += 1;
         let sides = if m.double_sided { 2.0 } else { 1.0 };

@@ -954,7 +954,7 @@ fn irradiance_at_the_normal_per_basis() {
     }
 }
 
-/// A mesh used by two nodes is two lightmap objects ("Floor", "Floor#2"), each with its own
+/// Loaded flattened, a mesh used by two nodes is two lightmap objects ("Floor", "Floor#2"), each with its own
 /// triangles and world-space attributes.
 #[test]
 fn instanced_meshes_are_separate_objects() {
@@ -968,7 +968,9 @@ fn instanced_meshes_are_separate_objects() {
     );
     assert!(text.contains("\"translation\""));
     std::fs::write(&p, text).unwrap();
-    let s = load(&p);
+    // The surface bake loads placements flattened (each gets its own lightmap).
+    let opts = crate::LoadOptions { up: crate::UpAxis::Z, flatten_instances: true, ..Default::default() };
+    let s = crate::load_gltf::load_gltf(&p, &opts).unwrap();
     let names: Vec<&str> = s.meshes.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names.len(), 2);
     assert!(names.contains(&"Floor") && names.contains(&"Floor#2"), "{names:?}");
