@@ -103,6 +103,18 @@ pub struct BakeReport {
     pub bvh_seconds: f64,
     /// Throughput.
     pub mrays_per_second: f64,
+    /// Triangles the scene places (every instance counted).
+    pub triangles: u64,
+    /// Triangles stored (each instanced mesh once).
+    pub unique_triangles: u64,
+    /// Mesh instances.
+    pub instances: u64,
+    /// The memory estimate checked against `--max-memory-mib`: scene, ray tracer and grid.
+    pub estimated_memory_bytes: u64,
+    /// This process's peak resident memory (Linux), measured after writing the volume.
+    pub peak_memory_bytes: Option<u64>,
+    /// Wall time of the whole command: load, BVH, bake and write.
+    pub total_seconds: f64,
     /// Output file.
     pub output: String,
     /// The gradients, when baked.
@@ -313,6 +325,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         bail!("{first} needs --adaptive");
     }
     let method = parse_method(&args.method)?;
+    let started = Instant::now();
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded)?;
     if args.sampling.samples == 0 {
@@ -458,6 +471,16 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         seconds: s.wall_time.as_secs_f64(),
         bvh_seconds,
         mrays_per_second: s.mrays_per_second(),
+        triangles: loaded.scene.triangle_count() as u64,
+        unique_triangles: loaded.scene.unique_triangle_count() as u64,
+        instances: loaded.scene.instances.len() as u64,
+        estimated_memory_bytes: u64::try_from(
+            crate::setup::bake_memory_bytes(grid.res().map(u64::from), args.grid.coeffs())
+                + u128::from(loaded.memory.total()),
+        )
+        .unwrap_or(u64::MAX),
+        peak_memory_bytes: lightvol_sampler::estimate::peak_resident_bytes(),
+        total_seconds: started.elapsed().as_secs_f64(),
         output: args.output.display().to_string(),
         gradients: grads_json,
     };

@@ -2,6 +2,7 @@
 
 pub mod adaptive_bake;
 pub mod adaptive_files;
+mod bench_scale;
 pub mod cli;
 pub mod cmd_bake;
 pub mod cmd_bake_surface;

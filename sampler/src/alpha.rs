@@ -21,7 +21,7 @@
 
 use glam::{DVec2, DVec3};
 
-use crate::scene::{AlphaMode, Scene};
+use crate::scene::{AlphaMode, Scene, Triangle};
 use crate::texture::Texture;
 
 /// `slot` value of an opaque triangle.
@@ -58,6 +58,17 @@ impl AlphaTable {
     /// and no alpha texture) are treated as opaque.
     #[must_use]
     pub fn new(scene: &Scene) -> Self {
+        Self::from_triangles(
+            scene,
+            scene.triangles.iter().chain(scene.prototypes.iter().flat_map(|p| &p.triangles)),
+        )
+    }
+
+    /// The table of `triangles` (their materials and UVs), numbered in the iterator's order,
+    /// with `scene`'s materials and textures: e.g. a scene's placed triangles, for a tracer
+    /// that flattens its instances.
+    #[must_use]
+    pub fn from_triangles<'a>(scene: &Scene, triangles: impl Iterator<Item = &'a Triangle>) -> Self {
         let mut t = Self::default();
         let mut mat_map: Vec<Option<u32>> = vec![None; scene.materials.len()];
         let mut tex_map: Vec<Option<u32>> = vec![None; scene.textures.len()];
@@ -84,10 +95,7 @@ impl AlphaTable {
         if t.materials.is_empty() {
             return t;
         }
-        t.slot = scene
-            .triangles
-            .iter()
-            .chain(scene.prototypes.iter().flat_map(|p| &p.triangles))
+        t.slot = triangles
             .map(|tri| match mat_map[tri.material as usize] {
                 Some(am) => {
                     t.uvs.push(tri.uv);

@@ -14,7 +14,10 @@
 //! - tracer ([`crate::Tracer`]): per stored triangle the BVH's f32 triangle, the primitive
 //!   order, the unit normal, the sidedness flag and the f64 copy, plus the BVH nodes and the
 //!   build's transient arrays ([`BVH_BUILD_BYTES_PER_TRIANGLE`], measured); per placement
-//!   its transforms and the top level's share ([`TLAS_BYTES_PER_PLACEMENT`]);
+//!   its transforms and the top level's share ([`TLAS_BYTES_PER_PLACEMENT`]). A scene that
+//!   places at most [`FLATTEN_AT_MOST`](crate::bvh::FLATTEN_AT_MOST) triangles is traced
+//!   through one level: then the tracer's bytes are per *placed* triangle, plus the placed
+//!   triangles written out for its build;
 //! - textures: 12 bytes (RGB f32) per texel, 4 more for alpha — counted as if every image
 //!   had alpha, since the header does not say whether its alpha is used.
 //!
@@ -116,9 +119,10 @@ impl SceneMemory {
     #[must_use]
     pub fn instanced(c: &GltfCounts, texels: u64) -> Self {
         let stored = c.direct_triangles.saturating_add(c.prototype_triangles);
+        let placed = c.triangles();
         let placements = c.instances.saturating_add(u64::from(c.direct_triangles > 0));
         Self {
-            triangles: c.direct_triangles.saturating_add(c.instanced_triangles),
+            triangles: placed,
             unique_triangles: stored,
             instances: c.instances,
             vertices: c.direct_vertices,
@@ -129,9 +133,16 @@ impl SceneMemory {
                 .saturating_add(c.direct_vertices.saturating_mul(VERTEX_BYTES))
                 .saturating_add(c.prototype_triangles.saturating_mul(size_of::<Triangle>() as u64))
                 .saturating_add(c.instances.saturating_mul(instance_bytes())),
-            tracer_bytes: stored
-                .saturating_mul(tracer_bytes_per_triangle() + BVH_BUILD_BYTES_PER_TRIANGLE)
-                .saturating_add(placements.saturating_mul(TLAS_BYTES_PER_PLACEMENT)),
+            tracer_bytes: if placed <= crate::bvh::FLATTEN_AT_MOST as u64 {
+                // One level over the placed triangles, written out for the build when some
+                // are instanced.
+                let copy = if c.instances > 0 { size_of::<Triangle>() as u64 } else { 0 };
+                placed.saturating_mul(tracer_bytes_per_triangle() + BVH_BUILD_BYTES_PER_TRIANGLE + copy)
+            } else {
+                stored
+                    .saturating_mul(tracer_bytes_per_triangle() + BVH_BUILD_BYTES_PER_TRIANGLE)
+                    .saturating_add(placements.saturating_mul(TLAS_BYTES_PER_PLACEMENT))
+            },
             texture_bytes: texels.saturating_mul(TEXEL_BYTES),
         }
     }
@@ -154,6 +165,15 @@ impl SceneMemory {
         .max_by_key(|&(_, b)| b)
         .expect("three entries")
     }
+}
+
+/// This process's peak resident memory (`VmHWM` of `/proc/self/status`), to set beside an
+/// estimate; `None` where that file is missing (not Linux).
+#[must_use]
+pub fn peak_resident_bytes() -> Option<u64> {
+    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+    let kib: u64 = s.lines().find(|l| l.starts_with("VmHWM:"))?.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
 }
 
 /// Estimates the memory of the scene file at `path` without loading its geometry (a glTF's

@@ -15,6 +15,7 @@ pub mod estimate;
 pub mod fit;
 pub mod gradients;
 pub mod instance;
+pub mod layout;
 pub mod light_sampler;
 pub mod lights;
 pub mod load_gltf;
@@ -30,7 +31,7 @@ pub mod transport;
 
 pub use bake::{BakeControl, BakeOutput, BakeSettings, Method, Progress, bake};
 pub use builtin::{BuiltinScene, builtin};
-pub use bvh::{BuildQuality, Hit, Tracer};
+pub use bvh::{BuildQuality, Hit, Levels, Tracer};
 pub use error::{BakeError, SceneError};
 pub use glam::{DVec2, DVec3};
 pub use lights::{Environment, PunctualLight, Sun};

@@ -6,8 +6,8 @@
 use glam::{DAffine3, DMat3, DQuat};
 use lightvol_sampler::lights::Environment;
 use lightvol_sampler::{
-    AlphaMode, BakeControl, BakeSettings, DVec2, DVec3, GridSpec, Material, Method, Scene, SceneBuilder,
-    Tracer, Transport, TransportSettings, bake,
+    AlphaMode, BakeControl, BakeSettings, BuildQuality, DVec2, DVec3, GridSpec, Levels, Material, Method,
+    Scene, SceneBuilder, Tracer, Transport, TransportSettings, bake,
 };
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
@@ -130,6 +130,11 @@ fn town_with(blend: bool) -> Scene {
     b.build().unwrap()
 }
 
+/// The two-level tracer (the town is small enough that [`Levels::Auto`] would flatten it).
+fn two_level(s: &Scene) -> Tracer {
+    Tracer::build(s, BuildQuality::Medium, Levels::Two)
+}
+
 fn random_ray(rng: &mut SplitMix64) -> (DVec3, DVec3) {
     let o = DVec3::new(rng.range(-22.0, 22.0), rng.range(-22.0, 22.0), rng.range(-1.0, 8.0));
     let d = DVec3::from_array(sample_uniform_sphere([rng.next_f64(), rng.next_f64()]));
@@ -150,8 +155,14 @@ fn the_town_is_instanced_as_built() {
         assert_eq!(s.stored_triangle(i).material, f.triangles[i as usize].material);
     }
     assert_eq!(s.bounds(), f.bounds());
-    let tracer = Tracer::new(&s);
+    let tracer = two_level(&s);
     assert_eq!((tracer.len(), tracer.unique_len(), tracer.placements()), (s.triangle_count(), 87, 10));
+    // Small enough to flatten: one level over the placed triangles.
+    let auto = Tracer::new(&s);
+    assert_eq!(
+        (auto.len(), auto.unique_len(), auto.placements()),
+        (s.triangle_count(), s.triangle_count(), 1)
+    );
     // The mirrored instance keeps its front faces outward: a ray from outside its box's
     // +X wall meets a front face.
     let m = &s.instances[3];
@@ -175,7 +186,7 @@ proptest! {
         thread_local! {
             static TRACERS: (Scene, Tracer, Tracer) = {
                 let s = town();
-                let (a, b) = (Tracer::new(&s), Tracer::new(&s.flattened()));
+                let (a, b) = (two_level(&s), Tracer::new(&s.flattened()));
                 (s, a, b)
             };
         }
@@ -215,7 +226,7 @@ proptest! {
 #[test]
 fn f64_reference_is_the_flattened_one() {
     let s = town();
-    let (inst, flat) = (Tracer::new(&s), Tracer::new(&s.flattened()));
+    let (inst, flat) = (two_level(&s), Tracer::new(&s.flattened()));
     let mut rng = SplitMix64::new(99);
     let mut hits = 0;
     for _ in 0..400 {
@@ -239,7 +250,11 @@ fn grid() -> GridSpec {
 }
 
 fn baked(scene: &Scene, threads: usize) -> Vec<f32> {
-    let tracer = Tracer::new(scene);
+    baked_with(scene, threads, Levels::Two)
+}
+
+fn baked_with(scene: &Scene, threads: usize, levels: Levels) -> Vec<f32> {
+    let tracer = Tracer::build(scene, BuildQuality::Medium, levels);
     let t = Transport::new(scene, &tracer, TransportSettings::default());
     let s = BakeSettings { method: Method::Doi, samples: 16, seed: 5, ..Default::default() };
     let out = rayon::ThreadPoolBuilder::new()
@@ -252,7 +267,8 @@ fn baked(scene: &Scene, threads: usize) -> Vec<f32> {
 
 /// A doi bake (sky, the lamps, two bounces) of the instanced town equals the flattened
 /// town's within [`BAKE_REL_TOL`] of the largest coefficient, and is bit-identical on 1 and
-/// 2 threads.
+/// 2 threads. Traced through one level (the instances written out inside the tracer), it
+/// is the flattened town's bake bit for bit.
 #[test]
 fn instanced_bake_equals_the_flattened_bake() {
     /// Normals are bit-identical, hit points move by f32 rounding of the transform (about
@@ -265,6 +281,7 @@ fn instanced_bake_equals_the_flattened_bake() {
     let a = baked(&s, 1);
     assert_eq!(a, baked(&s, 2));
     let b = baked(&s.flattened(), 1);
+    assert_eq!(baked_with(&s, 1, Levels::One), b);
     assert_eq!(a.len(), b.len());
     let scale = b.iter().fold(0.0f64, |m, &x| m.max(f64::from(x).abs()));
     assert!(scale > 0.1, "{scale}");

@@ -44,8 +44,12 @@ fn every_vendored_scene_is_inspected_and_bakes() {
         let m = &j["memory"];
         assert_eq!(m["triangles"].as_u64().unwrap() as usize, instanced, "{file}: estimated triangles");
         let tri = m["triangles"].as_u64().unwrap();
+        // Traced through one level (all of them place under a million triangles), with the
+        // instanced ones' placed triangles (128 bytes each) written out for the build.
+        let copy = if m["instances"].as_u64().unwrap() > 0 { 128 } else { 0 };
         let per = lightvol_sampler::estimate::tracer_bytes_per_triangle()
-            + lightvol_sampler::estimate::BVH_BUILD_BYTES_PER_TRIANGLE;
+            + lightvol_sampler::estimate::BVH_BUILD_BYTES_PER_TRIANGLE
+            + copy;
         assert_eq!(m["tracer_bytes"].as_u64().unwrap(), tri * per, "{file}");
         let parts: u64 =
             ["geometry_bytes", "tracer_bytes", "texture_bytes"].iter().map(|k| m[*k].as_u64().unwrap()).sum();
@@ -149,4 +153,30 @@ fn a_scene_over_the_memory_limit_is_refused_in_one_line() {
             .unwrap_err();
     assert!(e.contains("the bake needs about") && e.contains("grid 90x90x90"), "{e}");
     assert!(!out.exists());
+}
+
+/// The 32 × 32 layout of the occlusion room places 65 M triangles and stores 63,720: the
+/// estimate (about 42 MiB with its grid) is refused under 32 MiB, in one line naming both
+/// counts, without an output file, and the bake goes through under 256 MiB.
+#[test]
+fn a_1024_room_layout_bakes_within_its_instanced_estimate() {
+    let dir = tempfile::tempdir().unwrap();
+    let layout = lightvol_sampler::layout::write_grid_layout(
+        &scene("occlusion_room/room.glb"),
+        dir.path(),
+        [32, 32],
+        10.0,
+    )
+    .unwrap();
+    let out = dir.path().join("layout.exr");
+    let grid = ["--bounds", "-5,0.25,-5,315,4.75,315", "--res", "33,2,33", "--samples", "2", "--quiet"];
+    let mut args = vec!["bake", s(&layout), "--max-memory-mib", "32", "-o", s(&out)];
+    args.extend(grid);
+    let e = run(&args).unwrap_err();
+    assert!(e.contains("65249280 triangles placed, 63720 stored") && e.contains("--max-memory-mib"), "{e}");
+    assert!(!e.contains('\n'), "{e}");
+    assert!(!out.exists());
+    args[3] = "256";
+    ok(&args);
+    assert!(out.is_file());
 }
