@@ -51,6 +51,11 @@ pub struct BenchArgs {
     /// With --bakes: samples per cell of each doi bake.
     #[arg(long, default_value_t = 16)]
     pub bake_samples: u32,
+    /// With --embree: how lightvol traces an instanced scene: `auto` (one level up to 2^20
+    /// placed triangles), `one` (instances written out), `two` (a BVH per mesh under a
+    /// top-level BVH). Embree always gets the triangles written out.
+    #[arg(long, default_value = "auto", value_parser = ["auto", "one", "two"])]
+    pub levels: String,
     /// With --embree: lightvol's BVH build quality (`fast`, `medium`, `slow`: spatial splits).
     #[arg(long, default_value = "medium", value_parser = ["fast", "medium", "slow"])]
     pub bvh_quality: String,
@@ -125,7 +130,12 @@ pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             "slow" => lightvol_sampler::BuildQuality::Slow,
             _ => lightvol_sampler::BuildQuality::Medium,
         };
-        let mut report = crate::embree_baseline::compare(&scene, args.rays, 42, quality)?;
+        let levels = match args.levels.as_str() {
+            "one" => lightvol_sampler::Levels::One,
+            "two" => lightvol_sampler::Levels::Two,
+            _ => lightvol_sampler::Levels::Auto,
+        };
+        let mut report = crate::embree_baseline::compare(&scene, args.rays, 42, quality, levels)?;
         report["scene"] = json!(args.scene);
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(ExitCode::SUCCESS);

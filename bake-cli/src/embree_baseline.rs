@@ -16,7 +16,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use lightvol_sampler::{BuildQuality, DVec3, Scene, Tracer};
+use lightvol_sampler::{BuildQuality, DVec3, Levels, Scene, Tracer};
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use serde_json::{Value, json};
@@ -152,13 +152,69 @@ fn agreement(a: &[f32], b: &[f32], occlusion: bool) -> Value {
     })
 }
 
+/// Rays a bake traces, in a bake's order: cell by cell over a grid of 16 cells along the
+/// scene's longest axis, 8 points uniform in the cell with uniform directions (Algorithm 2's
+/// sampling rays), each hit followed by a cosine-distributed bounce from the hit point
+/// (closest-hit rays), and a shadow ray toward a sun (jittered in a 0.27° cone) from each
+/// hit point (occlusion rays). Returns `count` of each.
+fn bake_mix(tracer: &Tracer, scene: &Scene, count: usize, rng: &mut SplitMix64) -> [Vec<(DVec3, DVec3)>; 2] {
+    const SAMPLES_PER_CELL: usize = 8;
+    let (lo, hi) = scene.bounds();
+    let pad = (hi - lo) * 0.05 + DVec3::splat(1e-3);
+    let (lo, hi) = (lo - pad, hi + pad);
+    let ext = hi - lo;
+    let cells = (ext / ext.max_element() * 16.0).ceil().max(DVec3::ONE);
+    let size = ext / cells;
+    let n = [cells.x as usize, cells.y as usize, cells.z as usize];
+    let eps = scene.epsilon();
+    let sun = DVec3::new(0.3, 0.2, 1.0).normalize();
+    let (mut closest, mut shadow) = (Vec::with_capacity(count), Vec::with_capacity(count));
+    'outer: loop {
+        for c in 0..n[0] * n[1] * n[2] {
+            let cell = DVec3::new((c % n[0]) as f64, ((c / n[0]) % n[1]) as f64, (c / (n[0] * n[1])) as f64);
+            for _ in 0..SAMPLES_PER_CELL {
+                let o = lo + (cell + DVec3::new(rng.next_f64(), rng.next_f64(), rng.next_f64())) * size;
+                let d = DVec3::from(sample_uniform_sphere([rng.next_f64(), rng.next_f64()]));
+                closest.push((o, d));
+                if let Some(h) = tracer.closest_hit(o, d, 0.0, f64::INFINITY) {
+                    let n = if h.from_behind { -h.normal } else { h.normal };
+                    let x = o + d * h.t + n * eps;
+                    let local = lightvol_sh::sampling::sample_cosine_hemisphere([rng.next_f64(), rng.next_f64()]);
+                    let frame = lightvol_sh::sampling::Frame::from_normal(n.to_array());
+                    closest.push((x, DVec3::from(frame.to_world(local))));
+                    let jitter = DVec3::from(sample_uniform_sphere([rng.next_f64(), rng.next_f64()])) * 0.0047;
+                    shadow.push((x, (sun + jitter).normalize()));
+                }
+                if closest.len() >= count && shadow.len() >= count {
+                    break 'outer;
+                }
+            }
+        }
+        if shadow.is_empty() {
+            // Nothing to hit: the shadow workload starts from the sampling points.
+            shadow = closest.iter().map(|&(o, _)| (o, sun)).collect();
+        }
+    }
+    closest.truncate(count);
+    shadow.truncate(count);
+    [closest, shadow]
+}
+
 /// The comparison on `scene` with `count` rays (seeded), lightvol's BVH built at `quality`
 /// (Embree's at its medium quality), for 1 and 2 threads: throughputs
-/// in Mrays/s, their ratios (lightvol / Embree), hit agreement, and BVH build times.
+/// in Mrays/s, their ratios (lightvol / Embree), hit agreement, and BVH build times, for
+/// four workloads: closest hits with origins uniform in the bounds and uniform directions,
+/// occlusion from those origins toward a sun, and the bake's own mix ([`bake_mix`]).
 ///
 /// # Errors
 /// When the harness cannot be built (no `libembree-dev` or no C compiler) or fails.
-pub fn compare(scene: &Scene, count: usize, seed: u64, quality: BuildQuality) -> anyhow::Result<Value> {
+pub fn compare(
+    scene: &Scene,
+    count: usize,
+    seed: u64,
+    quality: BuildQuality,
+    levels: Levels,
+) -> anyhow::Result<Value> {
     let dir = tempfile::tempdir().context("temporary folder")?;
     let exe = build_harness(dir.path())?;
     let (lo, hi) = scene.bounds();
@@ -172,7 +228,7 @@ pub fn compare(scene: &Scene, count: usize, seed: u64, quality: BuildQuality) ->
     let sun = DVec3::new(0.3, 0.2, 1.0).normalize();
     let shadow: Vec<(DVec3, DVec3)> = closest.iter().map(|(o, _)| (*o, sun)).collect();
     let t0 = Instant::now();
-    let tracer = pool_build(scene, quality)?;
+    let tracer = pool_build(scene, quality, levels)?;
     let lightvol_build = t0.elapsed().as_secs_f64();
     let mut out = json!({
         "triangles": scene.triangle_count(),
@@ -181,9 +237,16 @@ pub fn compare(scene: &Scene, count: usize, seed: u64, quality: BuildQuality) ->
         "rays": count,
         "repeats_best_of": REPEATS,
         "lightvol_bvh_quality": format!("{quality:?}").to_lowercase(),
+        "lightvol_levels": if tracer.placements() > 1 { "two" } else { "one" },
         "build_seconds": { "lightvol_1_thread": lightvol_build },
     });
-    for (name, rays, occ) in [("closest_hit", &closest, false), ("occlusion", &shadow, true)] {
+    let [mix_closest, mix_shadow] = bake_mix(&tracer, scene, count, &mut rng);
+    for (name, rays, occ) in [
+        ("closest_hit", &closest, false),
+        ("occlusion", &shadow, true),
+        ("bake_mix_closest_hit", &mix_closest, false),
+        ("bake_mix_occlusion", &mix_shadow, true),
+    ] {
         let mut entry = json!({});
         for threads in [1u32, 2] {
             let (le, lres) = run_lightvol(&tracer, rays, occ, threads as usize)?;
@@ -205,7 +268,7 @@ pub fn compare(scene: &Scene, count: usize, seed: u64, quality: BuildQuality) ->
 }
 
 /// The tracer built on one thread (as the build time above is reported).
-fn pool_build(scene: &Scene, quality: BuildQuality) -> anyhow::Result<Tracer> {
+fn pool_build(scene: &Scene, quality: BuildQuality, levels: Levels) -> anyhow::Result<Tracer> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().context("thread pool")?;
-    Ok(pool.install(|| Tracer::with_quality(scene, quality)))
+    Ok(pool.install(|| Tracer::build(scene, quality, levels)))
 }
