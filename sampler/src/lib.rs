@@ -13,6 +13,7 @@ pub mod envmap;
 pub mod error;
 pub mod estimate;
 pub mod fit;
+pub mod gradient_estimator;
 pub mod gradients;
 pub mod light_sampler;
 pub mod lights;
