@@ -12,6 +12,7 @@ pub mod domain;
 pub mod envmap;
 pub mod error;
 pub mod estimate;
+pub mod eval;
 pub mod fit;
 pub mod gradient_estimator;
 pub mod gradients;
