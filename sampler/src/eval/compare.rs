@@ -3,6 +3,7 @@
 //! reference, optionally followed by the error-against-memory study.
 
 use lightvol_volume::GridSpec;
+use lightvol_volume::volume::check_coeffs;
 
 use crate::bake::Method;
 use crate::bvh::Tracer;
@@ -82,7 +83,7 @@ impl CompareConfig {
     }
 
     /// Checks everything that can be checked before tracing a ray: at least one entry,
-    /// nonzero sample counts and threads, valid sweep scales, an axis-aligned grid, a plate
+    /// nonzero sample counts, 4, 9 or 16 coefficients, valid sweep scales, nonzero threads, an axis-aligned grid, a plate
     /// inside it ([`PlateConfig::validate`]), and no gradient entry that needs the basis
     /// estimator on a `point` bake.
     ///
@@ -95,6 +96,7 @@ impl CompareConfig {
         if self.samples == 0 || self.plate.reference_samples == 0 {
             return Err(EvalError::ZeroSamples);
         }
+        check_coeffs(self.coeffs)?;
         if let Some(sweep) = &self.memory_sweep {
             check_scales(&sweep.scales)?;
         }
@@ -298,6 +300,7 @@ mod tests {
         assert!(matches!(check(&|c| c.samples = 0), EvalError::ZeroSamples));
         assert!(matches!(check(&|c| c.plate.reference_samples = 0), EvalError::ZeroSamples));
         assert!(matches!(check(&|c| c.threads = Some(0)), EvalError::ZeroThreads));
+        assert!(matches!(check(&|c| c.coeffs = 5), EvalError::Volume(_)));
         assert!(matches!(check(&|c| c.plate.height = 99.0), EvalError::PlateOutsideGrid { .. }));
         assert!(matches!(
             check(&|c| c.memory_sweep = Some(SweepConfig { scales: vec![], gradient_estimator: None })),
