@@ -8,6 +8,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lightvol_sampler::fit::{Fit, MassMatrix, bake_with_mass, finalize_least_squares, solve_least_squares};
+use lightvol_sampler::gradient_estimator::{GradientEstimator, bake_with_estimator};
 use lightvol_sampler::{
     BakeControl, BakeOutput, BakeSettings, Method, Progress, Tracer, Transport, TransportSettings,
 };
@@ -16,7 +17,7 @@ use lightvol_volume::exr_io::{ExrOptions, write_exr, write_exr_with_gradients};
 use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
 use serde::Serialize;
 
-use crate::gradients::{GradientEstimator, bake_with};
+use crate::gradients::GradientEstimatorArg;
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, with_threads};
 
 /// `lightvol bake`.
@@ -55,7 +56,7 @@ pub struct BakeArgs {
     /// `basis` (default; from the bake's own samples, no extra rays; prefilter/doi) or
     /// `central` (six extra point projections per node at 1/16 cell).
     #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1, default_missing_value = "basis")]
-    pub gradients: Option<GradientEstimator>,
+    pub gradients: Option<GradientEstimatorArg>,
     /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
     #[command(flatten)]
     pub adaptive: crate::adaptive_bake::AdaptiveArgs,
@@ -195,6 +196,19 @@ pub fn progress_bar(quiet: bool, len: u64, what: &str) -> ProgressBar {
     pb
 }
 
+/// Runs `f` with a [`BakeControl`] whose progress drives a bar labelled `label` (hidden when
+/// `quiet`), cleared when `f` returns.
+pub fn with_bar<T>(quiet: bool, label: &str, f: impl FnOnce(&BakeControl<'_>) -> T) -> T {
+    let pb = progress_bar(quiet, 0, label);
+    let report = |p: Progress| {
+        pb.set_length(p.total as u64);
+        pb.set_position(p.done as u64);
+    };
+    let out = f(&BakeControl { progress: Some(&report), cancel: None });
+    pb.finish_and_clear();
+    out
+}
+
 /// Runs `bake` with a transport over `loaded` and a progress bar labelled `label` (hidden
 /// when `quiet`), cleared when the bake ends.
 pub(crate) fn with_progress<T>(
@@ -206,15 +220,7 @@ pub(crate) fn with_progress<T>(
     bake: impl FnOnce(&Transport<'_>, &BakeControl<'_>) -> Result<T, lightvol_sampler::BakeError>,
 ) -> anyhow::Result<T> {
     let transport = Transport::new(&loaded.scene, tracer, transport_settings);
-    let pb = progress_bar(quiet, 0, label);
-    let report = |p: Progress| {
-        pb.set_length(p.total as u64);
-        pb.set_position(p.done as u64);
-    };
-    let control = BakeControl { progress: Some(&report), cancel: None };
-    let out = bake(&transport, &control).context("baking")?;
-    pb.finish_and_clear();
-    Ok(out)
+    with_bar(quiet, label, |c| bake(&transport, c)).context("baking")
 }
 
 /// Bakes `loaded` on `grid` with `settings`, showing progress.
@@ -258,25 +264,6 @@ fn run_bake_with_mass(
     with_progress(loaded, tracer, transport_settings, quiet, label, |t, c| {
         bake_with_mass(t, grid, settings, c)
     })
-}
-
-/// [`run_bake`] for a whole (unsharded) bake, finalized with the chosen node fit
-/// (lightvol-sampler's `fit` module).
-#[allow(clippy::too_many_arguments, reason = "the bake's inputs plus its presentation")]
-pub fn run_bake_fitted(
-    loaded: &LoadedScene,
-    tracer: &Tracer,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    transport_settings: TransportSettings,
-    quiet: bool,
-    label: &str,
-    fit: Fit,
-) -> anyhow::Result<(IrradianceVolume, lightvol_sampler::BakeStats)> {
-    let (volume, stats, _) = with_progress(loaded, tracer, transport_settings, quiet, label, |t, c| {
-        lightvol_sampler::fit::bake_fitted(t, grid, settings, c, fit)
-    })?;
-    Ok((volume, stats))
 }
 
 /// A short stable hash of the scene geometry and bake settings (FNV-1a over the triangle
@@ -348,7 +335,8 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
         );
     }
-    if args.gradients == Some(GradientEstimator::Basis) && method == Method::Point {
+    let estimator = args.gradients.map(GradientEstimator::from);
+    if estimator.is_some_and(|e| !e.supports(method)) {
         bail!(
             "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
         );
@@ -358,7 +346,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
-        Ok(match args.gradients {
+        Ok(match estimator {
             None if fit != Fit::Average => {
                 let (out, mass) =
                     run_bake_with_mass(&loaded, &tracer, &grid, &settings, ts, args.quiet, &args.method)?;
@@ -370,8 +358,10 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                 bvh_seconds,
             ),
             Some(est) => {
-                let g =
-                    bake_with(&loaded.scene, &tracer, &grid, &settings, ts, est, args.quiet, &args.method)?;
+                let transport = Transport::new(&loaded.scene, &tracer, ts);
+                let g = with_bar(args.quiet, &args.method, |c| {
+                    bake_with_estimator(&transport, &grid, &settings, est, c)
+                })?;
                 let json = GradientsJson {
                     estimator: g.estimator,
                     singular_nodes: g.singular_nodes,

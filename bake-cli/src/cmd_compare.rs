@@ -1,26 +1,31 @@
 //! `lightvol compare`: bake every method at equal sample budget and evaluate each on a
 //! horizontal plate against a path-traced reference (Kontkanen & Laine 2006, Fig. 6).
+//!
+//! The comparison itself is lightvol-sampler's `eval::compare`; this verb turns the options
+//! into its `CompareConfig`, draws its progress, and writes what it returns: `report.json`,
+//! `plate.exr`, the panels and, with `--memory-sweep`, the sweep's files.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
+use std::sync::{Mutex, PoisonError};
 
-use anyhow::{Context, bail};
+use anyhow::Context;
 use clap::Args;
-use lightvol_sampler::domain::classify_point;
+use indicatif::ProgressBar;
 use lightvol_sampler::envmap::luminance;
-use lightvol_sampler::fit::Fit;
-use lightvol_sampler::{BakeSettings, DVec3, Method, Tracer, Transport, reference_irradiance_many};
-use lightvol_sh::lowdisc::hash2;
-use lightvol_volume::{GridSpec, IrradianceVolume};
-use rayon::prelude::*;
+use lightvol_sampler::eval::entries::lookup_name;
+use lightvol_sampler::eval::sweep::{MAX_SWEEP_SCALE, SweepConfig, check_scales};
+use lightvol_sampler::eval::{
+    CompareConfig, Comparison, EvalError, MethodRun, Metrics, NamedEntry, Observer, Plate, PlateConfig,
+    RunDetail, SweepPoint, default_plate_height,
+};
+use lightvol_sampler::{GridSpec, Progress};
 use serde::Serialize;
+use serde_json::{Map, Value, json};
 
-use crate::cmd_bake::{GridJson, RaysJson, progress_bar, run_bake_fitted};
-use crate::compare_entries::{Entry, GradientCache, adaptive_run, gradient_run, parse_entry, uniform_extra};
+use crate::cmd_bake::{GridJson, RaysJson, progress_bar};
 use crate::imaging::{Rgb32, diverging, write_atomic, write_png_linear};
-use crate::metrics::{Metrics, PlatePoint, compute};
-use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, with_threads};
+use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, resolve_threads};
 
 /// `lightvol compare`.
 #[derive(Debug, Args, Clone)]
@@ -40,7 +45,7 @@ pub struct CompareArgs {
     #[arg(long)]
     pub plate_height: Option<f64>,
     /// Plate resolution along its longer side.
-    #[arg(long, default_value_t = 128)]
+    #[arg(long, default_value_t = PlateConfig::DEFAULT_RES)]
     pub plate_res: u32,
     /// Methods to compare: `point`, `prefilter`, `doi` (trilinear lookup), or
     /// `BASE+LOOKUP` for a bake with SH gradients (Oat 2005) read by `taylor` (nearest node,
@@ -54,7 +59,7 @@ pub struct CompareArgs {
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for prefilter/doi,
     /// no extra rays; `central` for point).
     #[arg(long, value_enum)]
-    pub gradient_estimator: Option<crate::gradients::GradientEstimator>,
+    pub gradient_estimator: Option<crate::gradients::GradientEstimatorArg>,
     /// Also run the error-vs-memory study on this plate: uniform doi at several
     /// resolutions, the same bakes read through the Taylor and Hermite gradient lookups,
     /// writing `memory_sweep.json`, `.png` and `.svg`.
@@ -64,10 +69,10 @@ pub struct CompareArgs {
     #[arg(long, value_delimiter = ',', default_value = "0.5,0.7,1,1.4")]
     pub sweep_scales: Vec<f64>,
     /// Path-traced samples per plate point for the reference.
-    #[arg(long, default_value_t = 512)]
+    #[arg(long, default_value_t = PlateConfig::DEFAULT_REFERENCE_SAMPLES)]
     pub reference_samples: u32,
     /// Directions traced per plate point to decide whether it sees back faces.
-    #[arg(long, default_value_t = 256)]
+    #[arg(long, default_value_t = PlateConfig::DEFAULT_CLASSIFY_DIRS)]
     pub classify_dirs: u32,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "compare-out")]
@@ -91,7 +96,7 @@ pub struct CompareReport {
     /// The reference.
     pub reference: ReferenceJson,
     /// Per method, in the order run.
-    pub methods: serde_json::Map<String, serde_json::Value>,
+    pub methods: Map<String, Value>,
 }
 
 /// Plate description.
@@ -132,131 +137,236 @@ pub struct MethodJson {
     pub metrics: Metrics,
 }
 
-/// Everything computed on the plate (also used by `demo`).
-pub struct PlateData {
-    /// Points per side.
-    pub res: [usize; 2],
-    /// Plate height.
-    pub height: f64,
-    /// World positions, row-major (row 0 at min y).
-    pub points: Vec<DVec3>,
-    /// Sees no back faces.
-    pub valid: Vec<bool>,
-    /// Nearest surface closer than half the largest cell edge.
-    pub near: Vec<bool>,
-    /// Reference irradiance (RGB).
-    pub truth: Vec<[f64; 3]>,
+/// Progress bars on stderr for the stages of an evaluation, and the sweeps' lines (nothing
+/// when quiet).
+pub struct ProgressBars {
+    quiet: bool,
+    bar: Mutex<Option<ProgressBar>>,
 }
 
-/// Rays traced per point to find the nearest surface (spherical Fibonacci set).
-const NEAREST_DIRS: u32 = 128;
-
-fn default_plate_height(loaded: &LoadedScene) -> f64 {
-    if let Some(&h) = loaded.plate_heights.first() {
-        return h;
+impl ProgressBars {
+    /// ProgressBars drawn unless `quiet`.
+    #[must_use]
+    pub fn new(quiet: bool) -> Self {
+        Self { quiet, bar: Mutex::new(None) }
     }
-    let (lo, hi) = loaded.scene.bounds();
-    lo.z + 0.1 * (hi.z - lo.z)
+
+    fn bar(&self) -> std::sync::MutexGuard<'_, Option<ProgressBar>> {
+        self.bar.lock().unwrap_or_else(PoisonError::into_inner)
+    }
 }
 
-/// Builds the plate over the grid's horizontal extent, classifies its points, finds their
-/// nearest surfaces and path-traces the reference.
-pub fn plate(
-    loaded: &LoadedScene,
-    tracer: &Tracer,
-    grid: &GridSpec,
+impl Observer for ProgressBars {
+    fn stage_started(&self, label: &str) {
+        *self.bar() = Some(progress_bar(self.quiet, 0, label));
+    }
+
+    fn progress(&self, p: Progress) {
+        if let Some(pb) = &*self.bar() {
+            pb.set_length(p.total as u64);
+            pb.set_position(p.done as u64);
+        }
+    }
+
+    fn stage_finished(&self) {
+        if let Some(pb) = self.bar().take() {
+            pb.finish_and_clear();
+        }
+    }
+
+    fn sweep_point(&self, p: &SweepPoint, octree_base: Option<[u32; 3]>) {
+        if self.quiet {
+            return;
+        }
+        match octree_base {
+            None => eprintln!(
+                "memory sweep {:<18} {:>3}x{:>3}x{:>3} {:>9} bytes: rel RMSE {:.4}",
+                p.series, p.res[0], p.res[1], p.res[2], p.memory_bytes, p.rel_rmse
+            ),
+            Some(base) => eprintln!(
+                "memory sweep {:<18} base {:?} {:>9} bytes: rel RMSE {:.4}",
+                p.series, base, p.memory_bytes, p.rel_rmse
+            ),
+        }
+    }
+
+    fn resolution_point(&self, method: &str, nodes_x: u32, metrics: &Metrics) {
+        if !self.quiet {
+            eprintln!("sweep {method:>9} {nodes_x:>3} nodes along x: rel RMSE {:.4}", metrics.rel_rmse);
+        }
+    }
+}
+
+/// The evaluation's errors in the words of this verb's options.
+#[must_use]
+pub fn flag_error(e: EvalError) -> anyhow::Error {
+    match e {
+        EvalError::NoMethods => anyhow::anyhow!("--methods needs at least one method"),
+        EvalError::ZeroSamples => anyhow::anyhow!("--samples and --reference-samples must be at least 1"),
+        EvalError::NoSweepScales => anyhow::anyhow!("--sweep-scales needs at least one scale"),
+        EvalError::SweepScale(s) => anyhow::anyhow!("--sweep-scales: {s} is not in (0, {MAX_SWEEP_SCALE}]"),
+        EvalError::PlateHeightNotFinite(_) => anyhow::anyhow!("--plate-height must be finite"),
+        EvalError::PlateOutsideGrid { height, min, max } => {
+            anyhow::anyhow!("--plate-height {height} is outside the grid's z range [{min}, {max}]")
+        }
+        EvalError::PlateResolution(_) => anyhow::anyhow!("--plate-res must be at least 2"),
+        EvalError::BasisNeedsCells { .. } => anyhow::anyhow!(
+            "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
+        ),
+        EvalError::ZeroThreads => anyhow::anyhow!("--threads must be at least 1"),
+        e => e.into(),
+    }
+}
+
+/// The evaluation's configuration from the options, for `grid` and the plate at `height`.
+#[must_use]
+pub fn config(
     args: &CompareArgs,
+    methods: Vec<NamedEntry>,
+    grid: GridSpec,
     height: f64,
-) -> anyhow::Result<(PlateData, f64)> {
-    let (min, max) = grid.bounds();
-    if !(min[2]..=max[2]).contains(&height) {
-        bail!("--plate-height {height} is outside the grid's z range [{}, {}]", min[2], max[2]);
-    }
-    if args.plate_res < 2 {
-        bail!("--plate-res must be at least 2");
-    }
-    let (ex, ey) = (max[0] - min[0], max[1] - min[1]);
-    let long = f64::from(args.plate_res);
-    let res = if ex >= ey {
-        [args.plate_res as usize, ((long * ey / ex).round() as usize).max(2)]
-    } else {
-        [((long * ex / ey).round() as usize).max(2), args.plate_res as usize]
-    };
-    // Texel centres: no point lies exactly on the grid boundary.
-    let points: Vec<DVec3> = (0..res[1])
-        .flat_map(|j| (0..res[0]).map(move |i| (i, j)))
-        .map(|(i, j)| {
-            DVec3::new(
-                min[0] + ex * (i as f64 + 0.5) / res[0] as f64,
-                min[1] + ey * (j as f64 + 0.5) / res[1] as f64,
-                height,
-            )
-        })
-        .collect();
-    let half_cell = 0.5 * grid.cell_size().iter().fold(0.0f64, |a, &b| a.max(b));
-    let seed = args.sampling.seed;
-    let classes: Vec<(bool, bool)> = points
-        .par_iter()
-        .enumerate()
-        .map(|(i, &x)| {
-            let valid = classify_point(tracer, x, args.classify_dirs, hash2(seed ^ 0xc1a5, i as u64)).inside;
-            let n = f64::from(NEAREST_DIRS);
-            let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-            let nearest = (0..NEAREST_DIRS)
-                .filter_map(|k| {
-                    let z = 1.0 - (2.0 * f64::from(k) + 1.0) / n;
-                    let r = (1.0 - z * z).sqrt();
-                    let phi = golden * f64::from(k);
-                    tracer
-                        .closest_hit(x, DVec3::new(r * phi.cos(), r * phi.sin(), z), 0.0, f64::INFINITY)
-                        .map(|h| h.t)
-                })
-                .fold(f64::INFINITY, f64::min);
-            (valid, nearest < half_cell)
-        })
-        .collect();
-    let transport = Transport::new(&loaded.scene, tracer, args.sampling.transport());
-    let t0 = Instant::now();
-    let pb = progress_bar(args.quiet, 1, "reference");
-    let pts: Vec<(DVec3, DVec3)> = points.iter().map(|&p| (p, DVec3::Z)).collect();
-    let truth = reference_irradiance_many(&transport, &pts, args.reference_samples, seed ^ 0x7e7e);
-    pb.finish_and_clear();
-    let seconds = t0.elapsed().as_secs_f64();
-    Ok((
-        PlateData {
-            res,
+    threads: Option<usize>,
+) -> CompareConfig {
+    let gradient_estimator = args.gradient_estimator.map(Into::into);
+    CompareConfig {
+        grid,
+        coeffs: args.grid.coeffs(),
+        methods,
+        samples: args.sampling.samples,
+        seed: args.sampling.seed,
+        transport: args.sampling.transport(),
+        fit: args.sampling.fit,
+        gradient_estimator,
+        plate: PlateConfig {
             height,
-            points,
-            valid: classes.iter().map(|c| c.0).collect(),
-            near: classes.iter().map(|c| c.1).collect(),
-            truth,
+            res: args.plate_res,
+            reference_samples: args.reference_samples,
+            classify_dirs: args.classify_dirs,
         },
-        seconds,
-    ))
+        memory_sweep: args
+            .memory_sweep
+            .then(|| SweepConfig { scales: args.sweep_scales.clone(), gradient_estimator }),
+        threads,
+    }
 }
 
-/// Irradiance (normal up) of a volume at every plate point.
+/// The plate height of the options: `--plate-height`, else the scene's default.
 #[must_use]
-pub fn evaluate(vol: &IrradianceVolume, plate: &PlateData) -> Vec<[f64; 3]> {
-    plate
-        .points
-        .par_iter()
-        .map(|p| vol.irradiance(p.as_vec3().to_array(), [0.0, 0.0, 1.0]).map(f64::from))
-        .collect()
+pub fn plate_height(args: &CompareArgs, loaded: &LoadedScene) -> f64 {
+    args.plate_height.unwrap_or_else(|| default_plate_height(&loaded.scene, &loaded.plate_heights))
 }
 
-/// Metrics of one estimate against the plate's reference.
-#[must_use]
-pub fn plate_metrics(plate: &PlateData, estimate: &[[f64; 3]]) -> Metrics {
-    let pts: Vec<PlatePoint> = (0..plate.points.len())
-        .map(|i| PlatePoint {
-            estimate: luminance(estimate[i]),
-            truth: luminance(plate.truth[i]),
-            valid: plate.valid[i],
-            near: plate.near[i],
-        })
-        .collect();
-    compute(&pts)
+/// Runs the whole comparison and writes its outputs; returns the report.
+pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
+    // Checks in the order the verb has always made them: the options alone, then with the
+    // scene and grid, then (after the output folder exists) the rest, in the evaluation.
+    let methods: Vec<NamedEntry> =
+        args.methods.iter().map(|m| NamedEntry::parse(m)).collect::<Result<_, _>>()?;
+    if args.memory_sweep {
+        check_scales(&args.sweep_scales).map_err(flag_error)?;
+    }
+    if methods.is_empty() {
+        return Err(flag_error(EvalError::NoMethods));
+    }
+    if args.reference_samples == 0 || args.sampling.samples == 0 {
+        return Err(flag_error(EvalError::ZeroSamples));
+    }
+    let loaded = args.scene.load_within(args.grid.memory_limit())?;
+    let grid = args.grid.grid(&loaded)?;
+    if grid.placement().is_some() {
+        return Err(flag_error(EvalError::PlacedGrid));
+    }
+    let height = plate_height(args, &loaded);
+    if !height.is_finite() {
+        return Err(flag_error(EvalError::PlateHeightNotFinite(height)));
+    }
+    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
+    let threads = resolve_threads(args.sampling.threads)?;
+    let config = config(args, methods, grid, height, threads);
+    let result = lightvol_sampler::eval::compare(&loaded.scene, &config, &ProgressBars::new(args.quiet))
+        .map_err(flag_error)?;
+    write_outputs(&args.output, &loaded, &config, &result)
+}
+
+/// Report fields of one run beyond [`MethodJson`].
+fn extra(run: &MethodRun) -> Map<String, Value> {
+    let mut m = Map::new();
+    m.insert("memory_bytes".into(), json!(run.memory_bytes));
+    m.insert("nodes".into(), json!(run.nodes));
+    match &run.detail {
+        RunDetail::Uniform => {}
+        RunDetail::Gradient { lookup, estimator, extra_directions, singular_nodes } => {
+            m.insert("lookup".into(), json!(lookup_name(*lookup)));
+            m.insert("gradient_estimator".into(), json!(estimator.name()));
+            m.insert("gradient_extra_directions".into(), json!(extra_directions));
+            m.insert("gradient_singular_nodes".into(), json!(singular_nodes));
+        }
+        RunDetail::Adaptive { memory_budget, base_res, finest_res, levels, depth_rays } => {
+            m.insert("memory_budget".into(), json!(memory_budget));
+            m.insert("base_res".into(), json!(base_res));
+            m.insert("finest_res".into(), json!(finest_res));
+            m.insert("levels".into(), json!(levels));
+            m.insert("depth_rays".into(), json!(depth_rays));
+        }
+        RunDetail::Baseline { invalid_nodes, moved_nodes } => {
+            m.insert("invalid_nodes".into(), json!(invalid_nodes));
+            m.insert("moved_nodes".into(), json!(moved_nodes));
+        }
+    }
+    m
+}
+
+/// Writes the panels, the sweep's files, `plate.exr` and `report.json` of `result` into
+/// `dir`; returns the report.
+fn write_outputs(
+    dir: &Path,
+    loaded: &LoadedScene,
+    config: &CompareConfig,
+    result: &Comparison,
+) -> anyhow::Result<CompareReport> {
+    let plate = &result.plate;
+    for run in &result.methods {
+        write_panels(dir, &run.name, plate, &run.estimate, result.mean_truth)?;
+    }
+    if let Some(sweep) = &result.memory_sweep {
+        crate::memory_sweep::write(dir, &loaded.label, sweep)?;
+    }
+    let named: Vec<(String, Vec<[f64; 3]>)> =
+        result.methods.iter().map(|r| (r.name.clone(), r.estimate.clone())).collect();
+    write_plate_exr(&dir.join("plate.exr"), plate, &named)?;
+    let mut methods_json = Map::new();
+    for r in &result.methods {
+        let json = MethodJson {
+            samples: r.samples,
+            rays: RaysJson::of(&r.rays),
+            seconds: r.seconds,
+            metrics: r.metrics,
+        };
+        let mut v = serde_json::to_value(&json)?;
+        if let Value::Object(m) = &mut v {
+            m.extend(extra(r));
+        }
+        methods_json.insert(r.name.clone(), v);
+    }
+    let report = CompareReport {
+        scene: loaded.label.clone(),
+        up: loaded.frame.name().to_owned(),
+        plate: PlateJson {
+            height: plate.height,
+            res: [plate.res[0] as u32, plate.res[1] as u32],
+            valid_points: plate.valid_points(),
+            near_points: plate.near_points(),
+        },
+        grid: GridJson::of(&config.grid, loaded.frame),
+        reference: ReferenceJson {
+            samples: config.plate.reference_samples,
+            mean: result.mean_truth,
+            seconds: plate.reference_seconds,
+        },
+        methods: methods_json,
+    };
+    write_atomic(&dir.join("report.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
+    Ok(report)
 }
 
 /// Bright green for points outside the domain of interest (\[KL06\] Fig. 6).
@@ -266,7 +376,7 @@ const INVALID_GREEN: [f32; 3] = [0.0, 4.0, 0.0];
 pub fn write_panels(
     dir: &Path,
     name: &str,
-    plate: &PlateData,
+    plate: &Plate,
     estimate: &[[f64; 3]],
     mean_truth: f64,
 ) -> anyhow::Result<()> {
@@ -310,7 +420,7 @@ fn srgb_to_linear(v: f32) -> f32 {
 /// Writes `plate.exr`: luminance channels `truth`, `valid`, `near` and one per method.
 pub fn write_plate_exr(
     path: &Path,
-    plate: &PlateData,
+    plate: &Plate,
     methods: &[(String, Vec<[f64; 3]>)],
 ) -> anyhow::Result<()> {
     use exr::prelude::*;
@@ -343,156 +453,6 @@ pub fn write_plate_exr(
     let mut bytes = bytes.into_inner();
     lightvol_volume::exr_io::canonical_attribute_order(&mut bytes)?;
     write_atomic(path, &bytes)
-}
-
-/// One method's bake and evaluation.
-pub struct MethodRun {
-    /// Name.
-    pub name: String,
-    /// Report entry.
-    pub json: MethodJson,
-    /// Plate estimate.
-    pub estimate: Vec<[f64; 3]>,
-}
-
-/// Bakes `method`, finalized with `fit`, and evaluates it on the plate.
-#[allow(clippy::too_many_arguments, reason = "the bake's inputs and its evaluation plate")]
-pub fn run_method(
-    loaded: &LoadedScene,
-    tracer: &Tracer,
-    grid: &GridSpec,
-    args: &CompareArgs,
-    name: &str,
-    method: Method,
-    fit: Fit,
-    plate: &PlateData,
-) -> anyhow::Result<MethodRun> {
-    let settings = BakeSettings {
-        method,
-        samples: args.sampling.samples,
-        coeffs: args.grid.coeffs(),
-        seed: args.sampling.seed,
-        ..BakeSettings::default()
-    };
-    let ts = args.sampling.transport();
-    let (vol, stats) = run_bake_fitted(loaded, tracer, grid, &settings, ts, args.quiet, name, fit)?;
-    let estimate = evaluate(&vol, plate);
-    let metrics = plate_metrics(plate, &estimate);
-    Ok(MethodRun {
-        name: name.to_owned(),
-        json: MethodJson {
-            samples: args.sampling.samples,
-            rays: RaysJson::of(&stats.rays),
-            seconds: stats.wall_time.as_secs_f64(),
-            metrics,
-        },
-        estimate,
-    })
-}
-
-/// Runs the whole comparison and writes its outputs; returns the report.
-pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
-    let methods: Vec<(String, Entry)> = args
-        .methods
-        .iter()
-        .map(|m| Ok((m.trim().to_owned(), parse_entry(m.trim())?)))
-        .collect::<anyhow::Result<_>>()?;
-    if args.memory_sweep {
-        crate::memory_sweep::check_scales(&args.sweep_scales)?;
-    }
-    if methods.is_empty() {
-        bail!("--methods needs at least one method");
-    }
-    if args.reference_samples == 0 || args.sampling.samples == 0 {
-        bail!("--samples and --reference-samples must be at least 1");
-    }
-    let loaded = args.scene.load_within(args.grid.memory_limit())?;
-    let grid = args.grid.grid(&loaded)?;
-    if grid.placement().is_some() {
-        bail!("compare needs an axis-aligned grid (no placement transform)");
-    }
-    let height = args.plate_height.unwrap_or_else(|| default_plate_height(&loaded));
-    if !height.is_finite() {
-        bail!("--plate-height must be finite");
-    }
-    std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
-    with_threads(args.sampling.threads, || -> anyhow::Result<CompareReport> {
-        let tracer = Tracer::new(&loaded.scene);
-        let (plate, ref_seconds) = plate(&loaded, &tracer, &grid, args, height)?;
-        let valid_truth: Vec<f64> =
-            (0..plate.points.len()).filter(|&i| plate.valid[i]).map(|i| luminance(plate.truth[i])).collect();
-        if valid_truth.is_empty() {
-            bail!("no plate point at height {height} sees the scene from inside the domain of interest");
-        }
-        let mean_truth = valid_truth.iter().sum::<f64>() / valid_truth.len() as f64;
-        let mut runs = Vec::new();
-        let mut extras = Vec::new();
-        let mut gradient_bakes = GradientCache::default();
-        for (name, entry) in &methods {
-            let (run, extra) = match *entry {
-                Entry::Uniform(method) => (
-                    run_method(&loaded, &tracer, &grid, args, name, method, args.sampling.fit, &plate)?,
-                    uniform_extra(&grid, args.grid.coeffs()),
-                ),
-                Entry::Fitted(method, fit) => (
-                    run_method(&loaded, &tracer, &grid, args, name, method, fit, &plate)?,
-                    uniform_extra(&grid, args.grid.coeffs()),
-                ),
-                Entry::Gradient(base, lookup) => {
-                    let gv = gradient_bakes.get(
-                        &loaded,
-                        &tracer,
-                        &grid,
-                        args,
-                        base,
-                        args.gradient_estimator,
-                        name,
-                    )?;
-                    gradient_run(gv, name, lookup, args.sampling.samples, &plate)?
-                }
-                Entry::Adaptive(levels) => adaptive_run(&loaded, &tracer, &grid, args, name, levels, &plate)?,
-                Entry::Baseline(b) => {
-                    crate::compare_entries::baseline_run(&loaded, &tracer, &grid, args, name, b, &plate)?
-                }
-            };
-            write_panels(&args.output, name, &plate, &run.estimate, mean_truth)?;
-            runs.push(run);
-            extras.push(extra);
-        }
-        if args.memory_sweep {
-            crate::memory_sweep::run(&loaded, &tracer, &grid, args, &plate, &args.output)?;
-        }
-        let named: Vec<(String, Vec<[f64; 3]>)> =
-            runs.iter().map(|r| (r.name.clone(), r.estimate.clone())).collect();
-        write_plate_exr(&args.output.join("plate.exr"), &plate, &named)?;
-        let mut methods_json = serde_json::Map::new();
-        for (r, extra) in runs.iter().zip(extras) {
-            let mut v = serde_json::to_value(&r.json)?;
-            if let serde_json::Value::Object(m) = &mut v {
-                m.extend(extra);
-            }
-            methods_json.insert(r.name.clone(), v);
-        }
-        let report = CompareReport {
-            scene: loaded.label.clone(),
-            up: loaded.frame.name().to_owned(),
-            plate: PlateJson {
-                height,
-                res: [plate.res[0] as u32, plate.res[1] as u32],
-                valid_points: plate.valid.iter().filter(|&&v| v).count(),
-                near_points: (0..plate.points.len()).filter(|&i| plate.valid[i] && plate.near[i]).count(),
-            },
-            grid: GridJson::of(&grid, loaded.frame),
-            reference: ReferenceJson {
-                samples: args.reference_samples,
-                mean: mean_truth,
-                seconds: ref_seconds,
-            },
-            methods: methods_json,
-        };
-        write_atomic(&args.output.join("report.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
-        Ok(report)
-    })?
 }
 
 /// Runs `lightvol compare`.

@@ -8,11 +8,11 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
-use lightvol_sampler::Tracer;
 use lightvol_sampler::builtin::BUILTIN_NAMES;
-use lightvol_volume::GridSpec;
+use lightvol_sampler::eval::{NamedEntry, Plate, resolution_sweep};
+use lightvol_sampler::{Tracer, Transport};
 
-use crate::cmd_compare::{CompareArgs, CompareReport, compare, plate, run_method};
+use crate::cmd_compare::{CompareArgs, CompareReport, ProgressBars, compare, config, flag_error};
 use crate::imaging::{Plot, write_atomic};
 use crate::setup::{GridArgs, SampleArgs, SceneArgs, parse_method};
 
@@ -101,43 +101,35 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
 }
 
 /// Relative RMSE against grid resolution on `city` for every method (one plate and
-/// reference, re-used for every grid).
+/// reference, re-used for every grid; lightvol-sampler's `eval::resolution_sweep`).
 fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
     let ca = compare_args("city", args.output.join("city"), level, args);
     let loaded = ca.scene.load()?;
     let base = loaded.grid.clone().context("built-in city has a grid")?;
-    let (min, max) = base.bounds();
     let height = loaded.plate_heights[0];
-    crate::setup::with_threads(args.threads, || -> anyhow::Result<Plot> {
+    let methods: Vec<_> = ca
+        .methods
+        .iter()
+        .map(|name| Ok((name.clone(), parse_method(name)?)))
+        .collect::<anyhow::Result<_>>()?;
+    let entries = ca.methods.iter().map(|m| NamedEntry::parse(m)).collect::<Result<_, _>>()?;
+    let c = config(&ca, entries, base, height, None);
+    let observer = ProgressBars::new(args.quiet);
+    let series = crate::setup::with_threads(args.threads, || -> anyhow::Result<_> {
         let tracer = Tracer::new(&loaded.scene);
-        let (plate, _) = plate(&loaded, &tracer, &base, &ca, height)?;
-        let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
-        for name in &ca.methods {
-            let method = parse_method(name)?;
-            let mut pts = Vec::new();
-            for &nx in level.sweep {
-                // Same cell aspect as the recommended grid, nx nodes along x.
-                let scale = f64::from(nx - 1) / f64::from(base.res()[0] - 1);
-                let res = base.res().map(|r| ((f64::from(r - 1) * scale).round() as u32 + 1).max(2));
-                let grid = GridSpec::new(min, max, res)?;
-                let run = run_method(&loaded, &tracer, &grid, &ca, name, method, ca.sampling.fit, &plate)?;
-                pts.push((f64::from(nx), run.json.metrics.rel_rmse));
-                if !args.quiet {
-                    eprintln!(
-                        "sweep {name:>9} {nx:>3} nodes along x: rel RMSE {:.4}",
-                        run.json.metrics.rel_rmse
-                    );
-                }
-            }
-            series.push((name.clone(), pts));
-        }
-        Ok(Plot {
-            title: "city: relative RMSE of irradiance on the plate vs grid resolution".into(),
-            x_label: "grid nodes along x".into(),
-            y_label: "relative RMSE".into(),
-            series,
-        })
-    })?
+        let ctx = c.bake_context(Transport::new(&loaded.scene, &tracer, c.transport), &observer);
+        let plate = Plate::build(&ctx.transport, &c.grid, &c.plate, c.seed, &observer).map_err(flag_error)?;
+        Ok(resolution_sweep(&ctx, &c.grid, &plate, &methods, c.fit, level.sweep)?)
+    })??;
+    Ok(Plot {
+        title: "city: relative RMSE of irradiance on the plate vs grid resolution".into(),
+        x_label: "grid nodes along x".into(),
+        y_label: "relative RMSE".into(),
+        series: series
+            .into_iter()
+            .map(|s| (s.name, s.points.iter().map(|(nx, m)| (f64::from(*nx), m.rel_rmse)).collect()))
+            .collect(),
+    })
 }
 
 /// The error-vs-memory section: plot and numbers per scene (from `memory_sweep.json`).

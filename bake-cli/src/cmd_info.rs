@@ -5,12 +5,13 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
+use lightvol_sampler::eval::uniform_memory_bytes;
 use lightvol_volume::exr_io::read_exr_with_gradients;
 use lightvol_volume::gradient::floats_per_sample;
 use serde_json::{Value, json};
 
 use crate::cli::InfoArgs;
-use crate::gradients::{floats_table, uniform_memory_bytes};
+use crate::gradients::floats_table;
 
 /// The description `info --json` prints (`"kind": "uniform"` or `"adaptive"`).
 pub fn describe(path: &Path) -> anyhow::Result<Value> {
@@ -41,7 +42,7 @@ pub fn describe(path: &Path) -> anyhow::Result<Value> {
         "memory_bytes": vol.memory_bytes(),
         "gradients": has_grads,
         "memory": { "floats_per_node": floats, "bytes_per_node": floats * 4,
-                    "runtime_bytes": uniform_memory_bytes(&vol, has_grads),
+                    "runtime_bytes": uniform_memory_bytes(vol.spec(), vol.bands(), has_grads),
                     "gradient_bytes": grads.as_ref().map_or(0, |g| g.memory_bytes()),
                     "floats_per_sample_by_order": floats_table(vol.bands()) },
     }))

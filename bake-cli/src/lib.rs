@@ -21,12 +21,10 @@ pub mod cmd_proxies;
 pub mod cmd_render;
 pub mod cmd_render_surface;
 pub mod cmd_shader;
-pub mod compare_entries;
 pub mod embree_baseline;
 pub mod gradients;
 pub mod imaging;
 pub mod memory_sweep;
-pub mod metrics;
 pub mod setup;
 
 use std::ffi::OsString;

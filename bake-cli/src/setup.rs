@@ -469,16 +469,23 @@ impl SampleArgs {
 
 /// Parses a method name.
 pub fn parse_method(s: &str) -> anyhow::Result<Method> {
-    s.parse::<Method>().map_err(|e| anyhow::anyhow!(e))
+    Ok(lightvol_sampler::eval::entries::parse_method(s)?)
 }
 
-/// Runs `f` on a rayon pool of `threads` threads, else of `SLURM_CPUS_PER_TASK` threads
-/// when the scheduler sets it, else on the global pool (all cores).
-pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
-    let threads = threads.or_else(|| lightvol_sampler::shard::threads_from_env(|k| std::env::var(k).ok()));
-    match threads {
-        None => Ok(f()),
+/// The worker threads to use: `threads` (`--threads`), else `SLURM_CPUS_PER_TASK` when the
+/// scheduler sets it, else `None` (the global pool, all cores).
+pub fn resolve_threads(threads: Option<usize>) -> anyhow::Result<Option<usize>> {
+    match threads.or_else(|| lightvol_sampler::shard::threads_from_env(|k| std::env::var(k).ok())) {
         Some(0) => bail!("--threads must be at least 1"),
+        t => Ok(t),
+    }
+}
+
+/// Runs `f` on a rayon pool of [`resolve_threads`] threads, or on the global pool (all
+/// cores).
+pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
+    match resolve_threads(threads)? {
+        None => Ok(f()),
         Some(n) => {
             let pool =
                 rayon::ThreadPoolBuilder::new().num_threads(n).build().context("creating the thread pool")?;

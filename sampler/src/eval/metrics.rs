@@ -1,5 +1,6 @@
-//! The leakage metrics of `lightvol compare` (\[KL06\] §7-8, Fig. 6), computed over the
-//! *valid* plate points (points that see no back faces).
+//! The leakage metrics of an evaluation plate (Kontkanen & Laine 2006 — \[KL06\] — §7-8,
+//! Fig. 6), computed over the *valid* plate points (points that see no back faces, i.e.
+//! inside the domain of interest).
 //!
 //! With `E` the method's irradiance and `T` the path-traced reference (luminance):
 //! - `rel_rmse = sqrt(mean((E - T)²)) / mean(T)`;
@@ -11,9 +12,9 @@
 
 use serde::Serialize;
 
-/// Ratio below which a point counts as too dark.
+/// Ratio `E / T` below which a point counts as too dark.
 pub const TOO_DARK: f64 = 0.8;
-/// Ratio above which a point counts as too bright.
+/// Ratio `E / T` above which a point counts as too bright.
 pub const TOO_BRIGHT: f64 = 1.25;
 
 /// One plate point's inputs to the metrics.
@@ -29,7 +30,7 @@ pub struct PlatePoint {
     pub near: bool,
 }
 
-/// The metrics of one method.
+/// The metrics of one estimate on one plate (module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct Metrics {
     /// `sqrt(mean((E - T)²)) / mean(T)` over valid points.
@@ -48,7 +49,8 @@ pub struct Metrics {
     pub near_points: usize,
 }
 
-/// Computes [`Metrics`] (sums in a fixed order: deterministic).
+/// Computes [`Metrics`] over `points` (sums in a fixed order: deterministic). With no valid
+/// point every metric is 0; a share over no near point is 0.
 #[must_use]
 pub fn compute(points: &[PlatePoint]) -> Metrics {
     let (mut n, mut sum_t, mut sum_d, mut sum_d2, mut dark, mut bright, mut near, mut dark_near) =
