@@ -48,9 +48,10 @@ use lightvol_sh::lowdisc::hash2;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::cmd_render::{Camera, RenderArgs};
+use crate::cmd_render::{RenderArgs, resolve_camera};
 use crate::imaging::{Rgb32, write_atomic, write_png_linear};
 use crate::setup::with_threads;
+use lightvol_sampler::view::Camera;
 
 /// A tangent-space normal map.
 #[derive(Clone, Debug)]
@@ -366,7 +367,7 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
         }
     }
     let (cam, aspect) = match &args.camera {
-        Some(c) => Camera::resolve(c, &loaded.scene, loaded.frame)?,
+        Some(c) => resolve_camera(c, &loaded.scene, loaded.frame)?,
         None => {
             let (lo, hi) = loaded.scene.bounds();
             (Camera::overview(lo, hi)?, None)

@@ -109,6 +109,19 @@ pub fn write_image(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()
     }
 }
 
+/// Display value of a view's mean pixel under [`auto_exposure`]: a mid-grey, leaving
+/// headroom above it for the lit surfaces and the sky.
+pub const AUTO_EXPOSURE_MEAN: f64 = 0.35;
+
+/// The exposure that maps the mean pixel (mean of R, G and B over all pixels) to
+/// [`AUTO_EXPOSURE_MEAN`]; 1 for a black image.
+#[must_use]
+pub fn auto_exposure(img: &Rgb32) -> f32 {
+    let mean: f64 =
+        img.pixels.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>() / img.pixels.len() as f64;
+    if mean > 0.0 { (AUTO_EXPOSURE_MEAN / mean) as f32 } else { 1.0 }
+}
+
 /// Blue (negative) - white (0) - red (positive) colour for a signed value in [-1, 1].
 pub fn diverging(t: f32) -> [f32; 3] {
     let t = t.clamp(-1.0, 1.0);

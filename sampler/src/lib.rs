@@ -30,6 +30,7 @@ pub mod stats;
 pub mod surface;
 pub mod texture;
 pub mod transport;
+pub mod view;
 
 pub use bake::{BakeControl, BakeOutput, BakeSettings, Method, Progress, bake};
 pub use builtin::{BuiltinScene, builtin};
