@@ -246,6 +246,7 @@ pub fn config(
         memory_sweep: args
             .memory_sweep
             .then(|| SweepConfig { scales: args.sweep_scales.clone(), gradient_estimator }),
+        views: lightvol_sampler::eval::ViewsConfig::default(),
         threads,
     }
 }

@@ -1,6 +1,7 @@
 //! The comparison of Kontkanen & Laine 2006 (\[KL06\] §8, Fig. 6): every entry baked at the
 //! same sample budget on one grid and measured on one plate against one path-traced
-//! reference, optionally followed by the error-against-memory study.
+//! reference, optionally followed by the views through cameras and the error-against-memory
+//! study.
 
 use lightvol_volume::GridSpec;
 use lightvol_volume::volume::check_coeffs;
@@ -15,6 +16,7 @@ use crate::eval::runs::{
     BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_gradient, run_uniform,
 };
 use crate::eval::sweep::{SweepConfig, SweepReport, check_scales, memory_sweep};
+use crate::eval::views::{ComparedView, ViewsConfig, check_cameras, compare_views};
 use crate::fit::Fit;
 use crate::gradient_estimator::GradientEstimator;
 use crate::scene::Scene;
@@ -48,6 +50,9 @@ pub struct CompareConfig {
     /// The error-against-memory study over grids scaled from [`grid`](Self::grid), when
     /// wanted.
     pub memory_sweep: Option<SweepConfig>,
+    /// The cameras through which every entry is also seen (module
+    /// [`views`](crate::eval::views)); none by default.
+    pub views: ViewsConfig,
     /// Worker threads; `None` runs on the caller's rayon pool (the global one, all cores,
     /// unless called inside `ThreadPool::install`).
     pub threads: Option<usize>,
@@ -56,7 +61,7 @@ pub struct CompareConfig {
 impl CompareConfig {
     /// The comparison of \[KL06\] Fig. 6 on `grid` and `plate`: `point`, `prefilter` and
     /// `doi`, 256 samples, order 3, seed 1, unbiased paths with all light, Eq. 6's average,
-    /// no sweep, all cores.
+    /// no views, no sweep, all cores.
     #[must_use]
     pub fn new(grid: GridSpec, plate: PlateConfig) -> Self {
         Self {
@@ -72,6 +77,7 @@ impl CompareConfig {
             gradient_estimator: None,
             plate,
             memory_sweep: None,
+            views: ViewsConfig::default(),
             threads: None,
         }
     }
@@ -84,8 +90,8 @@ impl CompareConfig {
 
     /// Checks everything that can be checked before tracing a ray: at least one entry,
     /// nonzero sample counts, 4, 9 or 16 coefficients, valid sweep scales, nonzero threads, an axis-aligned grid, a plate
-    /// inside it ([`PlateConfig::validate`]), and no gradient entry that needs the basis
-    /// estimator on a `point` bake.
+    /// inside it ([`PlateConfig::validate`]), no gradient entry that needs the basis
+    /// estimator on a `point` bake, and valid views ([`ViewsConfig::validate`]).
     ///
     /// # Errors
     /// The first problem found, in that order.
@@ -117,7 +123,7 @@ impl CompareConfig {
         if let Some(m) = self.methods.iter().find(|m| basis_on_point(m)) {
             return Err(EvalError::BasisNeedsCells { entry: m.name.clone() });
         }
-        Ok(())
+        self.views.validate()
     }
 }
 
@@ -130,17 +136,21 @@ pub struct Comparison {
     pub mean_truth: f64,
     /// Every entry's run, in the configured order.
     pub methods: Vec<MethodRun>,
+    /// Every camera's views, in the configured order (empty without cameras).
+    pub views: Vec<ComparedView>,
     /// The error-against-memory study, when configured.
     pub memory_sweep: Option<SweepReport>,
 }
 
 /// Runs the comparison (module docs) on `scene`, reporting progress to `observer`: builds
 /// the ray tracer, the plate and its reference, bakes and measures every entry in order
-/// (gradient entries on one base method share one bake), then the memory sweep.
+/// (gradient entries on one base method share one bake), renders the views, then the
+/// memory sweep.
 ///
 /// # Errors
-/// An invalid `config` ([`CompareConfig::validate`], before anything is traced), a plate
-/// without a valid point ([`EvalError::NoValidPoints`]), and the bakes' errors.
+/// An invalid `config` ([`CompareConfig::validate`], before anything is traced), a camera
+/// that sees no surface inside the grid ([`EvalError::ViewSeesNothing`], before the plate), a plate without
+/// a valid point ([`EvalError::NoValidPoints`]), and the bakes' errors.
 pub fn compare(
     scene: &Scene,
     config: &CompareConfig,
@@ -166,6 +176,7 @@ fn compare_here(
     let tracer = Tracer::new(scene);
     let ctx = config.bake_context(Transport::new(scene, &tracer, config.transport), observer);
     let grid = &config.grid;
+    check_cameras(&ctx.transport, grid, &config.views)?;
     let plate = Plate::build(&ctx.transport, grid, &config.plate, config.seed, observer)?;
     let mean_truth = plate.mean_truth().ok_or(EvalError::NoValidPoints(plate.height))?;
     let mut runs = Vec::with_capacity(config.methods.len());
@@ -183,11 +194,12 @@ fn compare_here(
         };
         runs.push(run);
     }
+    let views = compare_views(&ctx.transport, grid, &config.views, &runs, config.seed, observer)?;
     let sweep = match &config.memory_sweep {
         Some(sweep) => Some(memory_sweep(&ctx, grid, &plate, sweep)?),
         None => None,
     };
-    Ok(Comparison { plate, mean_truth, methods: runs, memory_sweep: sweep })
+    Ok(Comparison { plate, mean_truth, methods: runs, views, memory_sweep: sweep })
 }
 
 #[cfg(test)]

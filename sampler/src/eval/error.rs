@@ -6,6 +6,7 @@ use crate::error::BakeError;
 use crate::eval::entries::ADAPTIVE_LEVELS_MAX;
 use crate::eval::sweep::MAX_SWEEP_SCALE;
 use crate::gradient_estimator::GradientBakeError;
+use crate::view::ViewError;
 
 /// An evaluation error. Invalid settings are reported by [`CompareConfig::validate`]
 /// (and [`compare`], which calls it) before any ray is traced; the other variants come
@@ -95,6 +96,24 @@ pub enum EvalError {
     /// A grid or a gradient lookup was rejected by lightvol-volume.
     #[error(transparent)]
     Volume(#[from] VolumeError),
+    /// A view's camera, image size or sample count is invalid, or its rendering failed.
+    #[error(transparent)]
+    View(#[from] ViewError),
+    /// A view without a label.
+    #[error("every view needs a label")]
+    ViewLabel,
+    /// Two views with one label.
+    #[error("two views are labelled '{0}'")]
+    DuplicateView(String),
+    /// No pixel of a view sees a surface inside the grid: there is nothing to measure in it.
+    #[error("view '{0}' sees no surface inside the grid")]
+    ViewSeesNothing(String),
+    /// The path-traced view is black over the pixels measured: a relative error is
+    /// undefined there.
+    #[error(
+        "the path-traced view '{0}' is black where it is measured (is the camera inside a closed solid?)"
+    )]
+    BlackView(String),
 }
 
 impl EvalError {

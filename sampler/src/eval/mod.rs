@@ -8,7 +8,9 @@
 //! surfaces. Beyond the paper's three bakes, the entries include \[Oat05\]'s gradient
 //! lookups and adaptive octree (Oat, *Irradiance Volumes for Games*, GDC 2005) and the leak
 //! fixes of engines ([`crate::baselines`]), and two studies measure error against memory
-//! and against grid resolution.
+//! and against grid resolution. Through cameras, the comparison also renders the scene as a
+//! person sees it, shaded by each entry's volume and by path tracing, and measures each
+//! view against the path-traced one ([`views`]).
 //!
 //! ## Modules
 //!
@@ -20,6 +22,8 @@
 //! | [`runs`] | baking and measuring one entry ([`MethodRun`]) in a shared [`BakeContext`] |
 //! | [`compare`](mod@compare) | the whole comparison: [`CompareConfig`] → [`Comparison`] |
 //! | [`sweep`] | error against memory ([`memory_sweep`]) and against resolution ([`resolution_sweep`]) |
+//! | [`views`] | the comparison through cameras: path-traced and per-entry views, their metrics ([`ComparedView`]) |
+//! | [`baked`] | what an entry baked, read anywhere through its lookup ([`RunVolume`]) |
 //! | [`observer`] | progress reports to the caller ([`Observer`], [`Silent`]) |
 //! | [`error`] | [`EvalError`] |
 //!
@@ -60,6 +64,7 @@
 //! Nothing here writes files or draws: the caller turns a [`Comparison`] into reports and
 //! images, and an [`Observer`] into progress bars.
 
+pub mod baked;
 pub mod compare;
 pub mod entries;
 pub mod error;
@@ -68,7 +73,9 @@ pub mod observer;
 pub mod plate;
 pub mod runs;
 pub mod sweep;
+pub mod views;
 
+pub use baked::RunVolume;
 pub use compare::{CompareConfig, Comparison, compare};
 pub use entries::{Entry, NamedEntry, parse_entry, uniform_memory_bytes};
 pub use error::EvalError;
@@ -77,3 +84,4 @@ pub use observer::{Observer, Silent};
 pub use plate::{Plate, PlateConfig, default_plate_height};
 pub use runs::{BakeContext, GradientCache, GradientVolume, MethodRun, RunDetail};
 pub use sweep::{ResolutionSeries, SweepConfig, SweepPoint, SweepReport, memory_sweep, resolution_sweep};
+pub use views::{ComparedView, MethodView, ViewCamera, ViewsConfig, compare_views, view_metrics};

@@ -7,6 +7,7 @@
 //! and read.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::Instant;
 
 use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
@@ -16,6 +17,7 @@ use rayon::prelude::*;
 use crate::adaptive::{AdaptiveSettings, AdaptiveStats, bake_adaptive};
 use crate::bake::{BakeControl, BakeSettings, Method, Progress};
 use crate::baselines::{Baseline, bake_baseline, validity_weighted_irradiance};
+use crate::eval::baked::RunVolume;
 use crate::eval::entries::{ADAPTIVE_BASE_SCALE, bands_of_coeffs, uniform_memory_bytes};
 use crate::eval::error::EvalError;
 use crate::eval::metrics::Metrics;
@@ -124,6 +126,9 @@ pub struct MethodRun {
     pub detail: RunDetail,
     /// Irradiance (RGB, normal up) at every plate point.
     pub estimate: Vec<[f64; 3]>,
+    /// What the entry baked, read through the entry's lookup (the plate's `estimate` is it
+    /// at the plate points, normal up).
+    pub volume: RunVolume,
 }
 
 impl MethodRun {
@@ -138,6 +143,7 @@ impl MethodRun {
         memory_bytes: usize,
         nodes: usize,
         detail: RunDetail,
+        volume: RunVolume,
     ) -> Self {
         Self {
             name: name.to_owned(),
@@ -149,6 +155,7 @@ impl MethodRun {
             nodes,
             detail,
             estimate,
+            volume,
         }
     }
 }
@@ -182,6 +189,7 @@ pub fn run_uniform(
         memory,
         grid.node_count(),
         RunDetail::Uniform,
+        RunVolume::Uniform(Arc::new(vol)),
     ))
 }
 
@@ -253,7 +261,7 @@ impl GradientVolume {
 /// # Errors
 /// The lookup's.
 pub fn run_gradient(
-    gv: &GradientVolume,
+    gv: &Arc<GradientVolume>,
     name: &str,
     lookup: GradientLookup,
     samples: u32,
@@ -276,13 +284,14 @@ pub fn run_gradient(
             extra_directions: gv.extra_directions,
             singular_nodes: gv.singular_nodes,
         },
+        RunVolume::Gradient { bake: Arc::clone(gv), lookup },
     ))
 }
 
 /// Gradient bakes keyed by base method, so that `doi+taylor,doi+hermite` bake once.
 #[derive(Default)]
 pub struct GradientCache {
-    bakes: BTreeMap<u8, GradientVolume>,
+    bakes: BTreeMap<u8, Arc<GradientVolume>>,
 }
 
 fn method_key(m: Method) -> u8 {
@@ -306,11 +315,11 @@ impl GradientCache {
         base: Method,
         estimator: Option<GradientEstimator>,
         label: &str,
-    ) -> Result<&GradientVolume, EvalError> {
+    ) -> Result<&Arc<GradientVolume>, EvalError> {
         Ok(match self.bakes.entry(method_key(base)) {
             std::collections::btree_map::Entry::Occupied(e) => e.into_mut(),
             std::collections::btree_map::Entry::Vacant(e) => {
-                e.insert(gradient_volume(ctx, grid, base, estimator, label)?)
+                e.insert(Arc::new(gradient_volume(ctx, grid, base, estimator, label)?))
             }
         })
     }
@@ -389,6 +398,7 @@ pub fn run_adaptive(
             levels: vol.level_stats().to_vec(),
             depth_rays: stats.depth_rays,
         },
+        RunVolume::Adaptive(Arc::new(vol)),
     ))
 }
 
@@ -427,6 +437,10 @@ pub fn run_baseline(
         })
         .count();
     let detail = RunDetail::Baseline { invalid_nodes: b.valid.iter().filter(|v| !**v).count(), moved_nodes };
+    let volume = match baseline {
+        Baseline::Apv => RunVolume::ValidityWeighted { volume: Arc::new(b.volume), valid: b.valid.into() },
+        Baseline::Vlm | Baseline::Ddgi => RunVolume::Uniform(Arc::new(b.volume)),
+    };
     Ok(MethodRun::new(
         name,
         ctx.samples,
@@ -437,6 +451,7 @@ pub fn run_baseline(
         uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false),
         grid.node_count(),
         detail,
+        volume,
     ))
 }
 
