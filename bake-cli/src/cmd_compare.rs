@@ -3,7 +3,8 @@
 //!
 //! The comparison itself is lightvol-sampler's `eval::compare`; this verb turns the options
 //! into its `CompareConfig`, draws its progress, and writes what it returns: `report.json`,
-//! `plate.exr`, the panels and, with `--memory-sweep`, the sweep's files.
+//! `plate.exr`, the panels, with `--camera` the views (`view_CAMERA_METHOD.png`,
+//! `view_CAMERA_reference.png`) and, with `--memory-sweep`, the sweep's files.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -16,15 +17,17 @@ use lightvol_sampler::envmap::luminance;
 use lightvol_sampler::eval::entries::lookup_name;
 use lightvol_sampler::eval::sweep::{MAX_SWEEP_SCALE, SweepConfig, check_scales};
 use lightvol_sampler::eval::{
-    CompareConfig, Comparison, EvalError, MethodRun, Metrics, NamedEntry, Observer, Plate, PlateConfig,
-    RunDetail, SweepPoint, default_plate_height,
+    CompareConfig, ComparedView, Comparison, EvalError, MethodRun, Metrics, NamedEntry, Observer, Plate,
+    PlateConfig, RunDetail, SweepPoint, ViewCamera, ViewsConfig, default_plate_height,
 };
-use lightvol_sampler::{GridSpec, Progress};
+use lightvol_sampler::view::{Camera, CameraSpec, ViewError};
+use lightvol_sampler::{DVec3, GridSpec, Progress};
 use serde::Serialize;
 use serde_json::{Map, Value, json};
 
 use crate::cmd_bake::{GridJson, RaysJson, progress_bar};
-use crate::imaging::{Rgb32, diverging, write_atomic, write_png_linear};
+use crate::cmd_render::{camera_error, image_size, to_rgb32};
+use crate::imaging::{Rgb32, auto_exposure, diverging, write_atomic, write_png_linear};
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, resolve_threads};
 
 /// `lightvol compare`.
@@ -74,12 +77,52 @@ pub struct CompareArgs {
     /// Directions traced per plate point to decide whether it sees back faces.
     #[arg(long, default_value_t = PlateConfig::DEFAULT_CLASSIFY_DIRS)]
     pub classify_dirs: u32,
+    /// Views through cameras.
+    #[command(flatten)]
+    pub views: ViewArgs,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "compare-out")]
     pub output: PathBuf,
     /// No progress bars.
     #[arg(long)]
     pub quiet: bool,
+}
+
+/// The views of `compare`: cameras, image size and reference samples.
+#[derive(Debug, Args, Clone)]
+pub struct ViewArgs {
+    /// Also compare the methods as a person sees them, through camera SPEC (repeatable): a
+    /// path-traced view and one view per method (the scene shaded by that method's volume, as
+    /// `render` shades it), written as `view_LABEL_reference.png` and `view_LABEL_METHOD.png`,
+    /// and in `report.json` each method's relative RMSE over the pixels that see a surface
+    /// inside the grid. SPEC is `render --camera`'s `EYE:TARGET[:FOV_DEG]` (labelled `camN`, N
+    /// its position among the --camera options) or `gltf:NAME|INDEX` (labelled with the
+    /// camera's name), or `overview` for `render`'s default view of the grid.
+    #[arg(long = "camera", value_name = "SPEC", allow_hyphen_values = true)]
+    pub cameras: Vec<String>,
+    /// Width of the views.
+    #[arg(long, default_value_t = ViewsConfig::DEFAULT_WIDTH)]
+    pub view_width: u32,
+    /// Height of the views (default 128, or width / aspect ratio of a file camera that has
+    /// one).
+    #[arg(long)]
+    pub view_height: Option<u32>,
+    /// Path-traced irradiance samples per pixel of the reference views.
+    #[arg(long, default_value_t = ViewsConfig::DEFAULT_REFERENCE_SAMPLES)]
+    pub view_samples: u32,
+}
+
+impl ViewArgs {
+    /// No camera, the default size and samples.
+    #[must_use]
+    pub fn none() -> Self {
+        Self {
+            cameras: Vec::new(),
+            view_width: ViewsConfig::DEFAULT_WIDTH,
+            view_height: None,
+            view_samples: ViewsConfig::DEFAULT_REFERENCE_SAMPLES,
+        }
+    }
 }
 
 /// `report.json` of `compare`.
@@ -97,6 +140,43 @@ pub struct CompareReport {
     pub reference: ReferenceJson,
     /// Per method, in the order run.
     pub methods: Map<String, Value>,
+    /// Per camera, in the order given (only with `--camera`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub views: Option<Vec<ViewJson>>,
+}
+
+/// One camera's views in `report.json`.
+#[derive(Debug, Serialize, Clone)]
+pub struct ViewJson {
+    /// The camera's label (in the image file names).
+    pub camera: String,
+    /// The `--camera` specification.
+    pub spec: String,
+    /// Width and height in pixels.
+    pub resolution: [u32; 2],
+    /// Pixels that see a surface.
+    pub surface_pixels: usize,
+    /// Pixels that see a surface inside the grid: the pixels measured.
+    pub measured_pixels: usize,
+    /// The path-traced view: samples per pixel, mean luminance over the measured pixels,
+    /// wall time.
+    pub reference: ReferenceJson,
+    /// Per method, by name: its view's metrics against the reference view.
+    pub methods: Map<String, Value>,
+}
+
+/// One method's view metrics in `report.json`.
+#[derive(Debug, Serialize, Clone)]
+pub struct ViewMetricsJson {
+    /// `sqrt(mean((E - T)²)) / mean(T)` over the measured pixels, `E` and `T` the
+    /// luminances of the method's and the reference's pixel.
+    pub rel_rmse: f64,
+    /// `mean(E - T) / mean(T)`.
+    pub bias: f64,
+    /// Share of pixels with `E < 0.8 T`.
+    pub too_dark: f64,
+    /// Share of pixels with `E > 1.25 T`.
+    pub too_bright: f64,
 }
 
 /// Plate description.
@@ -214,17 +294,29 @@ pub fn flag_error(e: EvalError) -> anyhow::Error {
             "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
         ),
         EvalError::ZeroThreads => anyhow::anyhow!("--threads must be at least 1"),
+        EvalError::View(ViewError::ZeroSamples) => anyhow::anyhow!("--view-samples must be at least 1"),
+        EvalError::View(e @ ViewError::ImageSize { .. }) => {
+            anyhow::Error::new(e).context("--view-width/--view-height")
+        }
+        EvalError::DuplicateView(label) => {
+            anyhow::anyhow!("two --camera options give the view '{label}'; give each camera once")
+        }
+        EvalError::ViewSeesNothing(label) => {
+            anyhow::anyhow!("--camera: view '{label}' sees no surface inside the grid")
+        }
         e => e.into(),
     }
 }
 
-/// The evaluation's configuration from the options, for `grid` and the plate at `height`.
+/// The evaluation's configuration from the options, for `grid`, the plate at `height` and
+/// the cameras `views`.
 #[must_use]
 pub fn config(
     args: &CompareArgs,
     methods: Vec<NamedEntry>,
     grid: GridSpec,
     height: f64,
+    views: Vec<ViewCamera>,
     threads: Option<usize>,
 ) -> CompareConfig {
     let gradient_estimator = args.gradient_estimator.map(Into::into);
@@ -246,9 +338,42 @@ pub fn config(
         memory_sweep: args
             .memory_sweep
             .then(|| SweepConfig { scales: args.sweep_scales.clone(), gradient_estimator }),
-        views: lightvol_sampler::eval::ViewsConfig::default(),
+        views: ViewsConfig { cameras: views, reference_samples: args.views.view_samples },
         threads,
     }
+}
+
+/// Characters kept in a file camera's name when it labels a view (the rest become `_`).
+fn label_char(c: char) -> char {
+    if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }
+}
+
+/// The cameras of `--camera` (in order) in `loaded`'s scene, with `grid` framing
+/// `overview`: labelled `overview`, the file camera's name (characters other than letters,
+/// digits, `-` and `_` as `_`) or `camN` for the N-th option, sized by `--view-width` and
+/// `--view-height` (else the file camera's aspect ratio, else the default height).
+pub fn cameras(args: &ViewArgs, loaded: &LoadedScene, grid: &GridSpec) -> anyhow::Result<Vec<ViewCamera>> {
+    args.cameras
+        .iter()
+        .enumerate()
+        .map(|(k, spec)| {
+            let (camera, aspect, label) = if spec == "overview" {
+                let (lo, hi) = grid.bounds();
+                (Camera::overview(DVec3::from(lo), DVec3::from(hi))?, None, "overview".to_owned())
+            } else {
+                let words = |e| camera_error(spec, e);
+                let parsed: CameraSpec = spec.parse().map_err(words)?;
+                let (camera, aspect) = parsed.resolve(&loaded.scene, loaded.frame).map_err(words)?;
+                let name = parsed.file_camera_name(&loaded.scene).map_err(words)?;
+                let name: Option<String> = name.map(|n| n.chars().map(label_char).collect());
+                (camera, aspect, name.filter(|n| !n.is_empty()).unwrap_or_else(|| format!("cam{k}")))
+            };
+            let (width, height) =
+                image_size(args.view_width, args.view_height, aspect, ViewsConfig::DEFAULT_HEIGHT)
+                    .context("--view-width/--view-height")?;
+            Ok(ViewCamera { label, camera, width, height })
+        })
+        .collect()
 }
 
 /// The plate height of the options: `--plate-height`, else the scene's default.
@@ -272,6 +397,9 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     if args.reference_samples == 0 || args.sampling.samples == 0 {
         return Err(flag_error(EvalError::ZeroSamples));
     }
+    if !args.views.cameras.is_empty() && args.views.view_samples == 0 {
+        return Err(flag_error(EvalError::View(ViewError::ZeroSamples)));
+    }
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded)?;
     if grid.placement().is_some() {
@@ -281,12 +409,16 @@ pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     if !height.is_finite() {
         return Err(flag_error(EvalError::PlateHeightNotFinite(height)));
     }
+    let views = cameras(&args.views, &loaded, &grid)?;
+    ViewsConfig { cameras: views.clone(), reference_samples: args.views.view_samples }
+        .validate()
+        .map_err(flag_error)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let threads = resolve_threads(args.sampling.threads)?;
-    let config = config(args, methods, grid, height, threads);
+    let config = config(args, methods, grid, height, views, threads);
     let result = lightvol_sampler::eval::compare(&loaded.scene, &config, &ProgressBars::new(args.quiet))
         .map_err(flag_error)?;
-    write_outputs(&args.output, &loaded, &config, &result)
+    write_outputs(&args.output, &loaded, &config, &result, &args.views.cameras)
 }
 
 /// Report fields of one run beyond [`MethodJson`].
@@ -317,17 +449,22 @@ fn extra(run: &MethodRun) -> Map<String, Value> {
     m
 }
 
-/// Writes the panels, the sweep's files, `plate.exr` and `report.json` of `result` into
-/// `dir`; returns the report.
+/// Writes the panels, the views, the sweep's files, `plate.exr` and `report.json` of
+/// `result` into `dir` (`specs`: the `--camera` options of the views); returns the report.
 fn write_outputs(
     dir: &Path,
     loaded: &LoadedScene,
     config: &CompareConfig,
     result: &Comparison,
+    specs: &[String],
 ) -> anyhow::Result<CompareReport> {
     let plate = &result.plate;
     for run in &result.methods {
         write_panels(dir, &run.name, plate, &run.estimate, result.mean_truth)?;
+    }
+    let mut views_json = Vec::with_capacity(result.views.len());
+    for (view, spec) in result.views.iter().zip(specs) {
+        views_json.push(write_view(dir, view, spec, config.views.reference_samples)?);
     }
     if let Some(sweep) = &result.memory_sweep {
         crate::memory_sweep::write(dir, &loaded.label, sweep)?;
@@ -365,9 +502,44 @@ fn write_outputs(
             seconds: plate.reference_seconds,
         },
         methods: methods_json,
+        views: (!views_json.is_empty()).then_some(views_json),
     };
     write_atomic(&dir.join("report.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
     Ok(report)
+}
+
+/// Writes one camera's images, `view_LABEL_reference.png` and `view_LABEL_METHOD.png`, all
+/// at the reference view's automatic exposure (so that they compare by eye, and the
+/// reference is the image `render --reference` writes), and returns its report entry.
+fn write_view(dir: &Path, view: &ComparedView, spec: &str, samples: u32) -> anyhow::Result<ViewJson> {
+    let reference = to_rgb32(view.reference.clone());
+    let exposure = auto_exposure(&reference);
+    let label = &view.label;
+    write_png_linear(&dir.join(format!("view_{label}_reference.png")), &reference, exposure)?;
+    let mut methods = Map::new();
+    for m in &view.methods {
+        write_png_linear(
+            &dir.join(format!("view_{label}_{}.png", m.name)),
+            &to_rgb32(m.image.clone()),
+            exposure,
+        )?;
+        let metrics = ViewMetricsJson {
+            rel_rmse: m.metrics.rel_rmse,
+            bias: m.metrics.bias,
+            too_dark: m.metrics.too_dark,
+            too_bright: m.metrics.too_bright,
+        };
+        methods.insert(m.name.clone(), serde_json::to_value(metrics)?);
+    }
+    Ok(ViewJson {
+        camera: label.clone(),
+        spec: spec.to_owned(),
+        resolution: [view.reference.width, view.reference.height],
+        surface_pixels: view.reference.surface_pixels(),
+        measured_pixels: view.measured.iter().filter(|&&m| m).count(),
+        reference: ReferenceJson { samples, mean: view.mean_reference, seconds: view.reference_seconds },
+        methods,
+    })
 }
 
 /// Bright green for points outside the domain of interest (\[KL06\] Fig. 6).
@@ -476,6 +648,16 @@ pub fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
             m.seconds,
             m.memory_bytes
         );
+    }
+    for v in report.views.iter().flatten() {
+        let [w, h] = v.resolution;
+        eprintln!(
+            "view {} ({w}x{h}, {} reference samples): relative RMSE over pixels",
+            v.camera, v.reference.samples
+        );
+        for (name, m) in &v.methods {
+            eprintln!("  {name:<14} {:>9.4}", m["rel_rmse"].as_f64().unwrap_or(f64::NAN));
+        }
     }
     eprintln!("wrote {}", args.output.join("report.json").display());
     Ok(ExitCode::SUCCESS)

@@ -95,6 +95,7 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
         sweep_scales: level.memory_scales.to_vec(),
         reference_samples: level.reference_samples,
         classify_dirs: 256,
+        views: crate::cmd_compare::ViewArgs::none(),
         output: out,
         quiet: args.quiet,
     }
@@ -113,7 +114,7 @@ fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
         .map(|name| Ok((name.clone(), parse_method(name)?)))
         .collect::<anyhow::Result<_>>()?;
     let entries = ca.methods.iter().map(|m| NamedEntry::parse(m)).collect::<Result<_, _>>()?;
-    let c = config(&ca, entries, base, height, None);
+    let c = config(&ca, entries, base, height, Vec::new(), None);
     let observer = ProgressBars::new(args.quiet);
     let series = crate::setup::with_threads(args.threads, || -> anyhow::Result<_> {
         let tracer = Tracer::new(&loaded.scene);

@@ -1,6 +1,6 @@
 //! Byte-reproducible outputs: every file the `lightvol` verbs write (EXR volumes, adaptive
 //! and gradient EXRs, merged shards, KTX2, DDS and its sidecar, Bevy, JSON exports, surface
-//! EXR/JSON/PNG/KTX2/BC maps, renders, `inspect -o`, `compare` plates and panels) comes out
+//! EXR/JSON/PNG/KTX2/BC maps, renders, `inspect -o`, `compare` plates, panels and views) comes out
 //! with identical bytes when the same command runs twice on the same input, in one process
 //! and in two separate processes (the `exr` crate keeps custom attributes in a `HashMap`
 //! whose random seed differs per map and per process; the EXR writers put them in a fixed
@@ -136,7 +136,7 @@ fn write_everything(out: &Path, gltf: &Path) {
     args.extend_from_slice(&["--reference-samples", "2", "-o", s(&view)]);
     args.extend_from_slice(&light);
     ok(&args);
-    // The method comparison: plate, panels, report.
+    // The method comparison: plate, panels, views, report.
     ok(&[
         "compare",
         "builtin:city",
@@ -148,6 +148,14 @@ fn write_everything(out: &Path, gltf: &Path) {
         "8",
         "--reference-samples",
         "4",
+        "--camera",
+        "overview",
+        "--view-width",
+        "16",
+        "--view-height",
+        "12",
+        "--view-samples",
+        "2",
         "--quiet",
         "-o",
         s(&f("compare")),
@@ -230,9 +238,16 @@ fn assert_same_files(a: &Path, b: &Path) {
     ] {
         assert!(fa.contains_key(must), "{must} was not written");
     }
-    for must in
-        ["inspect.json", "inspect.txt", "view.png", "maps/sh9.exr", "maps/sh9.json", "compare/plate.exr"]
-    {
+    for must in [
+        "inspect.json",
+        "inspect.txt",
+        "view.png",
+        "maps/sh9.exr",
+        "maps/sh9.json",
+        "compare/plate.exr",
+        "compare/view_overview_doi.png",
+        "compare/view_overview_reference.png",
+    ] {
         assert!(fa.contains_key(must), "{must} was not written");
     }
     assert!(fa.keys().any(|k| k.starts_with("maps_png/") && k.ends_with(".png")));
