@@ -173,6 +173,7 @@ pub fn method_name(m: Method) -> &'static str {
         Method::Point => "point",
         Method::Prefilter => "prefilter",
         Method::Doi => "doi",
+        Method::DoiNode => "doi-node",
     }
 }
 

@@ -290,6 +290,7 @@ fn method_key(m: Method) -> u8 {
         Method::Point => 0,
         Method::Prefilter => 1,
         Method::Doi => 2,
+        Method::DoiNode => 3,
     }
 }
 
