@@ -331,7 +331,9 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     };
     let fit = if method == Method::Point { Fit::Average } else { args.sampling.fit };
     if method == Method::DoiNode && fit != Fit::Average {
-        bail!("--fit {fit} needs cell samples (--method prefilter or doi); doi-node averages each node's own cell");
+        bail!(
+            "--fit {fit} needs cell samples (--method prefilter or doi); doi-node averages each node's own cell"
+        );
     }
     if fit != Fit::Average && args.gradients.is_some() {
         bail!(

@@ -589,12 +589,10 @@ fn node_box_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, no
     };
     // Half a cell each way, within the grid's box.
     let centre = DVec3::from_array(grid.node_position(i, j, k));
-    let lo = DVec3::new(
-        0.5 * (at(0, -1) + centre.x),
-        0.5 * (at(1, -1) + centre.y),
-        0.5 * (at(2, -1) + centre.z),
-    );
-    let hi = DVec3::new(0.5 * (at(0, 1) + centre.x), 0.5 * (at(1, 1) + centre.y), 0.5 * (at(2, 1) + centre.z));
+    let lo =
+        DVec3::new(0.5 * (at(0, -1) + centre.x), 0.5 * (at(1, -1) + centre.y), 0.5 * (at(2, -1) + centre.z));
+    let hi =
+        DVec3::new(0.5 * (at(0, 1) + centre.x), 0.5 * (at(1, 1) + centre.y), 0.5 * (at(2, 1) + centre.z));
     let stream = hash2(node as u64, 0x6e6f_6465);
     let h = Qmc::<5>::new(settings.seed, stream);
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
@@ -603,7 +601,10 @@ fn node_box_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, no
         .map(|s| {
             let p = h.point(s);
             let g = lo + (hi - lo) * DVec3::new(p[0], p[1], p[2]);
-            (DVec3::from_array(grid.to_world(g.to_array())), DVec3::from_array(sample_uniform_sphere([p[3], p[4]])))
+            (
+                DVec3::from_array(grid.to_world(g.to_array())),
+                DVec3::from_array(sample_uniform_sphere([p[3], p[4]])),
+            )
         })
         .collect();
     let c = classify_cell(t.tracer(), n, |s| points[s as usize], Retest::QueryDirection);

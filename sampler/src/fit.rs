@@ -430,7 +430,8 @@ pub fn bake_fitted(
 ) -> Result<(IrradianceVolume, BakeStats, Option<FitReport>), BakeError> {
     match (settings.method, fit) {
         (Method::DoiNode, Fit::LeastSquares { .. }) => Err(BakeError::Settings(
-            "least-squares fits need cell samples (prefilter, doi); doi-node averages each node's own cell".into(),
+            "least-squares fits need cell samples (prefilter, doi); doi-node averages each node's own cell"
+                .into(),
         )),
         (Method::Point, _) | (_, Fit::Average) => {
             let (v, s) = crate::bake::bake(transport, grid, settings, control)?.finish();
