@@ -161,7 +161,9 @@ impl ValidityMask {
         }
     }
 
-    /// [`Self::reweight_f32`] in f64 (the reference lookups).
+    /// [`Self::reweight_f32`] in f64 (the reference lookups). The two are twins: the same
+    /// steps in the same order, tested against each other through the lookups
+    /// (`tests/validity.rs`, `masked_fast_paths_match_each_other_and_the_reference`).
     #[inline]
     pub fn reweight_f64(&self, nodes: impl Fn(usize) -> usize, w: &mut [f64; 8]) {
         let v: [bool; 8] = std::array::from_fn(|c| self.valid[nodes(c)]);
