@@ -123,7 +123,7 @@ fn print_text(info: &Value) {
         mem["floats_per_node"],
         mem["bytes_per_node"],
         if has_grads { ", SH and gradients" } else { ", SH" },
-        if info["validity"].is_null() { "" } else { ", plus the mask's byte" },
+        if info["validity"].is_null() { "" } else { ", plus 1 byte of validity mask" },
         info["memory_bytes"].as_u64().unwrap_or(0) + mem["gradient_bytes"].as_u64().unwrap_or(0)
     );
     println!("[Oat05]     floats per sample: order | SH | SH + gradients");
