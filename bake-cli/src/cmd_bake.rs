@@ -7,6 +7,8 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
+use lightvol_sampler::baselines::{Baseline, bake_baseline};
+use lightvol_sampler::eval::entries::{BakeMethod, parse_bake_method};
 use lightvol_sampler::fit::{Fit, MassMatrix, bake_with_mass, finalize_least_squares, solve_least_squares};
 use lightvol_sampler::gradient_estimator::{GradientEstimator, bake_with_estimator};
 use lightvol_sampler::{
@@ -33,7 +35,10 @@ pub struct BakeArgs {
     #[command(flatten)]
     pub sampling: SampleArgs,
     /// Sampling method: `point` (Eq. 4 at each node), `prefilter` (Eq. 5-6, no domain test)
-    /// or `doi` (Eq. 5-6 restricted to the domain of interest, Algorithm 2).
+    /// or `doi` (Eq. 5-6 restricted to the domain of interest, Algorithm 2); or point
+    /// sampling with an engine's leak fix: `point+validity` (invalid probes dilated),
+    /// `point+apv` (Unity APV: virtual offset, dilation, and a validity mask in the file for
+    /// validity-weighted lookups), `point+vlm` (Unreal) or `point+ddgi` (DDGI relocation).
     #[arg(long, default_value = "doi")]
     /// Method name.
     pub method: String,
@@ -121,6 +126,20 @@ pub struct BakeReport {
     /// The gradients, when baked.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gradients: Option<GradientsJson>,
+    /// What an engine baseline did, when the method is one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub baseline: Option<BaselineJson>,
+}
+
+/// An engine baseline's probes in `bake --json`.
+#[derive(Debug, Serialize)]
+pub struct BaselineJson {
+    /// Nodes its validity test rejected.
+    pub invalid_nodes: usize,
+    /// Nodes sampled elsewhere than at the node (virtual offset, relocation).
+    pub moved_nodes: usize,
+    /// Whether the volume file carries the validity mask (`point+apv`).
+    pub validity_mask: bool,
 }
 
 /// The gradient step in `bake --json`.
@@ -305,6 +324,9 @@ pub fn finish_volume(
 
 /// Runs `lightvol bake`.
 pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
+    if let BakeMethod::Baseline(b) = parse_bake_method(&args.method)? {
+        return run_baseline(args, b);
+    }
     if args.adaptive.adaptive {
         return crate::adaptive_bake::run(args);
     }
@@ -330,6 +352,11 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         ..BakeSettings::default()
     };
     let fit = if method == Method::Point { Fit::Average } else { args.sampling.fit };
+    if method == Method::DoiNode && fit != Fit::Average {
+        bail!(
+            "--fit {fit} needs cell samples (--method prefilter or doi); doi-node averages each node's own cell"
+        );
+    }
     if fit != Fit::Average && args.gradients.is_some() {
         bail!(
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
@@ -375,29 +402,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     })??;
     let method_label =
         if fit == Fit::Average { args.method.clone() } else { format!("{} fit={fit}", args.method) };
-    let meta = BakeMetadata {
-        method: method_label.clone(),
-        samples: out.stats.rays.sampling,
-        seed: args.sampling.seed,
-        shard_index: shard.0,
-        shard_count: shard.1,
-        scene_hash: scene_hash(
-            &loaded,
-            &format!(
-                "{:?} {:?} {} {} coeffs={} bounces={} {} lightvol={}",
-                grid.bounds(),
-                grid.res(),
-                method_label,
-                settings.samples,
-                settings.coeffs,
-                args.sampling.transport().label(),
-                lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, &args.sampling.transport()),
-                env!("CARGO_PKG_VERSION")
-            ),
-        ),
-        units: "relative".into(),
-        frame: loaded.frame,
-    };
+    let meta = bake_metadata(args, &loaded, &grid, &settings, &method_label, out.stats.rays.sampling, shard);
     if args.shard.is_some() || args.keep_accumulator {
         let acc_path = args.output.with_extension("lvacc");
         // A least-squares bake's mass matrix travels in the shard file (exact sums too), so
@@ -473,9 +478,136 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         total_seconds: started.elapsed().as_secs_f64(),
         output: args.output.display().to_string(),
         gradients: grads_json,
+        baseline: None,
     };
+    print_report(args, &report)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The file metadata of a bake of `grid` with `settings`, under the method name `label`,
+/// which used `samples` sampling rays.
+fn bake_metadata(
+    args: &BakeArgs,
+    loaded: &LoadedScene,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    label: &str,
+    samples: u64,
+    shard: (u32, u32),
+) -> BakeMetadata {
+    BakeMetadata {
+        method: label.to_owned(),
+        samples,
+        seed: args.sampling.seed,
+        shard_index: shard.0,
+        shard_count: shard.1,
+        scene_hash: scene_hash(
+            loaded,
+            &format!(
+                "{:?} {:?} {} {} coeffs={} bounces={} {} lightvol={}",
+                grid.bounds(),
+                grid.res(),
+                label,
+                settings.samples,
+                settings.coeffs,
+                args.sampling.transport().label(),
+                lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, &args.sampling.transport()),
+                env!("CARGO_PKG_VERSION")
+            ),
+        ),
+        units: "relative".into(),
+        frame: loaded.frame,
+    }
+}
+
+/// `lightvol bake --method point+…`: an engine baseline ([`lightvol_sampler::baselines`]),
+/// whole (no shards, gradients or octree), written as the native EXR (`point+apv` with its
+/// validity mask).
+fn run_baseline(args: &BakeArgs, baseline: Baseline) -> anyhow::Result<ExitCode> {
+    let name = baseline.name();
+    let refused = [
+        (args.adaptive.adaptive, "--adaptive"),
+        (args.shard.is_some() || args.shards.is_some(), "--shard"),
+        (args.keep_accumulator, "--keep-accumulator"),
+        (args.gradients.is_some(), "--gradients"),
+    ];
+    if let Some((_, option)) = refused.iter().find(|(set, _)| *set) {
+        bail!(
+            "{option} cannot be combined with --method {name} (the engine baselines bake a whole uniform grid)"
+        );
+    }
+    if let Some(first) = args.adaptive.stray_options().first() {
+        bail!("{first} needs --adaptive");
+    }
+    let started = Instant::now();
+    let loaded = args.scene.load_within(args.grid.memory_limit())?;
+    let grid = args.grid.grid(&loaded)?;
+    if args.sampling.samples == 0 {
+        bail!("--samples must be at least 1");
+    }
+    let settings = BakeSettings {
+        method: Method::Point,
+        samples: args.sampling.samples,
+        coeffs: args.grid.coeffs(),
+        seed: args.sampling.seed,
+        ..BakeSettings::default()
+    };
+    let ts = args.sampling.transport();
+    let (bake, bvh_seconds, seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
+        let t0 = Instant::now();
+        let tracer = Tracer::new(&loaded.scene);
+        let bvh_seconds = t0.elapsed().as_secs_f64();
+        let transport = Transport::new(&loaded.scene, &tracer, ts);
+        let t1 = Instant::now();
+        let bake = bake_baseline(&transport, &grid, &settings, baseline).context("baking")?;
+        Ok((bake, bvh_seconds, t1.elapsed().as_secs_f64()))
+    })??;
+    let meta = bake_metadata(args, &loaded, &grid, &settings, name, bake.rays.sampling, (0, 1));
+    let vol = bake.volume.clone().with_metadata(meta);
+    write_exr(&args.output, &vol, &ExrOptions::default())
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    let report = BakeReport {
+        scene: loaded.label.clone(),
+        method: name.to_owned(),
+        grid: GridJson::of(&grid, loaded.frame),
+        samples: args.sampling.samples,
+        seed: args.sampling.seed,
+        rays: RaysJson::of(&bake.rays),
+        cells_with_back_faces: 0,
+        candidates: 0,
+        samples_kept: 0,
+        samples_rejected: 0,
+        zero_weight_nodes: bake.invalid_nodes(),
+        filled_nodes: bake.filled,
+        seconds,
+        bvh_seconds,
+        mrays_per_second: if seconds > 0.0 { bake.rays.total() as f64 / seconds / 1e6 } else { 0.0 },
+        triangles: loaded.scene.triangle_count() as u64,
+        unique_triangles: loaded.scene.unique_triangle_count() as u64,
+        instances: loaded.scene.instances.len() as u64,
+        estimated_memory_bytes: u64::try_from(
+            crate::setup::bake_memory_bytes(grid.res().map(u64::from), args.grid.coeffs())
+                + u128::from(loaded.memory.total()),
+        )
+        .unwrap_or(u64::MAX),
+        peak_memory_bytes: lightvol_sampler::estimate::peak_resident_bytes(),
+        total_seconds: started.elapsed().as_secs_f64(),
+        output: args.output.display().to_string(),
+        gradients: None,
+        baseline: Some(BaselineJson {
+            invalid_nodes: bake.invalid_nodes(),
+            moved_nodes: bake.moved_nodes(&grid),
+            validity_mask: vol.validity().is_some(),
+        }),
+    };
+    print_report(args, &report)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Prints `report`: JSON on stdout with `--json`, else lines on stderr.
+fn print_report(args: &BakeArgs, report: &BakeReport) -> anyhow::Result<()> {
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        println!("{}", serde_json::to_string_pretty(report)?);
     } else {
         eprintln!(
             "baked {} ({}) on {}x{}x{} nodes: {} rays ({} sampling, {} query, {} bounce, {} shadow) in {:.2} s = {:.2} Mrays/s",
@@ -492,14 +624,24 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             report.seconds,
             report.mrays_per_second
         );
-        eprintln!(
-            "cells with back faces {}, samples kept {} / rejected {}, zero-weight nodes {} (filled {})",
-            report.cells_with_back_faces,
-            report.samples_kept,
-            report.samples_rejected,
-            report.zero_weight_nodes,
-            report.filled_nodes
-        );
+        if let Some(b) = &report.baseline {
+            eprintln!(
+                "invalid nodes {} (filled {}), moved nodes {}, validity mask {}",
+                b.invalid_nodes,
+                report.filled_nodes,
+                b.moved_nodes,
+                if b.validity_mask { "written (validity-weighted lookups)" } else { "none" }
+            );
+        } else {
+            eprintln!(
+                "cells with back faces {}, samples kept {} / rejected {}, zero-weight nodes {} (filled {})",
+                report.cells_with_back_faces,
+                report.samples_kept,
+                report.samples_rejected,
+                report.zero_weight_nodes,
+                report.filled_nodes
+            );
+        }
         if let Some(g) = &report.gradients {
             eprintln!(
                 "gradients ({}) in {:.2} s: {} extra directions, {} singular nodes (zero gradient), {} bytes",
@@ -512,5 +654,5 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         }
         eprintln!("wrote {}", args.output.display());
     }
-    Ok(ExitCode::SUCCESS)
+    Ok(())
 }

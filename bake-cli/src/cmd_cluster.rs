@@ -172,6 +172,12 @@ fn shard_count(bake: &BakeArgs) -> anyhow::Result<u32> {
     if bake.shard.is_some() {
         bail!("--shard is set by the jobs (--shard auto); give only --shards N");
     }
+    if let Some(b) = lightvol_sampler::baselines::Baseline::from_name(&bake.method) {
+        bail!(
+            "--method {} is not sharded (the engine baselines bake a whole uniform grid: use lightvol bake)",
+            b.name()
+        );
+    }
     if bake.adaptive.level.is_some() || !bake.adaptive.from_shards.is_empty() {
         bail!("--level and --from-shards are set by the jobs of an adaptive bake; give only --shards N");
     }

@@ -56,7 +56,9 @@ pub struct CompareArgs {
     /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`; `adaptive` for Oat's
     /// octree baked to the uniform grid's memory (finest level 2 below half the grid's
     /// resolution; `adaptive1` stops one level earlier); `BASE+lsq[:λ]` or `BASE+average` for
-    /// a bake finalized with that node fit instead of `--fit`'s.
+    /// a bake finalized with that node fit instead of `--fit`'s; the engines' leak fixes
+    /// `point+validity` (invalid probes dilated), `point+apv` (Unity APV, validity-weighted
+    /// lookups), `point+vlm` (Unreal), `point+ddgi` (DDGI relocation).
     #[arg(long, default_value = "point,prefilter,doi", value_delimiter = ',')]
     pub methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for prefilter/doi,

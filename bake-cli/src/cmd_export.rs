@@ -37,6 +37,12 @@ fn write_uniform(args: &ExportArgs, vol: &IrradianceVolume) -> anyhow::Result<()
                 crate::cli::BevyFormatArg::Rgb9e5 => lightvol_volume::bevy::BevyFormat::Rgb9e5,
             };
             lightvol_volume::bevy::write_bevy(out, vol, format).with_context(ctx)?;
+            if let Some(mask) = vol.validity() {
+                eprintln!(
+                    "note: Bevy interpolates its voxels plainly; the validity mask ({} invalid nodes) is not in the Bevy export",
+                    mask.invalid_count()
+                );
+            }
         }
         ExportFormat::Json => {
             let file = adaptive_files::described_file_name(&args.volume);

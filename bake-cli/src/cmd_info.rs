@@ -28,6 +28,9 @@ pub fn describe(path: &Path) -> anyhow::Result<Value> {
         .with_context(|| format!("{}: grid in the {} frame", path.display(), frame.name()))?;
     let (min, max) = spec.bounds();
     let zero_weight = vol.weights().iter().filter(|&&w| w == 0.0).count();
+    let mask_bytes = vol.validity().map_or(0, lightvol_volume::ValidityMask::memory_bytes);
+    let validity =
+        vol.validity().map(|m| json!({ "invalid_nodes": m.invalid_count(), "memory_bytes": mask_bytes }));
     Ok(json!({
         "file": path.display().to_string(),
         "kind": "uniform",
@@ -41,8 +44,9 @@ pub fn describe(path: &Path) -> anyhow::Result<Value> {
         "zero_weight_nodes": zero_weight,
         "memory_bytes": vol.memory_bytes(),
         "gradients": has_grads,
+        "validity": validity,
         "memory": { "floats_per_node": floats, "bytes_per_node": floats * 4,
-                    "runtime_bytes": uniform_memory_bytes(vol.spec(), vol.bands(), has_grads),
+                    "runtime_bytes": uniform_memory_bytes(vol.spec(), vol.bands(), has_grads) + mask_bytes,
                     "gradient_bytes": grads.as_ref().map_or(0, |g| g.memory_bytes()),
                     "floats_per_sample_by_order": floats_table(vol.bands()) },
     }))
@@ -106,13 +110,20 @@ fn print_text(info: &Value) {
         "gradients   {}",
         if has_grads { "yes (per-node world gradient of every coefficient, [Oat05])" } else { "no" }
     );
+    match info["validity"]["invalid_nodes"].as_u64() {
+        Some(n) => {
+            println!("validity    mask of {} invalid nodes (lookups renormalise over valid corners)", n)
+        }
+        None => println!("validity    no mask (plain trilinear lookups)"),
+    }
     let mem = &info["memory"];
     println!(
-        "memory      {} bytes at run time ({} floats = {} bytes per node{}); file data {} bytes with bake weights",
+        "memory      {} bytes at run time ({} floats = {} bytes per node{}{}); file data {} bytes with bake weights",
         mem["runtime_bytes"],
         mem["floats_per_node"],
         mem["bytes_per_node"],
         if has_grads { ", SH and gradients" } else { ", SH" },
+        if info["validity"].is_null() { "" } else { ", plus 1 byte of validity mask" },
         info["memory_bytes"].as_u64().unwrap_or(0) + mem["gradient_bytes"].as_u64().unwrap_or(0)
     );
     println!("[Oat05]     floats per sample: order | SH | SH + gradients");

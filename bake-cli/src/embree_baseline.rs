@@ -179,10 +179,12 @@ fn bake_mix(tracer: &Tracer, scene: &Scene, count: usize, rng: &mut SplitMix64) 
                 if let Some(h) = tracer.closest_hit(o, d, 0.0, f64::INFINITY) {
                     let n = if h.from_behind { -h.normal } else { h.normal };
                     let x = o + d * h.t + n * eps;
-                    let local = lightvol_sh::sampling::sample_cosine_hemisphere([rng.next_f64(), rng.next_f64()]);
+                    let local =
+                        lightvol_sh::sampling::sample_cosine_hemisphere([rng.next_f64(), rng.next_f64()]);
                     let frame = lightvol_sh::sampling::Frame::from_normal(n.to_array());
                     closest.push((x, DVec3::from(frame.to_world(local))));
-                    let jitter = DVec3::from(sample_uniform_sphere([rng.next_f64(), rng.next_f64()])) * 0.0047;
+                    let jitter =
+                        DVec3::from(sample_uniform_sphere([rng.next_f64(), rng.next_f64()])) * 0.0047;
                     shadow.push((x, (sun + jitter).normalize()));
                 }
                 if closest.len() >= count && shadow.len() >= count {

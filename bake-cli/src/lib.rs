@@ -97,18 +97,40 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
 }
 
 /// The binary's entry: runs and turns an error into one line on stderr and exit code 1.
+///
+/// Standard output closed early by a reader (`lightvol inspect --json | head`) ends the
+/// command quietly with exit code 141 (the shell's code for SIGPIPE), where `println!`
+/// would otherwise panic.
 pub fn main_with_args<I, T>(args: I) -> ExitCode
 where
     I: IntoIterator<Item = T>,
     T: Into<OsString> + Clone,
 {
-    match run_from_args(args) {
-        Ok(code) => code,
-        Err(err) => {
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !is_broken_pipe(info.payload()) {
+            default_hook(info);
+        }
+    }));
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| run_from_args(args))) {
+        Ok(Ok(code)) => code,
+        Ok(Err(err)) => {
             eprintln!("error: {}", one_line(&err));
             ExitCode::FAILURE
         }
+        Err(payload) if is_broken_pipe(payload.as_ref()) => ExitCode::from(141),
+        Err(payload) => std::panic::resume_unwind(payload),
     }
+}
+
+/// The panic `println!` raises when standard output is a closed pipe.
+fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
+    let text = payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied())
+        .unwrap_or("");
+    text.starts_with("failed printing to stdout") && text.contains("Broken pipe")
 }
 
 /// The error and its context chain on one line.

@@ -30,3 +30,23 @@ fn help_explains_and_exits_0() {
         assert!(text.contains(opt), "bake --help must explain {opt}");
     }
 }
+
+/// Standard output closed by its reader before the command writes (as `| head` does) ends
+/// the command quietly with 141, not with a panic: `inspect` loads the Breakfast Room
+/// (a few tenths of a second) before it prints, and the pipe is closed at once.
+#[test]
+fn a_closed_stdout_ends_quietly() {
+    use std::process::Stdio;
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/breakfast_room/BreakfastRoom.gltf");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_lightvol"))
+        .args(["inspect", scene])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run lightvol");
+    drop(child.stdout.take());
+    let out = child.wait_with_output().expect("wait for lightvol");
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert_eq!(out.status.code(), Some(141), "{stderr}");
+}

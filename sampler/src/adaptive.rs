@@ -256,7 +256,7 @@ fn cells_with_geometry(tris: &[[DVec3; 3]], grid: &GridSpec, cells: &[[u32; 3]])
 fn units_for(grid: &GridSpec, method: Method, nodes: &[[u32; 3]]) -> Vec<usize> {
     let res = grid.res();
     let mut units: Vec<usize> = match method {
-        Method::Point => nodes.iter().map(|n| grid.node_index(n[0], n[1], n[2])).collect(),
+        Method::Point | Method::DoiNode => nodes.iter().map(|n| grid.node_index(n[0], n[1], n[2])).collect(),
         Method::Prefilter | Method::Doi => nodes
             .iter()
             .flat_map(|n| {
@@ -425,7 +425,7 @@ fn drive(
     let start = Instant::now();
     let done = AtomicUsize::new(0);
     let planned = AtomicUsize::new(match settings.method {
-        Method::Point => base_grid.node_count(),
+        Method::Point | Method::DoiNode => base_grid.node_count(),
         Method::Prefilter | Method::Doi => base_grid.cell_count(),
     });
     let offset_progress = |p: Progress| {

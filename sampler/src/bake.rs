@@ -51,6 +51,10 @@ pub enum Method {
     /// Eq. 5-6 with Algorithm 2 (the paper's method).
     #[default]
     Doi,
+    /// Algorithm 2's domain test on a node's own cell: candidates uniform in the box of one
+    /// cell centred on the node (half a cell each way), averaged with equal weights over
+    /// those in the domain of interest. A support half as wide as Eq. 6's trilinear one.
+    DoiNode,
 }
 
 impl std::str::FromStr for Method {
@@ -60,7 +64,8 @@ impl std::str::FromStr for Method {
             "point" => Ok(Self::Point),
             "prefilter" => Ok(Self::Prefilter),
             "doi" => Ok(Self::Doi),
-            _ => Err(format!("unknown method '{s}' (point, prefilter, doi)")),
+            "doi-node" => Ok(Self::DoiNode),
+            _ => Err(format!("unknown method '{s}' (point, prefilter, doi, doi-node)")),
         }
     }
 }
@@ -203,7 +208,7 @@ pub(crate) fn bake_with_sink(
     let mut acc =
         Accumulator::new(grid.clone(), settings.coeffs).map_err(|e| BakeError::Volume(e.to_string()))?;
     let units = match settings.method {
-        Method::Point => grid.node_count(),
+        Method::Point | Method::DoiNode => grid.node_count(),
         Method::Prefilter | Method::Doi => grid.cell_count(),
     };
     let range = crate::shard::shard_range(units, (k, n));
@@ -403,7 +408,7 @@ pub fn bake_units_fixed(
     }
     lightvol_volume::volume::check_coeffs(settings.coeffs).map_err(|e| BakeError::Settings(e.to_string()))?;
     let count = match settings.method {
-        Method::Point => grid.node_count(),
+        Method::Point | Method::DoiNode => grid.node_count(),
         Method::Prefilter | Method::Doi => grid.cell_count(),
     };
     if units.windows(2).any(|w| w[0] >= w[1]) || units.last().is_some_and(|&u| u >= count) {
@@ -470,6 +475,7 @@ fn run_units(
                 }
                 Some(match settings.method {
                     Method::Point => point_unit(transport, grid, settings, u),
+                    Method::DoiNode => node_box_unit(transport, grid, settings, u),
                     Method::Prefilter | Method::Doi => cell_unit(transport, grid, settings, u),
                 })
             })
@@ -565,6 +571,59 @@ fn point_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, node:
     out.stats.units = 1;
     out.stats.candidates = u64::from(settings.samples);
     out.stats.samples_kept = u64::from(settings.samples);
+    out
+}
+
+/// [`Method::DoiNode`]: `samples` candidates uniform in the node-centred box of one cell
+/// (clamped to the grid), classified by Algorithm 2, the kept ones averaged with weight 1.
+fn node_box_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, node: usize) -> UnitOut {
+    let [i, j, k] = grid.node_coords(node);
+    let res = grid.res();
+    let at = |a: usize, d: i64| -> f64 {
+        let idx = [i, j, k][a];
+        let n = i64::from(res[a]) - 1;
+        let q = (i64::from(idx) + d).clamp(0, n) as u32;
+        let mut c = [i, j, k];
+        c[a] = q;
+        grid.node_position(c[0], c[1], c[2])[a]
+    };
+    // Half a cell each way, within the grid's box.
+    let centre = DVec3::from_array(grid.node_position(i, j, k));
+    let lo =
+        DVec3::new(0.5 * (at(0, -1) + centre.x), 0.5 * (at(1, -1) + centre.y), 0.5 * (at(2, -1) + centre.z));
+    let hi =
+        DVec3::new(0.5 * (at(0, 1) + centre.x), 0.5 * (at(1, 1) + centre.y), 0.5 * (at(2, 1) + centre.z));
+    let stream = hash2(node as u64, 0x6e6f_6465);
+    let h = Qmc::<5>::new(settings.seed, stream);
+    let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
+    let n = u64::from(settings.samples);
+    let points: Vec<(DVec3, DVec3)> = (0..n)
+        .map(|s| {
+            let p = h.point(s);
+            let g = lo + (hi - lo) * DVec3::new(p[0], p[1], p[2]);
+            (
+                DVec3::from_array(grid.to_world(g.to_array())),
+                DVec3::from_array(sample_uniform_sphere([p[3], p[4]])),
+            )
+        })
+        .collect();
+    let c = classify_cell(t.tracer(), n, |s| points[s as usize], Retest::QueryDirection);
+    out.stats.rays.add(&c.rays);
+    out.stats.back_face_points = c.back_face_points.len() as u64;
+    out.stats.cells_with_back_faces = u64::from(!c.back_face_points.is_empty());
+    out.stats.samples_rejected = c.rejected.len() as u64;
+    let mut one = [0.0; 8];
+    one[0] = 1.0;
+    out.rejected = vec![one; c.rejected.len()];
+    for cand in &c.kept {
+        let mut rng = PathRng::new(settings.seed, stream, cand.index);
+        let (terms, n_terms) =
+            sample_terms(t, settings, cand.origin, cand.dir, cand.hit, &mut rng, &mut out.stats);
+        out.samples.push(SampleOut { weights: one, terms, n_terms });
+    }
+    out.stats.units = 1;
+    out.stats.candidates = n;
+    out.stats.samples_kept = c.kept.len() as u64;
     out
 }
 

@@ -24,7 +24,7 @@ fn deterministic_across_threads_and_shards() {
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
-    for method in [Method::Point, Method::Prefilter, Method::Doi] {
+    for method in [Method::Point, Method::Prefilter, Method::Doi, Method::DoiNode] {
         let s = BakeSettings { method, samples: 24, seed: 11, chunk: 7, ..Default::default() };
         let one = run(1, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
         let two = run(2, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
@@ -116,7 +116,7 @@ fn city_doi_has_no_dark_leaks_point_does() {
     let ratios = |m: Method| -> Vec<f64> {
         let s = BakeSettings { method: m, ..Default::default() };
         let (v, stats) = bake(&t, &c.grid, &s, &BakeControl::default()).unwrap().finish();
-        if m == Method::Doi {
+        if matches!(m, Method::Doi | Method::DoiNode) {
             assert!(stats.cells_with_back_faces > 0 && stats.samples_rejected > 0);
         }
         probes
@@ -144,6 +144,9 @@ fn city_doi_has_no_dark_leaks_point_does() {
         dark(&point)
     );
     assert_eq!(dark(&doi), 0, "doi ratios {doi:?}");
+    // The node's own cell as the support keeps the leak fix.
+    let node = ratios(Method::DoiNode);
+    assert_eq!(dark(&node), 0, "doi-node ratios {node:?}");
     assert!(dark(&point) >= probes.len() / 4, "point ratios {point:?}");
 }
 

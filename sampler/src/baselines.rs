@@ -3,32 +3,46 @@
 //! would otherwise get, not only with naive point sampling.
 //!
 //! Every baseline point-samples the probe grid (\[KL06\] Eq. 4, the `point` bake's
-//! estimator, [`crate::gradients::point_projection`]) and differs in where it samples and
-//! what it does with probes that see the inside of geometry. A probe's **back-face fraction**
-//! is the share of [`VALIDITY_RAYS`] uniform rays from it whose first hit is a back face of a
-//! single-sided surface ([`crate::Hit::back_face`]).
+//! estimator, [`crate::gradients::point_projection`]) and differs in where it samples, what
+//! it does with probes that see the inside of geometry, and how the result is read. A
+//! probe's **back-face fraction** is the share of [`VALIDITY_RAYS`] uniform rays from it
+//! whose first hit is a back face of a single-sided surface ([`crate::Hit::back_face`]).
 //!
-//! - **[`Baseline::Apv`]** — Unity's Adaptive Probe Volumes: *virtual offset* moves a capture
+//! | entry | capture point | invalid when the back-face fraction exceeds | invalid nodes | lookup |
+//! | --- | --- | --- | --- | --- |
+//! | `point+validity` ([`Baseline::Validity`]) | the node | [`VALIDITY_INVALID_FRACTION`] | dilated ([`dilate_apv`]) | plain trilinear |
+//! | `point+apv` ([`Baseline::Apv`]) | virtual offset ([`apv_offset`]) | [`APV_INVALID_FRACTION`] (at the capture point) | dilated ([`dilate_apv`]) | validity-weighted |
+//! | `point+vlm` ([`Baseline::Vlm`]) | the node | [`VLM_INVALID_FRACTION`] | mean of valid neighbours ([`fill_vlm`]) | plain trilinear |
+//! | `point+ddgi` ([`Baseline::Ddgi`]) | relocated ([`ddgi_relocate`]) | — | — | plain trilinear |
+//!
+//! - **`point+validity`** — the simple validity fix (Blender EEVEE's light-probe volumes
+//!   have one of this kind: `dilation_threshold` and `dilation_radius` of
+//!   `bpy.types.LightProbeVolume`, Blender 4.2): invalidate probes that see too many back
+//!   faces, dilate into them from valid probes within one cell with `1/d²` weights, read the
+//!   volume like any other. It is `point+apv` without the virtual offset and without the
+//!   run-time weighting, so the two show what those add.
+//! - **`point+apv`** — Unity's Adaptive Probe Volumes: *virtual offset* moves a capture
 //!   point that is inside geometry through the nearest back face found within
 //!   [`APV_SEARCH`] × spacing, [`APV_BIAS`] × spacing beyond it; a probe whose back-face
-//!   fraction (at its capture point) exceeds [`APV_INVALID_FRACTION`] is *invalid*;
-//!   *dilation* fills invalid probes from valid ones within one cell with `1/d²` weights; at
-//!   run time the trilinear weights are renormalised over valid corners
-//!   ([`validity_weighted_irradiance`]).
-//! - **[`Baseline::Vlm`]** — Unreal's volumetric lightmaps: a voxel whose back-face fraction
+//!   fraction at its capture point exceeds [`APV_INVALID_FRACTION`] is *invalid*;
+//!   *dilation* fills invalid probes from valid ones within one cell with `1/d²` weights; the
+//!   volume carries the validity mask ([`lightvol_volume::ValidityMask`]), so its lookups
+//!   renormalise the trilinear weights over valid corners at run time
+//!   ([`lightvol_volume::validity`]; the same lookups read the mask from a baked file).
+//! - **`point+vlm`** — Unreal's volumetric lightmaps: a voxel whose back-face fraction
 //!   exceeds [`VLM_INVALID_FRACTION`] is inside geometry and is overwritten with the mean of
-//!   its valid 3×3×3 neighbours ([`fill_vlm`]); plain trilinear lookups.
-//! - **[`Baseline::Ddgi`]** — DDGI / RTXGI probe relocation: a probe whose back-face
-//!   fraction exceeds [`DDGI_BACKFACE_THRESHOLD`] moves through its closest back face, by at
-//!   most [`DDGI_MAX_OFFSET`] × spacing per axis, and is point-sampled there; plain trilinear
-//!   lookups.
+//!   its valid 3×3×3 neighbours ([`fill_vlm`]).
+//! - **`point+ddgi`** — DDGI / RTXGI probe relocation: a probe whose back-face fraction
+//!   exceeds [`DDGI_BACKFACE_THRESHOLD`] moves through its closest back face, by at most
+//!   [`DDGI_MAX_OFFSET`] × spacing per axis, and is point-sampled there.
+//!
+//! Every baseline's volume has weight 1 at valid nodes and 0 at invalid (filled) ones, as a
+//! `doi` bake marks its filled nodes; only `point+apv` attaches a validity mask.
 
 use glam::DVec3;
-use lightvol_sh::index::sh_lm;
-use lightvol_sh::irradiance::cosine_lobe_factor;
 use lightvol_sh::lowdisc::hash2;
 use lightvol_sh::sampling::sample_uniform_sphere;
-use lightvol_volume::{GridSpec, IrradianceVolume};
+use lightvol_volume::{GridSpec, IrradianceVolume, ValidityMask};
 use rayon::prelude::*;
 
 use crate::bake::BakeSettings;
@@ -41,45 +55,76 @@ use crate::transport::Transport;
 /// Rays per probe for the back-face fraction and the offset search (Unity's and RTXGI's
 /// defaults are of this order; the fraction's standard error at 25% is 0.054).
 pub const VALIDITY_RAYS: u32 = 64;
-/// Unity APV: a probe is invalid when more than this share of its rays hit back faces.
+/// `point+validity`: a probe is invalid when more than this share of its rays hit back
+/// faces. Unity APV's default ([`APV_INVALID_FRACTION`]), so that `point+validity` and
+/// `point+apv` differ only in the virtual offset and the run-time weighting. (Blender's
+/// `dilation_threshold` defaults to a front-face share of 0.5, a looser test on the same
+/// idea; one threshold for both entries keeps the comparison an ablation.)
+pub const VALIDITY_INVALID_FRACTION: f64 = APV_INVALID_FRACTION;
+/// Unity APV: a probe is invalid when more than this share of its rays hit back faces
+/// (Unity SRP Core, `ProbeDilationSettings.dilationValidityThreshold`, default 0.25).
 pub const APV_INVALID_FRACTION: f64 = 0.25;
-/// Unity APV virtual offset: search distance, times the smallest node spacing.
+/// Unity APV virtual offset: search distance, times the smallest node spacing (Unity SRP
+/// Core, `VirtualOffsetSettings.searchMultiplier`, default 0.2).
 pub const APV_SEARCH: f64 = 0.2;
 /// Unity APV virtual offset: how far beyond the back face the capture point goes, times
-/// the smallest node spacing.
+/// the smallest node spacing (Unity SRP Core, `VirtualOffsetSettings.outOfGeoOffset`,
+/// default 0.01).
 pub const APV_BIAS: f64 = 0.01;
 /// Unreal VLM: a voxel is inside geometry when more than this share of its rays hit back
-/// faces.
+/// faces (Unreal Lightmass, `VolumetricLightmap.cpp`: `BackfacingHitsFraction > .3f`).
 pub const VLM_INVALID_FRACTION: f64 = 0.30;
-/// DDGI/RTXGI: a probe with a larger back-face fraction is relocated.
+/// DDGI/RTXGI: a probe with a larger back-face fraction is relocated (NVIDIA RTXGI,
+/// `probeBackfaceThreshold`, default 0.25 of the fixed rays).
 pub const DDGI_BACKFACE_THRESHOLD: f64 = 0.25;
-/// DDGI/RTXGI: the largest relocation per axis, times the node spacing on that axis.
+/// DDGI/RTXGI: the largest relocation per axis, times the node spacing on that axis
+/// (NVIDIA RTXGI's probe relocation keeps offsets below 45% of the probe spacing).
 pub const DDGI_MAX_OFFSET: f64 = 0.45;
 
 /// Stream tag of the validity rays ("vald").
 const VALIDITY_STREAM: u64 = 0x7661_6c64;
 
-/// Which engine's fix.
+/// Which engine's fix (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Baseline {
+    /// Point sampling, invalidation, dilation; plain trilinear lookups (`point+validity`).
+    Validity,
     /// Unity Adaptive Probe Volumes: virtual offset, validity, dilation, validity-weighted
-    /// lookups.
+    /// lookups (`point+apv`).
     Apv,
-    /// Unreal volumetric lightmaps: inside voxels replaced by the mean of valid neighbours.
+    /// Unreal volumetric lightmaps: inside voxels replaced by the mean of valid neighbours
+    /// (`point+vlm`).
     Vlm,
-    /// DDGI/RTXGI probe relocation.
+    /// DDGI/RTXGI probe relocation (`point+ddgi`).
     Ddgi,
 }
 
 impl Baseline {
-    /// Its `compare` name.
+    /// Every baseline, in the order help texts list them.
+    pub const ALL: [Self; 4] = [Self::Validity, Self::Apv, Self::Vlm, Self::Ddgi];
+
+    /// Its name (in `compare --methods` and `bake --method`).
     #[must_use]
     pub fn name(self) -> &'static str {
         match self {
-            Self::Apv => "point+validity",
+            Self::Validity => "point+validity",
+            Self::Apv => "point+apv",
             Self::Vlm => "point+vlm",
             Self::Ddgi => "point+ddgi",
         }
+    }
+
+    /// The baseline named `name` ([`Self::name`]), if any.
+    #[must_use]
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|b| b.name() == name)
+    }
+
+    /// Whether its volume carries a validity mask, so that its lookups are
+    /// validity-weighted (only Unity APV's).
+    #[must_use]
+    pub fn weights_lookups(self) -> bool {
+        self == Self::Apv
     }
 }
 
@@ -154,14 +199,39 @@ pub fn ddgi_relocate(x: DVec3, view: &ProbeView, spacing: [f64; 3]) -> DVec3 {
 /// valid, 0 invalid), the capture points, and the rays traced.
 #[derive(Clone, Debug)]
 pub struct BaselineBake {
-    /// The volume (fills applied; weights hold validity).
+    /// The volume (fills applied; weights hold validity; `point+apv`'s carries the
+    /// validity mask, which its lookups then read).
     pub volume: IrradianceVolume,
     /// Per node, valid after the baseline's own test.
     pub valid: Vec<bool>,
     /// Where each node was point-sampled.
     pub capture: Vec<DVec3>,
+    /// Invalid nodes the fill gave a value (the others keep their own point sample).
+    pub filled: usize,
     /// Rays: the point samples' (all kinds) and the validity rays (as `query`).
     pub rays: RayCounts,
+}
+
+impl BaselineBake {
+    /// Nodes the validity test rejected.
+    #[must_use]
+    pub fn invalid_nodes(&self) -> usize {
+        self.valid.iter().filter(|v| !**v).count()
+    }
+
+    /// Nodes sampled elsewhere than at the node (virtual offset, relocation) on `grid`,
+    /// the grid of the bake.
+    #[must_use]
+    pub fn moved_nodes(&self, grid: &GridSpec) -> usize {
+        self.capture
+            .iter()
+            .enumerate()
+            .filter(|(i, c)| {
+                let [x, y, z] = grid.node_coords(*i);
+                DVec3::from_array(grid.node_position_world(x, y, z)) != **c
+            })
+            .count()
+    }
 }
 
 /// Bakes `grid` with `baseline` (module docs): validity rays per node, capture points, one
@@ -192,6 +262,7 @@ pub fn bake_baseline(
             let view = probe_rays(tracer, x, settings.seed, node as u64);
             let mut rays = RayCounts { query: u64::from(VALIDITY_RAYS), ..RayCounts::default() };
             let (capture, valid) = match baseline {
+                Baseline::Validity => (x, view.back_fraction <= VALIDITY_INVALID_FRACTION),
                 Baseline::Apv => {
                     let c = apv_offset(x, &view, APV_SEARCH * min_sp, APV_BIAS * min_sp);
                     let at = if c == x {
@@ -225,20 +296,25 @@ pub fn bake_baseline(
         valid[node] = v;
         capture.push(c);
     }
-    match baseline {
-        Baseline::Apv => dilate_apv(grid, &mut data, &valid, k),
+    let filled = match baseline {
+        Baseline::Validity | Baseline::Apv => dilate_apv(grid, &mut data, &valid, k),
         Baseline::Vlm => fill_vlm(grid, &mut data, &valid, k),
-        Baseline::Ddgi => {}
-    }
+        Baseline::Ddgi => 0,
+    };
     let weights = valid.iter().map(|&v| f32::from(u8::from(v))).collect();
-    let volume = IrradianceVolume::new(
+    let mut volume = IrradianceVolume::new(
         grid.clone(),
         settings.coeffs,
         data.iter().map(|&v| v as f32).collect(),
         weights,
     )
     .map_err(|e| BakeError::Volume(e.to_string()))?;
-    Ok(BaselineBake { volume, valid, capture, rays })
+    if baseline.weights_lookups() {
+        volume
+            .set_validity(Some(ValidityMask::new(valid.clone())))
+            .map_err(|e| BakeError::Volume(e.to_string()))?;
+    }
+    Ok(BaselineBake { volume, valid, capture, filled, rays })
 }
 
 /// The valid neighbours of `node` within one cell (the 26 around it), with their grid
@@ -256,10 +332,13 @@ fn neighbours(grid: &GridSpec, node: usize) -> impl Iterator<Item = (usize, [i64
 }
 
 /// Unity APV dilation: every invalid node takes the `1/d²`-weighted mean of its valid
-/// neighbours within one cell (`d` in world units); one with none keeps its value.
-pub fn dilate_apv(grid: &GridSpec, data: &mut [f64], valid: &[bool], k: usize) {
+/// neighbours within one cell (`d` in world units); one with none keeps its value. Unity SRP
+/// Core's defaults: `ProbeDilationSettings.dilationDistance` 1 (probe spacing), one
+/// iteration, `squaredDistWeighting` on. Returns the nodes it filled.
+pub fn dilate_apv(grid: &GridSpec, data: &mut [f64], valid: &[bool], k: usize) -> usize {
     let sp = spacing(grid);
     let src = data.to_vec();
+    let mut filled = 0;
     for node in (0..valid.len()).filter(|&n| !valid[n]) {
         let mut acc = vec![0.0; k];
         let mut wsum = 0.0;
@@ -272,62 +351,31 @@ pub fn dilate_apv(grid: &GridSpec, data: &mut [f64], valid: &[bool], k: usize) {
             }
         }
         if wsum > 0.0 {
+            filled += 1;
             for c in 0..k {
                 data[node * k + c] = acc[c] / wsum;
             }
         }
     }
+    filled
 }
 
 /// Unreal VLM: every invalid node becomes the plain mean of its valid 3×3×3 neighbours; one
-/// with none keeps its value.
-pub fn fill_vlm(grid: &GridSpec, data: &mut [f64], valid: &[bool], k: usize) {
+/// with none keeps its value. Returns the nodes it filled.
+pub fn fill_vlm(grid: &GridSpec, data: &mut [f64], valid: &[bool], k: usize) -> usize {
     let src = data.to_vec();
+    let mut filled = 0;
     for node in (0..valid.len()).filter(|&n| !valid[n]) {
         let ns: Vec<usize> = neighbours(grid, node).filter(|&(m, _)| valid[m]).map(|(m, _)| m).collect();
         if ns.is_empty() {
             continue;
         }
+        filled += 1;
         for c in 0..k {
             data[node * k + c] = ns.iter().map(|&m| src[m * k + c]).sum::<f64>() / ns.len() as f64;
         }
     }
-}
-
-/// Irradiance at world point `p` for unit normal `n` with the trilinear weights renormalised
-/// over the valid corners (Unity APV's run-time validity weighting); plain trilinear when all
-/// eight are valid or none is.
-#[must_use]
-pub fn validity_weighted_irradiance(
-    vol: &IrradianceVolume,
-    valid: &[bool],
-    p: [f64; 3],
-    n: [f64; 3],
-) -> [f64; 3] {
-    let (nodes, mut w) = vol.spec().trilinear_world(p);
-    let sum: f64 = (0..8).filter(|&c| valid[nodes[c]]).map(|c| w[c]).sum();
-    if sum > 0.0 && (0..8).any(|c| !valid[nodes[c]]) {
-        for c in 0..8 {
-            w[c] = if valid[nodes[c]] { w[c] / sum } else { 0.0 };
-        }
-    }
-    let coeffs = vol.coeffs();
-    let mut y = vec![0.0; coeffs];
-    lightvol_sh::eval::eval_into(vol.bands(), n, &mut y);
-    let mut e = [0.0f64; 3];
-    for c in 0..8 {
-        if w[c] == 0.0 {
-            continue;
-        }
-        let node = vol.node(nodes[c]);
-        for j in 0..coeffs {
-            let f = cosine_lobe_factor(sh_lm(j).0) * y[j] * w[c];
-            for ch in 0..3 {
-                e[ch] += f * f64::from(node[3 * j + ch]);
-            }
-        }
-    }
-    e
+    filled
 }
 
 #[cfg(test)]

@@ -1,5 +1,6 @@
-//! The engine baselines' mechanisms: virtual offset and relocation on a closed box, the
-//! fills against their definitions, validity-weighted lookups.
+//! The engine baselines' mechanisms: virtual offset and relocation on a closed box (the
+//! functions, then the four bakes), the fills against their definitions, validity-weighted
+//! lookups.
 
 use super::*;
 use crate::scene::{Material, SceneBuilder};
@@ -128,49 +129,118 @@ fn apv_dilation_weights_by_inverse_squared_distance() {
     }
 }
 
-/// Validity-weighted lookups: with every corner valid they are the plain trilinear lookup;
-/// with invalid corners, those corners' values do not matter, and the valid corners'
-/// weights are renormalised.
+/// `point+apv`'s lookups are the volume's validity-weighted lookups
+/// ([`lightvol_volume::validity`]; tested there against values computed by hand): here,
+/// on a baseline-shaped volume, the mask makes the invalid corners' values irrelevant, a
+/// mask of valid nodes only changes no bit, and the f64 reference the comparison reads
+/// agrees with the f32 lookup a renderer uses.
 #[test]
 fn validity_weighted_lookups_ignore_invalid_corners() {
     let grid = GridSpec::new([0.0; 3], [2.0; 3], [3, 3, 3]).unwrap();
     let n = grid.node_count();
     let data: Vec<f32> = (0..n * 27).map(|i| ((i * 53 % 97) as f32) * 0.01).collect();
-    let vol = IrradianceVolume::new(grid.clone(), 9, data.clone(), vec![1.0; n]).unwrap();
-    let all = vec![true; n];
+    let plain = IrradianceVolume::new(grid.clone(), 9, data.clone(), vec![1.0; n]).unwrap();
     let (p, nn) = ([0.7, 1.3, 0.4], [0.0, 0.6, 0.8]);
-    let plain = vol.irradiance_reference(p, nn);
-    let e = validity_weighted_irradiance(&vol, &all, p, nn);
-    for c in 0..3 {
-        assert!((e[c] - plain[c]).abs() < 1e-12);
-    }
+    let all = plain.clone().with_validity(ValidityMask::new(vec![true; n])).unwrap();
+    assert_eq!(all.irradiance_reference(p, nn), plain.irradiance_reference(p, nn));
     // Invalidate two corners of the point's cell and scramble their coefficients.
     let (nodes, w) = grid.trilinear_world(p);
-    let mut valid = all.clone();
-    valid[nodes[0]] = false;
-    valid[nodes[5]] = false;
-    let mut scrambled = data;
-    for &bad in &[nodes[0], nodes[5]] {
-        for v in &mut scrambled[bad * 27..(bad + 1) * 27] {
-            *v += 5.0;
-        }
+    let valid: Vec<bool> = (0..n).map(|i| i != nodes[0] && i != nodes[5]).collect();
+    let masked = plain.clone().with_validity(ValidityMask::new(valid.clone())).unwrap();
+    let mut scrambled = masked.clone();
+    for bad in [nodes[0], nodes[5]] {
+        let v: Vec<f32> = scrambled.node(bad).iter().map(|x| x + 5.0).collect();
+        scrambled.set_node(bad, &v).unwrap();
     }
-    let vol2 = IrradianceVolume::new(grid, 9, scrambled, vec![1.0; n]).unwrap();
-    let a = validity_weighted_irradiance(&vol, &valid, p, nn);
-    let b = validity_weighted_irradiance(&vol2, &valid, p, nn);
-    assert_eq!(a, b, "invalid corners' values leaked into the lookup");
-    // The renormalised weights, by hand: each valid corner's own irradiance.
+    let a = masked.irradiance_reference(p, nn);
+    assert_eq!(a, scrambled.irradiance_reference(p, nn), "invalid corners' values leaked into the lookup");
+    // The renormalised weights: each valid corner's own irradiance, weighted w / Σ_valid w.
     let wsum: f64 = (0..8).filter(|&c| valid[nodes[c]]).map(|c| w[c]).sum();
     let mut want = [0.0; 3];
     for c in (0..8).filter(|&c| valid[nodes[c]]) {
-        let corner = vol.spec().node_coords(nodes[c]);
-        let at = vol.spec().node_position_world(corner[0], corner[1], corner[2]);
-        let ec = vol.irradiance_reference(at, nn);
+        let corner = grid.node_coords(nodes[c]);
+        let ec = plain.irradiance_reference(grid.node_position_world(corner[0], corner[1], corner[2]), nn);
         for ch in 0..3 {
             want[ch] += w[c] / wsum * ec[ch];
         }
     }
+    let fast = masked.irradiance(p.map(|v| v as f32), nn.map(|v| v as f32));
     for ch in 0..3 {
+        // Sums of 8 × 9 products of O(1) numbers, in another order: a few ulps of ~10.
         assert!((a[ch] - want[ch]).abs() < 1e-12, "{a:?} vs {want:?}");
+        // f32 weights and coefficients of O(1), 27-term sums (the volume crate's bound).
+        assert!((f64::from(fast[ch]) - a[ch]).abs() < 1e-4, "{fast:?} vs {a:?}");
     }
+}
+
+/// The four baselines baked on a grid around the closed box, whose centre node sees only
+/// back faces: `point+validity` and `point+vlm` invalidate it where it stands, `point+apv`
+/// moves its capture point out of the box (and attaches the mask), `point+ddgi` relocates it
+/// by at most 0.45 × spacing per axis and invalidates nothing; outside nodes stay valid and
+/// in place for all four.
+#[test]
+fn baselines_treat_a_probe_inside_a_closed_box() {
+    let mut scene = closed_box();
+    scene.environment = crate::Environment::UniformSky { sky: [1.0; 3], ground: Some([0.5; 3]) };
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, crate::TransportSettings::default());
+    // Spacing 1: the centre node (1, 1, 1) sits at the box's centre, 0.5 from every wall,
+    // beyond APV's search (0.2 × spacing) and DDGI's reach (0.45 × spacing per axis): APV
+    // leaves it where it is, DDGI moves it towards a wall but not out. The other 26 nodes
+    // are outside the box.
+    let grid = GridSpec::new([-1.0; 3], [1.0; 3], [3, 3, 3]).unwrap();
+    let centre = grid.node_index(1, 1, 1);
+    let settings = BakeSettings { method: crate::Method::Point, samples: 16, ..BakeSettings::default() };
+    let spacing = 1.0;
+    for b in Baseline::ALL {
+        let bake = bake_baseline(&t, &grid, &settings, b).unwrap();
+        assert_eq!(bake.volume.validity().is_some(), b == Baseline::Apv, "{}", b.name());
+        for node in (0..grid.node_count()).filter(|&i| i != centre) {
+            assert!(bake.valid[node], "{}: outside node {node} invalid", b.name());
+            let [i, j, k] = grid.node_coords(node);
+            assert_eq!(
+                bake.capture[node],
+                DVec3::from_array(grid.node_position_world(i, j, k)),
+                "{}",
+                b.name()
+            );
+        }
+        let moved = bake.capture[centre];
+        match b {
+            Baseline::Validity | Baseline::Vlm => {
+                assert!(!bake.valid[centre]);
+                assert_eq!(moved, DVec3::ZERO);
+                assert_eq!(bake.filled, 1, "the centre is filled from its 26 valid neighbours");
+                assert_eq!(bake.volume.weights()[centre], 0.0);
+            }
+            Baseline::Apv => {
+                // The nearest wall is 0.5 away, beyond the 0.2 search: no offset, invalid.
+                assert_eq!(moved, DVec3::ZERO);
+                assert!(!bake.valid[centre]);
+                assert!(!bake.volume.validity().unwrap().is_valid(centre));
+                assert_eq!(bake.volume.validity().unwrap().invalid_count(), 1);
+            }
+            Baseline::Ddgi => {
+                assert!(bake.valid[centre], "DDGI relocates instead of invalidating");
+                let off = moved - DVec3::ZERO;
+                assert!(off.length() > 0.0, "the centre probe was not relocated");
+                assert!(off.abs().max_element() <= DDGI_MAX_OFFSET * spacing + 1e-12, "{off}");
+            }
+        }
+        assert_eq!(bake.invalid_nodes(), usize::from(b != Baseline::Ddgi));
+        assert_eq!(bake.moved_nodes(&grid), usize::from(b == Baseline::Ddgi));
+    }
+    // A grid whose centre node is 0.15 × spacing from a wall: APV's virtual offset (search
+    // 0.2 × spacing) takes the capture point out of the box, where it is valid.
+    let near = GridSpec::new([-1.0, -1.0, -0.35 - 2.0], [1.0, 1.0, -0.35 + 2.0], [3, 3, 3]).unwrap();
+    // Spacing: x, y 1; z 2. The centre node (0, 0, -0.35) is 0.15 from the bottom wall
+    // z = -0.5; the smallest spacing is 1, so the search reaches 0.2.
+    let bake = bake_baseline(&t, &near, &settings, Baseline::Apv).unwrap();
+    let c = near.node_index(1, 1, 1);
+    let moved = bake.capture[c];
+    assert!(moved.z < -0.5, "{moved} still inside the box");
+    assert!(bake.valid[c], "the offset capture point sees back faces");
+    assert!(bake.volume.validity().unwrap().is_valid(c));
+    assert_eq!(bake.moved_nodes(&near), 1);
+    assert_eq!(probe_rays(&tracer, moved, 1, 7).back_fraction, 0.0);
 }

@@ -419,7 +419,8 @@ pub fn bake_with_mass(
 /// [`Fit::Average`] this is [`crate::bake()`] followed by `finish`.
 ///
 /// # Errors
-/// As [`crate::bake()`].
+/// As [`crate::bake()`]; [`BakeError::Settings`] for least squares with
+/// [`Method::DoiNode`] (its samples do not spread over a cell's corners).
 pub fn bake_fitted(
     transport: &Transport<'_>,
     grid: &GridSpec,
@@ -428,6 +429,10 @@ pub fn bake_fitted(
     fit: Fit,
 ) -> Result<(IrradianceVolume, BakeStats, Option<FitReport>), BakeError> {
     match (settings.method, fit) {
+        (Method::DoiNode, Fit::LeastSquares { .. }) => Err(BakeError::Settings(
+            "least-squares fits need cell samples (prefilter, doi); doi-node averages each node's own cell"
+                .into(),
+        )),
         (Method::Point, _) | (_, Fit::Average) => {
             let (v, s) = crate::bake::bake(transport, grid, settings, control)?.finish();
             Ok((v, s, None))

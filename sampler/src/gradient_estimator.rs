@@ -42,7 +42,7 @@ impl GradientEstimator {
     /// extra rays), `central` for `point` (point samples span no volume).
     #[must_use]
     pub fn default_for(method: Method) -> Self {
-        if method == Method::Point { Self::Central } else { Self::Basis }
+        if matches!(method, Method::Point | Method::DoiNode) { Self::Central } else { Self::Basis }
     }
 
     /// Its name: `central` or `basis`.
@@ -58,7 +58,7 @@ impl GradientEstimator {
     /// needs cell samples: `prefilter` or `doi`).
     #[must_use]
     pub fn supports(self, method: Method) -> bool {
-        !(self == Self::Basis && method == Method::Point)
+        !(self == Self::Basis && matches!(method, Method::Point | Method::DoiNode))
     }
 }
 

@@ -522,7 +522,7 @@ pub fn bake_with_gradients(
     settings: &BakeSettings,
     control: &BakeControl<'_>,
 ) -> Result<(BakeOutput, BasisGradientAccumulator), BakeError> {
-    if settings.method == Method::Point {
+    if matches!(settings.method, Method::Point | Method::DoiNode) {
         return Err(BakeError::Settings(
             "the basis-gradient estimator needs cell samples (prefilter, doi)".into(),
         ));

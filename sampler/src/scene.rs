@@ -361,6 +361,39 @@ impl Scene {
     }
 }
 
+/// The faces of the axis-aligned box `lo..hi` as quads, counter-clockwise seen from outside
+/// (`outward`) or from inside; `skip_bottom` leaves out the -Z face. Order: +X, -X, +Y, -Y,
+/// +Z, -Z.
+#[must_use]
+pub fn box_faces(lo: DVec3, hi: DVec3, outward: bool, skip_bottom: bool) -> Vec<[DVec3; 4]> {
+    let c = |x: usize, y: usize, z: usize| {
+        DVec3::new(
+            if x == 0 { lo.x } else { hi.x },
+            if y == 0 { lo.y } else { hi.y },
+            if z == 0 { lo.z } else { hi.z },
+        )
+    };
+    // Each face listed counter-clockwise seen from outside.
+    let faces = [
+        [c(1, 0, 0), c(1, 1, 0), c(1, 1, 1), c(1, 0, 1)], // +X
+        [c(0, 0, 0), c(0, 0, 1), c(0, 1, 1), c(0, 1, 0)], // -X
+        [c(0, 1, 0), c(0, 1, 1), c(1, 1, 1), c(1, 1, 0)], // +Y
+        [c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)], // -Y
+        [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)], // +Z
+        [c(0, 0, 0), c(0, 1, 0), c(1, 1, 0), c(1, 0, 0)], // -Z
+    ];
+    faces
+        .into_iter()
+        .take(if skip_bottom { 5 } else { 6 })
+        .map(|mut q| {
+            if !outward {
+                q.reverse();
+            }
+            q
+        })
+        .collect()
+}
+
 /// Relative size of the self-intersection offset, see [`Scene::epsilon`].
 pub const RAY_EPSILON_RELATIVE: f64 = 1e-5;
 
@@ -586,29 +619,7 @@ impl SceneBuilder {
         outward: bool,
         skip_bottom: bool,
     ) -> Result<(), SceneError> {
-        let c = |x: usize, y: usize, z: usize| {
-            DVec3::new(
-                if x == 0 { lo.x } else { hi.x },
-                if y == 0 { lo.y } else { hi.y },
-                if z == 0 { lo.z } else { hi.z },
-            )
-        };
-        // Each face listed counter-clockwise seen from outside.
-        let faces = [
-            ([c(1, 0, 0), c(1, 1, 0), c(1, 1, 1), c(1, 0, 1)], false), // +X
-            ([c(0, 0, 0), c(0, 0, 1), c(0, 1, 1), c(0, 1, 0)], false), // -X
-            ([c(0, 1, 0), c(0, 1, 1), c(1, 1, 1), c(1, 1, 0)], false), // +Y
-            ([c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)], false), // -Y
-            ([c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)], false), // +Z
-            ([c(0, 0, 0), c(0, 1, 0), c(1, 1, 0), c(1, 0, 0)], true),  // -Z
-        ];
-        for (mut q, bottom) in faces {
-            if bottom && skip_bottom {
-                continue;
-            }
-            if !outward {
-                q.reverse();
-            }
+        for q in box_faces(lo, hi, outward, skip_bottom) {
             self.add_quad(q, material)?;
         }
         Ok(())

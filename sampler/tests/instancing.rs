@@ -5,6 +5,7 @@
 
 use glam::{DAffine3, DMat3, DQuat};
 use lightvol_sampler::lights::Environment;
+use lightvol_sampler::scene::box_faces;
 use lightvol_sampler::{
     AlphaMode, BakeControl, BakeSettings, BuildQuality, DVec2, DVec3, GridSpec, Levels, Material, Method,
     Scene, SceneBuilder, Tracer, Transport, TransportSettings, bake,
@@ -32,18 +33,8 @@ const NORMAL_TOL: f64 = 1e-9;
 /// lamp and a BLEND window pane, plus some loose triangles.
 fn house(b: &mut SceneBuilder, p: u32, mats: [u32; 4], rng: &mut SplitMix64) {
     let [wall, roof, lamp, pane] = mats;
-    let (lo, hi) = (DVec3::new(-2.0, -1.5, 0.0), DVec3::new(2.0, 1.5, 3.0));
-    let c = |x: usize, y: usize, z: usize| DVec3::new([lo.x, hi.x][x], [lo.y, hi.y][y], [lo.z, hi.z][z]);
-    let faces = [
-        [c(1, 0, 0), c(1, 1, 0), c(1, 1, 1), c(1, 0, 1)],
-        [c(0, 0, 0), c(0, 0, 1), c(0, 1, 1), c(0, 1, 0)],
-        [c(0, 1, 0), c(0, 1, 1), c(1, 1, 1), c(1, 1, 0)],
-        [c(0, 0, 0), c(1, 0, 0), c(1, 0, 1), c(0, 0, 1)],
-        [c(0, 0, 1), c(1, 0, 1), c(1, 1, 1), c(0, 1, 1)],
-        [c(0, 0, 0), c(0, 1, 0), c(1, 1, 0), c(1, 0, 0)],
-    ];
     let uv = [DVec2::ZERO, DVec2::X, DVec2::ONE];
-    for q in faces {
+    for q in box_faces(DVec3::new(-2.0, -1.5, 0.0), DVec3::new(2.0, 1.5, 3.0), true, false) {
         b.add_prototype_triangle(p, [q[0], q[1], q[2]], uv, wall).unwrap();
         b.add_prototype_triangle(p, [q[0], q[2], q[3]], uv, wall).unwrap();
     }

@@ -48,6 +48,54 @@ fn bake_info_export_and_sharded_merge() {
     assert_eq!(read_exr(&again).unwrap().data(), w.data());
 }
 
+/// `bake --method` takes the engine baselines: each writes a volume file, only `point+apv`'s
+/// with a validity mask, which `info` reports and the KTX2 export carries; the options a
+/// baseline cannot honour are refused in one line.
+#[test]
+fn bake_writes_engine_baselines() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let common = ["--samples", "8", "--res", "10,10,4", "--quiet", "--seed", "3"];
+    for name in ["point+validity", "point+apv", "point+vlm", "point+ddgi"] {
+        let out = d.join(format!("{name}.exr"));
+        let mut a = vec!["bake", "builtin:city", "--method", name, "-o", s(&out)];
+        a.extend_from_slice(&common);
+        ok(&a);
+        let vol = read_exr(&out).unwrap();
+        assert_eq!(vol.metadata().method, name);
+        assert_eq!(vol.validity().is_some(), name == "point+apv", "{name}");
+        if name != "point+ddgi" {
+            // The city's buildings are closed: nodes inside them are invalid (weight 0).
+            assert!(vol.weights().contains(&0.0), "{name} invalidated nothing");
+        }
+    }
+    let apv = d.join("point+apv.exr");
+    let vol = read_exr(&apv).unwrap();
+    let mask = vol.validity().unwrap();
+    assert!(mask.invalid_count() > 0);
+    let zero: Vec<bool> = vol.weights().iter().map(|&w| w != 0.0).collect();
+    assert_eq!(mask.as_slice(), zero.as_slice(), "the mask is the validity the weights record");
+    ok(&["info", s(&apv)]);
+    let ktx = d.join("apv.ktx2");
+    ok(&["export", s(&apv), "--format", "ktx2", "-o", s(&ktx)]);
+    assert_eq!(lightvol_volume::ktx2_io::read_ktx2(&ktx).unwrap().validity(), Some(mask));
+    let out = d.join("refused.exr");
+    for (extra, needle) in [
+        (vec!["--shard", "0/2"], "--shard"),
+        (vec!["--gradients"], "--gradients"),
+        (vec!["--keep-accumulator"], "--keep-accumulator"),
+        (vec!["--adaptive"], "--adaptive"),
+    ] {
+        let mut a = vec!["bake", "builtin:city", "--method", "point+apv", "-o", s(&out)];
+        a.extend_from_slice(&extra);
+        let err = run(&a).expect_err("must fail");
+        assert!(!err.contains('\n') && err.contains(needle) && err.contains("point+apv"), "{err}");
+        assert!(!out.exists());
+    }
+    let err = run(&["bake", "builtin:city", "--method", "point+unity", "-o", s(&out)]).unwrap_err();
+    assert!(err.contains("point+apv") && err.contains("doi"), "{err}");
+}
+
 /// Every kind of bad input is one clear line, an error (no panic: a panic
 /// fails this test), and leaves no output file behind.
 #[test]

@@ -345,7 +345,8 @@ fn reference_matches_uniform_sky() {
 /// The engine baselines run through `compare` beside point and doi at equal samples per
 /// node: on the city (whose buildings are closed solids, so grid nodes inside them see back
 /// faces) each one finds invalid or moved probes, counts its validity rays, and every one
-/// of them is closer to the truth than naive point sampling. (Whether doi beats them is
+/// of them is closer to the truth than naive point sampling; only APV moves probes and
+/// invalidates them, and only its memory counts a validity mask. (Whether doi beats them is
 /// what the comparison measures; it is not asserted here.)
 #[test]
 fn engine_baselines_run_through_compare() {
@@ -361,7 +362,7 @@ fn engine_baselines_run_through_compare() {
         "--reference-samples",
         "64",
         "--methods",
-        "point,point+validity,point+vlm,point+ddgi,doi",
+        "point,point+validity,point+apv,point+vlm,point+ddgi,doi",
         "--quiet",
         "-o",
         out.to_str().unwrap(),
@@ -369,7 +370,7 @@ fn engine_baselines_run_through_compare() {
     let r = report(&out);
     println!("{}", summary(&r));
     let point = metric(&r, "point", "rel_rmse");
-    for b in ["point+validity", "point+vlm", "point+ddgi"] {
+    for b in ["point+validity", "point+apv", "point+vlm", "point+ddgi"] {
         let m = &r["methods"][b];
         let touched = m["invalid_nodes"].as_u64().unwrap() + m["moved_nodes"].as_u64().unwrap();
         assert!(touched > 0, "{b} changed no probe");
@@ -377,5 +378,16 @@ fn engine_baselines_run_through_compare() {
         assert!(metric(&r, b, "rel_rmse") < point, "{b} is not better than point sampling");
     }
     assert_eq!(r["methods"]["point+vlm"]["moved_nodes"], 0, "VLM does not move probes");
+    assert_eq!(r["methods"]["point+validity"]["moved_nodes"], 0, "point+validity does not move probes");
+    assert!(
+        r["methods"]["point+apv"]["moved_nodes"].as_u64().unwrap() > 0,
+        "APV's virtual offset moved nothing"
+    );
+    // The APV volume keeps its validity mask: one byte per node beyond the uniform grid's.
+    let nodes = r["methods"]["point"]["nodes"].as_u64().unwrap();
+    assert_eq!(
+        r["methods"]["point+apv"]["memory_bytes"].as_u64().unwrap(),
+        r["methods"]["point"]["memory_bytes"].as_u64().unwrap() + nodes
+    );
     assert_eq!(r["methods"]["point+ddgi"]["invalid_nodes"], 0, "DDGI relocates instead of invalidating");
 }

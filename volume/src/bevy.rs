@@ -34,6 +34,9 @@
 //! the box, then the volume's placement. Bevy's `Transform` holds translation, rotation
 //! and scale only ([`bevy_transform`] decomposes the matrix, glam's `DQuat::from_mat3`); a sheared or mirrored
 //! placement cannot be represented there and is refused.
+//!
+//! A validity mask ([`crate::validity`]) is not exported: Bevy's shader interpolates its
+//! voxels plainly, so the ambient cubes are the nodes' own (dilated) values.
 
 use std::path::Path;
 

@@ -57,7 +57,9 @@ pub fn fnv1a(bytes: &[u8]) -> u64 {
 }
 
 /// The checksum of everything a reader reconstructs: grid (box, resolution, placement),
-/// coefficient count, metadata, and the bits of every coefficient and weight.
+/// coefficient count, metadata, the bits of every coefficient and weight, and the validity
+/// mask when there is one (a volume without a mask hashes as before masks existed, so older
+/// files still verify).
 #[must_use]
 pub fn volume_checksum(vol: &IrradianceVolume) -> u64 {
     let mut h = Fnv1a::default();
@@ -89,6 +91,12 @@ pub fn volume_checksum(vol: &IrradianceVolume) -> u64 {
     }
     for v in vol.data().iter().chain(vol.weights()) {
         h.write(&v.to_bits().to_le_bytes());
+    }
+    if let Some(mask) = vol.validity() {
+        h.write_str("validity");
+        for &v in mask.as_slice() {
+            h.write(&[u8::from(v)]);
+        }
     }
     h.finish()
 }
@@ -127,7 +135,8 @@ pub(crate) fn verify(
 }
 
 /// `vol` with every coefficient (and, if `weights_too`, every weight) rounded through f16:
-/// what an f16 file decodes to. Errors if a value exceeds the f16 range.
+/// what an f16 file decodes to (the validity mask kept). Errors if a value exceeds the f16
+/// range.
 pub(crate) fn through_f16(
     vol: &IrradianceVolume,
     weights_too: bool,
@@ -146,8 +155,10 @@ pub(crate) fn through_f16(
     } else {
         vol.weights().to_vec()
     };
-    Ok(IrradianceVolume::new(vol.spec().clone(), vol.coeffs(), data, weights)?
-        .with_metadata(vol.metadata().clone()))
+    let mut out = IrradianceVolume::new(vol.spec().clone(), vol.coeffs(), data, weights)?
+        .with_metadata(vol.metadata().clone());
+    out.set_validity(vol.validity().cloned())?;
+    Ok(out)
 }
 
 #[cfg(test)]
@@ -185,5 +196,11 @@ mod tests {
         let moved =
             IrradianceVolume::zeros(spec.with_placement(crate::Placement::translation([0.0; 3]).unwrap()), 4);
         assert_ne!(volume_checksum(&moved.unwrap()), c);
+        // A mask counts, and so does each of its flags.
+        let all = v.clone().with_validity(crate::ValidityMask::new(vec![true; 8])).unwrap();
+        assert_ne!(volume_checksum(&all), c);
+        let one =
+            v.clone().with_validity(crate::ValidityMask::new((0..8).map(|i| i != 5).collect())).unwrap();
+        assert_ne!(volume_checksum(&one), volume_checksum(&all));
     }
 }

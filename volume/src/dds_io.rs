@@ -3,8 +3,8 @@
 //! coefficient-slab layout of [`crate::slab`] (width `nx`, height `ny`, depth `coeffs·nz`,
 //! weight in alpha) — the 3D-texture route of \[Ish11\] §2.3.
 //!
-//! DDS has no room for metadata, so [`write_dds`] also writes the JSON sidecar beside the
-//! texture (`name.dds.json`, [`crate::sidecar::sidecar_path`]) and [`read_dds`] requires it;
+//! DDS has no room for metadata, so [`write_dds`] also writes the JSON sidecar (with the
+//! validity mask, if the volume has one) beside the texture (`name.dds.json`, [`crate::sidecar::sidecar_path`]) and [`read_dds`] requires it;
 //! the reader checks the DDS header (DX10 extension, format, 3D dimension, one array
 //! element, one mip level) and the data length against the sidecar's grid.
 
@@ -116,8 +116,9 @@ pub fn dds_from_bytes(bytes: &[u8], sidecar: &Sidecar) -> Result<IrradianceVolum
             ));
         }
         let (values, weights) = volume_from_slab_texels(spec.node_count(), coeffs, &dds.data, F)?;
-        let vol =
+        let mut vol =
             IrradianceVolume::new(spec.clone(), coeffs, values, weights)?.with_metadata(sidecar.metadata());
+        vol.set_validity(sidecar.validity_mask()?)?;
         verify(F, sidecar.checksum.as_deref(), &vol)?;
         Ok(vol)
     })

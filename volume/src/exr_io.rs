@@ -33,6 +33,16 @@
 //! gradients (they check the part count). The checksum covers the volume, not the
 //! gradients (stored f32, lossless).
 //!
+//! ## Optional validity part
+//! A volume with a validity mask ([`crate::validity`]) adds, after the `weight` part, a
+//! part named `validity` with a single f32 channel `Y` (1.0 valid, 0.0 invalid; any other
+//! value is malformed), in the same slice layout, and the image attribute
+//! `lightvol.validity` (i32, 1); such files are `lightvol.version` 2
+//! ([`crate::sidecar::format_version`]), so readers of version 1 refuse them as newer
+//! instead of reading them without their mask. Files of volumes without a mask are version
+//! 1 and unchanged, and version-1 files read as volumes without a mask. The checksum covers
+//! the mask.
+//!
 //! ## Reading
 //! The reader first parses only the headers and checks the attributes, part names, channel
 //! lists, sample types and data-window sizes against the declared dimensions; only then
@@ -57,7 +67,8 @@ use crate::error::{FileFormat, VolumeError, check_finite};
 use crate::gradient::VolumeGradients;
 use crate::grid::{GridSpec, Placement};
 use crate::io_util::{guard, read_bounded, write_atomic};
-use crate::sidecar::{FORMAT_VERSION, QUANTITY, SH_CONVENTION};
+use crate::sidecar::{FORMAT_VERSION, QUANTITY, SH_CONVENTION, VALIDITY_VERSION, format_version};
+use crate::validity::ValidityMask;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 
 const F: FileFormat = FileFormat::Exr;
@@ -102,6 +113,9 @@ pub(crate) fn text(s: &str) -> Result<Text, VolumeError> {
 fn layer_name(j: usize) -> String {
     format!("sh{j:02}")
 }
+
+/// Name of the validity part.
+const VALIDITY_PART: &str = "validity";
 
 fn grad_layer_name(j: usize) -> String {
     format!("grad{j:02}")
@@ -200,6 +214,12 @@ pub(crate) fn base_layers(
         FlatSamples::F32(vol.weights().to_vec()),
     )]));
     layers.push(Layer::new(size, LayerAttributes::named(text("weight")?), encoding, weights));
+    if let Some(mask) = vol.validity() {
+        let flags = mask.as_slice().iter().map(|&v| f32::from(u8::from(v))).collect();
+        let channels =
+            AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Y", FlatSamples::F32(flags))]));
+        layers.push(Layer::new(size, LayerAttributes::named(text(VALIDITY_PART)?), encoding, channels));
+    }
     if let Some(g) = grad {
         for j in 0..coeffs {
             let channels = GRAD_CHANNELS
@@ -231,7 +251,7 @@ pub(crate) fn base_layers(
         Ok(())
     };
     // (lightvol.checksum is added last, below.)
-    put("lightvol.version", AttributeValue::I32(FORMAT_VERSION as i32))?;
+    put("lightvol.version", AttributeValue::I32(format_version(vol) as i32))?;
     put("lightvol.dims", AttributeValue::IntVec3((nx as i32, ny as i32, nz as i32)))?;
     put("lightvol.bounds_min", AttributeValue::Text(text(&json(&min))?))?;
     put("lightvol.bounds_max", AttributeValue::Text(text(&json(&max))?))?;
@@ -241,6 +261,9 @@ pub(crate) fn base_layers(
     put("lightvol.sh_coeffs", AttributeValue::I32(coeffs as i32))?;
     if grad.is_some() {
         put("lightvol.gradients", AttributeValue::I32(1))?;
+    }
+    if vol.validity().is_some() {
+        put("lightvol.validity", AttributeValue::I32(1))?;
     }
     put("lightvol.sh_bands", AttributeValue::I32(vol.bands() as i32))?;
     put("lightvol.convention", AttributeValue::Text(text(SH_CONVENTION)?))?;
@@ -480,6 +503,7 @@ struct Declared {
     meta: BakeMetadata,
     checksum: String,
     gradients: bool,
+    validity: bool,
 }
 
 fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeError> {
@@ -547,7 +571,20 @@ fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeErr
         Some(AttributeValue::I32(1)) => true,
         Some(_) => return Err(VolumeError::malformed(F, "lightvol.gradients is not the i32 1")),
     };
-    Ok(Declared { spec, coeffs, sample, meta, checksum, gradients })
+    let validity = match a.opt("lightvol.validity") {
+        None => false,
+        Some(AttributeValue::I32(1)) if version as u32 >= VALIDITY_VERSION => true,
+        Some(AttributeValue::I32(1)) => {
+            return Err(VolumeError::malformed(
+                F,
+                format!(
+                    "lightvol.validity in a version {version} file (masks need version {VALIDITY_VERSION})"
+                ),
+            ));
+        }
+        Some(_) => return Err(VolumeError::malformed(F, "lightvol.validity is not the i32 1")),
+    };
+    Ok(Declared { spec, coeffs, sample, meta, checksum, gradients, validity })
 }
 
 /// Parses a multi-part EXR volume from memory (see the module docs for what is checked).
@@ -612,7 +649,10 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     };
     let extra =
         if extensions { meta.headers.iter().filter(|h| is_octree_part(&part_name(h))).count() } else { 0 };
-    let parts = if d.gradients { 2 * d.coeffs + 1 } else { d.coeffs + 1 } + extra;
+    // Slots: the coefficients, the weight, the validity (if any), the gradients (if any).
+    let v = usize::from(d.validity);
+    let grad_base = d.coeffs + 1 + v;
+    let parts = grad_base + if d.gradients { d.coeffs } else { 0 } + extra;
     if meta.headers.len() != parts {
         return Err(VolumeError::malformed(F, format!("{} parts, expected {parts}", meta.headers.len())));
     }
@@ -627,8 +667,10 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
         let grad_slot = (0..d.coeffs).find(|&j| d.gradients && grad_layer_name(j) == name);
         let (slot, want): (usize, &[(&str, SampleType)]) = if name == "weight" {
             (d.coeffs, &[("Y", SampleType::F32)])
+        } else if d.validity && name == VALIDITY_PART {
+            (d.coeffs + 1, &[("Y", SampleType::F32)])
         } else if let Some(j) = grad_slot {
-            (d.coeffs + 1 + j, &grad_want)
+            (grad_base + j, &grad_want)
         } else {
             let j = (0..d.coeffs)
                 .find(|&j| layer_name(j) == name)
@@ -670,6 +712,7 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     let k = d.coeffs * 3;
     let mut data = vec![0.0f32; n * k];
     let mut weights = vec![0.0f32; n];
+    let mut flags: Option<Vec<f32>> = None;
     let mut gdata = vec![0.0f32; if d.gradients { n * k * 3 } else { 0 }];
     let mut extras = Vec::new();
     for layer in &image.layer_data {
@@ -694,6 +737,10 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
             }
             if name == "weight" {
                 weights = vals;
+                continue;
+            }
+            if d.validity && name == VALIDITY_PART {
+                flags = Some(vals);
                 continue;
             }
             if let Some(j) = (0..d.coeffs).find(|&j| d.gradients && grad_layer_name(j) == name) {
@@ -723,7 +770,16 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     }
     check_finite("EXR coefficients", &data)?;
     check_finite("EXR weights", &weights)?;
-    let vol = IrradianceVolume::new(d.spec, d.coeffs, data, weights)?.with_metadata(d.meta);
+    let mut vol = IrradianceVolume::new(d.spec, d.coeffs, data, weights)?.with_metadata(d.meta);
+    if let Some(flags) = flags {
+        if let Some(i) = flags.iter().position(|&f| f != 0.0 && f != 1.0) {
+            return Err(VolumeError::malformed(
+                F,
+                format!("validity {} at node {i} is neither 1 (valid) nor 0 (invalid)", flags[i]),
+            ));
+        }
+        vol.set_validity(Some(ValidityMask::new(flags.iter().map(|&f| f == 1.0).collect())))?;
+    }
     verify(F, Some(&d.checksum), &vol)?;
     let grad = if d.gradients { Some(VolumeGradients::new(&vol, gdata)?) } else { None };
     Ok((vol, grad, extras, attrs))

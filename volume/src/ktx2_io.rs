@@ -10,8 +10,8 @@
 //! (clamp z to half a texel inside the slab to avoid bleeding across slabs).
 //!
 //! The key/value data holds `KTXwriter` and the JSON sidecar under [`KTX2_SIDECAR_KEY`]
-//! (grid transform, SH convention, encoding, units, bake metadata; see
-//! [`crate::sidecar`]). The reader validates the header against the sidecar and the data
+//! (grid transform, SH convention, encoding, units, bake metadata and, when the volume has
+//! one, its validity mask; see [`crate::sidecar`]). The reader validates the header against the sidecar and the data
 //! length against the dimensions and rejects non-finite texels.
 
 use std::path::Path;
@@ -231,7 +231,8 @@ pub fn ktx2_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
             ));
         }
         let (values, weights) = volume_from_slab_texels(spec.node_count(), coeffs, &data, f)?;
-        let vol = IrradianceVolume::new(spec, coeffs, values, weights)?.with_metadata(sidecar.metadata());
+        let mut vol = IrradianceVolume::new(spec, coeffs, values, weights)?.with_metadata(sidecar.metadata());
+        vol.set_validity(sidecar.validity_mask()?)?;
         verify(f, sidecar.checksum.as_deref(), &vol)?;
         Ok(vol)
     })

@@ -23,6 +23,7 @@ pub mod lookup;
 pub mod rgb9e5;
 pub mod sidecar;
 pub mod slab;
+pub mod validity;
 pub mod volume;
 
 pub use accumulator::Accumulator;
@@ -33,4 +34,5 @@ pub use error::{FileFormat, VolumeError};
 pub use fill::FillReport;
 pub use gradient::{GradientLookup, VolumeGradients};
 pub use grid::{GridSpec, Placement};
+pub use validity::ValidityMask;
 pub use volume::{BakeMetadata, IrradianceVolume};

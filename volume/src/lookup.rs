@@ -21,6 +21,14 @@
 //!   multiply-add, no reassociation), so the results are bit-identical to it for any
 //!   thread count; a test asserts this.
 //!
+//! **Validity.** When the volume carries a [`crate::ValidityMask`], all of these (and
+//! [`IrradianceVolume::coeffs_at`], [`IrradianceVolume::sh_at`],
+//! [`IrradianceVolume::coeffs_reference`]) renormalise the trilinear weights over the valid
+//! corners of the cell before interpolating, Unity APV's run-time validity weighting; every
+//! corner valid, or no valid corner with weight, leaves the plain trilinear weights
+//! ([`crate::validity`]). The f32 paths reweight in f32 (batched and scalar alike, so they
+//! stay bit-identical), the references in f64. Without a mask nothing changes.
+//!
 //! Points are world-space (the volume's placement, if any, maps them to grid space);
 //! normals and directions are world-space unit vectors. Points outside the box are clamped
 //! to it (see [`crate::grid`]); a NaN coordinate is treated as the box's min on that axis.
@@ -189,9 +197,18 @@ fn query<const N: usize, const K: usize>(
     n: [f32; 3],
 ) -> [f32; 3] {
     let [nx, ny, _] = vol.spec().res().map(|v| v as usize);
-    let (base, w) = lp.locate(nx, nx * ny, p);
+    let (base, mut w) = lp.locate(nx, nx * ny, p);
+    reweight(vol, lp, base, &mut w);
     let acc = interpolate::<K>(vol.data(), base, &lp.offsets, &w);
     shade::<N, K>(&acc, f, n)
+}
+
+/// The validity weighting of the corners of the cell at `base` (nothing without a mask).
+#[inline(always)]
+fn reweight(vol: &IrradianceVolume, lp: &LookupParams, base: usize, w: &mut [f32; 8]) {
+    if let Some(mask) = vol.validity() {
+        mask.reweight_f32(|c| base + lp.offsets[c], w);
+    }
 }
 
 /// Signature of a monomorphised batched kernel.
@@ -247,7 +264,8 @@ fn batch_kernel<const N: usize, const K: usize>(
         // Stage 3 per lane: gather-interpolate (vectorised over coefficients), shade.
         for l in 0..m {
             let base = base[l];
-            let w = weights8(frac[0][l], frac[1][l], frac[2][l]);
+            let mut w = weights8(frac[0][l], frac[1][l], frac[2][l]);
+            reweight(vol, lp, base, &mut w);
             let acc = interpolate::<K>(data, base, &lp.offsets, &w);
             ob[l] = shade::<N, K>(&acc, f, db[l]);
         }
@@ -288,7 +306,8 @@ impl IrradianceVolume {
     pub fn coeffs_at(&self, p: [f32; 3], out: &mut [f32]) {
         let lp = self.lookup_params();
         let [nx, ny, _] = self.spec().res().map(|v| v as usize);
-        let (base, w) = lp.locate(nx, nx * ny, p);
+        let (base, mut w) = lp.locate(nx, nx * ny, p);
+        reweight(self, lp, base, &mut w);
         let k = self.coeffs() * 3;
         match self.coeffs() {
             4 => out[..k].copy_from_slice(&interpolate::<12>(self.data(), base, &lp.offsets, &w)),
@@ -391,11 +410,15 @@ impl IrradianceVolume {
     }
 
     fn reference(&self, p: [f64; 3], n: [f64; 3], irr: bool) -> [f64; 3] {
-        let (nodes, b) = self.spec().trilinear_world(p);
+        let (nodes, b) = self.reference_weights(p);
         let mut y = vec![0.0f64; self.coeffs()];
         eval_into(self.bands(), n, &mut y);
         let mut l = [0.0f64; 3];
         for c in 0..8 {
+            if self.validity().is_some() && b[c] == 0.0 {
+                // A dropped corner adds nothing (not even the sign of a zero).
+                continue;
+            }
             let node = self.node(nodes[c]);
             for j in 0..self.coeffs() {
                 let a = if irr { cosine_lobe_factor(sh_lm(j).0) } else { 1.0 };
@@ -411,7 +434,7 @@ impl IrradianceVolume {
     /// [`Self::coeffs_at`]).
     #[must_use]
     pub fn coeffs_reference(&self, p: [f64; 3]) -> Vec<f64> {
-        let (nodes, b) = self.spec().trilinear_world(p);
+        let (nodes, b) = self.reference_weights(p);
         let k = self.coeffs() * 3;
         let mut out = vec![0.0; k];
         for c in 0..8 {
@@ -420,5 +443,15 @@ impl IrradianceVolume {
             }
         }
         out
+    }
+
+    /// The corners and f64 trilinear weights of world point `p`, reweighted by the validity
+    /// mask if there is one (the references' weights).
+    fn reference_weights(&self, p: [f64; 3]) -> ([usize; 8], [f64; 8]) {
+        let (nodes, mut b) = self.spec().trilinear_world(p);
+        if let Some(mask) = self.validity() {
+            mask.reweight_f64(|c| nodes[c], &mut b);
+        }
+        (nodes, b)
     }
 }

@@ -17,6 +17,17 @@
 //!   "bake": { "method": "domain", "samples": 1000000, "seed": 1, ... }
 //! }
 //! ```
+//!
+//! A volume with a validity mask ([`crate::validity`]) adds a `validity` section (and is
+//! written as version 2, [`format_version`]):
+//!
+//! ```json
+//! "validity": { "invalid_nodes": 7, "layout": "...", "lookup": "...", "bits": "0502" }
+//! ```
+//!
+//! `bits` is the mask packed one bit per node ([`crate::ValidityMask::to_hex`];
+//! [`VALIDITY_LAYOUT`] in words) and `lookup` the run-time weighting it asks for
+//! ([`VALIDITY_LOOKUP`]).
 
 use std::path::Path;
 
@@ -26,12 +37,32 @@ use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::{GridSpec, Placement};
 use crate::io_util::{read_bounded, write_atomic};
+use crate::validity::ValidityMask;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 
 /// Value of the `format` field.
 pub const FORMAT_NAME: &str = "lightvol-volume";
-/// Current sidecar / file-format version; readers accept this version and older.
-pub const FORMAT_VERSION: u32 = 1;
+/// Newest sidecar / file-format version (the sidecar's `version`, the EXR's
+/// `lightvol.version`); readers accept it and every older one. Version 2 added the validity
+/// mask. Writers write the oldest version that holds the volume ([`format_version`]), so a
+/// volume without a mask gives the same bytes as before version 2, and a reader of version
+/// 1 refuses a file with a mask as a newer version instead of reading it without the mask.
+pub const FORMAT_VERSION: u32 = 2;
+/// The first version that can carry a validity mask.
+pub const VALIDITY_VERSION: u32 = 2;
+/// The bit packing of the `validity.bits` field, in words ([`ValidityMask::to_hex`]).
+pub const VALIDITY_LAYOUT: &str = "one bit per node, node i = x + nx*(y + ny*z) is bit i%8 (least significant \
+                                   first) of byte i/8, 1 = valid; each byte as two lowercase hex digits";
+/// The run-time weighting a validity mask asks for, in words ([`crate::validity`]).
+pub const VALIDITY_LOOKUP: &str = "trilinear weights renormalised over the valid corners of the cell; plain \
+                                   trilinear when every corner is valid or no valid corner has weight";
+
+/// The version a file holding `vol` is written as: 1, or [`VALIDITY_VERSION`] when `vol`
+/// has a validity mask.
+#[must_use]
+pub fn format_version(vol: &IrradianceVolume) -> u32 {
+    if vol.validity().is_some() { VALIDITY_VERSION } else { 1 }
+}
 /// The SH convention every lightvol file uses (lightvol-sh's); readers reject others.
 pub const SH_CONVENTION: &str = "real orthonormal SH; flat index l*(l+1)+m; no Condon-Shortley phase; \
                                  +z polar axis; world-space directions";
@@ -90,6 +121,57 @@ pub struct BakeJson {
     pub scene_hash: String,
 }
 
+/// The validity section: the mask of [`crate::validity`], packed.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ValidityJson {
+    /// Nodes marked invalid (checked against `bits`).
+    pub invalid_nodes: usize,
+    /// The packing of `bits` ([`VALIDITY_LAYOUT`]).
+    pub layout: String,
+    /// The lookup the mask is for ([`VALIDITY_LOOKUP`]).
+    pub lookup: String,
+    /// The packed mask ([`ValidityMask::to_hex`]).
+    pub bits: String,
+}
+
+impl ValidityJson {
+    /// The section describing `mask`.
+    #[must_use]
+    pub fn of(mask: &ValidityMask) -> Self {
+        Self {
+            invalid_nodes: mask.invalid_count(),
+            layout: VALIDITY_LAYOUT.into(),
+            lookup: VALIDITY_LOOKUP.into(),
+            bits: mask.to_hex(),
+        }
+    }
+
+    /// The mask for a grid of `nodes` nodes; errors on another layout or lookup, bits that
+    /// do not parse ([`ValidityMask::from_hex`]) or an invalid count that differs.
+    pub fn mask(&self, nodes: usize) -> Result<ValidityMask, VolumeError> {
+        let f = FileFormat::Sidecar;
+        if self.layout != VALIDITY_LAYOUT {
+            return Err(VolumeError::unsupported(f, format!("validity layout {:?}", self.layout)));
+        }
+        if self.lookup != VALIDITY_LOOKUP {
+            return Err(VolumeError::unsupported(f, format!("validity lookup {:?}", self.lookup)));
+        }
+        let mask = ValidityMask::from_hex(&self.bits, nodes)
+            .map_err(|e| VolumeError::malformed(f, e.to_string()))?;
+        if mask.invalid_count() != self.invalid_nodes {
+            return Err(VolumeError::malformed(
+                f,
+                format!(
+                    "validity says {} invalid nodes, its bits mark {}",
+                    self.invalid_nodes,
+                    mask.invalid_count()
+                ),
+            ));
+        }
+        Ok(mask)
+    }
+}
+
 /// The whole sidecar document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Sidecar {
@@ -107,6 +189,9 @@ pub struct Sidecar {
     pub units: String,
     /// Texel layout.
     pub storage: StorageJson,
+    /// The validity mask, when the volume has one (version 2 and later).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub validity: Option<ValidityJson>,
     /// Bake metadata.
     pub bake: BakeJson,
     /// The frame of the described file's data (`y-up` or `z-up`): its world positions
@@ -142,7 +227,7 @@ impl Sidecar {
         let m = vol.metadata();
         Self {
             format: FORMAT_NAME.into(),
-            version: FORMAT_VERSION,
+            version: format_version(vol),
             grid: GridJson {
                 min,
                 max,
@@ -158,6 +243,7 @@ impl Sidecar {
             encoding,
             units: m.units.clone(),
             storage: StorageJson { file, layout: layout.into() },
+            validity: vol.validity().map(ValidityJson::of),
             bake: BakeJson {
                 method: m.method.clone(),
                 samples: m.samples,
@@ -221,8 +307,24 @@ impl Sidecar {
                 format!("shard {} of {}", self.bake.shard_index, self.bake.shard_count),
             ));
         }
-        self.grid_spec()?;
+        let spec = self.grid_spec()?;
+        if self.validity.is_some() && self.version < VALIDITY_VERSION {
+            return Err(VolumeError::malformed(
+                f,
+                format!("version {} has no validity section (from version {VALIDITY_VERSION})", self.version),
+            ));
+        }
+        self.validity_mask_for(&spec)?;
         Ok(())
+    }
+
+    /// The validity mask the sidecar describes, if any (checked as in [`Self::validate`]).
+    pub fn validity_mask(&self) -> Result<Option<ValidityMask>, VolumeError> {
+        self.validity_mask_for(&self.grid_spec()?)
+    }
+
+    fn validity_mask_for(&self, spec: &GridSpec) -> Result<Option<ValidityMask>, VolumeError> {
+        self.validity.as_ref().map(|v| v.mask(spec.node_count())).transpose()
     }
 
     /// The validated grid.
@@ -306,7 +408,8 @@ mod tests {
             Sidecar::from_json(&t.to_json()).is_err()
         };
         assert!(bad(&|t| t.format = "other".into()));
-        assert!(bad(&|t| t.version = 2));
+        assert!(bad(&|t| t.version = FORMAT_VERSION + 1));
+        assert!(bad(&|t| t.validity = Some(ValidityJson::of(&ValidityMask::new(vec![true; 9 * 5 * 7])))));
         assert!(bad(&|t| t.sh.convention = "Condon-Shortley".into()));
         assert!(bad(&|t| t.sh.coeffs = 8));
         assert!(bad(&|t| t.sh.bands = 2));
@@ -315,6 +418,40 @@ mod tests {
         assert!(bad(&|t| t.bake.shard_count = 0));
         assert!(Sidecar::from_json("{").is_err());
         assert!(Sidecar::from_json("[]").is_err());
+    }
+
+    /// A volume without a mask is described as version 1 with no `validity` field (the
+    /// text of a version-1 sidecar); with a mask as version 2, and the mask reads back. A
+    /// damaged section is refused, naming what is wrong.
+    #[test]
+    fn validity_section_round_trips_and_is_checked() {
+        let plain = Sidecar::describe(&vol(), Encoding::F16, None, "l");
+        assert_eq!(plain.version, 1);
+        assert!(!plain.to_json().contains("validity"));
+        assert_eq!(Sidecar::from_json(&plain.to_json()).unwrap().validity_mask().unwrap(), None);
+        let n = 9 * 5 * 7;
+        let mask = ValidityMask::new((0..n).map(|i| i % 5 != 2).collect());
+        let masked = vol().with_validity(mask.clone()).unwrap();
+        let s = Sidecar::describe(&masked, Encoding::F16, None, "l");
+        assert_eq!(s.version, VALIDITY_VERSION);
+        let back = Sidecar::from_json(&s.to_json()).unwrap();
+        assert_eq!(back, s);
+        assert_eq!(back.validity_mask().unwrap(), Some(mask));
+        let err = |edit: &dyn Fn(&mut ValidityJson)| {
+            let mut t = s.clone();
+            edit(t.validity.as_mut().unwrap());
+            Sidecar::from_json(&t.to_json()).unwrap_err().to_string()
+        };
+        assert_eq!(
+            err(&|v| v.invalid_nodes += 1),
+            "malformed JSON sidecar data: validity says 64 invalid nodes, its bits mark 63"
+        );
+        assert!(err(&|v| v.bits.pop().map_or((), drop)).contains("hex digits"));
+        assert!(
+            err(&|v| v.layout = "bytes".into())
+                .starts_with("unsupported JSON sidecar content: validity layout")
+        );
+        assert!(err(&|v| v.lookup = "nearest".into()).contains("validity lookup"));
     }
 
     #[test]

@@ -6,6 +6,9 @@
 //! the fraction of the node's trilinear support that lies in the domain of interest (the
 //! normalised denominator of Eq. 5-6, see [`crate::accumulator`]): 0 marks a node that
 //! received no samples and was filled from its neighbours.
+//!
+//! A volume may also carry a per-node validity mask ([`crate::validity`]): then its
+//! trilinear lookups leave invalid corners out (Unity APV's run-time weighting).
 
 use serde::{Deserialize, Serialize};
 
@@ -14,6 +17,7 @@ use lightvol_sh::coeffs::{Sh, ShRgb};
 use crate::error::{VolumeError, check_finite};
 use crate::grid::GridSpec;
 use crate::lookup::LookupParams;
+use crate::validity::ValidityMask;
 
 /// The default SH coefficient count per colour channel: 3 bands, the nine coefficients that
 /// capture irradiance to a few percent (Ramamoorthi & Hanrahan 2001; \[KL06\] §3).
@@ -78,12 +82,16 @@ impl Default for BakeMetadata {
 /// one node are contiguous, which makes the 8 fetches of a trilinear lookup 8 short
 /// contiguous reads). Coefficient `j` follows lightvol-sh: real orthonormal SH, flat index
 /// `l(l+1)+m`, no Condon-Shortley phase, +z polar axis, world-space directions.
+///
+/// An optional [`ValidityMask`] ([`Self::with_validity`]) makes the trilinear lookups
+/// renormalise their weights over valid corners ([`crate::validity`]).
 #[derive(Clone, PartialEq)]
 pub struct IrradianceVolume {
     spec: GridSpec,
     coeffs: usize,
     data: Vec<f32>,
     weights: Vec<f32>,
+    validity: Option<ValidityMask>,
     meta: BakeMetadata,
     lut: LookupParams,
 }
@@ -97,6 +105,7 @@ impl std::fmt::Debug for IrradianceVolume {
             .field("coeffs", &self.coeffs)
             .field("data", &format_args!("[{} f32]", self.data.len()))
             .field("weights", &format_args!("[{} f32, {filled} zero]", self.weights.len()))
+            .field("validity", &self.validity)
             .field("meta", &self.meta)
             .finish()
     }
@@ -133,7 +142,7 @@ impl IrradianceVolume {
             )));
         }
         let lut = LookupParams::new(&spec, coeffs);
-        Ok(Self { spec, coeffs, data, weights, meta: BakeMetadata::default(), lut })
+        Ok(Self { spec, coeffs, data, weights, validity: None, meta: BakeMetadata::default(), lut })
     }
 
     /// An all-zero volume with all weights 1.
@@ -244,6 +253,34 @@ impl IrradianceVolume {
         &self.weights
     }
 
+    /// The validity mask, if the volume has one ([`crate::validity`]).
+    #[must_use]
+    pub fn validity(&self) -> Option<&ValidityMask> {
+        self.validity.as_ref()
+    }
+
+    /// Attaches (`Some`) or removes (`None`) the validity mask; errors if the mask does not
+    /// have one flag per node.
+    pub fn set_validity(&mut self, mask: Option<ValidityMask>) -> Result<(), VolumeError> {
+        if let Some(m) = &mask
+            && m.len() != self.spec.node_count()
+        {
+            return Err(VolumeError::Mismatch(format!(
+                "validity mask of {} nodes for {} nodes",
+                m.len(),
+                self.spec.node_count()
+            )));
+        }
+        self.validity = mask;
+        Ok(())
+    }
+
+    /// The same volume with `mask` attached ([`Self::set_validity`]).
+    pub fn with_validity(mut self, mask: ValidityMask) -> Result<Self, VolumeError> {
+        self.set_validity(Some(mask))?;
+        Ok(self)
+    }
+
     /// The bake metadata.
     #[must_use]
     pub fn metadata(&self) -> &BakeMetadata {
@@ -263,13 +300,16 @@ impl IrradianceVolume {
     }
 
     /// Bytes of coefficient and weight storage at f32 (\[Oat05\]'s memory figure: 9 RGB
-    /// coefficients are 108 bytes per node).
+    /// coefficients are 108 bytes per node), plus the validity mask's
+    /// ([`ValidityMask::memory_bytes`]) when there is one.
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
         (self.data.len() + self.weights.len()) * size_of::<f32>()
+            + self.validity.as_ref().map_or(0, ValidityMask::memory_bytes)
     }
 
-    /// Consumes the volume, returning `(spec, coeffs, data, weights, metadata)`.
+    /// Consumes the volume, returning `(spec, coeffs, data, weights, metadata)`; the
+    /// validity mask, if any, is dropped (clone it first from [`Self::validity`]).
     #[must_use]
     pub fn into_parts(self) -> (GridSpec, usize, Vec<f32>, Vec<f32>, BakeMetadata) {
         (self.spec, self.coeffs, self.data, self.weights, self.meta)

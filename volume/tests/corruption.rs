@@ -5,7 +5,8 @@
 //! cases are the same on every run): up to 8 random byte overwrites, or a truncation. The
 //! reader must return `Err`, or (when the damage hit bytes the reader ignores, e.g.
 //! padding or an unused standard EXR attribute) exactly the original volume. Truncations
-//! must always be `Err`; every edit of an accumulator shard must be `Err`. 1,100 cases in
+//! must always be `Err`; every edit of an accumulator shard must be `Err`. Volumes with a
+//! validity mask get the same treatment in the EXR and the KTX2 sidecar. 1,300 cases in
 //! total.
 
 mod common;
@@ -13,13 +14,13 @@ mod common;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
-use lightvol_volume::IrradianceVolume;
 use lightvol_volume::accumulator_io::{accumulator_from_bytes, accumulator_to_bytes};
 use lightvol_volume::bevy::{BevyFormat, BevyVolume, bevy_from_bytes, bevy_to_bytes};
 use lightvol_volume::dds_io::{dds_from_bytes, dds_sidecar, dds_to_bytes};
 use lightvol_volume::exr_io::{ExrCompression, ExrOptions, ExrSample, exr_from_bytes, exr_to_bytes};
 use lightvol_volume::ktx2_io::{ktx2_from_bytes, ktx2_to_bytes};
 use lightvol_volume::sidecar::Sidecar;
+use lightvol_volume::{IrradianceVolume, ValidityMask};
 
 fn config(cases: u32) -> Config {
     Config {
@@ -33,6 +34,11 @@ fn config(cases: u32) -> Config {
 
 fn volume() -> IrradianceVolume {
     common::random_volume(4, [3, 2, 2], 2024)
+}
+
+/// [`volume`] with a validity mask (nodes 1, 4, 7, 10 invalid).
+fn masked_volume() -> IrradianceVolume {
+    volume().with_validity(ValidityMask::new((0..12).map(|i| i % 3 != 1).collect())).unwrap()
 }
 
 /// Applies `edits` (position taken modulo the length, byte XOR-ed with a non-zero mask so
@@ -62,6 +68,7 @@ fn err_or_same(
                 && v.metadata() == original.metadata()
                 && v.data().iter().map(|x| x.to_bits()).eq(original.data().iter().map(|x| x.to_bits()))
                 && v.weights().iter().map(|x| x.to_bits()).eq(original.weights().iter().map(|x| x.to_bits()))
+                && v.validity() == original.validity()
         }
     }
 }
@@ -110,6 +117,23 @@ proptest! {
             let s = Sidecar::from_json(&json).unwrap();
             prop_assert!(err_or_same(dds_from_bytes(&mutate(&bytes, &e), &s), &original));
         }
+    }
+
+    #[test]
+    fn masked_exr_uncompressed_mutations(e in edits()) {
+        let vol = masked_volume();
+        let opts = ExrOptions { sample: ExrSample::F32, compression: ExrCompression::None };
+        let bytes = exr_to_bytes(&vol, &opts).unwrap();
+        prop_assert!(err_or_same(exr_from_bytes(&mutate(&bytes, &e)), &vol));
+    }
+
+    #[test]
+    fn masked_ktx2_mutations(e in edits()) {
+        let vol = masked_volume();
+        let bytes = ktx2_to_bytes(&vol).unwrap();
+        let original = ktx2_from_bytes(&bytes).unwrap();
+        prop_assert!(original.validity().is_some());
+        prop_assert!(err_or_same(ktx2_from_bytes(&mutate(&bytes, &e)), &original));
     }
 
     #[test]

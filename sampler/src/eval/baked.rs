@@ -10,7 +10,6 @@ use glam::DVec3;
 use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
 use lightvol_volume::{AdaptiveVolume, IrradianceVolume, VolumeError};
 
-use crate::baselines::validity_weighted_irradiance;
 use crate::eval::runs::GradientVolume;
 use crate::view::IrradianceField;
 
@@ -18,7 +17,7 @@ use crate::view::IrradianceField;
 #[derive(Clone)]
 pub enum RunVolume {
     /// A uniform grid read by its trilinear f32 lookup (\[KL06\] Eq. 2-3): the plain and
-    /// fitted bakes, Unreal VLM and DDGI.
+    /// fitted bakes and the engine baselines without validity-weighted lookups.
     Uniform(Arc<IrradianceVolume>),
     /// A uniform grid with gradients read by one of \[Oat05\]'s lookups.
     Gradient {
@@ -29,14 +28,10 @@ pub enum RunVolume {
     },
     /// \[Oat05\]'s octree, read by its f32 lookup.
     Adaptive(Arc<AdaptiveVolume>),
-    /// A uniform grid read with trilinear weights renormalised over its valid nodes (Unity
-    /// APV, [`validity_weighted_irradiance`]).
-    ValidityWeighted {
-        /// The grid.
-        volume: Arc<IrradianceVolume>,
-        /// Per node, valid.
-        valid: Arc<[bool]>,
-    },
+    /// A uniform grid read by its f64 reference lookup
+    /// ([`IrradianceVolume::irradiance_reference`], validity-weighted through the volume's
+    /// mask): Unity APV, as its run reads the plate.
+    Reference(Arc<IrradianceVolume>),
 }
 
 impl IrradianceField for RunVolume {
@@ -47,9 +42,7 @@ impl IrradianceField for RunVolume {
                 gradient_irradiance(&bake.volume, &bake.gradients, *lookup, p.to_array(), n.to_array())
             }
             Self::Adaptive(v) => IrradianceField::irradiance(&**v, p, n),
-            Self::ValidityWeighted { volume, valid } => {
-                Ok(validity_weighted_irradiance(volume, valid, p.to_array(), n.to_array()))
-            }
+            Self::Reference(v) => Ok(v.irradiance_reference(p.to_array(), n.to_array())),
         }
     }
 }
@@ -64,9 +57,7 @@ impl fmt::Debug for RunVolume {
                 .field("lookup", lookup)
                 .finish(),
             Self::Adaptive(v) => f.debug_tuple("Adaptive").field(&v.stored_nodes()).finish(),
-            Self::ValidityWeighted { volume, .. } => {
-                f.debug_tuple("ValidityWeighted").field(&volume.spec().res()).finish()
-            }
+            Self::Reference(v) => f.debug_tuple("Reference").field(&v.spec().res()).finish(),
         }
     }
 }

@@ -12,13 +12,14 @@
 //! | `BASE+average`, `BASE+lsq`, `BASE+lsq:λ` | [`Entry::Fitted`] |
 //! | `BASE+taylor`, `BASE+gtrilinear`, `BASE+hermite` | [`Entry::Gradient`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
-//! | `point+validity`, `point+vlm`, `point+ddgi` | [`Entry::Baseline`] |
+//! | `point+validity`, `point+apv`, `point+vlm`, `point+ddgi` | [`Entry::Baseline`] |
 //!
 //! **Memory.** Every entry reports the run-time bytes of what a renderer would keep: for a
 //! uniform grid \[Oat05\]'s accounting ("GPU Memory Requirements"), the RGB SH floats per
 //! node, ×4 with gradients, f32, bake weights not counted ([`uniform_memory_bytes`]); for
 //! the octree `AdaptiveVolume::memory_bytes` (coefficients, base weights, an 8-byte key per
-//! fine node, split bitmaps).
+//! fine node, split bitmaps); `point+apv` adds its validity mask, one byte per node
+//! (`ValidityMask::memory_bytes`).
 //!
 //! **Equal memory.** The `adaptive[L]` entry is baked (doi, the comparison's samples per
 //! cell at every level) with level 0 on the compared grid with its cell counts scaled by
@@ -52,7 +53,8 @@ pub enum Entry {
     /// \[Oat05\]'s adaptive octree at the uniform grid's memory, with this finest level
     /// (module docs).
     Adaptive(u32),
-    /// Point sampling with an engine's leak fix: Unity APV, Unreal VLM or DDGI relocation.
+    /// Point sampling with an engine's leak fix: validity and dilation, Unity APV, Unreal
+    /// VLM or DDGI relocation ([`crate::baselines`]).
     Baseline(Baseline),
 }
 
@@ -89,10 +91,8 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
             _ => Err(EvalError::AdaptiveLevel(s.to_owned())),
         };
     }
-    for b in [Baseline::Apv, Baseline::Vlm, Baseline::Ddgi] {
-        if s == b.name() {
-            return Ok(Entry::Baseline(b));
-        }
+    if let Some(b) = Baseline::from_name(s) {
+        return Ok(Entry::Baseline(b));
     }
     match s.split_once('+') {
         None => Ok(Entry::Uniform(parse_method(s)?)),
@@ -166,6 +166,34 @@ pub fn parse_method(s: &str) -> Result<Method, EvalError> {
     s.parse::<Method>().map_err(EvalError::UnknownMethod)
 }
 
+/// What `lightvol bake --method` bakes: a grid method of \[KL06\] or an engine baseline
+/// ([`crate::baselines`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BakeMethod {
+    /// `point`, `prefilter` or `doi`.
+    Grid(Method),
+    /// `point+validity`, `point+apv`, `point+vlm` or `point+ddgi`.
+    Baseline(Baseline),
+}
+
+/// Parses a bake method name: [`parse_method`]'s, or an engine baseline's
+/// ([`Baseline::name`]).
+///
+/// # Errors
+/// [`EvalError::UnknownMethod`], listing every name.
+pub fn parse_bake_method(s: &str) -> Result<BakeMethod, EvalError> {
+    if let Some(b) = Baseline::from_name(s) {
+        return Ok(BakeMethod::Baseline(b));
+    }
+    s.parse::<Method>().map(BakeMethod::Grid).map_err(|_| {
+        let baselines: Vec<&str> = Baseline::ALL.iter().map(|b| b.name()).collect();
+        EvalError::UnknownMethod(format!(
+            "unknown method '{s}' (point, prefilter, doi, {})",
+            baselines.join(", ")
+        ))
+    })
+}
+
 /// The name [`parse_method`] reads.
 #[must_use]
 pub fn method_name(m: Method) -> &'static str {
@@ -173,6 +201,7 @@ pub fn method_name(m: Method) -> &'static str {
         Method::Point => "point",
         Method::Prefilter => "prefilter",
         Method::Doi => "doi",
+        Method::DoiNode => "doi-node",
     }
 }
 
@@ -236,6 +265,9 @@ mod tests {
         );
         assert_eq!(parse_entry("doi+average").unwrap(), Entry::Fitted(Method::Doi, Fit::Average));
         assert_eq!(parse_entry("point+ddgi").unwrap(), Entry::Baseline(Baseline::Ddgi));
+        assert_eq!(parse_entry("point+validity").unwrap(), Entry::Baseline(Baseline::Validity));
+        assert_eq!(parse_entry("point+apv").unwrap(), Entry::Baseline(Baseline::Apv));
+        assert_eq!(parse_entry("point+vlm").unwrap(), Entry::Baseline(Baseline::Vlm));
         assert!(parse_entry("doi+lsq:-2").is_err());
         assert_eq!(parse_entry("adaptive1").unwrap(), Entry::Adaptive(1));
         assert_eq!(parse_entry("adaptive2").unwrap(), Entry::Adaptive(2));
@@ -254,6 +286,20 @@ mod tests {
         assert_eq!(NamedEntry::parse(" doi+lsq:0.5 ").unwrap().name, "doi+lsq:0.5");
     }
 
+    /// `bake --method` reads the three grid methods and the four baselines, and names all
+    /// seven when it reads none.
+    #[test]
+    fn bake_methods_parse() {
+        assert_eq!(parse_bake_method("doi").unwrap(), BakeMethod::Grid(Method::Doi));
+        for b in Baseline::ALL {
+            assert_eq!(parse_bake_method(b.name()).unwrap(), BakeMethod::Baseline(b));
+        }
+        assert_eq!(
+            parse_bake_method("point+taylor").unwrap_err().to_string(),
+            "unknown method 'point+taylor' (point, prefilter, doi, point+validity, point+apv, point+vlm, point+ddgi)"
+        );
+    }
+
     /// Every entry's name parses back to the entry.
     #[test]
     fn names_round_trip() {
@@ -264,7 +310,7 @@ mod tests {
             entries.push(Entry::Fitted(m, Fit::Average));
             entries.push(Entry::Fitted(m, Fit::LeastSquares { lambda: 0.125 }));
         }
-        entries.extend([Baseline::Apv, Baseline::Vlm, Baseline::Ddgi].map(Entry::Baseline));
+        entries.extend(Baseline::ALL.map(Entry::Baseline));
         for e in entries {
             assert_eq!(parse_entry(&e.to_string()).unwrap(), e, "{e}");
         }

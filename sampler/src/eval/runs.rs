@@ -16,7 +16,7 @@ use rayon::prelude::*;
 
 use crate::adaptive::{AdaptiveSettings, AdaptiveStats, bake_adaptive};
 use crate::bake::{BakeControl, BakeSettings, Method, Progress};
-use crate::baselines::{Baseline, bake_baseline, validity_weighted_irradiance};
+use crate::baselines::{Baseline, bake_baseline};
 use crate::eval::baked::RunVolume;
 use crate::eval::entries::{ADAPTIVE_BASE_SCALE, bands_of_coeffs, uniform_memory_bytes};
 use crate::eval::error::EvalError;
@@ -299,6 +299,7 @@ fn method_key(m: Method) -> u8 {
         Method::Point => 0,
         Method::Prefilter => 1,
         Method::Doi => 2,
+        Method::DoiNode => 3,
     }
 }
 
@@ -403,8 +404,13 @@ pub fn run_adaptive(
 }
 
 /// An engine baseline on `grid` (point samples, the context's samples per node, plus the
-/// validity rays, which its ray count includes); Unity APV is read by its validity-weighted
-/// trilinear lookup, the others by the plain one.
+/// validity rays, which its ray count includes), read through its volume's lookup: Unity
+/// APV's volume carries its validity mask, so its lookups are validity-weighted, the others
+/// are plain trilinear. APV is read by the f64 reference lookup
+/// ([`IrradianceVolume::irradiance_reference`], which applies the mask like the f32 path),
+/// as the comparison has always read it; the other baselines by the f32 lookup of every
+/// uniform entry ([`Plate::evaluate`]). Its memory adds the mask's bytes
+/// ([`lightvol_volume::ValidityMask::memory_bytes`]) to the uniform grid's.
 ///
 /// # Errors
 /// The bake's.
@@ -419,27 +425,22 @@ pub fn run_baseline(
     let t0 = Instant::now();
     let b = bake_baseline(&ctx.transport, grid, &settings, baseline).map_err(EvalError::at("baking"))?;
     let seconds = t0.elapsed().as_secs_f64();
-    let estimate: Vec<[f64; 3]> = match baseline {
-        Baseline::Apv => plate
+    let estimate: Vec<[f64; 3]> = if baseline.weights_lookups() {
+        plate
             .points
             .par_iter()
-            .map(|p| validity_weighted_irradiance(&b.volume, &b.valid, p.to_array(), [0.0, 0.0, 1.0]))
-            .collect(),
-        Baseline::Vlm | Baseline::Ddgi => plate.evaluate(&b.volume),
+            .map(|p| b.volume.irradiance_reference(p.to_array(), [0.0, 0.0, 1.0]))
+            .collect()
+    } else {
+        plate.evaluate(&b.volume)
     };
-    let moved_nodes = b
-        .capture
-        .iter()
-        .enumerate()
-        .filter(|(i, c)| {
-            let [x, y, z] = grid.node_coords(*i);
-            glam::DVec3::from_array(grid.node_position_world(x, y, z)) != **c
-        })
-        .count();
-    let detail = RunDetail::Baseline { invalid_nodes: b.valid.iter().filter(|v| !**v).count(), moved_nodes };
-    let volume = match baseline {
-        Baseline::Apv => RunVolume::ValidityWeighted { volume: Arc::new(b.volume), valid: b.valid.into() },
-        Baseline::Vlm | Baseline::Ddgi => RunVolume::Uniform(Arc::new(b.volume)),
+    let detail = RunDetail::Baseline { invalid_nodes: b.invalid_nodes(), moved_nodes: b.moved_nodes(grid) };
+    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
+        + b.volume.validity().map_or(0, lightvol_volume::ValidityMask::memory_bytes);
+    let volume = if baseline.weights_lookups() {
+        RunVolume::Reference(Arc::new(b.volume))
+    } else {
+        RunVolume::Uniform(Arc::new(b.volume))
     };
     Ok(MethodRun::new(
         name,
@@ -448,7 +449,7 @@ pub fn run_baseline(
         seconds,
         plate,
         estimate,
-        uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false),
+        memory,
         grid.node_count(),
         detail,
         volume,

@@ -1,0 +1,69 @@
+//! The domain of interest's ray budget: at equal samples, a `doi` bake traces at most
+//! [`DOI_RAY_BUDGET`] times the rays of a `point` bake, on every built-in scene (at its
+//! recommended grid) and every vendored real scene (16 cells along its longest axis,
+//! under a uniform white sky, as the CLI lights a scene without lights). Algorithm 2's
+//! query rays are the extra cost; the classification rays' hits are reused for lighting.
+
+use std::path::Path;
+
+use lightvol_sampler::builtin::{BUILTIN_NAMES, builtin};
+use lightvol_sampler::lights::Environment;
+use lightvol_sampler::{
+    BakeControl, BakeSettings, DVec3, GridSpec, LoadOptions, Method, Scene, Tracer, Transport,
+    TransportSettings, bake, load_scene,
+};
+
+/// `doi` may trace this many times `point`'s rays.
+const DOI_RAY_BUDGET: f64 = 1.25;
+
+/// Samples per cell or node: enough for every cell near a wall to find its back faces.
+const SAMPLES: u32 = 16;
+
+fn rays(scene: &Scene, grid: &GridSpec, method: Method) -> u64 {
+    let tracer = Tracer::new(scene);
+    let t = Transport::new(scene, &tracer, TransportSettings::default());
+    let s = BakeSettings { method, samples: SAMPLES, seed: 3, ..BakeSettings::default() };
+    bake(&t, grid, &s, &BakeControl::default()).unwrap().stats.rays.total()
+}
+
+/// The CLI's default grid: the bounds grown by 5%, 16 cells along the longest axis.
+fn default_grid(scene: &Scene) -> GridSpec {
+    let (lo, hi) = scene.bounds();
+    let pad = (hi - lo) * 0.05 + DVec3::splat(1e-3);
+    let (lo, hi) = (lo - pad, hi + pad);
+    let longest = (hi - lo).max_element();
+    let res = ((hi - lo) / longest * 16.0).ceil().to_array().map(|c| c as u32 + 1);
+    GridSpec::new(lo.to_array(), hi.to_array(), res.map(|r| r.max(2))).unwrap()
+}
+
+#[test]
+fn doi_stays_within_its_ray_budget() {
+    let mut cases: Vec<(String, Scene, GridSpec)> = BUILTIN_NAMES
+        .iter()
+        .map(|n| {
+            let b = builtin(n).unwrap();
+            (format!("builtin:{n}"), b.scene, b.grid)
+        })
+        .collect();
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/scenes");
+    for rel in [
+        "breakfast_room/BreakfastRoom.gltf",
+        "occlusion_room/room.glb",
+        "living_room/living_room.glb",
+        "zdm2/zdm2.glb",
+        "cornell_original/CornellBox-Original.obj",
+    ] {
+        let mut s = load_scene(&data.join(rel), &LoadOptions::default()).unwrap();
+        if s.sun.is_none() && s.punctual.is_empty() && !s.materials.iter().any(|m| m.is_emissive()) {
+            s.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
+        }
+        let g = default_grid(&s);
+        cases.push((rel.to_owned(), s, g));
+    }
+    for (name, scene, grid) in &cases {
+        let (point, doi) = (rays(scene, grid, Method::Point), rays(scene, grid, Method::Doi));
+        let ratio = doi as f64 / point as f64;
+        eprintln!("{name}: doi {doi} rays, point {point}: {ratio:.3}");
+        assert!(ratio <= DOI_RAY_BUDGET, "{name}: doi traces {ratio:.3} x point's rays");
+    }
+}
