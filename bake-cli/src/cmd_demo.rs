@@ -95,7 +95,7 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
         sweep_scales: level.memory_scales.to_vec(),
         reference_samples: level.reference_samples,
         classify_dirs: 256,
-        views: crate::cmd_compare::ViewArgs::none(),
+        views: crate::compare_views::ViewArgs::none(),
         output: out,
         quiet: args.quiet,
     }

@@ -21,6 +21,7 @@ pub mod cmd_proxies;
 pub mod cmd_render;
 pub mod cmd_render_surface;
 pub mod cmd_shader;
+pub mod compare_views;
 pub mod embree_baseline;
 pub mod gradients;
 pub mod imaging;
