@@ -109,18 +109,9 @@ pub struct BakeReport {
     pub bvh_seconds: f64,
     /// Throughput.
     pub mrays_per_second: f64,
-    /// Triangles the scene places (every instance counted).
-    pub triangles: u64,
-    /// Triangles stored (each instanced mesh once).
-    pub unique_triangles: u64,
-    /// Mesh instances.
-    pub instances: u64,
-    /// The memory estimate checked against `--max-memory-mib`: scene, ray tracer and grid.
-    pub estimated_memory_bytes: u64,
-    /// This process's peak resident memory (Linux), measured after writing the volume.
-    pub peak_memory_bytes: Option<u64>,
-    /// Wall time of the whole command: load, BVH, bake and write.
-    pub total_seconds: f64,
+    /// The scene's size, the memory estimate against the peak, and the whole command's time.
+    #[serde(flatten)]
+    pub scale: ScaleJson,
     /// Output file.
     pub output: String,
     /// The gradients, when baked.
@@ -140,6 +131,43 @@ pub struct BaselineJson {
     pub moved_nodes: usize,
     /// Whether the volume file carries the validity mask (`point+apv`).
     pub validity_mask: bool,
+}
+
+/// Size and cost figures of a bake, in `bake --json` (flattened into [`BakeReport`]).
+#[derive(Debug, Serialize)]
+pub struct ScaleJson {
+    /// Triangles the scene places (every instance counted).
+    pub triangles: u64,
+    /// Triangles stored (each instanced mesh once).
+    pub unique_triangles: u64,
+    /// Mesh instances.
+    pub instances: u64,
+    /// The memory estimate checked against `--max-memory-mib`: scene, ray tracer and grid.
+    pub estimated_memory_bytes: u64,
+    /// This process's peak resident memory (Linux), measured after writing the volume.
+    pub peak_memory_bytes: Option<u64>,
+    /// Wall time of the whole command: load, BVH, bake and write.
+    pub total_seconds: f64,
+}
+
+impl ScaleJson {
+    /// The figures of a bake of `loaded` on `grid` with `coeffs` coefficients per channel,
+    /// begun at `started` (call it once the volume is written).
+    #[must_use]
+    pub fn now(loaded: &LoadedScene, grid: &GridSpec, coeffs: usize, started: Instant) -> Self {
+        Self {
+            triangles: loaded.scene.triangle_count() as u64,
+            unique_triangles: loaded.scene.unique_triangle_count() as u64,
+            instances: loaded.scene.instances.len() as u64,
+            estimated_memory_bytes: u64::try_from(
+                crate::setup::bake_memory_bytes(grid.res().map(u64::from), coeffs)
+                    + u128::from(loaded.memory.total()),
+            )
+            .unwrap_or(u64::MAX),
+            peak_memory_bytes: lightvol_sampler::estimate::peak_resident_bytes(),
+            total_seconds: started.elapsed().as_secs_f64(),
+        }
+    }
 }
 
 /// The gradient step in `bake --json`.
@@ -466,16 +494,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         seconds: s.wall_time.as_secs_f64(),
         bvh_seconds,
         mrays_per_second: s.mrays_per_second(),
-        triangles: loaded.scene.triangle_count() as u64,
-        unique_triangles: loaded.scene.unique_triangle_count() as u64,
-        instances: loaded.scene.instances.len() as u64,
-        estimated_memory_bytes: u64::try_from(
-            crate::setup::bake_memory_bytes(grid.res().map(u64::from), args.grid.coeffs())
-                + u128::from(loaded.memory.total()),
-        )
-        .unwrap_or(u64::MAX),
-        peak_memory_bytes: lightvol_sampler::estimate::peak_resident_bytes(),
-        total_seconds: started.elapsed().as_secs_f64(),
+        scale: ScaleJson::now(&loaded, &grid, args.grid.coeffs(), started),
         output: args.output.display().to_string(),
         gradients: grads_json,
         baseline: None,
@@ -582,16 +601,7 @@ fn run_baseline(args: &BakeArgs, baseline: Baseline) -> anyhow::Result<ExitCode>
         seconds,
         bvh_seconds,
         mrays_per_second: if seconds > 0.0 { bake.rays.total() as f64 / seconds / 1e6 } else { 0.0 },
-        triangles: loaded.scene.triangle_count() as u64,
-        unique_triangles: loaded.scene.unique_triangle_count() as u64,
-        instances: loaded.scene.instances.len() as u64,
-        estimated_memory_bytes: u64::try_from(
-            crate::setup::bake_memory_bytes(grid.res().map(u64::from), args.grid.coeffs())
-                + u128::from(loaded.memory.total()),
-        )
-        .unwrap_or(u64::MAX),
-        peak_memory_bytes: lightvol_sampler::estimate::peak_resident_bytes(),
-        total_seconds: started.elapsed().as_secs_f64(),
+        scale: ScaleJson::now(&loaded, &grid, args.grid.coeffs(), started),
         output: args.output.display().to_string(),
         gradients: None,
         baseline: Some(BaselineJson {
