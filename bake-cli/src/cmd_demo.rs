@@ -47,9 +47,21 @@ struct Level {
 const MEMORY_SWEEP_SCENES: [&str; 2] = ["city", "interior"];
 
 /// Entries added to every scene's comparison besides point, prefilter and doi: doi with
-/// the least-squares node fit, the doi bake read through \[Oat05\]'s gradient lookups, and
-/// \[Oat05\]'s octree at doi's memory (finest level 2 and 1).
-const EXTRA_ENTRIES: [&str; 5] = ["doi+lsq", "doi+taylor", "doi+hermite", "adaptive", "adaptive1"];
+/// the least-squares node fit, the doi bake read through \[Oat05\]'s gradient lookups,
+/// \[Oat05\]'s octree at doi's memory (finest level 2 and 1), the domain test on each
+/// node's own cell, and the engines' leak fixes (`lightvol_sampler::baselines`).
+const EXTRA_ENTRIES: [&str; 10] = [
+    "doi+lsq",
+    "doi+taylor",
+    "doi+hermite",
+    "adaptive",
+    "adaptive1",
+    "doi-node",
+    "point+validity",
+    "point+apv",
+    "point+vlm",
+    "point+ddgi",
+];
 
 const QUICK: Level = Level {
     samples: 64,

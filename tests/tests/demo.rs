@@ -60,6 +60,19 @@ fn demo_quick_writes_everything() {
             }
         }
     }
+    // Every file index.html names exists.
+    let mut named = 0;
+    for attr in ["src=\"", "href=\""] {
+        for part in index.split(attr).skip(1) {
+            let target = &part[..part.find('"').expect("closing quote")];
+            if target.starts_with("http") || target.starts_with('#') {
+                continue;
+            }
+            assert!(out.join(target).is_file(), "index.html names {target}, which does not exist");
+            named += 1;
+        }
+    }
+    assert!(named > 50, "index.html names {named} files");
     for f in ["sweep.svg", "sweep.png"] {
         assert!(out.join(f).metadata().unwrap().len() > 100, "{f}");
     }
@@ -85,7 +98,20 @@ fn demo_quick_writes_everything() {
         assert!(index.contains(&format!("{scene}/memory_sweep.svg")));
         let text = std::fs::read_to_string(out.join(scene).join("report.json")).unwrap();
         let rep: Value = serde_json::from_str(&text).unwrap();
-        for m in ["point", "doi", "doi+lsq", "doi+taylor", "doi+hermite", "adaptive", "adaptive1"] {
+        for m in [
+            "point",
+            "doi",
+            "doi+lsq",
+            "doi+taylor",
+            "doi+hermite",
+            "adaptive",
+            "adaptive1",
+            "doi-node",
+            "point+validity",
+            "point+apv",
+            "point+vlm",
+            "point+ddgi",
+        ] {
             assert!(rep["methods"][m]["memory_bytes"].as_u64().is_some(), "{scene}: {m}.memory_bytes");
         }
         let mem = |m: &str| rep["methods"][m]["memory_bytes"].as_u64().unwrap();
