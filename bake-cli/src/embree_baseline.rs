@@ -206,7 +206,8 @@ fn bake_mix(tracer: &Tracer, scene: &Scene, count: usize, rng: &mut SplitMix64) 
 /// (Embree's at its medium quality), for 1 and 2 threads: throughputs
 /// in Mrays/s, their ratios (lightvol / Embree), hit agreement, and BVH build times, for
 /// four workloads: closest hits with origins uniform in the bounds and uniform directions,
-/// occlusion from those origins toward a sun, and the bake's own mix ([`bake_mix`]).
+/// occlusion from those origins toward a sun, and the bake's own mix (cell samples, their
+/// cosine bounces and sun shadow rays).
 ///
 /// # Errors
 /// When the harness cannot be built (no `libembree-dev` or no C compiler) or fails.

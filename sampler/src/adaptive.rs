@@ -7,9 +7,10 @@
 //! Level 0 is the ordinary [`bake`] of the base grid (with lightvol-volume's zero-weight
 //! fill). The nodes a split creates at level `l` are baked by the same estimator on the
 //! level-`l` grid (cell size `base / 2^l`, so each node keeps the prefilter support of its
-//! level), restricted to the cells around those nodes ([`bake_units`]): every node gets the
-//! sums a full bake of that grid would give it, bit for bit. A node with no sample in the
-//! domain of interest keeps the coarser levels' interpolation.
+//! level), restricted to the cells around those nodes
+//! ([`bake_units`](crate::bake::bake_units)): every node gets the sums a full bake of that
+//! grid would give it, bit for bit. A node with no sample in the domain of interest keeps
+//! the coarser levels' interpolation.
 //!
 //! ## Heuristics (\[Oat05\], "Subdivision Heuristics"), each with a threshold
 //! A leaf cell of level `l` is split when any enabled heuristic fires:
