@@ -203,7 +203,7 @@ fn compare_here(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::builtin;
     use crate::eval::observer::Silent;
@@ -211,8 +211,9 @@ mod tests {
     use lightvol_volume::gradient::GradientLookup;
     use std::sync::Mutex;
 
-    /// The maze at reduced settings: its recommended grid (11 × 11 × 3), a 12-point plate.
-    fn maze_config() -> (builtin::BuiltinScene, CompareConfig) {
+    /// The maze at reduced settings: its recommended grid (11 × 11 × 3), a 12-point plate
+    /// (also the views' tests' fixture).
+    pub(crate) fn maze_config() -> (builtin::BuiltinScene, CompareConfig) {
         let maze = builtin::maze();
         let plate =
             PlateConfig { height: maze.plate_heights[0], res: 12, reference_samples: 16, classify_dirs: 64 };

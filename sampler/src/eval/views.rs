@@ -263,7 +263,6 @@ mod tests {
     use crate::eval::compare::{CompareConfig, compare};
     use crate::eval::entries::NamedEntry;
     use crate::eval::observer::Silent;
-    use crate::eval::plate::PlateConfig;
     use crate::view::{IrradianceField, ViewError};
 
     fn image(pixels: &[f32], surface: &[bool]) -> ViewImage {
@@ -292,12 +291,7 @@ mod tests {
 
     /// The maze at reduced settings through its overview camera.
     fn maze_with_view(methods: &[&str]) -> (builtin::BuiltinScene, CompareConfig) {
-        let maze = builtin::maze();
-        let plate =
-            PlateConfig { height: maze.plate_heights[0], res: 12, reference_samples: 16, classify_dirs: 64 };
-        let mut c = CompareConfig::new(maze.grid.clone(), plate);
-        c.samples = 8;
-        c.threads = Some(2);
+        let (maze, mut c) = crate::eval::compare::tests::maze_config();
         c.methods = methods.iter().map(|s| NamedEntry::parse(s).unwrap()).collect();
         let (lo, hi) = maze.grid.bounds();
         let camera = Camera::overview(DVec3::from(lo), DVec3::from(hi)).unwrap();
