@@ -49,6 +49,10 @@ pub enum Command {
     Imse(crate::cmd_imse::ImseArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
+    /// The scene × method Markdown table of `compare` reports: relative RMSE, too dark
+    /// near geometry, too bright, rays and seconds, each method's mean over the scenes and
+    /// its ratio to the best engine baseline's mean.
+    Table(crate::cmd_table::TableArgs),
     /// Describe what the loader understood of a scene file: triangles (unique and
     /// instanced), objects, materials with alpha mode and sidedness, extensions and their
     /// treatment, lights, cameras, bounds in the file's and the internal frame, warnings.

@@ -21,6 +21,7 @@ pub mod cmd_proxies;
 pub mod cmd_render;
 pub mod cmd_render_surface;
 pub mod cmd_shader;
+pub mod cmd_table;
 pub mod compare_views;
 pub mod embree_baseline;
 pub mod gradients;
@@ -84,6 +85,7 @@ pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::GpuInfo(a) => cmd_gpu::run_info(&a),
         cli::Command::Imse(a) => cmd_imse::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
+        cli::Command::Table(a) => cmd_table::run(&a),
         cli::Command::Inspect(a) => cmd_inspect::run(&a),
         cli::Command::Lint(a) => cmd_lint::run(&a),
         cli::Command::Merge(a) => cmd_merge::run(&a),

@@ -73,6 +73,7 @@ pub mod observer;
 pub mod plate;
 pub mod runs;
 pub mod sweep;
+pub mod table;
 pub mod views;
 
 pub use baked::RunVolume;
