@@ -34,8 +34,11 @@ pub struct BakeArgs {
     /// Sampling.
     #[command(flatten)]
     pub sampling: SampleArgs,
-    /// Sampling method: `point` (Eq. 4 at each node), `prefilter` (Eq. 5-6, no domain test)
-    /// or `doi` (Eq. 5-6 restricted to the domain of interest, Algorithm 2); or point
+    /// Sampling method: `doi` (default: each node point-sampled where it is in the domain of
+    /// interest, at a point relocated through its closest back face or over Eq. 6's support
+    /// where it is not), `doi-paper` (Kontkanen & Laine 2006: Eq. 5-6 restricted to the
+    /// domain of interest, Algorithm 2), `doi-node` (Algorithm 2 over each node's own cell),
+    /// `point` (Eq. 4 at each node), `prefilter` (Eq. 5-6, no domain test); or point
     /// sampling with an engine's leak fix: `point+validity` (invalid probes dilated),
     /// `point+apv` (Unity APV: virtual offset, dilation, and a validity mask in the file for
     /// validity-weighted lookups), `point+vlm` (Unreal) or `point+ddgi` (DDGI relocation).
@@ -58,10 +61,11 @@ pub struct BakeArgs {
     #[arg(long)]
     pub keep_accumulator: bool,
     /// Also bake per-node SH irradiance gradients (Oat 2005) and store them in the EXR:
-    /// `basis` (default; from the bake's own samples, no extra rays; prefilter/doi) or
-    /// `central` (six extra point projections per node at 1/16 cell).
-    #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1, default_missing_value = "basis")]
-    pub gradients: Option<GradientEstimatorArg>,
+    /// `basis` (from the bake's own samples, no extra rays; prefilter/doi-paper) or
+    /// `central` (six extra point projections per node at 1/16 cell). Without a value, the
+    /// method's own: `basis` for prefilter and doi-paper, `central` for the others.
+    #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1)]
+    pub gradients: Option<Option<GradientEstimatorArg>>,
     /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
     #[command(flatten)]
     pub adaptive: crate::adaptive_bake::AdaptiveArgs,
@@ -380,9 +384,10 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         ..BakeSettings::default()
     };
     let fit = if method == Method::Point { Fit::Average } else { args.sampling.fit };
-    if method == Method::DoiNode && fit != Fit::Average {
+    if matches!(method, Method::DoiNode | Method::Doi) && fit != Fit::Average {
         bail!(
-            "--fit {fit} needs cell samples (--method prefilter or doi); doi-node averages each node's own cell"
+            "--fit {fit} needs cell samples (--method prefilter or doi-paper); {} samples per node",
+            lightvol_sampler::eval::entries::method_name(method)
         );
     }
     if fit != Fit::Average && args.gradients.is_some() {
@@ -390,10 +395,11 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
         );
     }
-    let estimator = args.gradients.map(GradientEstimator::from);
+    let estimator =
+        args.gradients.map(|g| g.map_or(GradientEstimator::default_for(method), GradientEstimator::from));
     if estimator.is_some_and(|e| !e.supports(method)) {
         bail!(
-            "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
+            "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
         );
     }
     let ts = args.sampling.transport();

@@ -50,22 +50,23 @@ pub struct CompareArgs {
     /// Plate resolution along its longer side.
     #[arg(long, default_value_t = PlateConfig::DEFAULT_RES)]
     pub plate_res: u32,
-    /// Methods to compare: `point`, `prefilter`, `doi` (trilinear lookup), or
+    /// Methods to compare: `point`, `prefilter`, `doi`, `doi-paper`, `doi-node` (trilinear
+    /// lookup; see `bake --method`), or
     /// `BASE+LOOKUP` for a bake with SH gradients (Oat 2005) read by `taylor` (nearest node,
     /// first-order Taylor), `gtrilinear` (gradient-extrapolated corners, trilinear) or
-    /// `hermite` (tricubic Hermite), e.g. `doi+taylor,doi+hermite`; `adaptive` for Oat's
+    /// `hermite` (tricubic Hermite), e.g. `doi-paper+taylor,doi-paper+hermite`; `adaptive` for Oat's
     /// octree baked to the uniform grid's memory (finest level 2 below half the grid's
     /// resolution; `adaptive1` stops one level earlier); `BASE+lsq[:λ]` or `BASE+average` for
     /// a bake finalized with that node fit instead of `--fit`'s; the engines' leak fixes
     /// `point+validity` (invalid probes dilated), `point+apv` (Unity APV, validity-weighted
     /// lookups), `point+vlm` (Unreal), `point+ddgi` (DDGI relocation).
-    #[arg(long, default_value = "point,prefilter,doi", value_delimiter = ',')]
+    #[arg(long, default_value = "point,prefilter,doi-paper,doi", value_delimiter = ',')]
     pub methods: Vec<String>,
-    /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for prefilter/doi,
-    /// no extra rays; `central` for point).
+    /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for
+    /// prefilter/doi-paper, no extra rays; `central` for point, doi and doi-node).
     #[arg(long, value_enum)]
     pub gradient_estimator: Option<crate::gradients::GradientEstimatorArg>,
-    /// Also run the error-vs-memory study on this plate: uniform doi at several
+    /// Also run the error-vs-memory study on this plate: uniform doi-paper at several
     /// resolutions, the same bakes read through the Taylor and Hermite gradient lookups,
     /// writing `memory_sweep.json`, `.png` and `.svg`.
     #[arg(long)]
@@ -222,7 +223,7 @@ pub fn flag_error(e: EvalError) -> anyhow::Error {
         }
         EvalError::PlateResolution(_) => anyhow::anyhow!("--plate-res must be at least 2"),
         EvalError::BasisNeedsCells { .. } => anyhow::anyhow!(
-            "--gradients basis needs cell samples (--method prefilter or doi); use --gradients central with point sampling"
+            "--gradients basis needs cell samples (prefilter, doi-paper); use --gradient-estimator central with point, doi or doi-node"
         ),
         EvalError::ZeroThreads => anyhow::anyhow!("--threads must be at least 1"),
         EvalError::View(ViewError::ZeroSamples) => anyhow::anyhow!("--view-samples must be at least 1"),

@@ -41,19 +41,24 @@ struct Level {
     sweep: &'static [u32],
     /// Cell-count scales of the error-vs-memory study (`compare --memory-sweep`).
     memory_scales: &'static [f64],
+    /// Width of each scene's overview views (`compare --camera overview`).
+    view_width: u32,
+    /// Path-traced samples per pixel of the reference views.
+    view_samples: u32,
 }
 
 /// Scenes of the error-vs-memory study (`city` and `interior`).
 const MEMORY_SWEEP_SCENES: [&str; 2] = ["city", "interior"];
 
-/// Entries added to every scene's comparison besides point, prefilter and doi: doi with
-/// the least-squares node fit, the doi bake read through \[Oat05\]'s gradient lookups,
-/// \[Oat05\]'s octree at doi's memory (finest level 2 and 1), the domain test on each
-/// node's own cell, and the engines' leak fixes (`lightvol_sampler::baselines`).
+/// Entries added to every scene's comparison besides point, prefilter, doi-paper and doi:
+/// doi-paper with the least-squares node fit, the doi-paper bake read through \[Oat05\]'s
+/// gradient lookups, \[Oat05\]'s octree at doi-paper's memory (finest level 2 and 1), the
+/// domain test on each node's own cell, and the engines' leak fixes
+/// (`lightvol_sampler::baselines`).
 const EXTRA_ENTRIES: [&str; 10] = [
-    "doi+lsq",
-    "doi+taylor",
-    "doi+hermite",
+    "doi-paper+lsq",
+    "doi-paper+taylor",
+    "doi-paper+hermite",
     "adaptive",
     "adaptive1",
     "doi-node",
@@ -63,12 +68,28 @@ const EXTRA_ENTRIES: [&str; 10] = [
     "point+ddgi",
 ];
 
+/// A real interior made by other people, embedded so that the demo needs no files: the
+/// occlusion-culling demo room of the Godot demo projects (MIT licence, written next to its
+/// results as `LICENSE.txt`). It has no lights: a uniform white sky through its openings,
+/// sky and bounce light only (`--light sky+indirect`), as engines bake their probes.
+const REAL_INTERIOR: (&str, &[u8], &str) = (
+    "occlusion_room",
+    include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/occlusion_room/room.glb")),
+    include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/occlusion_room/LICENSE.txt")),
+);
+
+/// The methods of the real interior: the grid methods and the engines' leak fixes.
+const REAL_ENTRIES: [&str; 7] =
+    ["point", "doi-paper", "doi", "point+validity", "point+apv", "point+vlm", "point+ddgi"];
+
 const QUICK: Level = Level {
     samples: 64,
     plate_res: 64,
     reference_samples: 192,
     sweep: &[8, 12, 16, 24],
     memory_scales: &[0.5, 0.7, 1.0],
+    view_width: 160,
+    view_samples: 32,
 };
 const FULL: Level = Level {
     samples: 256,
@@ -76,13 +97,40 @@ const FULL: Level = Level {
     reference_samples: 1024,
     sweep: &[8, 12, 16, 24, 32],
     memory_scales: &[0.4, 0.5, 0.7, 1.0, 1.4, 2.0],
+    view_width: 384,
+    view_samples: 256,
 };
 
+/// The camera of a scene's views: `render`'s overview of the grid for the open scenes; in
+/// the closed rooms, whose ceilings hide the overview, from a corner under the ceiling
+/// (the interior's toward the window and its sun patch; the real interior's, in its file's
+/// +Y-up frame, toward the far corner).
+fn demo_camera(name: &str) -> &'static str {
+    match name {
+        "interior" => "5.6,0.4,2.4:2.6,4.6,0.6:80",
+        "occlusion_room" => "4.5,3.5,4.5:-2,0.5,-2:80",
+        _ => "overview",
+    }
+}
+
+/// The comparison of built-in scene `scene`.
 fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> CompareArgs {
+    scene_compare_args(scene, format!("builtin:{scene}"), "z", out, level, args)
+}
+
+/// The comparison of the scene `spec` (a file or `builtin:NAME`) labelled `name`.
+fn scene_compare_args(
+    name: &str,
+    spec: String,
+    up: &str,
+    out: PathBuf,
+    level: &Level,
+    args: &DemoArgs,
+) -> CompareArgs {
     CompareArgs {
         scene: SceneArgs {
-            scene: format!("builtin:{scene}"),
-            up: "z".into(),
+            scene: spec,
+            up: up.into(),
             scale: 1.0,
             sky: None,
             ground: None,
@@ -101,13 +149,18 @@ fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> Co
         },
         plate_height: None,
         plate_res: level.plate_res,
-        methods: vec!["point".into(), "prefilter".into(), "doi".into()],
+        methods: vec!["point".into(), "prefilter".into(), "doi-paper".into(), "doi".into()],
         gradient_estimator: None,
-        memory_sweep: MEMORY_SWEEP_SCENES.contains(&scene),
+        memory_sweep: MEMORY_SWEEP_SCENES.contains(&name),
         sweep_scales: level.memory_scales.to_vec(),
         reference_samples: level.reference_samples,
         classify_dirs: 256,
-        views: crate::compare_views::ViewArgs::none(),
+        views: crate::compare_views::ViewArgs {
+            cameras: vec![demo_camera(name).into()],
+            view_width: level.view_width,
+            view_height: None,
+            view_samples: level.view_samples,
+        },
         output: out,
         quiet: args.quiet,
     }
@@ -147,7 +200,7 @@ fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
 
 /// The error-vs-memory section: plot and numbers per scene (from `memory_sweep.json`).
 fn memory_html(s: &mut String, sweeps: &[(String, serde_json::Value)]) {
-    s.push_str("<h2>Error vs memory (uniform, uniform with SH gradients, adaptive octree; Oat 2005)</h2>\n<p>One doi bake per resolution (same samples per cell), read by trilinear interpolation (uniform) or through the gradient lookups; memory is the run-time f32 data (27 floats per node, 108 with gradients). The adaptive octree is baked to each uniform grid's memory (its own count includes weights, keys and split bitmaps).</p>\n");
+    s.push_str("<h2>Error vs memory (uniform, uniform with SH gradients, adaptive octree; Oat 2005)</h2>\n<p>One doi-paper bake per resolution (same samples per cell), read by trilinear interpolation (uniform) or through the gradient lookups; memory is the run-time f32 data (27 floats per node, 108 with gradients). The adaptive octree is baked to each uniform grid's memory (its own count includes weights, keys and split bitmaps).</p>\n");
     for (scene, r) in sweeps {
         let _ = writeln!(
             s,
@@ -171,6 +224,41 @@ fn memory_html(s: &mut String, sweeps: &[(String, serde_json::Value)]) {
             );
         }
         s.push_str("</table>\n");
+    }
+}
+
+/// The methods a person compares in a scene's views: point sampling, the engine baseline
+/// with the lowest relative RMSE over the view's pixels, and `doi`, each beside the
+/// path-traced view.
+fn views_html(s: &mut String, scene: &str, r: &CompareReport) {
+    for v in r.views.iter().flatten() {
+        let rel = |m: &str| v.methods.get(m).and_then(|x| x["rel_rmse"].as_f64());
+        let best = v
+            .methods
+            .keys()
+            .filter(|m| lightvol_sampler::eval::table::is_engine_baseline(m))
+            .filter_map(|m| rel(m).map(|e| (m.clone(), e)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let mut shown: Vec<(String, String)> = vec![("reference".into(), "path-traced reference".into())];
+        for m in ["point".to_owned()].into_iter().chain(best.map(|b| b.0)).chain(["doi".to_owned()]) {
+            if let Some(e) = rel(&m) {
+                shown.push((m.clone(), format!("{m}: relative RMSE {e:.3}")));
+            }
+        }
+        let _ = writeln!(
+            s,
+            "<p>View <i>{}</i> ({}×{} pixels, reference {} samples per pixel): the scene shaded by each volume.</p>\n<div>",
+            v.camera, v.resolution[0], v.resolution[1], v.reference.samples
+        );
+        for (m, caption) in shown {
+            let _ = writeln!(
+                s,
+                "<figure style=\"display:inline-block;margin:4px\"><img src=\"{scene}/view_{}_{m}.png\" alt=\"{caption}\" width=\"{}\"><figcaption>{caption}</figcaption></figure>",
+                v.camera,
+                v.resolution[0].max(320)
+            );
+        }
+        s.push_str("</div>\n");
     }
 }
 
@@ -214,6 +302,7 @@ fn html(reports: &[(String, CompareReport)], sweeps: &[(String, serde_json::Valu
             );
         }
         s.push_str("</table>\n");
+        views_html(&mut s, scene, r);
         for (name, _) in &r.methods {
             let _ = writeln!(
                 s,
@@ -240,6 +329,19 @@ pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         ca.methods.extend(EXTRA_ENTRIES.iter().map(|m| (*m).to_owned()));
         reports.push((scene.to_owned(), compare(&ca).with_context(|| format!("comparing on {scene}"))?));
     }
+    let (name, bytes, licence) = REAL_INTERIOR;
+    if !args.quiet {
+        eprintln!("== {name}");
+    }
+    let dir = args.output.join(name);
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let file = dir.join("room.glb");
+    write_atomic(&file, bytes)?;
+    write_atomic(&dir.join("LICENSE.txt"), licence.as_bytes())?;
+    let mut ca = scene_compare_args(name, file.display().to_string(), "y", dir, level, args);
+    ca.sampling.path.light = "sky+indirect".into();
+    ca.methods = REAL_ENTRIES.iter().map(|m| (*m).to_owned()).collect();
+    reports.push((name.to_owned(), compare(&ca).with_context(|| format!("comparing on {name}"))?));
     let mut sweeps = Vec::new();
     for scene in MEMORY_SWEEP_SCENES {
         let path = args.output.join(scene).join("memory_sweep.json");

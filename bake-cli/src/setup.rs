@@ -120,7 +120,8 @@ impl PathArgs {
 /// Sampling options.
 #[derive(Debug, Clone, Args)]
 pub struct SampleArgs {
-    /// Samples per cell (prefilter, doi) or directions per node (point).
+    /// Samples per cell (prefilter, doi-paper), per node (doi-node) or directions per node
+    /// (point, doi).
     #[arg(long, default_value_t = 256)]
     pub samples: u32,
     /// Path length and direct light.
@@ -132,7 +133,7 @@ pub struct SampleArgs {
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
     pub threads: Option<usize>,
-    /// How prefilter/doi node values come from their samples: `average` (Kontkanen & Laine
+    /// How prefilter/doi-paper node values come from their samples: `average` (Kontkanen & Laine
     /// Eq. 6) or `lsq[:LAMBDA]` (least squares over the domain of interest, regularised
     /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `fit` module).
     #[arg(long, default_value = "average")]

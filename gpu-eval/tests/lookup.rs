@@ -26,7 +26,7 @@ use lightvol_volume::{GridSpec, IrradianceVolume, Placement};
 /// Which volume the comparisons run on (see the module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum TestVolume {
-    /// The built-in city baked by lightvol-sampler (`Method::Doi`, 7×7×4 nodes).
+    /// The built-in city baked by lightvol-sampler (`Method::DoiPaper`, 7×7×4 nodes).
     BakedCity,
     /// `smooth_random_volume`: positive irradiance everywhere, seeded.
     Synthetic,
@@ -65,7 +65,8 @@ fn baked_city(coeffs: usize) -> IrradianceVolume {
     let tracer = lightvol_sampler::Tracer::new(&city.scene);
     let transport = lightvol_sampler::Transport::new(&city.scene, &tracer, TransportSettings::default());
     let grid = GridSpec::new([-14.0, -14.0, -1.0], [14.0, 14.0, 11.0], [7, 7, 4]).unwrap();
-    let settings = BakeSettings { method: Method::Doi, samples: 16, coeffs, seed: 8, ..Default::default() };
+    let settings =
+        BakeSettings { method: Method::DoiPaper, samples: 16, coeffs, seed: 8, ..Default::default() };
     let (vol, _) = bake(&transport, &grid, &settings, &BakeControl::default()).unwrap().finish();
     cache.push((coeffs, vol.clone()));
     vol

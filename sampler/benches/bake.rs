@@ -11,7 +11,7 @@ fn main() {
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let mut rays = Vec::new();
-    for m in [Method::Point, Method::Prefilter, Method::Doi] {
+    for m in [Method::Point, Method::Prefilter, Method::DoiPaper] {
         let s = BakeSettings { method: m, samples: SAMPLES, ..Default::default() };
         let out = bake(&t, &c.grid, &s, &BakeControl::default()).unwrap();
         eprintln!("{m:?}: {}", out.stats);

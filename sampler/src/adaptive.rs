@@ -257,8 +257,10 @@ fn cells_with_geometry(tris: &[[DVec3; 3]], grid: &GridSpec, cells: &[[u32; 3]])
 fn units_for(grid: &GridSpec, method: Method, nodes: &[[u32; 3]]) -> Vec<usize> {
     let res = grid.res();
     let mut units: Vec<usize> = match method {
-        Method::Point | Method::DoiNode => nodes.iter().map(|n| grid.node_index(n[0], n[1], n[2])).collect(),
-        Method::Prefilter | Method::Doi => nodes
+        Method::Point | Method::DoiNode | Method::Doi => {
+            nodes.iter().map(|n| grid.node_index(n[0], n[1], n[2])).collect()
+        }
+        Method::Prefilter | Method::DoiPaper => nodes
             .iter()
             .flat_map(|n| {
                 (0..8u32).filter_map(move |q| {
@@ -426,8 +428,8 @@ fn drive(
     let start = Instant::now();
     let done = AtomicUsize::new(0);
     let planned = AtomicUsize::new(match settings.method {
-        Method::Point | Method::DoiNode => base_grid.node_count(),
-        Method::Prefilter | Method::Doi => base_grid.cell_count(),
+        Method::Point | Method::DoiNode | Method::Doi => base_grid.node_count(),
+        Method::Prefilter | Method::DoiPaper => base_grid.cell_count(),
     });
     let offset_progress = |p: Progress| {
         if let Some(cb) = control.progress {

@@ -28,10 +28,11 @@ fn unit_subset_bake_is_bit_identical_to_the_full_bake() {
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
-    for method in [Method::Doi, Method::Point] {
+    for method in [Method::DoiPaper, Method::Point, Method::Doi] {
         let s = BakeSettings { method, samples: 12, seed: 3, chunk: 5, ..Default::default() };
         let full = bake(&t, &grid, &s, &BakeControl::default()).unwrap().accumulator;
-        let count = if method == Method::Point { grid.node_count() } else { grid.cell_count() };
+        let per_node = matches!(method, Method::Point | Method::Doi);
+        let count = if per_node { grid.node_count() } else { grid.cell_count() };
         let units: Vec<usize> = (0..count).filter(|u| u % 5 != 0 && *u > count / 4).collect();
         let (a, sa) = pool(1, || bake_units(&t, &grid, &s, &units, &BakeControl::default()).unwrap());
         let (b, sb) = pool(2, || bake_units(&t, &grid, &s, &units, &BakeControl::default()).unwrap());
@@ -41,8 +42,7 @@ fn unit_subset_bake_is_bit_identical_to_the_full_bake() {
         let mut compared = 0;
         for node in 0..grid.node_count() {
             let [i, j, kk] = grid.node_coords(node);
-            let own: Vec<usize> =
-                if method == Method::Point { vec![node] } else { units_for(&grid, method, &[[i, j, kk]]) };
+            let own: Vec<usize> = if per_node { vec![node] } else { units_for(&grid, method, &[[i, j, kk]]) };
             if !own.iter().all(|u| units.binary_search(u).is_ok()) {
                 continue;
             }
@@ -54,9 +54,11 @@ fn unit_subset_bake_is_bit_identical_to_the_full_bake() {
         }
         assert!(compared > 20, "{method:?}: {compared}");
     }
-    let s = BakeSettings::default();
+    let s = BakeSettings { method: Method::DoiPaper, ..Default::default() };
     assert!(bake_units(&t, &grid, &s, &[3, 2], &BakeControl::default()).is_err());
     assert!(bake_units(&t, &grid, &s, &[grid.cell_count()], &BakeControl::default()).is_err());
+    let s = BakeSettings { method: Method::Doi, ..Default::default() };
+    assert!(bake_units(&t, &grid, &s, &[grid.node_count()], &BakeControl::default()).is_err());
     assert!(
         bake_units(&t, &grid, &BakeSettings { shard: (0, 2), ..s }, &[1], &BakeControl::default()).is_err()
     );

@@ -1,10 +1,14 @@
-//! The three bake methods of Kontkanen & Laine 2006, accumulating into
-//! [`lightvol_volume::Accumulator`]:
+//! The bake methods, accumulating into [`lightvol_volume::Accumulator`]: the three of
+//! Kontkanen & Laine 2006 and two that keep their domain of interest with a narrower support:
 //!
 //! - [`Method::Point`]: Eq. 4 at every node, `samples` uniform directions per node;
 //! - [`Method::Prefilter`]: Eq. 5-6 with origins uniform in each cell and no domain test (an
 //!   ablation: it blurs, but darkness inside solids still leaks);
-//! - [`Method::Doi`]: Eq. 5-6 restricted to the domain of interest by Algorithm 2.
+//! - [`Method::DoiPaper`]: Eq. 5-6 restricted to the domain of interest by Algorithm 2;
+//! - [`Method::DoiNode`]: Algorithm 2 over the node's own cell;
+//! - [`Method::Doi`] (the default): Eq. 4 at the node where the node is in the domain of
+//!   interest, at a relocated point or over Eq. 6's support where it is not
+//!   ([`ProbeCapture`]).
 //!
 //! Origins and directions come from one 5-D Owen-scrambled Halton sequence per cell
 //! (dimensions 0-2 the position in the cell, 3-4 the direction), scrambled and rotated per
@@ -48,13 +52,20 @@ pub enum Method {
     Point,
     /// Eq. 5-6 without the domain test.
     Prefilter,
-    /// Eq. 5-6 with Algorithm 2 (the paper's method).
-    #[default]
-    Doi,
+    /// Eq. 5-6 with Algorithm 2, the paper's method (`doi-paper`): candidates uniform in each
+    /// cell, those in the domain of interest averaged over each node's trilinear support.
+    DoiPaper,
     /// Algorithm 2's domain test on a node's own cell: candidates uniform in the box of one
     /// cell centred on the node (half a cell each way), averaged with equal weights over
     /// those in the domain of interest. A support half as wide as Eq. 6's trilinear one.
     DoiNode,
+    /// The default (`doi`): a probe per node, kept in the domain of interest. Point-sampled
+    /// (Eq. 4) where the node sees no back face; otherwise at the point reached through its
+    /// closest back face (the relocation rule of \[Maj21\]) when that point sees none;
+    /// otherwise Algorithm 2 over the node's trilinear support (Eq. 6). See
+    /// [`ProbeCapture`].
+    #[default]
+    Doi,
 }
 
 impl std::str::FromStr for Method {
@@ -64,8 +75,9 @@ impl std::str::FromStr for Method {
             "point" => Ok(Self::Point),
             "prefilter" => Ok(Self::Prefilter),
             "doi" => Ok(Self::Doi),
+            "doi-paper" => Ok(Self::DoiPaper),
             "doi-node" => Ok(Self::DoiNode),
-            _ => Err(format!("unknown method '{s}' (point, prefilter, doi, doi-node)")),
+            _ => Err(format!("unknown method '{s}' (point, prefilter, doi, doi-paper, doi-node)")),
         }
     }
 }
@@ -75,7 +87,8 @@ impl std::str::FromStr for Method {
 pub struct BakeSettings {
     /// Estimator.
     pub method: Method,
-    /// Candidates per cell (prefilter, doi) or directions per node (point).
+    /// Candidates per cell (prefilter, doi-paper), per node (doi-node, and doi's support),
+    /// or directions per node (point, doi).
     pub samples: u32,
     /// SH coefficients per channel (4, 9 or 16).
     pub coeffs: usize,
@@ -208,8 +221,8 @@ pub(crate) fn bake_with_sink(
     let mut acc =
         Accumulator::new(grid.clone(), settings.coeffs).map_err(|e| BakeError::Volume(e.to_string()))?;
     let units = match settings.method {
-        Method::Point | Method::DoiNode => grid.node_count(),
-        Method::Prefilter | Method::Doi => grid.cell_count(),
+        Method::Point | Method::DoiNode | Method::Doi => grid.node_count(),
+        Method::Prefilter | Method::DoiPaper => grid.cell_count(),
     };
     let range = crate::shard::shard_range(units, (k, n));
     let lo = range.start;
@@ -384,8 +397,8 @@ impl NodeSums for SparseSums {
     }
 }
 
-/// A bake restricted to the listed units (cells for prefilter and doi, nodes for point
-/// sampling; flat indices of `grid`, strictly increasing). Each unit is sampled exactly as
+/// A bake restricted to the listed units (cells for prefilter and doi-paper, nodes for the
+/// others; flat indices of `grid`, strictly increasing). Each unit is sampled exactly as
 /// in [`bake`] and the contributions are added in unit order, so every node whose units
 /// all lie in the subset gets sums bit-identical to the full bake's, for any thread count.
 /// `settings.shard` must be `(0, 1)`. Progress reports count the listed units. The sums
@@ -408,8 +421,8 @@ pub fn bake_units_fixed(
     }
     lightvol_volume::volume::check_coeffs(settings.coeffs).map_err(|e| BakeError::Settings(e.to_string()))?;
     let count = match settings.method {
-        Method::Point | Method::DoiNode => grid.node_count(),
-        Method::Prefilter | Method::Doi => grid.cell_count(),
+        Method::Point | Method::DoiNode | Method::Doi => grid.node_count(),
+        Method::Prefilter | Method::DoiPaper => grid.cell_count(),
     };
     if units.windows(2).any(|w| w[0] >= w[1]) || units.last().is_some_and(|&u| u >= count) {
         return Err(BakeError::Settings(format!("units must be increasing and below {count}")));
@@ -476,7 +489,8 @@ fn run_units(
                 Some(match settings.method {
                     Method::Point => point_unit(transport, grid, settings, u),
                     Method::DoiNode => node_box_unit(transport, grid, settings, u),
-                    Method::Prefilter | Method::Doi => cell_unit(transport, grid, settings, u),
+                    Method::Doi => probe_unit(transport, grid, settings, u).0,
+                    Method::Prefilter | Method::DoiPaper => cell_unit(transport, grid, settings, u),
                 })
             })
             .collect();
@@ -627,6 +641,199 @@ fn node_box_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, no
     out
 }
 
+/// [`Method::Doi`]: rays from the node before it counts as outside the domain of
+/// interest, also the rays among which the closest back face is looked for.
+pub const PROBE_SEARCH_RAYS: u64 = 16;
+
+/// [`Method::Doi`]: a node outside the domain of interest spends at most this share of
+/// `samples` on its relocated point or its support.
+pub const PROBE_OUTSIDE_SHARE: f64 = 0.5;
+
+/// [`Method::Doi`]: the support average of a node whose relocated capture point also
+/// sees a back face gets at least this share of `samples` candidates, so that a node whose
+/// budget went on the search is not left with a handful.
+pub const PROBE_MIN_SUPPORT_SHARE: f64 = 0.25;
+
+/// Where [`Method::Doi`] took a node's value from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ProbeCapture {
+    /// The node is in the domain of interest: point-sampled there (Eq. 4).
+    AtNode,
+    /// The node sees a back face; this point, reached through its closest back face
+    /// ([`crate::baselines::relocate_through`]), sees none and was point-sampled.
+    Relocated(DVec3),
+    /// Neither the node nor its relocated point is in the domain: Algorithm 2 over the
+    /// node's trilinear support, candidates tent-distributed (Eq. 6's weights).
+    Support,
+}
+
+/// The world spacing of `grid` along each axis.
+pub(crate) fn world_spacing(grid: &GridSpec) -> [f64; 3] {
+    let o = DVec3::from_array(grid.node_position_world(0, 0, 0));
+    [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
+        .map(|d| (DVec3::from_array(grid.node_position_world(d[0], d[1], d[2])) - o).length())
+}
+
+/// Point samples at `x` along directions `first..first + count` of `h` (stream `stream`),
+/// stopping at the first back face: the samples, or the index after the stopping one.
+#[allow(clippy::too_many_arguments, reason = "one sampling loop, two callers")]
+fn clean_point_samples(
+    t: &Transport<'_>,
+    settings: &BakeSettings,
+    h: &Qmc<2>,
+    stream: u64,
+    x: DVec3,
+    first: u64,
+    count: u64,
+    out: &mut UnitOut,
+) -> Result<Vec<SampleOut>, (u64, Option<(DVec3, f64)>)> {
+    let mut one = [0.0; 8];
+    one[0] = 1.0;
+    let mut hits = Vec::with_capacity(count as usize);
+    for s in first..first + count {
+        let dir = DVec3::from_array(sample_uniform_sphere(h.point(s)));
+        out.stats.rays.sampling += 1;
+        let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
+        if let Some(b) = hit.filter(|h| h.back_face) {
+            return Err((s + 1 - first, Some((dir, b.t))));
+        }
+        hits.push((s, dir, hit));
+    }
+    Ok(hits
+        .into_iter()
+        .map(|(s, dir, hit)| {
+            let mut rng = PathRng::new(settings.seed, stream, s);
+            let (terms, n_terms) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats);
+            SampleOut { weights: one, terms, n_terms }
+        })
+        .collect())
+}
+
+/// [`Method::Doi`] for one node: the samples and where they were taken.
+pub(crate) fn probe_unit(
+    t: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    node: usize,
+) -> (UnitOut, ProbeCapture) {
+    let [i, j, k] = grid.node_coords(node);
+    let x = DVec3::from_array(grid.node_position_world(i, j, k));
+    // `point`'s stream and directions, so that a node in the domain is `point`'s bit for bit.
+    let stream = hash2(node as u64, 0x0070_6f69_6e74);
+    let h = Qmc::<2>::new(settings.seed, stream);
+    let n = u64::from(settings.samples);
+    let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
+    out.stats.units = 1;
+    out.stats.candidates = n;
+    let (mut used, first_back) = match clean_point_samples(t, settings, &h, stream, x, 0, n, &mut out) {
+        Ok(samples) => {
+            out.stats.samples_kept = samples.len() as u64;
+            out.samples = samples;
+            return (out, ProbeCapture::AtNode);
+        }
+        Err(e) => e,
+    };
+    out.samples.clear();
+    out.stats.back_face_points = 1;
+    out.stats.cells_with_back_faces = 1;
+    // The closest back face among the first PROBE_SEARCH_RAYS directions.
+    let mut closest = first_back;
+    let search = PROBE_SEARCH_RAYS.min(n);
+    while used < search {
+        let dir = DVec3::from_array(sample_uniform_sphere(h.point(used)));
+        out.stats.rays.sampling += 1;
+        used += 1;
+        if let Some(b) = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY).filter(|h| h.back_face)
+            && closest.is_none_or(|(_, c)| b.t < c)
+        {
+            closest = Some((dir, b.t));
+        }
+    }
+    let left = n.saturating_sub(used).min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64);
+    if let Some((dir, dist)) = closest
+        && left > 0
+    {
+        let y = crate::baselines::relocate_through(x, dir, dist, world_spacing(grid));
+        match clean_point_samples(t, settings, &h, stream, y, n, left, &mut out) {
+            Ok(samples) => {
+                out.stats.samples_kept = samples.len() as u64;
+                out.samples = samples;
+                return (out, ProbeCapture::Relocated(y));
+            }
+            Err((spent, _)) => used += spent,
+        }
+    }
+    out.samples.clear();
+    let count = n
+        .saturating_sub(used)
+        .min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64)
+        .max((n as f64 * PROBE_MIN_SUPPORT_SHARE).ceil() as u64)
+        .max(1);
+    support_samples(t, grid, settings, node, stream, count, &mut out);
+    (out, ProbeCapture::Support)
+}
+
+/// Algorithm 2 over node `node`'s trilinear support (the cells around it, clamped to the
+/// grid) with `count` candidates whose origins are tent-distributed about the node, so that
+/// equal weights over the kept ones give Eq. 6's trilinear-weighted domain average.
+fn support_samples(
+    t: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    node: usize,
+    stream: u64,
+    count: u64,
+    out: &mut UnitOut,
+) {
+    let [i, j, k] = grid.node_coords(node);
+    let res = grid.res();
+    let neighbour = |a: usize, d: i64| -> f64 {
+        let m = i64::from(res[a]) - 1;
+        let mut c = [i, j, k];
+        c[a] = (i64::from(c[a]) + d).clamp(0, m) as u32;
+        grid.node_position(c[0], c[1], c[2])[a]
+    };
+    let centre = DVec3::from_array(grid.node_position(i, j, k));
+    let lo = DVec3::new(neighbour(0, -1), neighbour(1, -1), neighbour(2, -1));
+    let hi = DVec3::new(neighbour(0, 1), neighbour(1, 1), neighbour(2, 1));
+    let support_stream = hash2(stream, 0x7375_7070);
+    let hs = Qmc::<5>::new(settings.seed, support_stream);
+    let points: Vec<(DVec3, DVec3)> = (0..count)
+        .map(|s| {
+            let p = hs.point(s);
+            let mut g = centre;
+            for a in 0..3 {
+                let u = tent_inverse(p[a]);
+                g[a] += u * if u < 0.0 { centre[a] - lo[a] } else { hi[a] - centre[a] };
+            }
+            (
+                DVec3::from_array(grid.to_world(g.to_array())),
+                DVec3::from_array(sample_uniform_sphere([p[3], p[4]])),
+            )
+        })
+        .collect();
+    let c = classify_cell(t.tracer(), count, |s| points[s as usize], Retest::QueryDirection);
+    out.stats.rays.add(&c.rays);
+    out.stats.back_face_points += c.back_face_points.len() as u64;
+    out.stats.samples_rejected = c.rejected.len() as u64;
+    let mut one = [0.0; 8];
+    one[0] = 1.0;
+    out.rejected = vec![one; c.rejected.len()];
+    for cand in &c.kept {
+        let mut rng = PathRng::new(settings.seed, support_stream, cand.index);
+        let (terms, n_terms) =
+            sample_terms(t, settings, cand.origin, cand.dir, cand.hit, &mut rng, &mut out.stats);
+        out.samples.push(SampleOut { weights: one, terms, n_terms });
+    }
+    out.stats.samples_kept = c.kept.len() as u64;
+}
+
+/// The inverse CDF of the tent density `1 - |u|` on `[-1, 1]`.
+#[must_use]
+pub fn tent_inverse(v: f64) -> f64 {
+    if v < 0.5 { (2.0 * v).sqrt() - 1.0 } else { 1.0 - (2.0 - 2.0 * v).sqrt() }
+}
+
 fn cell_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, cell: usize) -> UnitOut {
     let (lo, hi) = grid.cell_bounds(cell);
     let (lo, hi) = (DVec3::from_array(lo), DVec3::from_array(hi));
@@ -648,7 +855,7 @@ fn cell_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, cell: 
         lightvol_volume::grid::corner_weights([f.x, f.y, f.z].map(|v| v.clamp(0.0, 1.0)))
     };
     let candidates: Vec<crate::domain::Candidate> = match settings.method {
-        Method::Doi => {
+        Method::DoiPaper => {
             let c = classify_cell(
                 t.tracer(),
                 n,

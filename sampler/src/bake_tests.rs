@@ -24,7 +24,7 @@ fn deterministic_across_threads_and_shards() {
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
-    for method in [Method::Point, Method::Prefilter, Method::Doi, Method::DoiNode] {
+    for method in [Method::Point, Method::Prefilter, Method::DoiPaper, Method::DoiNode, Method::Doi] {
         let s = BakeSettings { method, samples: 24, seed: 11, chunk: 7, ..Default::default() };
         let one = run(1, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
         let two = run(2, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
@@ -54,7 +54,7 @@ fn progress_and_cancellation() {
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
-    let s = BakeSettings { samples: 4, chunk: 10, ..Default::default() };
+    let s = BakeSettings { method: Method::DoiPaper, samples: 4, chunk: 10, ..Default::default() };
     let calls = AtomicUsize::new(0);
     let last = AtomicUsize::new(0);
     let cb = |p: Progress| {
@@ -116,7 +116,7 @@ fn city_doi_has_no_dark_leaks_point_does() {
     let ratios = |m: Method| -> Vec<f64> {
         let s = BakeSettings { method: m, ..Default::default() };
         let (v, stats) = bake(&t, &c.grid, &s, &BakeControl::default()).unwrap().finish();
-        if matches!(m, Method::Doi | Method::DoiNode) {
+        if matches!(m, Method::DoiPaper | Method::DoiNode | Method::Doi) {
             assert!(stats.cells_with_back_faces > 0 && stats.samples_rejected > 0);
         }
         probes
@@ -127,7 +127,7 @@ fn city_doi_has_no_dark_leaks_point_does() {
             })
             .collect()
     };
-    let doi = ratios(Method::Doi);
+    let doi = ratios(Method::DoiPaper);
     let point = ratios(Method::Point);
     let min = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
     let dark = |v: &[f64]| v.iter().filter(|&&r| r < DARK).count();
@@ -147,6 +147,8 @@ fn city_doi_has_no_dark_leaks_point_does() {
     // The node's own cell as the support keeps the leak fix.
     let node = ratios(Method::DoiNode);
     assert_eq!(dark(&node), 0, "doi-node ratios {node:?}");
+    let probe = ratios(Method::Doi);
+    assert_eq!(dark(&probe), 0, "doi-probe ratios {probe:?}");
     assert!(dark(&point) >= probes.len() / 4, "point ratios {point:?}");
 }
 
@@ -190,7 +192,7 @@ fn cornell_box_walls_do_not_leak_with_doi() {
             })
             .collect()
     };
-    let doi = ratios(Method::Doi);
+    let doi = ratios(Method::DoiPaper);
     let point = ratios(Method::Point);
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     eprintln!("cornell: doi mean {:.3} {doi:.2?}\n point mean {:.3} {point:.2?}", mean(&doi), mean(&point));
@@ -241,7 +243,7 @@ fn interior_walls_do_not_leak_with_doi() {
             })
             .collect()
     };
-    let doi = ratios(Method::Doi);
+    let doi = ratios(Method::DoiPaper);
     let point = ratios(Method::Point);
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
     eprintln!("interior: doi mean {:.3} {doi:.2?}\n point mean {:.3} {point:.2?}", mean(&doi), mean(&point));
@@ -250,4 +252,78 @@ fn interior_walls_do_not_leak_with_doi() {
     assert!((0.9..=1.2).contains(&mean(&doi)), "{doi:?}");
     assert!(mean(&point) < 0.75 * mean(&doi), "{point:?}");
     assert!(point.iter().filter(|&&r| r < 0.6).count() >= 6, "{point:?}");
+}
+
+/// `doi-probe` takes each node from one of three places; every city node is checked against
+/// an independent classification of where its samples were taken.
+/// - `AtNode`: the node's own samples met no back face, and the node's value is `point`'s
+///   bit for bit (same stream, same directions);
+/// - `Relocated(y)`: the node sees a back face, `y` is within DDGI's 0.45 × spacing per axis
+///   and 256 classification rays from `y` find no back face (256 against the bake's 96 or so:
+///   a point that a stricter test puts outside would fail here);
+/// - `Support`: the node and its relocated point both see back faces; nodes inside the
+///   buildings (deep in a solid) must land here or be relocated, never `AtNode`.
+#[test]
+fn doi_probe_captures_each_node_in_the_domain() {
+    let c = city();
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let grid = small_city_grid();
+    let s = BakeSettings { method: Method::Doi, samples: 128, seed: 5, ..Default::default() };
+    let sp = world_spacing(&grid);
+    let point = BakeSettings { method: Method::Point, ..s };
+    let mut counts = [0usize; 3];
+    let buildings = city_buildings();
+    for node in 0..grid.node_count() {
+        let (out, capture) = probe_unit(&t, &grid, &s, node);
+        let [i, j, k] = grid.node_coords(node);
+        let x = DVec3::from_array(grid.node_position_world(i, j, k));
+        let in_building = buildings.iter().any(|b| (0..3).all(|a| x[a] > b.0[a] && x[a] < b.1[a]));
+        match capture {
+            ProbeCapture::AtNode => {
+                counts[0] += 1;
+                assert!(!in_building, "node {node} at {x} is inside a building");
+                let p = point_unit(&t, &grid, &point, node);
+                assert_eq!(out.samples.len(), p.samples.len());
+                for (a, b) in out.samples.iter().zip(&p.samples) {
+                    assert_eq!(a.terms[0].1, b.terms[0].1);
+                    assert_eq!(a.terms[1].1, b.terms[1].1);
+                }
+            }
+            ProbeCapture::Relocated(y) => {
+                counts[1] += 1;
+                for a in 0..3 {
+                    assert!((y[a] - x[a]).abs() <= 0.45 * sp[a] + 1e-9, "node {node}: {x} -> {y}");
+                }
+                assert!(crate::domain::classify_point(&tracer, y, 256, 9).inside, "node {node}: {y}");
+                assert_eq!(out.samples.len() as u64, out.stats.samples_kept);
+                assert!(out.rejected.is_empty());
+            }
+            ProbeCapture::Support => {
+                counts[2] += 1;
+                assert!(out.stats.samples_kept + out.stats.samples_rejected >= 32);
+            }
+        }
+    }
+    eprintln!("at node {}, relocated {}, support {}", counts[0], counts[1], counts[2]);
+    assert!(counts.iter().all(|&c| c > 0), "{counts:?}");
+}
+
+/// The tent sampler's inverse CDF: `F(u) = (1 + u)²/2` below 0 and `1 - (1 - u)²/2` above,
+/// so `F(tent_inverse(v)) = v`; the mean is 0 and the variance 1/6.
+#[test]
+fn tent_inverse_inverts_the_tent_cdf() {
+    let cdf = |u: f64| if u < 0.0 { 0.5 * (1.0 + u).powi(2) } else { 1.0 - 0.5 * (1.0 - u).powi(2) };
+    for i in 0..=1000 {
+        let v = f64::from(i) / 1000.0;
+        assert!((cdf(tent_inverse(v)) - v).abs() < 1e-12, "{v}");
+    }
+    let n = 100_000;
+    let (m, v2) = (0..n).fold((0.0, 0.0), |(m, v), i| {
+        let u = tent_inverse((f64::from(i) + 0.5) / f64::from(n));
+        (m + u, v + u * u)
+    });
+    assert!((m / f64::from(n)).abs() < 1e-9);
+    // Midpoint rule on a smooth integrand: error far below 1e-6.
+    assert!((v2 / f64::from(n) - 1.0 / 6.0).abs() < 1e-6);
 }

@@ -189,6 +189,14 @@ pub fn ddgi_relocate(x: DVec3, view: &ProbeView, spacing: [f64; 3]) -> DVec3 {
         return x;
     }
     let Some((d, t)) = view.closest_back else { return x };
+    relocate_through(x, d, t, spacing)
+}
+
+/// DDGI's move of a probe at `x` through the back face it meets at distance `t` along `d`:
+/// 1% of the smallest spacing beyond it, each axis of the offset clamped to
+/// [`DDGI_MAX_OFFSET`] × `spacing`.
+#[must_use]
+pub fn relocate_through(x: DVec3, d: DVec3, t: f64, spacing: [f64; 3]) -> DVec3 {
     let bias = 0.01 * spacing.iter().copied().fold(f64::INFINITY, f64::min);
     let off = d * (t + bias);
     let lim = DVec3::from_array(spacing) * DDGI_MAX_OFFSET;

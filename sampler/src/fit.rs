@@ -429,8 +429,8 @@ pub fn bake_fitted(
     fit: Fit,
 ) -> Result<(IrradianceVolume, BakeStats, Option<FitReport>), BakeError> {
     match (settings.method, fit) {
-        (Method::DoiNode, Fit::LeastSquares { .. }) => Err(BakeError::Settings(
-            "least-squares fits need cell samples (prefilter, doi); doi-node averages each node's own cell"
+        (Method::DoiNode | Method::Doi, Fit::LeastSquares { .. }) => Err(BakeError::Settings(
+            "least-squares fits need cell samples (prefilter, doi-paper); doi and doi-node sample per node"
                 .into(),
         )),
         (Method::Point, _) | (_, Fit::Average) => {

@@ -42,7 +42,11 @@ impl GradientEstimator {
     /// extra rays), `central` for `point` (point samples span no volume).
     #[must_use]
     pub fn default_for(method: Method) -> Self {
-        if matches!(method, Method::Point | Method::DoiNode) { Self::Central } else { Self::Basis }
+        if matches!(method, Method::Point | Method::DoiNode | Method::Doi) {
+            Self::Central
+        } else {
+            Self::Basis
+        }
     }
 
     /// Its name: `central` or `basis`.
@@ -58,7 +62,7 @@ impl GradientEstimator {
     /// needs cell samples: `prefilter` or `doi`).
     #[must_use]
     pub fn supports(self, method: Method) -> bool {
-        !(self == Self::Basis && matches!(method, Method::Point | Method::DoiNode))
+        !(self == Self::Basis && matches!(method, Method::Point | Method::DoiNode | Method::Doi))
     }
 }
 
@@ -164,7 +168,7 @@ mod tests {
     #[test]
     fn defaults_and_names() {
         assert_eq!(GradientEstimator::default_for(Method::Point), GradientEstimator::Central);
-        assert_eq!(GradientEstimator::default_for(Method::Doi), GradientEstimator::Basis);
+        assert_eq!(GradientEstimator::default_for(Method::DoiPaper), GradientEstimator::Basis);
         assert_eq!(GradientEstimator::default_for(Method::Prefilter), GradientEstimator::Basis);
         assert!(!GradientEstimator::Basis.supports(Method::Point));
         assert!(GradientEstimator::Central.supports(Method::Point));
@@ -180,7 +184,7 @@ mod tests {
         let tracer = Tracer::new(&maze.scene);
         let t = Transport::new(&maze.scene, &tracer, TransportSettings::truncated(1));
         let grid = GridSpec::new([-4.0, -4.0, 0.2], [4.0, 4.0, 2.8], [4, 4, 3]).unwrap();
-        let settings = BakeSettings { method: Method::Doi, samples: 4, ..BakeSettings::default() };
+        let settings = BakeSettings { method: Method::DoiPaper, samples: 4, ..BakeSettings::default() };
         let plain = bake(&t, &grid, &settings, &BakeControl::default()).unwrap();
         let (plain_vol, _) = plain.accumulator.finalize();
         for est in [GradientEstimator::Basis, GradientEstimator::Central] {

@@ -522,7 +522,7 @@ pub fn bake_with_gradients(
     settings: &BakeSettings,
     control: &BakeControl<'_>,
 ) -> Result<(BakeOutput, BasisGradientAccumulator), BakeError> {
-    if matches!(settings.method, Method::Point | Method::DoiNode) {
+    if matches!(settings.method, Method::Point | Method::DoiNode | Method::Doi) {
         return Err(BakeError::Settings(
             "the basis-gradient estimator needs cell samples (prefilter, doi)".into(),
         ));

@@ -292,7 +292,7 @@ fn scene_estimators_converge_and_are_deterministic() {
     let (mut basis_err, mut cd_err) = (Vec::new(), Vec::new());
     for samples in [1024u32, 8192] {
         let s = BakeSettings {
-            method: Method::Doi,
+            method: Method::DoiPaper,
             samples,
             seed: 1,
             light_sampling: false,

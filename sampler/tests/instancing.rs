@@ -247,7 +247,7 @@ fn baked(scene: &Scene, threads: usize) -> Vec<f32> {
 fn baked_with(scene: &Scene, threads: usize, levels: Levels) -> Vec<f32> {
     let tracer = Tracer::build(scene, BuildQuality::Medium, levels);
     let t = Transport::new(scene, &tracer, TransportSettings::default());
-    let s = BakeSettings { method: Method::Doi, samples: 16, seed: 5, ..Default::default() };
+    let s = BakeSettings { method: Method::DoiPaper, samples: 16, seed: 5, ..Default::default() };
     let out = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

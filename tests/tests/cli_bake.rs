@@ -230,7 +230,7 @@ fn bad_input_is_refused_cleanly() {
 fn least_squares_fit_bakes_and_refuses_what_it_cannot_do() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    let common = ["--samples", "16", "--res", "8,7,5", "--quiet", "--seed", "3"];
+    let common = ["--method", "doi-paper", "--samples", "16", "--res", "8,7,5", "--quiet", "--seed", "3"];
     let avg = d.join("avg.exr");
     let lsq = d.join("lsq.exr");
     let mut a = vec!["bake", "builtin:interior", "-o", s(&avg)];
@@ -240,7 +240,7 @@ fn least_squares_fit_bakes_and_refuses_what_it_cannot_do() {
     a.extend_from_slice(&common);
     ok(&a);
     let (va, vl) = (read_exr(&avg).unwrap(), read_exr(&lsq).unwrap());
-    assert_eq!(vl.metadata().method, "doi fit=lsq:0.5");
+    assert_eq!(vl.metadata().method, "doi-paper fit=lsq:0.5");
     assert_eq!(va.weights(), vl.weights(), "same samples, same domain weights");
     assert_ne!(va.data(), vl.data());
     // Same DC level overall: the fit redistributes light between nodes, it does not add any.

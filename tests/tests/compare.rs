@@ -31,7 +31,7 @@ fn total_rays(r: &Value, method: &str) -> f64 {
 }
 
 fn summary(r: &Value) -> String {
-    ["point", "prefilter", "doi"]
+    ["point", "prefilter", "doi-paper", "doi"]
         .iter()
         .filter(|m| r["methods"].get(**m).is_some())
         .map(|m| {
@@ -210,7 +210,7 @@ fn interior(height: &str, fit: &str) -> Value {
         "--reference-samples",
         "2048",
         "--methods",
-        "point,doi",
+        "point,doi-paper,doi",
         "--fit",
         fit,
         "--quiet",
@@ -225,29 +225,42 @@ fn interior(height: &str, fit: &str) -> Value {
 /// Interior ([KL06] Fig. 6c): the recommended grid has node layers inside the walls,
 /// floor and ceiling, and the plates are crossed by the sun patch under the window.
 ///
-/// - With the least-squares node fit (`--fit lsq`, lightvol-sampler's `fit` module), doi has
-///   a lower relative RMSE than point sampling on both plates and fewer near-surface dark
-///   points.
-/// - With the paper's plain Eq. 6 average (`--fit average`), doi removes most of point
+/// - With the least-squares node fit (`--fit lsq`, lightvol-sampler's `fit` module), the
+///   paper's method (`doi-paper`) has a lower relative RMSE than point sampling on both
+///   plates and fewer near-surface dark points.
+/// - With the paper's plain Eq. 6 average (`--fit average`), doi-paper removes most of point
 ///   sampling's near-surface darkness, but its double filtering (weighting, then trilinear
 ///   reconstruction) smears the sun patch, which dominates the RMSE: measured 0.71 vs 0.59
 ///   for point at 1.2 m, so the RMSE claim is asserted for the least-squares fit only.
+/// - The default `doi` takes no fit (its nodes are point samples or support averages).
 #[test]
 fn interior_doi_beats_point_sampling() {
     for height in ["0.6", "1.2"] {
         let r = interior(height, "lsq");
-        let (doi, point) = (metric(&r, "doi", "rel_rmse"), metric(&r, "point", "rel_rmse"));
+        let (doi, point) = (metric(&r, "doi-paper", "rel_rmse"), metric(&r, "point", "rel_rmse"));
         assert!(doi < point, "rel_rmse at {height} m: doi {doi} vs point {point}");
         let (dark_doi, dark_point) =
-            (metric(&r, "doi", "too_dark_near"), metric(&r, "point", "too_dark_near"));
+            (metric(&r, "doi-paper", "too_dark_near"), metric(&r, "point", "too_dark_near"));
         assert!(dark_point > 0.2, "point sampling must show the dark leak ({dark_point})");
         assert!(dark_doi < dark_point, "too_dark_near at {height} m: doi {dark_doi} vs point {dark_point}");
+        assert!(total_rays(&r, "doi-paper") <= 1.25 * total_rays(&r, "point"));
+        // The default doi point-samples the nodes in the open room, so its RMSE is point's
+        // (measured 0.857 against 0.857 at 0.6 m, 0.595 against 0.594 at 1.2 m: the sun patch
+        // dominates both), but the nodes in the walls are moved out or integrated: measured
+        // too_dark_near 0.17 against 0.29 and 0.20 against 0.52.
+        let (dark_new, dark_point) =
+            (metric(&r, "doi", "too_dark_near"), metric(&r, "point", "too_dark_near"));
+        assert!(
+            dark_new < 0.7 * dark_point,
+            "too_dark_near at {height} m: doi {dark_new} vs point {dark_point}"
+        );
         assert!(total_rays(&r, "doi") <= 1.25 * total_rays(&r, "point"));
     }
     let r = interior("0.6", "average");
-    let (dark_doi, dark_point) = (metric(&r, "doi", "too_dark_near"), metric(&r, "point", "too_dark_near"));
+    let (dark_doi, dark_point) =
+        (metric(&r, "doi-paper", "too_dark_near"), metric(&r, "point", "too_dark_near"));
     assert!(dark_doi <= 0.5 * dark_point, "Eq. 6 too_dark_near doi {dark_doi} vs point {dark_point}");
-    assert!(metric(&r, "doi", "too_dark") < metric(&r, "point", "too_dark"));
+    assert!(metric(&r, "doi-paper", "too_dark") < metric(&r, "point", "too_dark"));
 }
 
 /// Cornell box (real data): nodes inside the two blocks and behind the

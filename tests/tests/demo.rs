@@ -18,7 +18,7 @@ fn check_schema(r: &Value) {
     assert!(bounds.iter().all(|c| c.as_array().is_some_and(|a| a.len() == 3 && a.iter().all(Value::is_f64))));
     assert!(r["reference"]["samples"].as_u64().is_some_and(|n| n > 0));
     let methods = r["methods"].as_object().expect("methods");
-    for name in ["point", "prefilter", "doi"] {
+    for name in ["point", "prefilter", "doi-paper", "doi"] {
         let m = &methods[name];
         assert!(m["samples"].as_u64().is_some(), "{name}.samples");
         for k in ["sampling", "query", "total"] {
@@ -48,7 +48,7 @@ fn demo_quick_writes_everything() {
         let text = std::fs::read_to_string(out.join(scene).join("report.json")).expect("report.json");
         let r: Value = serde_json::from_str(&text).expect("report.json parses");
         check_schema(&r);
-        for m in ["point", "prefilter", "doi"] {
+        for m in ["point", "prefilter", "doi-paper", "doi"] {
             for kind in ["panel", "error"] {
                 let png = out.join(scene).join(format!("{kind}_{m}.png"));
                 let bytes = std::fs::read(&png).unwrap_or_else(|_| panic!("{}", png.display()));
@@ -58,6 +58,34 @@ fn demo_quick_writes_everything() {
                     "index.html shows {kind}_{m} of {scene}"
                 );
             }
+        }
+    }
+    // The embedded real interior: baked from the file the demo writes beside its results,
+    // with its licence, under sky and bounce light, with doi and the engines' fixes.
+    let room = out.join("occlusion_room");
+    assert!(room.join("room.glb").metadata().unwrap().len() > 1_000_000);
+    assert!(std::fs::read_to_string(room.join("LICENSE.txt")).unwrap().contains("MIT License"));
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(room.join("report.json")).unwrap()).unwrap();
+    for m in ["point", "doi-paper", "doi", "point+validity", "point+apv", "point+vlm", "point+ddgi"] {
+        assert!(r["methods"][m]["rel_rmse"].as_f64().is_some_and(f64::is_finite), "occlusion_room: {m}");
+    }
+    // Every scene has a view: the path-traced reference, point, the best engine baseline
+    // by the view's relative RMSE, and doi, each shown in index.html.
+    for scene in ["city", "interior", "maze", "occlusion_room"] {
+        let r: Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join(scene).join("report.json")).unwrap())
+                .unwrap();
+        let view = &r["views"][0];
+        let label = view["camera"].as_str().expect("a view");
+        let rel = |m: &str| view["methods"][m]["rel_rmse"].as_f64();
+        let best = ["point+validity", "point+apv", "point+vlm", "point+ddgi"]
+            .into_iter()
+            .filter(|m| rel(m).is_some())
+            .min_by(|a, b| rel(a).unwrap().total_cmp(&rel(b).unwrap()))
+            .expect("an engine baseline in the view");
+        for m in ["reference", "point", best, "doi"] {
+            let f = format!("{scene}/view_{label}_{m}.png");
+            assert!(index.contains(&f), "index.html shows {f}");
         }
     }
     // Every file index.html names exists.
@@ -101,9 +129,10 @@ fn demo_quick_writes_everything() {
         for m in [
             "point",
             "doi",
-            "doi+lsq",
-            "doi+taylor",
-            "doi+hermite",
+            "doi-paper",
+            "doi-paper+lsq",
+            "doi-paper+taylor",
+            "doi-paper+hermite",
             "adaptive",
             "adaptive1",
             "doi-node",
@@ -115,7 +144,10 @@ fn demo_quick_writes_everything() {
             assert!(rep["methods"][m]["memory_bytes"].as_u64().is_some(), "{scene}: {m}.memory_bytes");
         }
         let mem = |m: &str| rep["methods"][m]["memory_bytes"].as_u64().unwrap();
-        assert_eq!(mem("doi+hermite"), 4 * mem("doi"), "[Oat05]: gradients quadruple the floats");
-        assert!(mem("adaptive") <= mem("doi") && mem("adaptive1") <= mem("doi"), "{scene}: equal memory");
+        assert_eq!(mem("doi-paper+hermite"), 4 * mem("doi-paper"), "[Oat05]: gradients quadruple the floats");
+        assert!(
+            mem("adaptive") <= mem("doi-paper") && mem("adaptive1") <= mem("doi-paper"),
+            "{scene}: equal memory"
+        );
     }
 }

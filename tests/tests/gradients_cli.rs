@@ -30,15 +30,16 @@ fn bake_gradients_round_trip_and_taylor_lookup() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let (plain, basis, central) = (d.join("plain.exr"), d.join("basis.exr"), d.join("central.exr"));
-    let mut a = vec!["bake", "builtin:city", "-o", s(&plain)];
+    let mut a = vec!["bake", "builtin:city", "--method", "doi-paper", "-o", s(&plain)];
     a.extend_from_slice(&COMMON);
     a.push("2");
     ok(&a);
-    let mut a = vec!["bake", "builtin:city", "--gradients", "-o", s(&basis)];
+    let mut a = vec!["bake", "builtin:city", "--method", "doi-paper", "--gradients", "-o", s(&basis)];
     a.extend_from_slice(&COMMON);
     a.push("2");
     ok(&a);
-    let mut a = vec!["bake", "builtin:city", "--gradients", "central", "-o", s(&central)];
+    let mut a =
+        vec!["bake", "builtin:city", "--method", "doi-paper", "--gradients", "central", "-o", s(&central)];
     a.extend_from_slice(&COMMON);
     a.push("1");
     ok(&a);
@@ -153,7 +154,7 @@ fn compare_reports_gradient_lookups_with_memory() {
         "--reference-samples",
         "64",
         "--methods",
-        "doi,doi+taylor,doi+gtrilinear,doi+hermite",
+        "doi-paper,doi-paper+taylor,doi-paper+gtrilinear,doi-paper+hermite",
         "--memory-sweep",
         "--sweep-scales",
         "0.5,1",
@@ -164,13 +165,16 @@ fn compare_reports_gradient_lookups_with_memory() {
     let r: Value = serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
     let m = &r["methods"];
     let nodes = 16 * 16 * 7;
-    assert_eq!(m["doi"]["memory_bytes"].as_u64(), Some(nodes * 27 * 4));
-    for name in ["doi+taylor", "doi+gtrilinear", "doi+hermite"] {
+    assert_eq!(m["doi-paper"]["memory_bytes"].as_u64(), Some(nodes * 27 * 4));
+    for name in ["doi-paper+taylor", "doi-paper+gtrilinear", "doi-paper+hermite"] {
         assert_eq!(m[name]["memory_bytes"].as_u64(), Some(nodes * 108 * 4), "{name}");
-        assert_eq!(m[name]["rays"]["total"], m["doi"]["rays"]["total"], "{name} reuses the doi bake");
+        assert_eq!(
+            m[name]["rays"]["total"], m["doi-paper"]["rays"]["total"],
+            "{name} reuses the doi-paper bake"
+        );
         assert_eq!(m[name]["gradient_estimator"], "basis");
         let e = m[name]["rel_rmse"].as_f64().unwrap();
-        println!("{name}: rel_rmse {e:.4} (doi {:.4})", m["doi"]["rel_rmse"].as_f64().unwrap());
+        println!("{name}: rel_rmse {e:.4} (doi-paper {:.4})", m["doi-paper"]["rel_rmse"].as_f64().unwrap());
         assert!(e.is_finite() && e > 0.0);
         assert!(out.join(format!("panel_{name}.png")).is_file());
     }
@@ -183,8 +187,8 @@ fn compare_reports_gradient_lookups_with_memory() {
         pts.iter().find(|p| p["series"] == series && p["res"][0].as_u64() == Some(res0)).unwrap()
     };
     // Scale 1 is the compare grid itself: the same numbers as the doi entry.
-    assert_eq!(at("uniform", 16)["rel_rmse"], m["doi"]["rel_rmse"]);
-    assert_eq!(at("uniform+hermite", 16)["rel_rmse"], m["doi+hermite"]["rel_rmse"]);
+    assert_eq!(at("uniform", 16)["rel_rmse"], m["doi-paper"]["rel_rmse"]);
+    assert_eq!(at("uniform+hermite", 16)["rel_rmse"], m["doi-paper+hermite"]["rel_rmse"]);
     // Scale 0.5: 15 -> 8 cells, 6 -> 3 cells: 9 x 9 x 4 nodes.
     assert_eq!(at("uniform", 9)["memory_bytes"].as_u64(), Some(9 * 9 * 4 * 27 * 4));
     // The octrees at each scale stay within that uniform grid's bytes (series sorted by
@@ -213,7 +217,10 @@ fn bad_gradient_options_are_refused() {
     let small = ["--samples", "4", "--res", "3,3,3", "--quiet"];
     let cases: [(&[&str], &str); 4] = [
         (&["--gradients", "basis", "--method", "point"], "--gradients basis needs cell samples"),
-        (&["--gradients", "central", "--fit", "lsq"], "cannot be combined with --gradients"),
+        (
+            &["--method", "doi-paper", "--gradients", "central", "--fit", "lsq"],
+            "cannot be combined with --gradients",
+        ),
         (&["--gradients", "central", "--adaptive"], "--adaptive cannot be combined with --gradients"),
         (&["--gradients", "sideways"], "sideways"),
     ];

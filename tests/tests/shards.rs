@@ -19,19 +19,22 @@ fn bake(out: &Path, extra: &[&str]) {
     ok(&a);
 }
 
-/// The bake modes that shard, each with its own files: the Eq. 6 average (`doi`), the
+/// The bake modes that shard, each with its own files: the default `doi`, the paper's
+/// Eq. 6 average (`doi-paper`), the
 /// least-squares fit (mass matrix in the shard files), both gradient estimators, and the
 /// adaptive octree (level by level).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Mode {
     Doi,
+    DoiPaper,
     Lsq,
     BasisGradients,
     CentralGradients,
     Adaptive,
 }
 
-const MODES: [Mode; 5] = [Mode::Doi, Mode::Lsq, Mode::BasisGradients, Mode::CentralGradients, Mode::Adaptive];
+const MODES: [Mode; 6] =
+    [Mode::Doi, Mode::DoiPaper, Mode::Lsq, Mode::BasisGradients, Mode::CentralGradients, Mode::Adaptive];
 
 /// The adaptive bake's finest level.
 const MAX_LEVEL: u32 = 2;
@@ -39,8 +42,9 @@ const MAX_LEVEL: u32 = 2;
 fn mode_args(m: Mode) -> &'static [&'static str] {
     match m {
         Mode::Doi => &[],
-        Mode::Lsq => &["--fit", "lsq:0.25"],
-        Mode::BasisGradients => &["--gradients", "basis"],
+        Mode::DoiPaper => &["--method", "doi-paper"],
+        Mode::Lsq => &["--method", "doi-paper", "--fit", "lsq:0.25"],
+        Mode::BasisGradients => &["--method", "doi-paper", "--gradients", "basis"],
         Mode::CentralGradients => &["--gradients", "central"],
         Mode::Adaptive => &["--adaptive", "--max-level", "2", "--depth-rays", "8"],
     }
@@ -202,7 +206,7 @@ fn least_squares_shards_merge_to_the_whole_fit() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let whole = d.join("whole.exr");
-    bake(&whole, &["--fit", "lsq:0.25"]);
+    bake(&whole, &["--method", "doi-paper", "--fit", "lsq:0.25"]);
     let w = read_exr(&whole).unwrap();
     let shards: Vec<_> = (0..3)
         .map(|k| {
@@ -210,6 +214,8 @@ fn least_squares_shards_merge_to_the_whole_fit() {
             bake(
                 &out,
                 &[
+                    "--method",
+                    "doi-paper",
                     "--fit",
                     "lsq:0.25",
                     "--shard",
@@ -260,11 +266,11 @@ fn basis_gradient_shards_merge_to_the_whole_bake() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     let whole = d.join("whole.exr");
-    bake(&whole, &["--gradients", "basis"]);
+    bake(&whole, &["--method", "doi-paper", "--gradients", "basis"]);
     let shards: Vec<_> = (0..3)
         .map(|k| {
             let out = d.join(format!("g{k}.exr"));
-            bake(&out, &["--gradients", "basis", "--shard", &format!("{k}/3")]);
+            bake(&out, &["--method", "doi-paper", "--gradients", "basis", "--shard", &format!("{k}/3")]);
             out.with_extension("lvacc")
         })
         .collect();

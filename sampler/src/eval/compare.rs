@@ -40,7 +40,8 @@ pub struct CompareConfig {
     pub seed: u64,
     /// Path length and direct light of the bakes and the reference alike.
     pub transport: TransportSettings,
-    /// Node fit of the [`Entry::Uniform`] entries (`point` always takes Eq. 6's average).
+    /// Node fit of the [`Entry::Uniform`] cell-sample entries (`prefilter`, `doi-paper`); the
+    /// per-node ones (`point`, `doi`, `doi-node`) take their samples' values.
     pub fit: Fit,
     /// Gradient estimator of the [`Entry::Gradient`] entries (`None`:
     /// [`GradientEstimator::default_for`] the base method).
@@ -67,7 +68,7 @@ impl CompareConfig {
         Self {
             grid,
             coeffs: 9,
-            methods: [Method::Point, Method::Prefilter, Method::Doi]
+            methods: [Method::Point, Method::Prefilter, Method::DoiPaper, Method::Doi]
                 .map(|m| NamedEntry::new(Entry::Uniform(m)))
                 .to_vec(),
             samples: 256,
@@ -183,7 +184,16 @@ fn compare_here(
     let mut gradient_bakes = GradientCache::default();
     for NamedEntry { name, entry } in &config.methods {
         let run = match *entry {
-            Entry::Uniform(method) => run_uniform(&ctx, grid, name, method, config.fit, &plate)?,
+            // The comparison's fit is for the cell-sample bakes; the per-node ones (point,
+            // doi, doi-node) take their own values, as a `BASE+lsq` entry would refuse.
+            Entry::Uniform(method) => {
+                let fit = if matches!(method, Method::Prefilter | Method::DoiPaper) {
+                    config.fit
+                } else {
+                    Fit::Average
+                };
+                run_uniform(&ctx, grid, name, method, fit, &plate)?
+            }
             Entry::Fitted(method, fit) => run_uniform(&ctx, grid, name, method, fit, &plate)?,
             Entry::Gradient(base, lookup) => {
                 let gv = gradient_bakes.get(&ctx, grid, base, config.gradient_estimator, name)?;
@@ -232,11 +242,13 @@ pub(crate) mod tests {
         let (maze, config) = maze_config();
         let r = compare(&maze.scene, &config, &Silent).unwrap();
         let names: Vec<&str> = r.methods.iter().map(|m| m.name.as_str()).collect();
-        assert_eq!(names, ["point", "prefilter", "doi"]);
-        let (point, doi) = (&r.methods[0].metrics, &r.methods[2].metrics);
-        println!("point {point:?}\ndoi {doi:?}");
-        assert!(doi.rel_rmse < 0.8 * point.rel_rmse, "doi {} vs point {}", doi.rel_rmse, point.rel_rmse);
-        assert!(doi.too_dark_near < point.too_dark_near);
+        assert_eq!(names, ["point", "prefilter", "doi-paper", "doi"]);
+        let point = &r.methods[0].metrics;
+        for doi in [&r.methods[2].metrics, &r.methods[3].metrics] {
+            println!("point {point:?}\ndoi {doi:?}");
+            assert!(doi.rel_rmse < 0.8 * point.rel_rmse, "doi {} vs point {}", doi.rel_rmse, point.rel_rmse);
+            assert!(doi.too_dark_near < point.too_dark_near);
+        }
         let valid = r.plate.valid_points();
         assert!(valid > 0 && valid < r.plate.points.len(), "the maze's walls cut the plate");
         for m in &r.methods {
@@ -254,7 +266,7 @@ pub(crate) mod tests {
 
     /// Gradient entries on one base share one bake; the octree stays within the uniform
     /// grid's bytes; the engine baselines count their validity rays; the memory sweep's
-    /// scale-1 uniform point is the `doi` entry itself; the observer sees every stage.
+    /// scale-1 uniform point is the `doi-paper` entry itself; the observer sees every stage.
     #[test]
     fn entries_and_sweep() {
         #[derive(Default)]
@@ -265,10 +277,11 @@ pub(crate) mod tests {
             }
         }
         let (maze, mut config) = maze_config();
-        config.methods = ["doi", "doi+taylor", "doi+hermite", "adaptive1", "point", "point+validity"]
-            .iter()
-            .map(|s| NamedEntry::parse(s).unwrap())
-            .collect();
+        config.methods =
+            ["doi-paper", "doi-paper+taylor", "doi-paper+hermite", "adaptive1", "point", "point+validity"]
+                .iter()
+                .map(|s| NamedEntry::parse(s).unwrap())
+                .collect();
         config.memory_sweep = Some(SweepConfig { scales: vec![1.0], gradient_estimator: None });
         let log = Log::default();
         let r = compare(&maze.scene, &config, &log).unwrap();
@@ -277,8 +290,8 @@ pub(crate) mod tests {
             *log.0.lock().unwrap(),
             [
                 "reference",
-                "doi",
-                "doi+taylor",
+                "doi-paper",
+                "doi-paper+taylor",
                 "adaptive1",
                 "point",
                 "sweep x1",
@@ -286,19 +299,19 @@ pub(crate) mod tests {
                 "adaptive1 x1"
             ]
         );
-        assert_eq!(m("doi+taylor").rays, m("doi+hermite").rays);
-        assert_eq!(m("doi+taylor").rays, m("doi").rays);
-        assert_eq!(m("doi+hermite").memory_bytes, 4 * m("doi").memory_bytes);
+        assert_eq!(m("doi-paper+taylor").rays, m("doi-paper+hermite").rays);
+        assert_eq!(m("doi-paper+taylor").rays, m("doi-paper").rays);
+        assert_eq!(m("doi-paper+hermite").memory_bytes, 4 * m("doi-paper").memory_bytes);
         assert!(matches!(
-            m("doi+hermite").detail,
+            m("doi-paper+hermite").detail,
             RunDetail::Gradient { lookup: GradientLookup::Hermite, estimator: GradientEstimator::Basis, .. }
         ));
-        assert!(m("adaptive1").memory_bytes <= m("doi").memory_bytes);
+        assert!(m("adaptive1").memory_bytes <= m("doi-paper").memory_bytes);
         assert!(m("point+validity").rays.total() > m("point").rays.total());
         let sweep = r.memory_sweep.unwrap();
         assert_eq!(sweep.points.len(), 6);
         let uniform = sweep.points.iter().find(|p| p.series == "uniform").unwrap();
-        assert_eq!(uniform.rel_rmse, m("doi").metrics.rel_rmse);
+        assert_eq!(uniform.rel_rmse, m("doi-paper").metrics.rel_rmse);
     }
 
     #[test]

@@ -8,7 +8,7 @@
 //!
 //! | name | entry |
 //! | --- | --- |
-//! | `point`, `prefilter`, `doi` | [`Entry::Uniform`] |
+//! | `point`, `prefilter`, `doi`, `doi-paper`, `doi-node` | [`Entry::Uniform`] |
 //! | `BASE+average`, `BASE+lsq`, `BASE+lsq:λ` | [`Entry::Fitted`] |
 //! | `BASE+taylor`, `BASE+gtrilinear`, `BASE+hermite` | [`Entry::Gradient`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
@@ -170,7 +170,7 @@ pub fn parse_method(s: &str) -> Result<Method, EvalError> {
 /// ([`crate::baselines`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BakeMethod {
-    /// `point`, `prefilter` or `doi`.
+    /// `point`, `prefilter`, `doi`, `doi-paper` or `doi-node`.
     Grid(Method),
     /// `point+validity`, `point+apv`, `point+vlm` or `point+ddgi`.
     Baseline(Baseline),
@@ -188,7 +188,7 @@ pub fn parse_bake_method(s: &str) -> Result<BakeMethod, EvalError> {
     s.parse::<Method>().map(BakeMethod::Grid).map_err(|_| {
         let baselines: Vec<&str> = Baseline::ALL.iter().map(|b| b.name()).collect();
         EvalError::UnknownMethod(format!(
-            "unknown method '{s}' (point, prefilter, doi, {})",
+            "unknown method '{s}' (point, prefilter, doi, doi-paper, doi-node, {})",
             baselines.join(", ")
         ))
     })
@@ -200,8 +200,9 @@ pub fn method_name(m: Method) -> &'static str {
     match m {
         Method::Point => "point",
         Method::Prefilter => "prefilter",
-        Method::Doi => "doi",
+        Method::DoiPaper => "doi-paper",
         Method::DoiNode => "doi-node",
+        Method::Doi => "doi",
     }
 }
 
@@ -252,18 +253,22 @@ mod tests {
     #[test]
     fn entries_parse() {
         assert_eq!(parse_entry("doi").unwrap(), Entry::Uniform(Method::Doi));
-        assert_eq!(parse_entry("doi+taylor").unwrap(), Entry::Gradient(Method::Doi, GradientLookup::Taylor));
+        assert_eq!(parse_entry("doi-paper").unwrap(), Entry::Uniform(Method::DoiPaper));
+        assert_eq!(
+            parse_entry("doi-paper+taylor").unwrap(),
+            Entry::Gradient(Method::DoiPaper, GradientLookup::Taylor)
+        );
         assert_eq!(
             parse_entry("point+hermite").unwrap(),
             Entry::Gradient(Method::Point, GradientLookup::Hermite)
         );
         assert_eq!(parse_entry("adaptive").unwrap(), Entry::Adaptive(2));
-        assert_eq!(parse_entry("doi+lsq").unwrap(), Entry::Fitted(Method::Doi, Fit::default()));
+        assert_eq!(parse_entry("doi-paper+lsq").unwrap(), Entry::Fitted(Method::DoiPaper, Fit::default()));
         assert_eq!(
             parse_entry("prefilter+lsq:0.5").unwrap(),
             Entry::Fitted(Method::Prefilter, Fit::LeastSquares { lambda: 0.5 })
         );
-        assert_eq!(parse_entry("doi+average").unwrap(), Entry::Fitted(Method::Doi, Fit::Average));
+        assert_eq!(parse_entry("doi-paper+average").unwrap(), Entry::Fitted(Method::DoiPaper, Fit::Average));
         assert_eq!(parse_entry("point+ddgi").unwrap(), Entry::Baseline(Baseline::Ddgi));
         assert_eq!(parse_entry("point+validity").unwrap(), Entry::Baseline(Baseline::Validity));
         assert_eq!(parse_entry("point+apv").unwrap(), Entry::Baseline(Baseline::Apv));
@@ -291,12 +296,13 @@ mod tests {
     #[test]
     fn bake_methods_parse() {
         assert_eq!(parse_bake_method("doi").unwrap(), BakeMethod::Grid(Method::Doi));
+        assert_eq!(parse_bake_method("doi-paper").unwrap(), BakeMethod::Grid(Method::DoiPaper));
         for b in Baseline::ALL {
             assert_eq!(parse_bake_method(b.name()).unwrap(), BakeMethod::Baseline(b));
         }
         assert_eq!(
             parse_bake_method("point+taylor").unwrap_err().to_string(),
-            "unknown method 'point+taylor' (point, prefilter, doi, point+validity, point+apv, point+vlm, point+ddgi)"
+            "unknown method 'point+taylor' (point, prefilter, doi, doi-paper, doi-node, point+validity, point+apv, point+vlm, point+ddgi)"
         );
     }
 
@@ -304,7 +310,7 @@ mod tests {
     #[test]
     fn names_round_trip() {
         let mut entries = vec![Entry::Adaptive(1), Entry::Adaptive(2), Entry::Adaptive(3)];
-        for m in [Method::Point, Method::Prefilter, Method::Doi] {
+        for m in [Method::Point, Method::Prefilter, Method::DoiPaper] {
             entries.push(Entry::Uniform(m));
             entries.extend(LOOKUPS.map(|l| Entry::Gradient(m, l)));
             entries.push(Entry::Fitted(m, Fit::Average));

@@ -298,8 +298,9 @@ fn method_key(m: Method) -> u8 {
     match m {
         Method::Point => 0,
         Method::Prefilter => 1,
-        Method::Doi => 2,
+        Method::DoiPaper => 2,
         Method::DoiNode => 3,
+        Method::Doi => 4,
     }
 }
 
@@ -351,7 +352,7 @@ pub fn adaptive_volume(
 ) -> Result<(AdaptiveVolume, AdaptiveStats, usize), EvalError> {
     let budget = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false);
     let base = scaled_grid(grid, ADAPTIVE_BASE_SCALE)?;
-    let settings = ctx.settings(Method::Doi);
+    let settings = ctx.settings(Method::DoiPaper);
     let adaptive = AdaptiveSettings { max_level, memory_budget: Some(budget), ..AdaptiveSettings::default() };
     let (vol, stats) = ctx
         .stage(label, |c| bake_adaptive(&ctx.transport, &base, &settings, &adaptive, c))

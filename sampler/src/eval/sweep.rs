@@ -131,7 +131,7 @@ pub fn memory_sweep(
     for &scale in &config.scales {
         let grid = scaled_grid(base, scale)?;
         let label = format!("sweep x{scale}");
-        let gv = gradient_volume(ctx, &grid, Method::Doi, config.gradient_estimator, &label)?;
+        let gv = gradient_volume(ctx, &grid, Method::DoiPaper, config.gradient_estimator, &label)?;
         let bake_rays = gv.stats.rays.total();
         let bake_seconds = gv.stats.wall_time.as_secs_f64();
         let bands = gv.volume.bands();

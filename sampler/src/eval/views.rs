@@ -310,7 +310,7 @@ mod tests {
     #[test]
     fn views_of_every_entry_kind() {
         let (maze, config) =
-            maze_with_view(&["point", "doi", "doi+hermite", "adaptive1", "point+apv", "point+vlm"]);
+            maze_with_view(&["point", "doi", "doi-paper+hermite", "adaptive1", "point+apv", "point+vlm"]);
         let r = compare(&maze.scene, &config, &Silent).unwrap();
         for run in &r.methods {
             for (p, e) in r.plate.points.iter().zip(&run.estimate) {
@@ -321,7 +321,7 @@ mod tests {
         let v = &r.views[0];
         assert_eq!(v.label, "over");
         let names: Vec<&str> = v.methods.iter().map(|m| m.name.as_str()).collect();
-        assert_eq!(names, ["point", "doi", "doi+hermite", "adaptive1", "point+apv", "point+vlm"]);
+        assert_eq!(names, ["point", "doi", "doi-paper+hermite", "adaptive1", "point+apv", "point+vlm"]);
         let tracer = Tracer::new(&maze.scene);
         let transport = Transport::new(&maze.scene, &tracer, config.transport);
         let cam = &config.views.cameras[0];
