@@ -674,8 +674,15 @@ pub(crate) fn world_spacing(grid: &GridSpec) -> [f64; 3] {
         .map(|d| (DVec3::from_array(grid.node_position_world(d[0], d[1], d[2])) - o).length())
 }
 
+/// Where [`clean_point_samples`] stopped: the directions it traced, the last one meeting a
+/// back face at this direction and distance.
+struct Stopped {
+    traced: u64,
+    back_face: (DVec3, f64),
+}
+
 /// Point samples at `x` along directions `first..first + count` of `h` (stream `stream`),
-/// stopping at the first back face: the samples, or the index after the stopping one.
+/// stopping at the first back face: the samples, or where it stopped.
 #[allow(clippy::too_many_arguments, reason = "one sampling loop, two callers")]
 fn clean_point_samples(
     t: &Transport<'_>,
@@ -686,7 +693,7 @@ fn clean_point_samples(
     first: u64,
     count: u64,
     out: &mut UnitOut,
-) -> Result<Vec<SampleOut>, (u64, Option<(DVec3, f64)>)> {
+) -> Result<Vec<SampleOut>, Stopped> {
     let mut one = [0.0; 8];
     one[0] = 1.0;
     let mut hits = Vec::with_capacity(count as usize);
@@ -695,7 +702,7 @@ fn clean_point_samples(
         out.stats.rays.sampling += 1;
         let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
         if let Some(b) = hit.filter(|h| h.back_face) {
-            return Err((s + 1 - first, Some((dir, b.t))));
+            return Err(Stopped { traced: s + 1 - first, back_face: (dir, b.t) });
         }
         hits.push((s, dir, hit));
     }
@@ -731,7 +738,7 @@ pub(crate) fn probe_unit(
             out.samples = samples;
             return (out, ProbeCapture::AtNode);
         }
-        Err(e) => e,
+        Err(e) => (e.traced, Some(e.back_face)),
     };
     out.samples.clear();
     out.stats.back_face_points = 1;
@@ -760,7 +767,7 @@ pub(crate) fn probe_unit(
                 out.samples = samples;
                 return (out, ProbeCapture::Relocated(y));
             }
-            Err((spent, _)) => used += spent,
+            Err(stopped) => used += stopped.traced,
         }
     }
     out.samples.clear();

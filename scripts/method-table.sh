@@ -1,0 +1,29 @@
+#!/bin/sh
+# Regenerates the README's scene x method table: every built-in scene and every vendored
+# real scene, sky and bounce light (the sun left to the engine's shadow maps), each scene's
+# default grid and plate, 128 samples per node or cell, against a path-traced reference.
+#
+#   scripts/method-table.sh [OUT_DIR] [extra compare options, e.g. --seed 2]
+#
+# Writes OUT_DIR/<scene>/ (report.json, panels, error maps) and prints the Markdown table.
+set -eu
+out=${1:-method-table}
+[ $# -gt 0 ] && shift
+root=$(cd "$(dirname "$0")/.." && pwd)
+cargo build --release -q -p lightvol --manifest-path "$root/Cargo.toml"
+lv="$root/target/release/lightvol"
+methods=point,prefilter,doi-paper,doi-node,doi,point+validity,point+apv,point+vlm,point+ddgi
+dirs=""
+for scene in builtin:city builtin:interior builtin:maze \
+    "$root/data/scenes/breakfast_room/BreakfastRoom.gltf" \
+    "$root/data/scenes/occlusion_room/room.glb" \
+    "$root/data/scenes/living_room/living_room.glb" \
+    "$root/data/scenes/zdm2/zdm2.glb" \
+    "$root/data/scenes/cornell_original/CornellBox-Original.obj"; do
+    name=$(basename "$scene" | sed 's/^builtin://; s/\.[^.]*$//')
+    "$lv" compare "$scene" --light sky+indirect --samples 128 --methods "$methods" \
+        --quiet -o "$out/$name" "$@" >/dev/null
+    dirs="$dirs $out/$name"
+done
+# shellcheck disable=SC2086
+"$lv" table $dirs

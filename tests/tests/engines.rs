@@ -1,0 +1,151 @@
+//! `doi` against the leak fixes engines ship (lightvol-sampler's `baselines`: validity and
+//! dilation, Unity APV, Unreal VLM, DDGI relocation), at equal samples per node, on every
+//! built-in scene and every vendored real scene, the way engines bake probes: sky and
+//! bounce light only (`--light sky+indirect`; the sun comes from shadow maps at run time).
+//! Each scene is measured on its default grid and plate (16 cells along the longest axis;
+//! the built-in scene's recommended plate, or 10% of the height above the floor) against a
+//! path-traced reference, through the CLI.
+//!
+//! Tolerances come from a two-seed noise floor measured at these settings (seeds 1 and 2,
+//! `lightvol compare SCENE --light sky+indirect --samples 64 --plate-res 48
+//! --reference-samples 256 --methods doi,point,point+validity,point+apv,point+vlm,point+ddgi
+//! --seed S`): per scene, the largest change of any method's relative RMSE between the two
+//! seeds, relative to their mean ([`noise_floor`]). A comparison between two methods holds
+//! if it holds within twice that (both sides carry the noise).
+
+use std::path::Path;
+
+use serde_json::Value;
+
+/// The engines' baselines.
+const BASELINES: [&str; 4] = ["point+validity", "point+apv", "point+vlm", "point+ddgi"];
+
+/// A scene's measured two-seed noise floor (module docs) and the method that set it.
+fn noise_floor(scene: &str) -> f64 {
+    let name = Path::new(scene).file_stem().map_or(scene, |s| s.to_str().unwrap());
+    match name {
+        "builtin:city" => 0.091,        // point+validity
+        "builtin:interior" => 0.047,    // doi
+        "builtin:maze" => 0.044,        // point+apv
+        "BreakfastRoom" => 0.104,       // point+apv
+        "room" => 0.010,                // point+ddgi
+        "living_room" => 0.008,         // point+apv
+        "zdm2" => 0.198,                // doi: 2,382 valid plate points in a strip outside the map
+        "CornellBox-Original" => 0.060, // point+ddgi
+        other => panic!("no noise floor measured for {other}"),
+    }
+}
+
+/// On the built-in interior `doi` is behind point sampling and DDGI (which moves no probe
+/// there, so it is point sampling): its nodes in the open room are point's, and its nodes in
+/// the 0.3 m walls, moved just inside the room or averaged over their support, come out
+/// brighter than the room next to the walls (too_bright 0.151 against 0.135 at 128 samples).
+/// Measured 1.063 and 1.100 × DDGI's relative RMSE on the two seeds; the bound is the larger
+/// plus the scene's noise floor.
+const INTERIOR_RATIO: f64 = 1.15;
+
+/// Scenes where point sampling leaks dark from inside solids, and `doi` must at least halve
+/// its share of too-dark points near geometry (measured: Cornell box 0.028 against 0.175,
+/// city 0.016 against 1.0, maze 0.005 against 0.58, zdm2 0.012 against 0.74). Elsewhere it
+/// does not: on the living room nothing is single-sided, so doi is point; on the Breakfast
+/// Room doi's near-geometry points are darker than point's (0.44 against 0.13: the nodes
+/// that see the back faces of its single-sided slats and panels are moved next to them or
+/// averaged over supports that reach into the shade).
+const LEAKY: [&str; 4] = ["builtin:city", "builtin:maze", "zdm2", "CornellBox-Original"];
+
+fn run(args: &[&str]) {
+    let code = lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()));
+    match code {
+        Ok(c) => assert_eq!(c, std::process::ExitCode::SUCCESS),
+        Err(e) => panic!("lightvol {}: {}", args.join(" "), lightvol::one_line(&e)),
+    }
+}
+
+fn compare(scene: &str) -> Value {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let methods = format!("doi,point,{}", BASELINES.join(","));
+    run(&[
+        "compare",
+        scene,
+        "--light",
+        "sky+indirect",
+        "--samples",
+        "64",
+        "--plate-res",
+        "48",
+        "--reference-samples",
+        "256",
+        "--methods",
+        &methods,
+        "--quiet",
+        "-o",
+        out,
+    ]);
+    let text = std::fs::read_to_string(dir.path().join("report.json")).expect("report.json");
+    serde_json::from_str(&text).expect("report.json parses")
+}
+
+fn rmse(r: &Value, m: &str) -> f64 {
+    r["methods"][m]["rel_rmse"].as_f64().unwrap_or_else(|| panic!("{m}.rel_rmse"))
+}
+
+fn scenes() -> Vec<String> {
+    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/scenes");
+    let mut v: Vec<String> = ["city", "interior", "maze"].iter().map(|n| format!("builtin:{n}")).collect();
+    for rel in [
+        "breakfast_room/BreakfastRoom.gltf",
+        "occlusion_room/room.glb",
+        "living_room/living_room.glb",
+        "zdm2/zdm2.glb",
+        "cornell_original/CornellBox-Original.obj",
+    ] {
+        v.push(data.join(rel).to_str().unwrap().to_owned());
+    }
+    v
+}
+
+/// On every scene `doi`'s relative RMSE is at or below every engine baseline's and point
+/// sampling's within twice the scene's noise floor (the interior: [`INTERIOR_RATIO`]), its
+/// rays stay within 1.25 × point's, it halves point's near-geometry darkness where point
+/// leaks ([`LEAKY`]), and its mean over the scenes is at or below the best baseline's mean
+/// (measured 0.253 against APV's 0.264, 0.96 ×).
+#[test]
+fn doi_is_at_or_below_every_engine_baseline() {
+    let mut sums = [0.0f64; 5];
+    let mut n = 0.0;
+    for scene in scenes() {
+        let r = compare(&scene);
+        let name = Path::new(&scene).file_stem().map_or(scene.clone(), |s| s.to_string_lossy().into_owned());
+        let tol = if scene == "builtin:interior" { INTERIOR_RATIO } else { 1.0 + 2.0 * noise_floor(&scene) };
+        let doi = rmse(&r, "doi");
+        sums[0] += doi;
+        let mut line = format!("{name}: doi {doi:.4}");
+        for (i, b) in BASELINES.iter().enumerate() {
+            let e = rmse(&r, b);
+            sums[i + 1] += e;
+            line.push_str(&format!(" {b} {e:.4}"));
+            assert!(doi <= tol * e, "{name}: doi {doi} against {b} {e} (tolerance {tol})");
+        }
+        let point = rmse(&r, "point");
+        line.push_str(&format!(" point {point:.4}"));
+        println!("{line}");
+        assert!(doi <= tol * point, "{name}: doi {doi} against point {point}");
+        let rays = |m: &str| r["methods"][m]["rays"]["total"].as_f64().unwrap();
+        assert!(rays("doi") <= 1.25 * rays("point"), "{name}: doi's rays");
+        let dark = |m: &str| r["methods"][m]["too_dark_near"].as_f64().unwrap();
+        if LEAKY.contains(&scene.as_str()) || LEAKY.contains(&name.as_str()) {
+            assert!(dark("point") > 0.1, "{name}: point sampling must leak here");
+            assert!(
+                dark("doi") <= 0.5 * dark("point"),
+                "{name}: too_dark_near {} against {}",
+                dark("doi"),
+                dark("point")
+            );
+        }
+        n += 1.0;
+    }
+    let best = sums[1..].iter().copied().fold(f64::INFINITY, f64::min) / n;
+    println!("means: doi {:.4}, best baseline {best:.4}", sums[0] / n);
+    assert!(sums[0] / n <= best, "doi's mean {} against the best baseline's {best}", sums[0] / n);
+}
