@@ -592,15 +592,7 @@ fn point_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, node:
 /// (clamped to the grid), classified by Algorithm 2, the kept ones averaged with weight 1.
 fn node_box_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, node: usize) -> UnitOut {
     let [i, j, k] = grid.node_coords(node);
-    let res = grid.res();
-    let at = |a: usize, d: i64| -> f64 {
-        let idx = [i, j, k][a];
-        let n = i64::from(res[a]) - 1;
-        let q = (i64::from(idx) + d).clamp(0, n) as u32;
-        let mut c = [i, j, k];
-        c[a] = q;
-        grid.node_position(c[0], c[1], c[2])[a]
-    };
+    let at = |a: usize, d: i64| neighbour_coordinate(grid, [i, j, k], a, d);
     // Half a cell each way, within the grid's box.
     let centre = DVec3::from_array(grid.node_position(i, j, k));
     let lo =
@@ -621,23 +613,11 @@ fn node_box_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, no
             )
         })
         .collect();
-    let c = classify_cell(t.tracer(), n, |s| points[s as usize], Retest::QueryDirection);
-    out.stats.rays.add(&c.rays);
-    out.stats.back_face_points = c.back_face_points.len() as u64;
-    out.stats.cells_with_back_faces = u64::from(!c.back_face_points.is_empty());
-    out.stats.samples_rejected = c.rejected.len() as u64;
-    let mut one = [0.0; 8];
-    one[0] = 1.0;
-    out.rejected = vec![one; c.rejected.len()];
-    for cand in &c.kept {
-        let mut rng = PathRng::new(settings.seed, stream, cand.index);
-        let (terms, n_terms) =
-            sample_terms(t, settings, cand.origin, cand.dir, cand.hit, &mut rng, &mut out.stats);
-        out.samples.push(SampleOut { weights: one, terms, n_terms });
-    }
+    let back_face_points = kept_node_samples(t, settings, stream, &points, &mut out);
+    out.stats.back_face_points = back_face_points;
+    out.stats.cells_with_back_faces = u64::from(back_face_points > 0);
     out.stats.units = 1;
     out.stats.candidates = n;
-    out.stats.samples_kept = c.kept.len() as u64;
     out
 }
 
@@ -793,13 +773,7 @@ fn support_samples(
     out: &mut UnitOut,
 ) {
     let [i, j, k] = grid.node_coords(node);
-    let res = grid.res();
-    let neighbour = |a: usize, d: i64| -> f64 {
-        let m = i64::from(res[a]) - 1;
-        let mut c = [i, j, k];
-        c[a] = (i64::from(c[a]) + d).clamp(0, m) as u32;
-        grid.node_position(c[0], c[1], c[2])[a]
-    };
+    let neighbour = |a: usize, d: i64| neighbour_coordinate(grid, [i, j, k], a, d);
     let centre = DVec3::from_array(grid.node_position(i, j, k));
     let lo = DVec3::new(neighbour(0, -1), neighbour(1, -1), neighbour(2, -1));
     let hi = DVec3::new(neighbour(0, 1), neighbour(1, 1), neighbour(2, 1));
@@ -819,20 +793,42 @@ fn support_samples(
             )
         })
         .collect();
-    let c = classify_cell(t.tracer(), count, |s| points[s as usize], Retest::QueryDirection);
+    out.stats.back_face_points += kept_node_samples(t, settings, support_stream, &points, out);
+}
+
+/// Algorithm 2 over one node's candidates `(origin, direction)` (stream `stream`): the kept
+/// ones become samples of weight 1 for the node, the rejected ones its outside weight.
+/// Returns the back-face points found.
+fn kept_node_samples(
+    t: &Transport<'_>,
+    settings: &BakeSettings,
+    stream: u64,
+    points: &[(DVec3, DVec3)],
+    out: &mut UnitOut,
+) -> u64 {
+    let c = classify_cell(t.tracer(), points.len() as u64, |s| points[s as usize], Retest::QueryDirection);
     out.stats.rays.add(&c.rays);
-    out.stats.back_face_points += c.back_face_points.len() as u64;
     out.stats.samples_rejected = c.rejected.len() as u64;
     let mut one = [0.0; 8];
     one[0] = 1.0;
     out.rejected = vec![one; c.rejected.len()];
     for cand in &c.kept {
-        let mut rng = PathRng::new(settings.seed, support_stream, cand.index);
+        let mut rng = PathRng::new(settings.seed, stream, cand.index);
         let (terms, n_terms) =
             sample_terms(t, settings, cand.origin, cand.dir, cand.hit, &mut rng, &mut out.stats);
         out.samples.push(SampleOut { weights: one, terms, n_terms });
     }
     out.stats.samples_kept = c.kept.len() as u64;
+    c.back_face_points.len() as u64
+}
+
+/// Grid coordinate along axis `a` of the node `d` steps from `node` on that axis, clamped to
+/// the grid (a boundary node's neighbour outside is itself).
+fn neighbour_coordinate(grid: &GridSpec, node: [u32; 3], a: usize, d: i64) -> f64 {
+    let m = i64::from(grid.res()[a]) - 1;
+    let mut c = node;
+    c[a] = (i64::from(c[a]) + d).clamp(0, m) as u32;
+    grid.node_position(c[0], c[1], c[2])[a]
 }
 
 /// The inverse CDF of the tent density `1 - |u|` on `[-1, 1]`.

@@ -143,12 +143,12 @@ fn city_doi_has_no_dark_leaks_point_does() {
         min(&point),
         dark(&point)
     );
-    assert_eq!(dark(&doi), 0, "doi ratios {doi:?}");
+    assert_eq!(dark(&doi), 0, "doi-paper ratios {doi:?}");
     // The node's own cell as the support keeps the leak fix.
     let node = ratios(Method::DoiNode);
     assert_eq!(dark(&node), 0, "doi-node ratios {node:?}");
     let probe = ratios(Method::Doi);
-    assert_eq!(dark(&probe), 0, "doi-probe ratios {probe:?}");
+    assert_eq!(dark(&probe), 0, "doi ratios {probe:?}");
     assert!(dark(&point) >= probes.len() / 4, "point ratios {point:?}");
 }
 
@@ -254,7 +254,7 @@ fn interior_walls_do_not_leak_with_doi() {
     assert!(point.iter().filter(|&&r| r < 0.6).count() >= 6, "{point:?}");
 }
 
-/// `doi-probe` takes each node from one of three places; every city node is checked against
+/// `doi` takes each node from one of three places; every city node is checked against
 /// an independent classification of where its samples were taken.
 /// - `AtNode`: the node's own samples met no back face, and the node's value is `point`'s
 ///   bit for bit (same stream, same directions);

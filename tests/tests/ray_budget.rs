@@ -1,4 +1,4 @@
-//! The domain of interest's ray budget: at equal samples, a `doi` or `doi-probe` bake traces at most
+//! The domain of interest's ray budget: at equal samples, a `doi-paper` or `doi` bake traces at most
 //! [`DOI_RAY_BUDGET`] times the rays of a `point` bake, on every built-in scene (at its
 //! recommended grid) and every vendored real scene (16 cells along its longest axis,
 //! under a uniform white sky, as the CLI lights a scene without lights). Algorithm 2's
