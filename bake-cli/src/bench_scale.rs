@@ -29,7 +29,9 @@ const VENDORED: [&str; 5] = [
 fn bake(exe: &Path, scene: &str, extra: &[&str], samples: u32, out: &Path) -> anyhow::Result<Value> {
     let samples = samples.to_string();
     let mut cmd = Command::new(exe);
-    cmd.args(["bake", scene, "--json", "--quiet", "--samples", &samples, "-o"]).arg(out).args(extra);
+    cmd.args(["bake", scene, "--method", "doi-paper", "--json", "--quiet", "--samples", &samples, "-o"])
+        .arg(out)
+        .args(extra);
     let o = cmd.output().with_context(|| format!("running {}", exe.display()))?;
     if !o.status.success() {
         bail!("bake of {scene} failed: {}", String::from_utf8_lossy(&o.stderr).trim());
@@ -95,7 +97,7 @@ pub fn run(data: &Path, samples: u32) -> anyhow::Result<Value> {
     }
     Ok(json!({
         "samples": samples,
-        "method": "doi",
+        "method": "doi-paper",
         "vendored": rows,
         "layouts": layouts,
         "builtin": builtins,
