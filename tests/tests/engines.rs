@@ -10,9 +10,9 @@
 //! Tolerances come from a two-seed noise floor measured at these settings (seeds 1 and 2,
 //! `lightvol compare SCENE --light sky+indirect --samples 64 --plate-res 48
 //! --reference-samples 256 --methods doi,point,point+validity,point+apv,point+vlm,point+ddgi
-//! [--plate-height H] --seed S`): per plate, the largest change of any method's relative RMSE between the two
-//! seeds, relative to their mean, on each plate ([`noise_floor`]). A comparison between two methods holds
-//! if it holds within twice that (both sides carry the noise).
+//! [--plate-height H] --seed S`): on each plate, the largest change of any method's relative
+//! RMSE between the two seeds, relative to their mean ([`noise_floor`]). A comparison
+//! between two methods holds if it holds within twice that (both sides carry the noise).
 
 use std::path::Path;
 
