@@ -300,7 +300,7 @@ fn text(s: &SceneSummary) -> String {
         s.up.trim_end_matches("-up").to_uppercase()
     );
     println!(
-        "triangles: {} instanced, {} unique, {} degenerate dropped; {} instances, {} objects",
+        "triangles: {} traced (after instancing, degenerate ones dropped), {} in the file's unique meshes, {} degenerate dropped; {} instances, {} objects",
         s.instanced_triangles, s.unique_triangles, s.degenerate_skipped, s.instances, s.objects
     );
     println!("alpha-tested triangles: {}", s.alpha_triangles);

@@ -62,7 +62,7 @@ fn every_vendored_scene_is_inspected_and_bakes() {
         let txt = dir.path().join("inspect.txt");
         ok(&["inspect", s(&path), "-o", s(&txt)]);
         let t = std::fs::read_to_string(&txt).unwrap();
-        assert!(t.contains(&format!("{unique} unique")), "{file}: {t}");
+        assert!(t.contains(&format!("{unique} in the file's unique meshes")), "{file}: {t}");
         let vol = dir.path().join("v.exr");
         ok(&[
             "bake",
