@@ -144,41 +144,39 @@ impl ValidityMask {
     /// Renormalises the trilinear weights `w` of the corners `nodes` (module docs), f32.
     #[inline]
     pub fn reweight_f32(&self, nodes: impl Fn(usize) -> usize, w: &mut [f32; 8]) {
-        let v: [bool; 8] = std::array::from_fn(|c| self.valid[nodes(c)]);
-        if v.iter().all(|&x| x) {
-            return;
-        }
-        let mut s = 0.0f32;
-        for c in 0..8 {
-            if v[c] {
-                s += w[c];
-            }
-        }
-        if s > 0.0 {
-            for c in 0..8 {
-                w[c] = if v[c] { w[c] / s } else { 0.0 };
-            }
-        }
+        self.reweight(nodes, w);
     }
 
-    /// [`Self::reweight_f32`] in f64 (the reference lookups). The two are twins: the same
-    /// steps in the same order, tested against each other through the lookups
+    /// [`Self::reweight_f32`] in f64 (the reference lookups): the same steps in the same
+    /// order ([`Self::reweight`]), tested against each other through the lookups
     /// (`tests/validity.rs`, `masked_fast_paths_match_each_other_and_the_reference`).
     #[inline]
     pub fn reweight_f64(&self, nodes: impl Fn(usize) -> usize, w: &mut [f64; 8]) {
+        self.reweight(nodes, w);
+    }
+
+    /// The renormalisation in either precision: nothing when every corner is valid;
+    /// otherwise valid weights divided by their sum and invalid ones zeroed, unless no
+    /// valid corner has weight (then `w` is left as it is).
+    #[inline]
+    fn reweight<T>(&self, nodes: impl Fn(usize) -> usize, w: &mut [T; 8])
+    where
+        T: Copy + Default + PartialOrd + std::ops::AddAssign + std::ops::Div<Output = T>,
+    {
         let v: [bool; 8] = std::array::from_fn(|c| self.valid[nodes(c)]);
         if v.iter().all(|&x| x) {
             return;
         }
-        let mut s = 0.0f64;
+        let zero = T::default();
+        let mut s = zero;
         for c in 0..8 {
             if v[c] {
                 s += w[c];
             }
         }
-        if s > 0.0 {
+        if s > zero {
             for c in 0..8 {
-                w[c] = if v[c] { w[c] / s } else { 0.0 };
+                w[c] = if v[c] { w[c] / s } else { zero };
             }
         }
     }
