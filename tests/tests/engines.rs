@@ -16,7 +16,11 @@
 
 use std::path::Path;
 
+use lightvol_sampler::builtin::BUILTIN_NAMES;
 use serde_json::Value;
+use vendored::{VENDORED_SCENES, vendored};
+
+mod vendored;
 
 /// The engines' baselines.
 const BASELINES: [&str; 4] = ["point+validity", "point+apv", "point+vlm", "point+ddgi"];
@@ -131,18 +135,8 @@ fn rmse(r: &Value, m: &str) -> f64 {
 }
 
 fn scenes() -> Vec<String> {
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/scenes");
-    let mut v: Vec<String> = ["city", "interior", "maze"].iter().map(|n| format!("builtin:{n}")).collect();
-    for rel in [
-        "breakfast_room/BreakfastRoom.gltf",
-        "occlusion_room/room.glb",
-        "living_room/living_room.glb",
-        "zdm2/zdm2.glb",
-        "cornell_original/CornellBox-Original.obj",
-    ] {
-        v.push(data.join(rel).to_str().unwrap().to_owned());
-    }
-    v
+    let builtins = BUILTIN_NAMES.iter().map(|n| format!("builtin:{n}"));
+    builtins.chain(VENDORED_SCENES.iter().map(|rel| vendored(rel).to_str().unwrap().to_owned())).collect()
 }
 
 /// On every scene and both plates `doi`'s relative RMSE is at or below every engine

@@ -4,14 +4,15 @@
 //! under a uniform white sky, as the CLI lights a scene without lights). Algorithm 2's
 //! query rays are the extra cost; the classification rays' hits are reused for lighting.
 
-use std::path::Path;
-
 use lightvol_sampler::builtin::{BUILTIN_NAMES, builtin};
 use lightvol_sampler::lights::Environment;
 use lightvol_sampler::{
     BakeControl, BakeSettings, DVec3, GridSpec, LoadOptions, Method, Scene, Tracer, Transport,
     TransportSettings, bake, load_scene,
 };
+use vendored::{VENDORED_SCENES, vendored};
+
+mod vendored;
 
 /// `doi` may trace this many times `point`'s rays.
 const DOI_RAY_BUDGET: f64 = 1.25;
@@ -45,15 +46,8 @@ fn doi_stays_within_its_ray_budget() {
             (format!("builtin:{n}"), b.scene, b.grid)
         })
         .collect();
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("../data/scenes");
-    for rel in [
-        "breakfast_room/BreakfastRoom.gltf",
-        "occlusion_room/room.glb",
-        "living_room/living_room.glb",
-        "zdm2/zdm2.glb",
-        "cornell_original/CornellBox-Original.obj",
-    ] {
-        let mut s = load_scene(&data.join(rel), &LoadOptions::default()).unwrap();
+    for rel in VENDORED_SCENES {
+        let mut s = load_scene(&vendored(rel), &LoadOptions::default()).unwrap();
         if s.sun.is_none() && s.punctual.is_empty() && !s.materials.iter().any(|m| m.is_emissive()) {
             s.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
         }
