@@ -647,13 +647,6 @@ pub enum ProbeCapture {
     Support,
 }
 
-/// The world spacing of `grid` along each axis.
-pub(crate) fn world_spacing(grid: &GridSpec) -> [f64; 3] {
-    let o = DVec3::from_array(grid.node_position_world(0, 0, 0));
-    [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
-        .map(|d| (DVec3::from_array(grid.node_position_world(d[0], d[1], d[2])) - o).length())
-}
-
 /// Where [`clean_point_samples`] stopped: the directions it traced, the last one meeting a
 /// back face at this direction and distance.
 struct Stopped {
@@ -712,35 +705,32 @@ pub(crate) fn probe_unit(
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     out.stats.units = 1;
     out.stats.candidates = n;
-    let (mut used, first_back) = match clean_point_samples(t, settings, &h, stream, x, 0, n, &mut out) {
+    let (mut used, mut closest) = match clean_point_samples(t, settings, &h, stream, x, 0, n, &mut out) {
         Ok(samples) => {
             out.stats.samples_kept = samples.len() as u64;
             out.samples = samples;
             return (out, ProbeCapture::AtNode);
         }
-        Err(e) => (e.traced, Some(e.back_face)),
+        Err(e) => (e.traced, e.back_face),
     };
-    out.samples.clear();
     out.stats.back_face_points = 1;
     out.stats.cells_with_back_faces = 1;
     // The closest back face among the first PROBE_SEARCH_RAYS directions.
-    let mut closest = first_back;
     let search = PROBE_SEARCH_RAYS.min(n);
     while used < search {
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(used)));
         out.stats.rays.sampling += 1;
         used += 1;
         if let Some(b) = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY).filter(|h| h.back_face)
-            && closest.is_none_or(|(_, c)| b.t < c)
+            && b.t < closest.1
         {
-            closest = Some((dir, b.t));
+            closest = (dir, b.t);
         }
     }
     let left = n.saturating_sub(used).min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64);
-    if let Some((dir, dist)) = closest
-        && left > 0
-    {
-        let y = crate::baselines::relocate_through(x, dir, dist, world_spacing(grid));
+    if left > 0 {
+        let (dir, dist) = closest;
+        let y = crate::baselines::relocate_through(x, dir, dist, crate::baselines::spacing(grid));
         match clean_point_samples(t, settings, &h, stream, y, n, left, &mut out) {
             Ok(samples) => {
                 out.stats.samples_kept = samples.len() as u64;
@@ -750,7 +740,6 @@ pub(crate) fn probe_unit(
             Err(stopped) => used += stopped.traced,
         }
     }
-    out.samples.clear();
     let count = n
         .saturating_sub(used)
         .min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64)

@@ -270,7 +270,7 @@ fn doi_probe_captures_each_node_in_the_domain() {
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
     let s = BakeSettings { method: Method::Doi, samples: 128, seed: 5, ..Default::default() };
-    let sp = world_spacing(&grid);
+    let sp = crate::baselines::spacing(&grid);
     let point = BakeSettings { method: Method::Point, ..s };
     let mut counts = [0usize; 3];
     let buildings = city_buildings();

@@ -162,7 +162,8 @@ fn min_spacing(grid: &GridSpec) -> f64 {
     spacing(grid).into_iter().fold(f64::INFINITY, f64::min)
 }
 
-fn spacing(grid: &GridSpec) -> [f64; 3] {
+/// World node spacing of `grid` along each axis.
+pub(crate) fn spacing(grid: &GridSpec) -> [f64; 3] {
     let o = DVec3::from_array(grid.node_position_world(0, 0, 0));
     [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
         .map(|d| (DVec3::from_array(grid.node_position_world(d[0], d[1], d[2])) - o).length())
