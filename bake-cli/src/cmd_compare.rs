@@ -447,12 +447,11 @@ pub fn write_panels(
     let k = (384 / (2 * w + 4)).max(1);
     write_png_linear(&dir.join(format!("panel_{name}.png")), &panel.upscale(k), exposure)?;
     // The error map is already in display units.
-    let err = Rgb32 { pixels: err.pixels.iter().map(|p| p.map(srgb_to_linear)).collect(), ..err };
+    let err = Rgb32 {
+        pixels: err.pixels.iter().map(|p| p.map(lightvol_core::color::srgb_decode_f32)).collect(),
+        ..err
+    };
     write_png_linear(&dir.join(format!("error_{name}.png")), &err.upscale(k * 2), 1.0)
-}
-
-fn srgb_to_linear(v: f32) -> f32 {
-    if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
 }
 
 /// Writes `plate.exr`: luminance channels `truth`, `valid`, `near` and one per method.

@@ -43,13 +43,6 @@ impl Rgb32 {
     }
 }
 
-/// Linear to sRGB-encoded 8-bit.
-pub fn srgb8(v: f32) -> u8 {
-    let v = v.clamp(0.0, 1.0);
-    let s = if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 };
-    (s * 255.0 + 0.5) as u8
-}
-
 /// Writes an 8-bit RGB PNG atomically (temporary file, then rename).
 pub fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> anyhow::Result<()> {
     let mut bytes = std::io::Cursor::new(Vec::new());
@@ -67,7 +60,8 @@ pub fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> a
 
 /// Tone-maps a linear image by `exposure` (value mapped to 1.0 = 1/exposure) and writes it.
 pub fn write_png_linear(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()> {
-    let bytes: Vec<u8> = img.pixels.iter().flat_map(|p| p.map(|v| srgb8(v * exposure))).collect();
+    let bytes: Vec<u8> =
+        img.pixels.iter().flat_map(|p| p.map(|v| lightvol_core::color::srgb8(v * exposure))).collect();
     write_png_rgb8(path, img.width, img.height, &bytes)
 }
 
@@ -301,12 +295,8 @@ fn esc(s: &str) -> String {
     s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;")
 }
 
-/// Writes bytes to `path` through a temporary file in the same directory and a rename.
+/// Writes bytes to `path` atomically (`lightvol_core::fs::write_atomic`: synced, renamed
+/// into place, nothing left behind on error), naming the path in the error.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".partial");
-    let tmp = std::path::PathBuf::from(tmp);
-    std::fs::write(&tmp, bytes).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;
-    Ok(())
+    lightvol_core::fs::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
 }

@@ -47,13 +47,6 @@ fn parse() -> Result<Args, String> {
     Ok(a)
 }
 
-/// Writes `contents` next to `path` and renames it into place (no half-written files).
-fn write_atomic(path: &std::path::Path, contents: &[u8]) -> std::io::Result<()> {
-    let tmp = path.with_extension("tmp-lightvol");
-    std::fs::write(&tmp, contents)?;
-    std::fs::rename(&tmp, path)
-}
-
 fn main() -> ExitCode {
     let args = match parse() {
         Ok(a) => a,
@@ -69,7 +62,7 @@ fn main() -> ExitCode {
         print!("{}", report.table());
     }
     if let Some(path) = &args.svg
-        && let Err(e) = write_atomic(path, report.svg().as_bytes())
+        && let Err(e) = lightvol_core::fs::write_atomic(path, report.svg().as_bytes())
     {
         eprintln!("error: writing {}: {e}", path.display());
         return ExitCode::FAILURE;

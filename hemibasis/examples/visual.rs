@@ -69,15 +69,16 @@ fn parse() -> Result<Args, String> {
     Ok(a)
 }
 
-/// Encodes a PNG next to `path` and renames it into place (no half-written files).
+/// Writes a PNG atomically (no half-written files).
 fn write_png(path: &Path, img: &Image, exposure: f32) -> Result<(), String> {
     let bytes = img.to_srgb8(exposure);
     let buf = image::RgbImage::from_raw(img.width as u32, img.height as u32, bytes)
         .ok_or_else(|| format!("{}: image buffer size mismatch", path.display()))?;
-    let tmp = path.with_extension("png.tmp");
-    buf.save_with_format(&tmp, image::ImageFormat::Png)
-        .map_err(|e| format!("writing {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| format!("renaming to {}: {e}", path.display()))
+    let mut png = std::io::Cursor::new(Vec::new());
+    buf.write_to(&mut png, image::ImageFormat::Png)
+        .map_err(|e| format!("encoding {}: {e}", path.display()))?;
+    lightvol_core::fs::write_atomic(path, png.get_ref())
+        .map_err(|e| format!("writing {}: {e}", path.display()))
 }
 
 fn run(a: &Args) -> Result<(), String> {

@@ -37,13 +37,7 @@ impl DcTransfer {
         let c = c.clamp(0.0, 1.0);
         match self {
             Self::Gamma22 => c.powf(1.0 / 2.2),
-            Self::Srgb => {
-                if c <= 0.003_130_8 {
-                    12.92 * c
-                } else {
-                    1.055 * c.powf(1.0 / 2.4) - 0.055
-                }
-            }
+            Self::Srgb => lightvol_core::color::srgb_encode(c),
             Self::Linear => c,
         }
     }
@@ -53,13 +47,7 @@ impl DcTransfer {
     pub fn decode(self, v: f64) -> f64 {
         match self {
             Self::Gamma22 => v.max(0.0).powf(2.2),
-            Self::Srgb => {
-                if v <= 0.040_45 {
-                    v / 12.92
-                } else {
-                    ((v + 0.055) / 1.055).powf(2.4)
-                }
-            }
+            Self::Srgb => lightvol_core::color::srgb_decode(v),
             Self::Linear => v,
         }
     }
@@ -202,10 +190,8 @@ mod tests {
                 assert!((t.decode(t.encode(c)) - c).abs() < ROUND_TRIP_TOL, "{t:?} {c}");
             }
         }
-        // sRGB curve is continuous at its knee.
-        let knee = DcTransfer::Srgb;
-        assert!((12.92 * 0.003_130_8 - (1.055 * 0.003_130_8f64.powf(1.0 / 2.4) - 0.055)).abs() < 1e-6);
-        assert!(knee.encode(1.0) > 0.999_999);
+        // The sRGB transfer is lightvol-core's (its own tests check the curve); 1 stays 1.
+        assert!(DcTransfer::Srgb.encode(1.0) > 0.999_999);
     }
 
     #[test]

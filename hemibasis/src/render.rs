@@ -180,12 +180,7 @@ impl Image {
     /// 8-bit sRGB bytes (RGB, row-major) after scaling by `exposure` and clamping to `[0, 1]`.
     #[must_use]
     pub fn to_srgb8(&self, exposure: f32) -> Vec<u8> {
-        let enc = |c: f32| {
-            let c = (c * exposure).clamp(0.0, 1.0);
-            let s = if c <= 0.003_130_8 { 12.92 * c } else { 1.055 * c.powf(1.0 / 2.4) - 0.055 };
-            (s * 255.0).round() as u8
-        };
-        self.pixels.iter().flat_map(|p| p.map(enc)).collect()
+        self.pixels.iter().flat_map(|p| p.map(|c| lightvol_core::color::srgb8(c * exposure))).collect()
     }
 }
 

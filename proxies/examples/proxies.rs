@@ -66,28 +66,21 @@ fn parse() -> anyhow::Result<Args> {
     Ok(a)
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same directory.
-fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> anyhow::Result<()>) -> anyhow::Result<()> {
-    let tmp = path.with_extension("tmp");
-    write(&tmp).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;
-    Ok(())
-}
-
-fn srgb(x: f32) -> u8 {
-    let x = x.clamp(0.0, 1.0);
-    let y = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
-    (y * 255.0 + 0.5) as u8
+/// Writes `bytes` to `path` atomically (no half-written files).
+fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+    lightvol_core::fs::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
 }
 
 fn save_png(path: &Path, size: [usize; 2], img: &[[f32; 3]], exposure: f32) -> anyhow::Result<()> {
     let [w, h] = size;
     let mut bytes = Vec::with_capacity(w * h * 3);
     for px in img {
-        bytes.extend(px.map(|v| srgb(v * exposure)));
+        bytes.extend(px.map(|v| lightvol_core::color::srgb8(v * exposure)));
     }
     let im = image::RgbImage::from_raw(w as u32, h as u32, bytes).context("image size")?;
-    write_atomic(path, |tmp| Ok(im.save_with_format(tmp, image::ImageFormat::Png)?))
+    let mut png = std::io::Cursor::new(Vec::new());
+    im.write_to(&mut png, image::ImageFormat::Png)?;
+    write_atomic(path, png.get_ref())
 }
 
 fn main() -> anyhow::Result<()> {
@@ -146,7 +139,7 @@ fn main() -> anyhow::Result<()> {
         "upsampling_fallbacks": c.fallbacks,
     });
     let path = args.out.join("report.json");
-    write_atomic(&path, |tmp| Ok(std::fs::write(tmp, serde_json::to_string_pretty(&report)? + "\n")?))?;
+    write_atomic(&path, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
 }
@@ -186,7 +179,7 @@ fn baked(args: &Args, scene: &Scene, cfg: &CompareConfig, path: &Path) -> anyhow
         "upsampling_fallbacks": v.fallbacks,
     });
     let out = args.out.join("report.json");
-    write_atomic(&out, |tmp| Ok(std::fs::write(tmp, serde_json::to_string_pretty(&report)? + "\n")?))?;
+    write_atomic(&out, (serde_json::to_string_pretty(&report)? + "\n").as_bytes())?;
     println!("{}", serde_json::to_string_pretty(&report)?);
     Ok(())
 }

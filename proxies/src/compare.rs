@@ -87,20 +87,15 @@ pub struct Comparison {
     pub fallbacks: usize,
 }
 
-/// `sqrt(Σ |x - r|² / Σ |r|²)` over masked pixels and channels.
+/// The relative RMSE (`lightvol_core::metric`: `sqrt(mean((x - r)²)) / mean(r)`) over the
+/// masked pixels' channels.
 #[must_use]
 pub fn rel_rmse(x: &[[f32; 3]], r: &[[f32; 3]], mask: &[bool]) -> f64 {
-    let (mut num, mut den) = (0.0f64, 0.0f64);
-    for i in 0..x.len() {
-        if mask[i] {
-            for c in 0..3 {
-                let (a, b) = (f64::from(x[i][c]), f64::from(r[i][c]));
-                num += (a - b) * (a - b);
-                den += b * b;
-            }
-        }
-    }
-    (num / den.max(f64::MIN_POSITIVE)).sqrt()
+    lightvol_core::metric::rel_rmse(
+        (0..x.len())
+            .filter(|&i| mask[i])
+            .flat_map(|i| (0..3).map(move |c| (f64::from(x[i][c]), f64::from(r[i][c])))),
+    )
 }
 
 /// The three pipeline variants of a scene under any light (e.g. a baked volume), at display

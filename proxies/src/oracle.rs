@@ -147,24 +147,12 @@ pub fn indirect_eta<const N: usize>(tolerance: f64) -> EtaDerivation {
 /// Receiver normals of [`shadow_eta_for_light`].
 pub const LIGHT_NORMALS: usize = 256;
 
-fn fibonacci(n: usize) -> Vec<[f64; 3]> {
-    let golden = PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let phi = golden * i as f64;
-            [r * phi.cos(), r * phi.sin(), z]
-        })
-        .collect()
-}
-
 /// Worst shadow difference of a blocker with `sin θ = alpha` under `light` (luminance),
 /// relative to the largest unshadowed shading. Uses `H · (V * L) = V · (H * L)`.
 #[must_use]
 pub fn shadow_difference_for_light<const N: usize>(light: &ShRgb<f64, N>, alpha: f64) -> f64 {
     let lum = (light.0[0] + light.0[1] + light.0[2]) * (1.0 / 3.0);
-    let normals = fibonacci(LIGHT_NORMALS);
+    let normals: Vec<[f64; 3]> = lightvol_sh::sampling::fibonacci_sphere(LIGHT_NORMALS).collect();
     let peak = normals.iter().map(|&n| lum.dot(&cosine_lobe::<N>(n))).fold(0.0, f64::max);
     let cap = lightvol_sh::zonal::Zh::<f64, 4>::cap(alpha.asin()).0;
     let mut worst = 0.0f64;

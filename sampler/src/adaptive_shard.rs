@@ -33,7 +33,7 @@
 
 use std::path::Path;
 
-use lightvol_volume::checksum::fnv1a;
+use lightvol_core::hash::fnv1a;
 use lightvol_volume::fixed::FixedSums;
 use lightvol_volume::io_util::{read_bounded, write_atomic};
 use serde::{Deserialize, Serialize};

@@ -346,17 +346,15 @@ fn city_plate(t: &Transport<'_>, tracer: &Tracer, grid: &GridSpec, z: f64, res: 
     Plate { pts, truth }
 }
 
-/// `sqrt(mean((E - T)²)) / mean(T)` over the plate (luminance), as `lightvol compare`.
+/// The relative RMSE (`lightvol_core::metric`) over the plate (luminance), as `lightvol compare`.
 fn rel_rmse(plate: &Plate, f: impl Fn([f32; 3]) -> [f32; 3]) -> f64 {
-    let (mut d2, mut st) = (0.0, 0.0);
-    for (p, &t) in plate.pts.iter().zip(&plate.truth) {
-        let e = f(p.as_vec3().to_array());
-        let e = luminance(e.map(f64::from));
-        d2 += (e - t) * (e - t);
-        st += t;
-    }
-    let n = plate.pts.len() as f64;
-    (d2 / n).sqrt() / (st / n)
+    lightvol_core::metric::rel_rmse(
+        plate
+            .pts
+            .iter()
+            .zip(&plate.truth)
+            .map(|(p, &t)| (luminance(f(p.as_vec3().to_array()).map(f64::from)), t)),
+    )
 }
 
 /// Equal memory, adaptive beats uniform (the CLI's `compare` asserts the full version): on

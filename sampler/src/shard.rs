@@ -160,7 +160,7 @@ pub fn frame_shard_file(
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(&json);
     out.extend_from_slice(body);
-    let sum = lightvol_volume::checksum::fnv1a(&out);
+    let sum = lightvol_core::hash::fnv1a(&out);
     out.extend_from_slice(&sum.to_le_bytes());
     out
 }
@@ -180,7 +180,7 @@ pub fn unframe_shard_file<'a, H: serde::de::DeserializeOwned>(
         return Err(format!("{what} of {} bytes is too short", bytes.len()));
     }
     let (body, tail) = bytes.split_at(bytes.len() - 8);
-    if lightvol_volume::checksum::fnv1a(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
+    if lightvol_core::hash::fnv1a(body) != u64::from_le_bytes(tail.try_into().expect("8 bytes")) {
         return Err(format!("{what} checksum mismatch: the file is damaged or truncated"));
     }
     if &body[..6] != magic {

@@ -52,12 +52,6 @@ pub struct Texture {
     wrap: [Wrap; 2],
 }
 
-/// The sRGB electro-optical transfer function (IEC 61966-2-1), 8-bit code to linear.
-#[must_use]
-pub fn srgb_to_linear(c: f64) -> f64 {
-    if c <= 0.04045 { c / 12.92 } else { ((c + 0.055) / 1.055).powf(2.4) }
-}
-
 impl Texture {
     /// A texture from linear texels, row-major, first row at v = 0 (glTF convention: the
     /// image's top row). Returns `None` when the size does not match or is zero.
@@ -94,7 +88,8 @@ impl Texture {
     #[must_use]
     pub fn from_image(img: &image::DynamicImage) -> Option<Self> {
         let rgba = img.to_rgba8();
-        let lut: Vec<f32> = (0..256).map(|c| srgb_to_linear(f64::from(c) / 255.0) as f32).collect();
+        let lut: Vec<f32> =
+            (0..256).map(|c| lightvol_core::color::srgb_decode(f64::from(c) / 255.0) as f32).collect();
         let texels =
             rgba.pixels().map(|p| [lut[p[0] as usize], lut[p[1] as usize], lut[p[2] as usize]]).collect();
         let t = Self::from_linear(rgba.width(), rgba.height(), texels)?;
@@ -231,16 +226,5 @@ mod tests {
         let c = t.clone().with_wrap([Wrap::Clamp; 2]);
         assert_eq!(c.sample_alpha([1.0, 0.5]), 1.0);
         assert!(Texture::from_linear(2, 1, vec![[1.0; 3]; 2]).unwrap().with_alpha(vec![0.0]).is_none());
-    }
-
-    /// The sRGB curve is continuous at its breakpoint and maps 0 and 1 to themselves.
-    #[test]
-    fn srgb_curve() {
-        assert_eq!(srgb_to_linear(0.0), 0.0);
-        assert!((srgb_to_linear(1.0) - 1.0).abs() < 1e-15);
-        let below = 0.04045 / 12.92;
-        let above = ((0.04045f64 + 0.055) / 1.055).powf(2.4);
-        // The two branches meet to about 1e-7 (the standard's rounded breakpoint).
-        assert!((below - above).abs() < 1e-6);
     }
 }

@@ -101,6 +101,20 @@ pub fn invert_uniform_cone(w: [f64; 3], cos_max: f64) -> [f64; 2] {
     [(1.0 - w[2]) / (1.0 - cos_max), phi_of(w[0], w[1]) / (2.0 * PI)]
 }
 
+/// The `n` points of a spherical Fibonacci lattice (\[Gon10\]): point `i` at
+/// `z = 1 - (2i + 1)/n`, azimuth `i · π (3 - √5)` (the golden angle). Nearly uniform, each
+/// point the centre of a cell of area `4π/n`; a deterministic set of directions for
+/// searches and quadratures.
+pub fn fibonacci_sphere(n: usize) -> impl Iterator<Item = [f64; 3]> {
+    let golden = PI * (3.0 - 5f64.sqrt());
+    (0..n).map(move |i| {
+        let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        let phi = golden * i as f64;
+        [r * phi.cos(), r * phi.sin(), z]
+    })
+}
+
 /// An orthonormal frame around a unit vector `n` (Duff et al. 2017, "Building an
 /// Orthonormal Basis, Revisited"): `to_world` maps local `+z` to `n`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -151,6 +165,27 @@ mod tests {
 
     fn close2(a: [f64; 2], b: [f64; 2]) -> bool {
         (a[0] - b[0]).abs() < ROUND_TRIP && (a[1] - b[1]).abs() < ROUND_TRIP
+    }
+
+    /// The Fibonacci lattice is unit length and equal-area: each point's `z` is the centre
+    /// of one of `n` equal `z` bands (Archimedes: equal `z` bands have equal area), so any
+    /// `z` slab holds its area's share of points to within one, and the points' centroid is
+    /// near zero (the golden angle spreads the azimuths).
+    #[test]
+    fn fibonacci_lattice_is_unit_and_equal_area() {
+        let n = 1000;
+        let pts: Vec<[f64; 3]> = fibonacci_sphere(n).collect();
+        assert_eq!(pts.len(), n);
+        for p in &pts {
+            assert!((p[0] * p[0] + p[1] * p[1] + p[2] * p[2] - 1.0).abs() < ROUND_TRIP);
+        }
+        for (lo, hi) in [(-1.0, 0.0), (0.2, 0.7), (-0.9, -0.35)] {
+            let inside = pts.iter().filter(|p| p[2] > lo && p[2] <= hi).count() as f64;
+            assert!((inside - n as f64 * (hi - lo) / 2.0).abs() <= 1.0, "{lo}..{hi}: {inside}");
+        }
+        let c = pts.iter().fold([0.0; 3], |a, p| [a[0] + p[0], a[1] + p[1], a[2] + p[2]]);
+        // About 1/n for the golden-angle spiral; 10/n leaves room for the poles.
+        assert!(c.iter().all(|v| v.abs() / (n as f64) < 10.0 / n as f64), "{c:?}");
     }
 
     #[test]

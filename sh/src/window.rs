@@ -18,7 +18,7 @@ use std::f64::consts::PI;
 
 use crate::coeffs::Sh;
 use crate::index::sh_lm;
-use crate::sampling::Frame;
+use crate::sampling::{Frame, fibonacci_sphere};
 
 /// Hanning window factor of band `l` for window width `w` (bands `>= w` are zeroed).
 #[must_use]
@@ -56,17 +56,6 @@ pub fn apply_window<const N: usize>(f: &Sh<f64, N>, window: impl Fn(u32) -> f64)
         *c *= window(sh_lm(i).0);
     }
     out
-}
-
-/// Points of a spherical Fibonacci lattice (nearly uniform start set).
-fn fibonacci_sphere(n: usize) -> impl Iterator<Item = [f64; 3]> {
-    let golden = PI * (3.0 - 5f64.sqrt());
-    (0..n).map(move |i| {
-        let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
-        let r = (1.0 - z * z).max(0.0).sqrt();
-        let phi = golden * i as f64;
-        [r * phi.cos(), r * phi.sin(), z]
-    })
 }
 
 fn normalize(v: [f64; 3]) -> [f64; 3] {

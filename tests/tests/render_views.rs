@@ -11,9 +11,9 @@ mod common;
 use std::path::Path;
 
 use common::{ok, s};
+use lightvol_core::hash::fnv1a;
 use lightvol_sampler::builtin;
 use lightvol_volume::IrradianceVolume;
-use lightvol_volume::checksum::fnv1a;
 use lightvol_volume::exr_io::{ExrOptions, write_exr};
 
 /// A volume on the maze's recommended grid whose coefficients are polynomials of position

@@ -11,50 +11,7 @@
 use crate::error::VolumeError;
 use crate::volume::IrradianceVolume;
 
-/// FNV-1a 64-bit offset basis.
-const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-/// FNV-1a 64-bit prime.
-const FNV_PRIME: u64 = 0x0000_0100_0000_01b3;
-
-/// Incremental FNV-1a (64-bit).
-#[derive(Debug, Clone, Copy)]
-pub struct Fnv1a(u64);
-
-impl Default for Fnv1a {
-    fn default() -> Self {
-        Self(FNV_OFFSET)
-    }
-}
-
-impl Fnv1a {
-    /// Feeds bytes.
-    pub fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.0 ^= u64::from(b);
-            self.0 = self.0.wrapping_mul(FNV_PRIME);
-        }
-    }
-
-    /// Feeds a length-prefixed string.
-    pub fn write_str(&mut self, s: &str) {
-        self.write(&(s.len() as u64).to_le_bytes());
-        self.write(s.as_bytes());
-    }
-
-    /// The hash so far.
-    #[must_use]
-    pub fn finish(&self) -> u64 {
-        self.0
-    }
-}
-
-/// FNV-1a of a byte string.
-#[must_use]
-pub fn fnv1a(bytes: &[u8]) -> u64 {
-    let mut h = Fnv1a::default();
-    h.write(bytes);
-    h.finish()
-}
+pub use lightvol_core::hash::{Fnv1a, fnv1a};
 
 /// The checksum of everything a reader reconstructs: grid (box, resolution, placement),
 /// coefficient count, metadata, the bits of every coefficient and weight, and the validity
@@ -164,14 +121,6 @@ pub(crate) fn through_f16(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn fnv1a_reference_values() {
-        // Published FNV-1a 64 test vectors (Fowler/Noll/Vo): "" and "a", "foobar".
-        assert_eq!(fnv1a(b""), 0xcbf2_9ce4_8422_2325);
-        assert_eq!(fnv1a(b"a"), 0xaf63_dc4c_8601_ec8c);
-        assert_eq!(fnv1a(b"foobar"), 0x8594_4171_f739_67e8);
-    }
 
     #[test]
     fn hex_round_trip() {

@@ -33,6 +33,7 @@ use half::f16;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use lightvol_core::color::{srgb_decode, srgb_encode};
 use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::irradiance::cosine_lobe_factor;
@@ -132,18 +133,6 @@ pub struct EncodedVolume {
     clamped: usize,
 }
 
-/// sRGB encoding (IEC 61966-2-1) of a linear value in `[0, 1]`.
-#[must_use]
-pub fn srgb_from_linear(x: f64) -> f64 {
-    if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
-}
-
-/// Linear value of an sRGB-encoded value in `[0, 1]` (the hardware sRGB decode).
-#[must_use]
-pub fn linear_from_srgb(y: f64) -> f64 {
-    if y <= 0.040_45 { y / 12.92 } else { ((y + 0.055) / 1.055).powf(2.4) }
-}
-
 /// The largest decode error of 8-bit sRGB for values in `[0, 1]`: the largest distance from
 /// a code's decoded value to the decoded midpoint with its neighbour (computed over all 256
 /// codes, not typed in).
@@ -151,9 +140,9 @@ pub fn linear_from_srgb(y: f64) -> f64 {
 pub fn srgb8_max_error() -> f64 {
     (0..256)
         .map(|k| {
-            let c = linear_from_srgb(f64::from(k) / 255.0);
-            let up = if k < 255 { linear_from_srgb((f64::from(k) + 0.5) / 255.0) - c } else { 0.0 };
-            let down = if k > 0 { c - linear_from_srgb((f64::from(k) - 0.5) / 255.0) } else { 0.0 };
+            let c = srgb_decode(f64::from(k) / 255.0);
+            let up = if k < 255 { srgb_decode((f64::from(k) + 0.5) / 255.0) - c } else { 0.0 };
+            let down = if k > 0 { c - srgb_decode((f64::from(k) - 0.5) / 255.0) } else { 0.0 };
             up.max(down)
         })
         .fold(0.0, f64::max)
@@ -209,7 +198,7 @@ pub fn encode(vol: &IrradianceVolume, encoding: Encoding) -> Result<EncodedVolum
                     let x = f64::from(v) / f64::from(scale[ch]);
                     if j == 0 {
                         clamped += usize::from(!(0.0..=1.0).contains(&x));
-                        unit8(srgb_from_linear(x.clamp(0.0, 1.0)))
+                        unit8(srgb_encode(x.clamp(0.0, 1.0)))
                     } else {
                         clamped += usize::from(x.abs() > r);
                         unit8((x.clamp(-r, r) + r) / (2.0 * r))
@@ -300,7 +289,7 @@ impl EncodedVolume {
                         let Encoding::Srgb8 { range } = self.encoding else { unreachable!() };
                         let b = f64::from(bytes[i]) / 255.0;
                         let x = if j == 0 {
-                            linear_from_srgb(b)
+                            srgb_decode(b)
                         } else {
                             let r = f64::from(range);
                             2.0 * r * b - r

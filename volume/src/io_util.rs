@@ -1,10 +1,7 @@
-//! Atomic file writing and bounded file reading shared by the format modules.
-//!
-//! Writers never leave a half-written file: bytes go to a temporary file in the target's
-//! directory, which is flushed, synced and then renamed over the target (atomic on POSIX
-//! and NTFS). On any error the temporary file is removed and the target is untouched.
+//! The format modules' file edges: lightvol-core's atomic writes and bounded reads
+//! (`lightvol_core::fs`, whose docs say what "atomic" guarantees) with the path in the
+//! error, a panic guard for third-party parsers, and f16 conversion.
 
-use std::io::Write;
 use std::path::Path;
 
 use crate::error::VolumeError;
@@ -13,36 +10,14 @@ use crate::error::VolumeError;
 /// [`crate::grid::MAX_NODES`] at f16, and a guard against reading arbitrary huge files.
 pub const MAX_FILE_BYTES: u64 = 4 << 30;
 
-/// Writes `bytes` to `path` through a temporary file and a rename.
+/// Writes `bytes` to `path` atomically (`lightvol_core::fs::write_atomic`).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VolumeError> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".lightvol-")
-        .suffix(".tmp")
-        .tempfile_in(dir)
-        .map_err(|e| VolumeError::io(path, e))?;
-    tmp.write_all(bytes).map_err(|e| VolumeError::io(path, e))?;
-    tmp.as_file().sync_all().map_err(|e| VolumeError::io(path, e))?;
-    tmp.persist(path).map_err(|e| VolumeError::io(path, e.error))?;
-    Ok(())
+    lightvol_core::fs::write_atomic(path, bytes).map_err(|e| VolumeError::io(path, e))
 }
 
 /// Reads a whole file, refusing files larger than [`MAX_FILE_BYTES`].
 pub fn read_bounded(path: &Path) -> Result<Vec<u8>, VolumeError> {
-    let meta = std::fs::metadata(path).map_err(|e| VolumeError::io(path, e))?;
-    if meta.len() > MAX_FILE_BYTES {
-        return Err(VolumeError::io(
-            path,
-            std::io::Error::new(
-                std::io::ErrorKind::InvalidData,
-                format!("file of {} bytes is too large", meta.len()),
-            ),
-        ));
-    }
-    std::fs::read(path).map_err(|e| VolumeError::io(path, e))
+    lightvol_core::fs::read_bounded(path, MAX_FILE_BYTES).map_err(|e| VolumeError::io(path, e))
 }
 
 /// Runs a third-party parser and turns a panic inside it into an error. Our own code never
@@ -74,16 +49,14 @@ pub(crate) fn f16_bytes(v: f32, what: &str) -> Result<[u8; 2], VolumeError> {
 mod tests {
     use super::*;
 
+    /// The wrappers' own job: the path is in the error.
     #[test]
-    fn atomic_write_replaces_and_leaves_no_temp() {
+    fn errors_name_the_path() {
         let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("a.bin");
-        write_atomic(&p, b"one").unwrap();
-        write_atomic(&p, b"two!").unwrap();
-        assert_eq!(std::fs::read(&p).unwrap(), b"two!");
-        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
-        // A directory that does not exist is an error, not a panic, and creates nothing.
-        assert!(write_atomic(&dir.path().join("missing/x.bin"), b"x").is_err());
-        assert!(read_bounded(&dir.path().join("nope")).is_err());
+        let missing = dir.path().join("missing/x.bin");
+        let e = write_atomic(&missing, b"x").unwrap_err().to_string();
+        assert!(e.contains("x.bin"), "{e}");
+        let e = read_bounded(&dir.path().join("nope.bin")).unwrap_err().to_string();
+        assert!(e.contains("nope.bin"), "{e}");
     }
 }

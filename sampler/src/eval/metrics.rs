@@ -3,7 +3,8 @@
 //! inside the domain of interest).
 //!
 //! With `E` the method's irradiance and `T` the path-traced reference (luminance):
-//! - `rel_rmse = sqrt(mean((E - T)²)) / mean(T)`;
+//! - `rel_rmse = sqrt(mean((E - T)²)) / mean(T)` (`lightvol_core::metric`, the one
+//!   definition);
 //! - `bias = mean(E - T) / mean(T)`;
 //! - `too_dark` = share of points with `E < 0.8 T`;
 //! - `too_bright` = share with `E > 1.25 T`;
@@ -76,7 +77,7 @@ pub fn compute(points: &[PlatePoint]) -> Metrics {
     let mean_t = sum_t / nf;
     let share = |k: usize, of: usize| if of == 0 { 0.0 } else { k as f64 / of as f64 };
     Metrics {
-        rel_rmse: (sum_d2 / nf).sqrt() / mean_t,
+        rel_rmse: lightvol_core::metric::rel_rmse_of_sums(sum_d2, sum_t, n),
         bias: sum_d / nf / mean_t,
         too_dark: share(dark, n),
         too_dark_near: share(dark_near, near),

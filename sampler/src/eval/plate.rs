@@ -167,16 +167,9 @@ impl Plate {
                 let valid =
                     classify_point(tracer, x, config.classify_dirs, hash2(seed ^ CLASSIFY_STREAM, i as u64))
                         .inside;
-                let n = f64::from(NEAREST_DIRS);
-                let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-                let nearest = (0..NEAREST_DIRS)
-                    .filter_map(|k| {
-                        let z = 1.0 - (2.0 * f64::from(k) + 1.0) / n;
-                        let r = (1.0 - z * z).sqrt();
-                        let phi = golden * f64::from(k);
-                        tracer
-                            .closest_hit(x, DVec3::new(r * phi.cos(), r * phi.sin(), z), 0.0, f64::INFINITY)
-                            .map(|h| h.t)
+                let nearest = lightvol_sh::sampling::fibonacci_sphere(NEAREST_DIRS as usize)
+                    .filter_map(|d| {
+                        tracer.closest_hit(x, DVec3::from_array(d), 0.0, f64::INFINITY).map(|h| h.t)
                     })
                     .fold(f64::INFINITY, f64::min);
                 (valid, nearest < half_cell)

@@ -2,8 +2,8 @@
 
 use super::*;
 use crate::scene::UpAxis;
-use crate::texture::srgb_to_linear;
 use container::base64_encode;
+use lightvol_core::color::srgb_decode;
 use serde_json::json;
 
 /// A minimal embedded glTF: one triangle under a node translated by (0, 0, 5) and
@@ -173,7 +173,7 @@ fn base_color_texture_and_missing_image() {
     assert_eq!(s.textures.len(), 1);
     // White texel × 0.5 at vertex 0; sRGB 188 → linear 0.5029 × 0.5 at vertex 1.
     assert!((s.albedo(0, 0.0, 0.0)[0] - 0.5).abs() < 1e-6);
-    let lin = srgb_to_linear(188.0 / 255.0);
+    let lin = srgb_decode(188.0 / 255.0);
     assert!((s.albedo(0, 1.0, 0.0)[1] - 0.5 * lin).abs() < 1e-6);
     std::fs::write(&p, text("missing.png")).unwrap();
     let s = load_gltf(&p, &LoadOptions::default()).unwrap();

@@ -25,7 +25,7 @@
 //! the lighting and counters: re-bake it); a panic inside the `exr` decoder is caught and
 //! reported as an error.
 
-use std::io::{Cursor, Write};
+use std::io::Cursor;
 use std::path::Path;
 
 use exr::image::{AnyChannel, AnyChannels, Encoding as ExrEncoding, FlatSamples, Image, Layer};
@@ -133,35 +133,19 @@ fn to_bytes(maps: &[CoefficientMap], version: i32) -> Result<Vec<u8>, String> {
 pub fn write_surface_exr(path: &Path, maps: &[CoefficientMap]) -> Result<(), SurfaceError> {
     let bytes =
         surface_exr_to_bytes(maps).map_err(|message| SurfaceError::Exr { path: path.to_owned(), message })?;
-    let io = |source| SurfaceError::Io { path: path.to_owned(), source };
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp =
-        tempfile::Builder::new().prefix(".lightvol-").suffix(".tmp").tempfile_in(dir).map_err(io)?;
-    tmp.write_all(&bytes).map_err(io)?;
-    tmp.as_file().sync_all().map_err(io)?;
-    tmp.persist(path).map_err(|e| io(e.error))?;
-    Ok(())
+    lightvol_core::fs::write_atomic(path, &bytes)
+        .map_err(|source| SurfaceError::Io { path: path.to_owned(), source })
 }
 
 /// Reads maps written by [`write_surface_exr`].
 ///
 /// # Errors
-/// [`SurfaceError::Io`] when the file cannot be read, [`SurfaceError::Exr`] naming what is
-/// wrong otherwise (not EXR, not a lightvol surface file, missing or mistyped attributes or
-/// channels, non-finite values).
+/// [`SurfaceError::Io`] when the file cannot be read or is larger than [`MAX_FILE_BYTES`],
+/// [`SurfaceError::Exr`] naming what is wrong otherwise (not EXR, not a lightvol surface
+/// file, missing or mistyped attributes or channels, non-finite values).
 pub fn read_surface_exr(path: &Path) -> Result<Vec<CoefficientMap>, SurfaceError> {
     let io = |source| SurfaceError::Io { path: path.to_owned(), source };
-    let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > MAX_FILE_BYTES {
-        return Err(SurfaceError::Exr {
-            path: path.to_owned(),
-            message: format!("{len} bytes is too large"),
-        });
-    }
-    let bytes = std::fs::read(path).map_err(io)?;
+    let bytes = lightvol_core::fs::read_bounded(path, MAX_FILE_BYTES).map_err(io)?;
     surface_exr_from_bytes(&bytes).map_err(|message| SurfaceError::Exr { path: path.to_owned(), message })
 }
 

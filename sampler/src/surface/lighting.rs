@@ -23,6 +23,7 @@
 //! share a fingerprint exactly when these values are bit-identical.
 
 use glam::DVec3;
+use lightvol_core::hash::{FNV_OFFSET, fnv1a, fnv1a_from};
 
 use crate::lights::{Environment, PunctualLight};
 use crate::scene::Scene;
@@ -30,21 +31,6 @@ use crate::scene::Scene;
 /// Punctual lights listed one by one in the fingerprint; more are summarised by count and
 /// hash (keeps the EXR attribute small for scenes with thousands of lights).
 pub const MAX_LISTED_PUNCTUAL: usize = 16;
-
-/// FNV-1a 64-bit offset basis (Fowler, Noll, Vo; the published parameters, checked against the
-/// published test vectors in the tests).
-const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
-/// FNV-1a 64-bit prime, `2^40 + 2^8 + 0xb3`.
-const FNV_PRIME: u64 = (1 << 40) + (1 << 8) + 0xb3;
-
-/// FNV-1a 64 of `bytes`, continuing from `h` (start with the offset basis).
-fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
-    for &b in bytes {
-        h ^= u64::from(b);
-        h = h.wrapping_mul(FNV_PRIME);
-    }
-    h
-}
 
 /// `f64` as canonical text (shortest round trip, negative zero as zero).
 fn num(x: f64) -> String {
@@ -66,8 +52,8 @@ fn dvec(v: DVec3) -> String {
 #[must_use]
 pub fn env_map_hash(map: &crate::envmap::EnvMap) -> u64 {
     let (w, h) = (map.width(), map.height());
-    let mut hash = fnv1a(FNV_OFFSET, &(w as u64).to_le_bytes());
-    hash = fnv1a(hash, &(h as u64).to_le_bytes());
+    let mut hash = fnv1a(&(w as u64).to_le_bytes());
+    hash = fnv1a_from(hash, &(h as u64).to_le_bytes());
     for y in 0..h {
         let theta = std::f64::consts::PI * (y as f64 + 0.5) / h as f64;
         for x in 0..w {
@@ -75,7 +61,7 @@ pub fn env_map_hash(map: &crate::envmap::EnvMap) -> u64 {
             let dir = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
             for c in map.radiance(dir) {
                 // Exact: the map stores f32.
-                hash = fnv1a(hash, &(c as f32).to_bits().to_le_bytes());
+                hash = fnv1a_from(hash, &(c as f32).to_bits().to_le_bytes());
             }
         }
     }
@@ -136,7 +122,7 @@ pub fn lighting_fingerprint(scene: &Scene, transport: &crate::transport::Transpo
         }
         parts.push(p);
     } else {
-        let hash = lights.iter().fold(FNV_OFFSET, |h, l| fnv1a(fnv1a(h, l.as_bytes()), b"\n"));
+        let hash = lights.iter().fold(FNV_OFFSET, |h, l| fnv1a_from(fnv1a_from(h, l.as_bytes()), b"\n"));
         parts.push(format!("punctual={} fnv1a64={hash:016x}", lights.len()));
     }
     let mut used = vec![false; scene.materials.len()];
@@ -169,15 +155,6 @@ mod tests {
     use crate::scene::{Material, SceneBuilder};
     use glam::DVec2;
 
-    /// The FNV-1a 64 parameters reproduce the published test vectors ("" and "a", "foobar").
-    #[test]
-    fn fnv1a_test_vectors() {
-        assert_eq!(fnv1a(FNV_OFFSET, b""), 0xcbf2_9ce4_8422_2325);
-        assert_eq!(fnv1a(FNV_OFFSET, b"a"), 0xaf63_dc4c_8601_ec8c);
-        assert_eq!(fnv1a(FNV_OFFSET, b"foobar"), 0x8594_4171_f739_67e8);
-        assert_eq!(FNV_PRIME, 0x0000_0100_0000_01b3);
-    }
-
     /// The environment-map hash equals FNV-1a of the texels written out independently (so
     /// every texel is read once, at its own centre), and changes with one texel.
     #[test]
@@ -194,7 +171,7 @@ mod tests {
             }
         }
         let map = EnvMap::from_linear(w, h, texels.clone()).unwrap();
-        assert_eq!(env_map_hash(&map), fnv1a(FNV_OFFSET, &bytes));
+        assert_eq!(env_map_hash(&map), fnv1a(&bytes));
         let mut other = texels;
         other[w * h - 1][1] += 1e-3;
         assert_ne!(env_map_hash(&EnvMap::from_linear(w, h, other).unwrap()), env_map_hash(&map));
