@@ -417,7 +417,7 @@ pub fn memory_model(
     fine_nodes: usize,
     split_below: usize,
 ) -> usize {
-    let node_bytes = coeffs * 3 * 4;
+    let node_bytes = crate::gradient::sample_bytes(1, coeffs.isqrt(), false);
     let base_bytes = base.node_count() * (node_bytes + 4);
     let bitmaps = if max_level > 0 { base.cell_count().div_ceil(8) + split_below } else { 0 };
     base_bytes + fine_nodes * (node_bytes + 8) + bitmaps

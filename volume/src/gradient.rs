@@ -146,10 +146,12 @@ impl VolumeGradients {
         [0, 1, 2].map(|a| f64::from(self.data[o + a]))
     }
 
-    /// Bytes of gradient data (f32).
+    /// Bytes of gradient data (f32): what the gradients add to [`sample_bytes`], three
+    /// floats per coefficient and channel.
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
-        self.data.len() * 4
+        let bands = self.coeffs.isqrt();
+        sample_bytes(self.nodes, bands, true) - sample_bytes(self.nodes, bands, false)
     }
 
     fn check(&self, volume: &IrradianceVolume) -> Result<(), VolumeError> {

@@ -148,7 +148,7 @@ impl ValidityMask {
     }
 
     /// [`Self::reweight_f32`] in f64 (the reference lookups): the same steps in the same
-    /// order ([`Self::reweight`]), tested against each other through the lookups
+    /// order (one generic body), tested against each other through the lookups
     /// (`tests/validity.rs`, `masked_fast_paths_match_each_other_and_the_reference`).
     #[inline]
     pub fn reweight_f64(&self, nodes: impl Fn(usize) -> usize, w: &mut [f64; 8]) {

@@ -299,12 +299,14 @@ impl IrradianceVolume {
         self
     }
 
-    /// Bytes of coefficient and weight storage at f32 (\[Oat05\]'s memory figure: 9 RGB
-    /// coefficients are 108 bytes per node), plus the validity mask's
-    /// ([`ValidityMask::memory_bytes`]) when there is one.
+    /// Bytes of coefficient and weight storage at f32: \[Oat05\]'s run-time figure
+    /// ([`crate::gradient::sample_bytes`]: 9 RGB coefficients are 108 bytes per node) plus 4
+    /// bytes of bake weight per node (112 per node at 9 coefficients), plus the validity
+    /// mask's ([`ValidityMask::memory_bytes`]) when there is one.
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
-        (self.data.len() + self.weights.len()) * size_of::<f32>()
+        crate::gradient::sample_bytes(self.spec.node_count(), self.bands(), false)
+            + self.weights.len() * size_of::<f32>()
             + self.validity.as_ref().map_or(0, ValidityMask::memory_bytes)
     }
 

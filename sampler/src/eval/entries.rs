@@ -33,7 +33,7 @@ use std::fmt;
 use std::str::FromStr;
 
 use lightvol_volume::GridSpec;
-use lightvol_volume::gradient::{GradientLookup, floats_per_sample};
+use lightvol_volume::gradient::GradientLookup;
 
 use crate::bake::Method;
 use crate::baselines::Baseline;
@@ -238,12 +238,12 @@ pub fn bands_of_coeffs(coeffs: usize) -> usize {
 }
 
 /// Run-time bytes of a uniform grid in \[Oat05\]'s accounting ("GPU Memory Requirements"):
-/// the RGB SH floats of every node ([`floats_per_sample`]: `3 n²`, `4 · 3 n²` with
-/// gradients) of order `bands`, f32. The bake weights are not counted (a renderer does not
-/// read them).
+/// the RGB SH floats of every node of order `bands` (`3 n²`, `4 · 3 n²` with gradients), f32,
+/// as `lightvol_volume::gradient::sample_bytes` counts them. The bake weights are not counted
+/// (a renderer does not read them).
 #[must_use]
 pub fn uniform_memory_bytes(grid: &GridSpec, bands: usize, gradients: bool) -> usize {
-    grid.node_count() * floats_per_sample(bands, gradients) * 4
+    lightvol_volume::gradient::sample_bytes(grid.node_count(), bands, gradients)
 }
 
 #[cfg(test)]
