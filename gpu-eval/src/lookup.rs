@@ -57,13 +57,12 @@ pub enum Quantity {
     Radiance,
 }
 
-/// The SH recurrence constants the shader uses, for up to 4 bands: the normalised
-/// three-term recurrence of `lightvol_sh::eval::eval_recurrence`, computed in f64 and rounded
-/// once to f32 (as lightvol-sh's generated straight-line code rounds its constants).
+/// The SH recurrence constants the shader uses, for up to 4 bands: lightvol-sh's closed forms
+/// (`lightvol_sh::recurrence`), computed in f64 and rounded once to f32 (as lightvol-sh's
+/// generated straight-line code rounds them).
 ///
 /// `Q_l^m = a(l,m) z Q_{l-1}^m + b(l,m) Q_{l-2}^m`, `Q_m^m = diag[m]`;
 /// `Y_{l,±m} = Q_l^m · (Re | Im)(x + i y)^m` (no Condon-Shortley phase).
-// TODO(sh): move to lightvol-sh (expose the recurrence constants beside eval_recurrence).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ShRecurrence {
     /// `Q_m^m`, m = 0..3.
@@ -80,25 +79,14 @@ impl ShRecurrence {
     pub fn new() -> Self {
         const BANDS: usize = 4;
         let mut r = Self { diag: [0.0; 4], a: [0.0; 16], b: [0.0; 16] };
-        let mut q = (0.25 / std::f64::consts::PI).sqrt();
+        use lightvol_sh::recurrence::{a_coef, b_coef, q_diag};
         for m in 0..BANDS {
-            if m > 0 {
-                let mf = m as f64;
-                let mut ratio = ((2.0 * mf + 1.0) / (2.0 * mf)).sqrt();
-                if m == 1 {
-                    ratio *= std::f64::consts::SQRT_2;
-                }
-                q *= ratio;
-            }
-            r.diag[m] = q as f32;
+            r.diag[m] = q_diag(m as u64) as f32;
             for l in m + 1..BANDS {
-                let (lf, mf) = (l as f64, m as f64);
                 let idx = l * (l + 1) + m;
-                r.a[idx] = ((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf)).sqrt() as f32;
+                r.a[idx] = a_coef(l as u64, m as u64) as f32;
                 if l >= m + 2 {
-                    r.b[idx] = -((2.0 * lf + 1.0) * (lf - 1.0 - mf) * (lf - 1.0 + mf)
-                        / ((2.0 * lf - 3.0) * (lf - mf) * (lf + mf)))
-                        .sqrt() as f32;
+                    r.b[idx] = b_coef(l as u64, m as u64) as f32;
                 }
             }
         }

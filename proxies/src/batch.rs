@@ -144,12 +144,10 @@ fn lerp_rows(tab: &[[f32; MAX_BANDS]], idx: &[usize; LANES], t: &Lanes) -> [Lane
     out
 }
 
-/// Recurrence constants of the real SH basis up to [`MAX_BANDS`] bands, as f32: the same
-/// closed forms (and the same f64 → f32 rounding) as lightvol-sh's generated straight-line
-/// code (`sh/tests/sourcegen.rs`), so that [`eval_basis_lanes`] equals
-/// [`lightvol_sh::eval::eval_basis`] bit for bit (tested).
-///
-/// TODO(sh): move to lightvol-sh (a lane-generic `eval_basis`).
+/// Recurrence constants of the real SH basis up to [`MAX_BANDS`] bands, as f32: lightvol-sh's
+/// closed forms (`lightvol_sh::recurrence`) rounded once, as its generated straight-line code
+/// rounds them, so that [`eval_basis_lanes`] equals [`lightvol_sh::eval::eval_basis`] bit for
+/// bit (tested).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BasisRecurrence {
     /// `Q_m^m`, indexed by `m`.
@@ -161,9 +159,7 @@ pub struct BasisRecurrence {
 }
 
 impl BasisRecurrence {
-    /// Computes the constants: `Q_m^m = sqrt((2 - δ_m0)(2m+1)/(4π) · ((2m-1)!!)² / (2m)!)`,
-    /// `a_lm = sqrt((4l² - 1) / (l² - m²))`,
-    /// `b_lm = -sqrt((2l+1)(l-1-m)(l-1+m) / ((2l-3)(l-m)(l+m)))`.
+    /// Computes the constants (`lightvol_sh::recurrence`: `Q_m^m`, `a_lm`, `b_lm`).
     #[must_use]
     pub fn new() -> Self {
         let mut k = Self {
@@ -171,20 +167,13 @@ impl BasisRecurrence {
             a: [[0.0; MAX_BANDS]; MAX_BANDS],
             b: [[0.0; MAX_BANDS]; MAX_BANDS],
         };
+        use lightvol_sh::recurrence::{a_coef, b_coef, q_diag};
         for m in 0..MAX_BANDS as u64 {
-            let dfact = (1..=m).map(|k| 2 * k - 1).product::<u64>() as f64;
-            let fact = (1..=2 * m).product::<u64>() as f64;
-            let two = if m == 0 { 1.0 } else { 2.0 };
-            k.diag[m as usize] = (two * (2 * m + 1) as f64 / (4.0 * std::f64::consts::PI) * dfact * dfact
-                / fact)
-                .sqrt() as f32;
+            k.diag[m as usize] = q_diag(m) as f32;
             for l in m + 1..MAX_BANDS as u64 {
-                k.a[l as usize][m as usize] =
-                    ((((4 * l * l - 1) as f64) / ((l * l - m * m) as f64)).sqrt()) as f32;
+                k.a[l as usize][m as usize] = a_coef(l, m) as f32;
                 if l >= m + 2 {
-                    let num = ((2 * l + 1) * (l - 1 - m) * (l - 1 + m)) as f64;
-                    let den = ((2 * l - 3) * (l - m) * (l + m)) as f64;
-                    k.b[l as usize][m as usize] = (-(num / den).sqrt()) as f32;
+                    k.b[l as usize][m as usize] = b_coef(l, m) as f32;
                 }
             }
         }

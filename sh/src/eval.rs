@@ -65,7 +65,9 @@ pub fn eval_sh<T: Real, const N: usize>(dir: [T; 3]) -> Sh<T, N> {
 
 /// Evaluates `bands` bands with the normalised three-term recurrence as a loop, for any
 /// number of bands. This is the same mathematics as the generated code (see
-/// `tests/sourcegen.rs`), with the constants computed on the fly.
+/// `tests/sourcegen.rs`), with the constants of [`crate::recurrence`] computed on the fly;
+/// `Q_m^m` by its ratio form, the twin of [`crate::recurrence::q_diag`], which would
+/// overflow its factorials beyond `m = 10`.
 ///
 /// # Panics
 /// If `out` is shorter than `bands²`.
@@ -95,15 +97,9 @@ pub fn eval_recurrence<T: Real>(bands: usize, dir: [T; 3], out: &mut [T]) {
             let q = if l == m {
                 q_diag
             } else {
-                let (lf, mf) = (l as f64, m as f64);
-                let a = ((4.0 * lf * lf - 1.0) / (lf * lf - mf * mf)).sqrt();
-                let b = if l >= m + 2 {
-                    -((2.0 * lf + 1.0) * (lf - 1.0 - mf) * (lf - 1.0 + mf)
-                        / ((2.0 * lf - 3.0) * (lf - mf) * (lf + mf)))
-                        .sqrt()
-                } else {
-                    0.0
-                };
+                let (lu, mu) = (l as u64, m as u64);
+                let a = crate::recurrence::a_coef(lu, mu);
+                let b = if l >= m + 2 { crate::recurrence::b_coef(lu, mu) } else { 0.0 };
                 let q = T::from_f64(a) * z * q_prev + T::from_f64(b) * q_prev2;
                 q_prev2 = q_prev;
                 q_prev = q;

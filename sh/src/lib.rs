@@ -13,6 +13,7 @@ pub mod lowdisc;
 pub mod project;
 pub mod quadrature;
 pub mod real;
+pub mod recurrence;
 pub mod reference;
 pub mod rotate;
 pub mod sampling;

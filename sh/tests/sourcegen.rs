@@ -31,32 +31,7 @@ use std::path::PathBuf;
 /// Highest number of bands the generated code covers (l = 0..=7, 64 coefficients).
 const MAX_BANDS: usize = 8;
 
-/// `(2m-1)!!` as an exact integer (`1` for m = 0).
-fn double_factorial_odd(m: u64) -> u64 {
-    (1..=m).map(|k| 2 * k - 1).product()
-}
-
-fn factorial(n: u64) -> u64 {
-    (1..=n).product()
-}
-
-/// `Q_m^m`, see the module docs. All integer parts are exact in u64/f64 for m <= 7.
-fn q_diag(m: u64) -> f64 {
-    let dfact = double_factorial_odd(m) as f64;
-    let fact = factorial(2 * m) as f64;
-    let two = if m == 0 { 1.0 } else { 2.0 };
-    (two * (2 * m + 1) as f64 / (4.0 * std::f64::consts::PI) * dfact * dfact / fact).sqrt()
-}
-
-fn a_coef(l: u64, m: u64) -> f64 {
-    (((4 * l * l - 1) as f64) / ((l * l - m * m) as f64)).sqrt()
-}
-
-fn b_coef(l: u64, m: u64) -> f64 {
-    let num = ((2 * l + 1) * (l - 1 - m) * (l - 1 + m)) as f64;
-    let den = ((2 * l - 3) * (l - m) * (l + m)) as f64;
-    -(num / den).sqrt()
-}
+use lightvol_sh::recurrence::{a_coef, b_coef, q_diag};
 
 fn index(l: u64, m: i64) -> usize {
     (l as i64 * (l as i64 + 1) + m) as usize
