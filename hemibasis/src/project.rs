@@ -122,50 +122,22 @@ impl Matrix {
         self.data.iter().zip(&other.data).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max)
     }
 
-    /// Inverse of a symmetric positive-definite matrix by Cholesky factorisation; `None` if a
-    /// pivot is not positive (not SPD, or singular to working precision).
+    /// Inverse of a symmetric positive-definite matrix by Cholesky factorisation
+    /// (`lightvol_sh::linalg`), column by column; `None` if a pivot is not positive (not SPD,
+    /// or singular to working precision).
     #[must_use]
     pub fn spd_inverse(&self) -> Option<Matrix> {
         assert_eq!(self.rows, self.cols, "inverse of a non-square matrix");
         let n = self.rows;
-        // G = L Lᵀ.
-        let mut l = Matrix::zeros(n, n);
-        for j in 0..n {
-            let mut d = self[(j, j)];
-            for k in 0..j {
-                d -= l[(j, k)] * l[(j, k)];
-            }
-            if d <= 0.0 || !d.is_finite() {
-                return None;
-            }
-            let d = d.sqrt();
-            l[(j, j)] = d;
-            for i in (j + 1)..n {
-                let mut s = self[(i, j)];
-                for k in 0..j {
-                    s -= l[(i, k)] * l[(j, k)];
-                }
-                l[(i, j)] = s / d;
-            }
-        }
-        // Solve L Lᵀ X = I column by column.
+        let l = lightvol_sh::linalg::cholesky_factor(&self.data, n)?;
         let mut inv = Matrix::zeros(n, n);
-        let mut y = vec![0.0; n];
+        let mut e = vec![0.0; n];
         for c in 0..n {
-            for i in 0..n {
-                let mut s = if i == c { 1.0 } else { 0.0 };
-                for k in 0..i {
-                    s -= l[(i, k)] * y[k];
-                }
-                y[i] = s / l[(i, i)];
+            e[c] = 1.0;
+            for (i, x) in lightvol_sh::linalg::cholesky_substitute(&l, &e, n).into_iter().enumerate() {
+                inv[(i, c)] = x;
             }
-            for i in (0..n).rev() {
-                let mut s = y[i];
-                for k in (i + 1)..n {
-                    s -= l[(k, i)] * inv[(k, c)];
-                }
-                inv[(i, c)] = s / l[(i, i)];
-            }
+            e[c] = 0.0;
         }
         Some(inv)
     }

@@ -7,8 +7,16 @@
 /// Cholesky factorisation. Returns `None` when `A` is not numerically positive definite.
 #[must_use]
 pub fn cholesky_solve(a: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
-    assert_eq!(a.len(), n * n, "matrix size");
     assert_eq!(b.len(), n, "rhs size");
+    Some(cholesky_substitute(&cholesky_factor(a, n)?, b, n))
+}
+
+/// The Cholesky factor `L` (row-major, lower triangular, `A = L Lᵀ`) of a symmetric
+/// positive-definite `n × n` matrix `A` (row-major); `None` when a pivot is not positive
+/// (not SPD, or singular to working precision) or not finite.
+#[must_use]
+pub fn cholesky_factor(a: &[f64], n: usize) -> Option<Vec<f64>> {
+    assert_eq!(a.len(), n * n, "matrix size");
     let mut l = vec![0.0; n * n];
     for i in 0..n {
         for j in 0..=i {
@@ -26,7 +34,15 @@ pub fn cholesky_solve(a: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
             }
         }
     }
-    // Forward then back substitution.
+    Some(l)
+}
+
+/// Solves `L Lᵀ x = b` with a factor from [`cholesky_factor`]: forward, then back
+/// substitution.
+#[must_use]
+pub fn cholesky_substitute(l: &[f64], b: &[f64], n: usize) -> Vec<f64> {
+    assert_eq!(l.len(), n * n, "factor size");
+    assert_eq!(b.len(), n, "rhs size");
     let mut y = vec![0.0; n];
     for i in 0..n {
         let mut s = b[i];
@@ -43,7 +59,7 @@ pub fn cholesky_solve(a: &[f64], b: &[f64], n: usize) -> Option<Vec<f64>> {
         }
         x[i] = s / l[i * n + i];
     }
-    Some(x)
+    x
 }
 
 /// Eigen-decomposition of a symmetric `n × n` matrix by cyclic Jacobi rotations:
@@ -119,6 +135,16 @@ mod tests {
             assert!((got[i] - x[i]).abs() < 1e-14);
         }
         assert!(cholesky_solve(&[1.0, 2.0, 2.0, 1.0], &[1.0, 1.0], 2).is_none());
+        // The factor is lower triangular with L Lᵀ = A; by hand, L₀₀ = 2 and L₁₀ = 1.
+        let l = cholesky_factor(&a, 3).unwrap();
+        assert_eq!((l[0], l[3], l[1], l[2], l[5]), (2.0, 1.0, 0.0, 0.0, 0.0));
+        for i in 0..3 {
+            for j in 0..3 {
+                let r: f64 = (0..3).map(|k| l[i * 3 + k] * l[j * 3 + k]).sum();
+                assert!((r - a[i * 3 + j]).abs() < 1e-14);
+            }
+        }
+        assert!(cholesky_factor(&[f64::NAN], 1).is_none());
     }
 
     #[test]
