@@ -3,4 +3,6 @@
 pub mod color;
 pub mod fs;
 pub mod hash;
+#[cfg(feature = "ktx2")]
+pub mod ktx2;
 pub mod metric;

@@ -11,7 +11,7 @@
 //! basis, the coefficient and the encoding). [`read_ktx2_plane`] parses such a file back
 //! and checks it.
 
-use ktx2::{Format, Header, Index, LevelIndex, SupercompressionScheme};
+use ktx2::Format;
 
 use crate::map::Plane;
 
@@ -103,60 +103,16 @@ pub fn ktx2_plane_bytes(
     description: &str,
 ) -> Vec<u8> {
     assert_eq!(data.len(), format.data_len(width, height), "level data does not match the size");
-    let vk = format.vk(srgb);
-    let (dfd, type_size) = ktx2::dfd::Basic::from_format(vk).expect("every plane format has a DFD");
-    let dfd_block = ktx2::dfd::Block::Basic(dfd).to_vec();
-    let mut dfd_bytes = Vec::with_capacity(4 + dfd_block.len());
-    dfd_bytes.extend_from_slice(&((4 + dfd_block.len()) as u32).to_le_bytes());
-    dfd_bytes.extend_from_slice(&dfd_block);
-    // Key/value data, sorted by key ('K' < 'l'): u32 length of "key\0value\0", padded to 4.
-    let mut kvd_bytes = Vec::new();
-    for (k, v) in [("KTXwriter", KTX2_WRITER), (KTX2_PLANE_KEY, description)] {
-        kvd_bytes.extend_from_slice(&((k.len() + v.len() + 2) as u32).to_le_bytes());
-        kvd_bytes.extend_from_slice(k.as_bytes());
-        kvd_bytes.push(0);
-        kvd_bytes.extend_from_slice(v.as_bytes());
-        kvd_bytes.push(0);
-        while kvd_bytes.len() % 4 != 0 {
-            kvd_bytes.push(0);
-        }
-    }
-    let dfd_offset = Header::LENGTH + LevelIndex::LENGTH;
-    let kvd_offset = dfd_offset + dfd_bytes.len();
-    // Level data aligned to lcm(texel or block size, 4) = 16 covers every format here.
-    let data_offset = (kvd_offset + kvd_bytes.len()).next_multiple_of(16);
-    let header = Header {
-        format: Some(vk),
-        type_size,
-        pixel_width: width as u32,
-        pixel_height: height as u32,
-        pixel_depth: 0,
-        layer_count: 0,
-        face_count: 1,
-        level_count: 1,
-        supercompression_scheme: None::<SupercompressionScheme>,
-        index: Index {
-            dfd_byte_offset: dfd_offset as u32,
-            dfd_byte_length: dfd_bytes.len() as u32,
-            kvd_byte_offset: kvd_offset as u32,
-            kvd_byte_length: kvd_bytes.len() as u32,
-            sgd_byte_offset: 0,
-            sgd_byte_length: 0,
-        },
-    };
-    let level = LevelIndex {
-        byte_offset: data_offset as u64,
-        byte_length: data.len() as u64,
-        uncompressed_byte_length: data.len() as u64,
-    };
-    let mut out = Vec::with_capacity(data_offset + data.len());
-    out.extend_from_slice(&header.as_bytes());
-    out.extend_from_slice(&level.as_bytes());
-    out.extend_from_slice(&dfd_bytes);
-    out.extend_from_slice(&kvd_bytes);
-    out.resize(data_offset, 0);
-    out.extend_from_slice(data);
-    out
+    let dims = [width as u32, height as u32, 0];
+    // Key/value data sorted by key ('K' < 'l'); level data aligned to lcm(texel or block
+    // size, 4) = 16, which covers every format here.
+    lightvol_core::ktx2::container_bytes(
+        format.vk(srgb),
+        dims,
+        data,
+        &[("KTXwriter", KTX2_WRITER), (KTX2_PLANE_KEY, description)],
+        16,
+    )
 }
 
 /// [`ktx2_plane_bytes`] for an uncompressed plane.

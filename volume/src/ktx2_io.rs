@@ -16,7 +16,7 @@
 
 use std::path::Path;
 
-use ktx2::{Format, Header, Index, LevelIndex, SupercompressionScheme};
+use ktx2::Format;
 
 use crate::checksum::{through_f16, to_hex, verify, volume_checksum};
 use crate::encode::Encoding;
@@ -47,66 +47,8 @@ pub(crate) fn ktx2_rgba16f_bytes(dims: [u32; 3], texels: &[u8], kvd: &[(&str, &s
 /// `ktx2` crate generates).
 pub(crate) fn ktx2_bytes(format: Format, dims: [u32; 3], texels: &[u8], kvd: &[(&str, &str)]) -> Vec<u8> {
     debug_assert_eq!(texels.len(), dims.iter().map(|&d| d as usize).product::<usize>() * texel_bytes(format));
-    // KTX2 requires the key/value pairs sorted by key; a fixed order also keeps the bytes
-    // reproducible.
-    debug_assert!(kvd.windows(2).all(|w| w[0].0.as_bytes() < w[1].0.as_bytes()), "unsorted KTX2 keys");
-    let (dfd, type_size) =
-        ktx2::dfd::Basic::from_format(format).expect("lightvol's formats have generated DFDs");
-    let dfd_block = ktx2::dfd::Block::Basic(dfd).to_vec();
-    let mut dfd_bytes = Vec::with_capacity(4 + dfd_block.len());
-    dfd_bytes.extend_from_slice(&((4 + dfd_block.len()) as u32).to_le_bytes());
-    dfd_bytes.extend_from_slice(&dfd_block);
-
-    // Key/value data: u32 length of "key\0value\0", the bytes, padding to 4.
-    let mut kvd_bytes = Vec::new();
-    for (k, v) in kvd {
-        let len = k.len() + 1 + v.len() + 1;
-        kvd_bytes.extend_from_slice(&(len as u32).to_le_bytes());
-        kvd_bytes.extend_from_slice(k.as_bytes());
-        kvd_bytes.push(0);
-        kvd_bytes.extend_from_slice(v.as_bytes());
-        kvd_bytes.push(0);
-        while kvd_bytes.len() % 4 != 0 {
-            kvd_bytes.push(0);
-        }
-    }
-
-    let dfd_offset = Header::LENGTH + LevelIndex::LENGTH;
-    let kvd_offset = dfd_offset + dfd_bytes.len();
     // Level data aligned to lcm(texel size 8, 4) = 8.
-    let data_offset = (kvd_offset + kvd_bytes.len()).next_multiple_of(8);
-    let header = Header {
-        format: Some(format),
-        type_size,
-        pixel_width: dims[0],
-        pixel_height: dims[1],
-        pixel_depth: dims[2],
-        layer_count: 0,
-        face_count: 1,
-        level_count: 1,
-        supercompression_scheme: None::<SupercompressionScheme>,
-        index: Index {
-            dfd_byte_offset: dfd_offset as u32,
-            dfd_byte_length: dfd_bytes.len() as u32,
-            kvd_byte_offset: if kvd_bytes.is_empty() { 0 } else { kvd_offset as u32 },
-            kvd_byte_length: kvd_bytes.len() as u32,
-            sgd_byte_offset: 0,
-            sgd_byte_length: 0,
-        },
-    };
-    let level = LevelIndex {
-        byte_offset: data_offset as u64,
-        byte_length: texels.len() as u64,
-        uncompressed_byte_length: texels.len() as u64,
-    };
-    let mut out = Vec::with_capacity(data_offset + texels.len());
-    out.extend_from_slice(&header.as_bytes());
-    out.extend_from_slice(&level.as_bytes());
-    out.extend_from_slice(&dfd_bytes);
-    out.extend_from_slice(&kvd_bytes);
-    out.resize(data_offset, 0);
-    out.extend_from_slice(texels);
-    out
+    lightvol_core::ktx2::container_bytes(format, dims, texels, kvd, 8)
 }
 
 /// `(dims, key/value pairs, level data)` of a parsed KTX2 file.
