@@ -480,15 +480,8 @@ pub fn write_plate_exr(
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels.into()),
     );
-    let image = Image::from_layer(layer);
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    image
-        .write()
-        .non_parallel()
-        .to_buffered(&mut bytes)
-        .map_err(|e| anyhow::anyhow!("encoding plate.exr: {e}"))?;
-    let mut bytes = bytes.into_inner();
-    lightvol_volume::exr_io::canonical_attribute_order(&mut bytes)?;
+    let ia = ImageAttributes::new(layer.absolute_bounds());
+    let bytes = lightvol_volume::exr_io::encode_image(ia, vec![layer]).context("encoding plate.exr")?;
     write_atomic(path, &bytes)
 }
 

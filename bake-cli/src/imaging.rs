@@ -82,14 +82,9 @@ pub fn write_exr_linear(path: &Path, img: &Rgb32) -> anyhow::Result<()> {
         Encoding::SMALL_LOSSLESS,
         AnyChannels::sort(channels.into()),
     );
-    let mut bytes = std::io::Cursor::new(Vec::new());
-    Image::from_layer(layer)
-        .write()
-        .non_parallel()
-        .to_buffered(&mut bytes)
-        .map_err(|e| anyhow::anyhow!("encoding {}: {e}", path.display()))?;
-    let mut bytes = bytes.into_inner();
-    lightvol_volume::exr_io::canonical_attribute_order(&mut bytes)?;
+    let ia = ImageAttributes::new(layer.absolute_bounds());
+    let bytes = lightvol_volume::exr_io::encode_image(ia, vec![layer])
+        .with_context(|| format!("encoding {}", path.display()))?;
     write_atomic(path, &bytes)
 }
 

@@ -288,12 +288,19 @@ pub(crate) fn base_layers(
     Ok((layers, ia))
 }
 
-/// One part of a native file.
-pub(crate) type ExrLayer = Layer<AnyChannels<FlatSamples>>;
+/// One part of an EXR file with flat (not deep) channels.
+pub type ExrLayer = Layer<AnyChannels<FlatSamples>>;
 
-/// Encodes parts into EXR bytes, attributes in the canonical order
-/// ([`canonical_attribute_order`]).
-pub(crate) fn encode_image(ia: ImageAttributes, layers: Vec<ExrLayer>) -> Result<Vec<u8>, VolumeError> {
+/// A whole EXR file of flat parts, as [`decode_image`] reads it.
+pub type ExrImage = Image<exr::image::Layers<AnyChannels<FlatSamples>>>;
+
+/// Encodes parts into EXR bytes, single-threaded, attributes in the canonical order
+/// ([`canonical_attribute_order`]): the write pipeline of every lightvol EXR file (volumes,
+/// surface maps, plates, views), so that equal images give equal bytes.
+///
+/// # Errors
+/// [`VolumeError::InvalidData`] if the encoder refuses the parts.
+pub fn encode_image(ia: ImageAttributes, layers: Vec<ExrLayer>) -> Result<Vec<u8>, VolumeError> {
     let image = Image::from_layers(ia, layers);
     let mut out = Cursor::new(Vec::new());
     image
@@ -304,6 +311,24 @@ pub(crate) fn encode_image(ia: ImageAttributes, layers: Vec<ExrLayer>) -> Result
     let mut bytes = out.into_inner();
     canonical_attribute_order(&mut bytes)?;
     Ok(bytes)
+}
+
+/// Decodes every flat part of an EXR file, all channels and attributes, single-threaded and
+/// pedantic (a damaged file is an error, not a guess): the read pipeline of every lightvol
+/// EXR reader, run after the reader has checked the headers it expects.
+///
+/// # Errors
+/// The `exr` crate's error for data it cannot decode.
+pub fn decode_image(bytes: &[u8]) -> Result<ExrImage, exr::error::Error> {
+    exr::prelude::read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .all_layers()
+        .all_attributes()
+        .non_parallel()
+        .pedantic()
+        .from_buffered(Cursor::new(bytes))
 }
 
 /// Puts the attributes of every header of an EXR file in a fixed order, in place, so that
@@ -698,16 +723,7 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     }
 
     // 2. Pixels.
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .non_parallel()
-        .pedantic()
-        .from_buffered(Cursor::new(bytes))
-        .map_err(e)?;
+    let image = decode_image(bytes).map_err(e)?;
     let n = d.spec.node_count();
     let k = d.coeffs * 3;
     let mut data = vec![0.0f32; n * k];

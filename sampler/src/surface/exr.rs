@@ -28,11 +28,11 @@
 use std::io::Cursor;
 use std::path::Path;
 
-use exr::image::{AnyChannel, AnyChannels, Encoding as ExrEncoding, FlatSamples, Image, Layer};
+use exr::image::{AnyChannel, AnyChannels, Encoding as ExrEncoding, FlatSamples, Layer};
 use exr::math::Vec2;
 use exr::meta::attribute::{AttributeValue, Compression, IntegerBounds, SampleType, Text};
 use exr::meta::header::{ImageAttributes, LayerAttributes};
-use exr::prelude::{ReadChannels, ReadLayers, SmallVec, WritableImage};
+use exr::prelude::SmallVec;
 
 use super::map::{CoefficientMap, InvalidCounts};
 use super::{Quantity, SurfaceError, UvSet};
@@ -117,13 +117,8 @@ fn to_bytes(maps: &[CoefficientMap], version: i32) -> Result<Vec<u8>, String> {
         layers.push(Layer::new(Vec2(m.width as usize, m.height as usize), attrs, encoding, channels));
     }
     let ia = ImageAttributes::new(IntegerBounds::from_dimensions(Vec2(max_w, max_h)));
-    let image = Image::from_layers(ia, layers);
-    let mut out = Cursor::new(Vec::new());
-    image.write().non_parallel().to_buffered(&mut out).map_err(|e| format!("EXR encoder: {e}"))?;
-    // The crate writes custom attributes in hash-map order; fix it (byte-reproducible files).
-    let mut bytes = out.into_inner();
-    lightvol_volume::exr_io::canonical_attribute_order(&mut bytes).map_err(|e| e.to_string())?;
-    Ok(bytes)
+    // Canonical attribute order: byte-reproducible files.
+    lightvol_volume::exr_io::encode_image(ia, layers).map_err(|e| e.to_string())
 }
 
 /// Writes `maps` to `path` (temporary file in the same directory, then rename).
@@ -265,16 +260,7 @@ fn parse(bytes: &[u8]) -> Result<Vec<CoefficientMap>, String> {
     if decl.is_empty() {
         return Err("no parts".into());
     }
-    let image = exr::prelude::read()
-        .no_deep_data()
-        .largest_resolution_level()
-        .all_channels()
-        .all_layers()
-        .all_attributes()
-        .non_parallel()
-        .pedantic()
-        .from_buffered(Cursor::new(bytes))
-        .map_err(|e| e.to_string())?;
+    let image = lightvol_volume::exr_io::decode_image(bytes).map_err(|e| e.to_string())?;
     if image.layer_data.len() != decl.len() {
         return Err("part count changed between header and pixels".into());
     }
