@@ -19,24 +19,11 @@
 use std::path::Path;
 
 use anyhow::Context;
-use lightvol_volume::adaptive_io::{is_adaptive_exr, read_adaptive_exr};
 use lightvol_volume::encode::Encoding;
 use lightvol_volume::gradient::floats_per_sample;
 use lightvol_volume::sidecar::Sidecar;
 use lightvol_volume::{AdaptiveVolume, IrradianceVolume};
 use serde_json::{Value, json};
-
-/// Whether `path` is an adaptive volume. Anything that cannot be read as an EXR volume
-/// header counts as "not adaptive", so that the uniform reader reports the problem.
-#[must_use]
-pub fn is_adaptive(path: &Path) -> bool {
-    is_adaptive_exr(path).unwrap_or(false)
-}
-
-/// Reads an adaptive volume with the file name in the error.
-pub fn read(path: &Path) -> anyhow::Result<AdaptiveVolume> {
-    read_adaptive_exr(path).with_context(|| format!("reading {}", path.display()))
-}
 
 /// Run-time bytes of the uniform grid at the finest level's resolution (3 n² floats per
 /// node, \[Oat05\] "GPU Memory Requirements (Constant Store)"), for comparison in `info`.
@@ -69,8 +56,7 @@ pub fn octree_json(vol: &AdaptiveVolume) -> Value {
 }
 
 /// `info --json` of an adaptive file.
-pub fn describe(path: &Path) -> anyhow::Result<Value> {
-    let vol = read(path)?;
+pub fn describe(vol: &AdaptiveVolume, path: &Path) -> anyhow::Result<Value> {
     let base = vol.base();
     // The base grid in the scene file's frame (the file stores the internal one).
     let frame = vol.metadata().frame;
@@ -89,7 +75,7 @@ pub fn describe(path: &Path) -> anyhow::Result<Value> {
         "zero_weight_nodes": base.weights().iter().filter(|&&w| w == 0.0).count(),
         "memory_bytes": vol.memory_bytes(),
         "gradients": false,
-        "octree": octree_json(&vol),
+        "octree": octree_json(vol),
     }))
 }
 

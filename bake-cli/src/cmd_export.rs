@@ -4,9 +4,9 @@
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
+use lightvol_volume::AnyVolume;
 use lightvol_volume::IrradianceVolume;
 use lightvol_volume::encode::Encoding;
-use lightvol_volume::exr_io::read_exr;
 use lightvol_volume::sidecar::{Sidecar, sidecar_path, write_sidecar};
 
 use crate::adaptive_files;
@@ -57,18 +57,19 @@ fn write_uniform(args: &ExportArgs, vol: &IrradianceVolume) -> anyhow::Result<()
 pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
     let res = args.res.as_deref().map(parse_res).transpose()?;
     let out = &args.output;
-    if adaptive_files::is_adaptive(&args.volume) {
-        let vol = adaptive_files::read(&args.volume)?;
+    let opened =
+        lightvol_volume::open(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
+    if let AnyVolume::Adaptive(vol) = &opened {
         if args.format == ExportFormat::Json {
             if res.is_some() {
                 bail!(
                     "--res applies to KTX2, DDS and Bevy exports; the JSON export describes the octree itself"
                 );
             }
-            let v = adaptive_files::export_json(&vol, &args.volume)?;
+            let v = adaptive_files::export_json(vol, &args.volume)?;
             write_atomic(out, serde_json::to_string_pretty(&v)?.as_bytes())?;
         } else {
-            let (uniform, used) = adaptive_files::resample(&vol, res)?;
+            let (uniform, used) = adaptive_files::resample(vol, res)?;
             let finest = vol.finest_res();
             eprintln!(
                 "resampled the adaptive volume (levels 0..{}) to a uniform {}x{}x{} grid{}",
@@ -80,12 +81,11 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             );
             write_uniform(args, &uniform)?;
         }
-    } else {
+    } else if let Some(vol) = opened.uniform() {
         if res.is_some() {
             bail!("--res resamples adaptive volumes only; {} is a uniform volume", args.volume.display());
         }
-        let vol = read_exr(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
-        write_uniform(args, &vol)?;
+        write_uniform(args, vol)?;
     }
     eprintln!("wrote {}", out.display());
     if args.format != ExportFormat::Json {

@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use lightvol_sampler::eval::uniform_memory_bytes;
-use lightvol_volume::exr_io::read_exr_with_gradients;
+use lightvol_volume::AnyVolume;
 use lightvol_volume::gradient::floats_per_sample;
 use serde_json::{Value, json};
 
@@ -15,11 +15,12 @@ use crate::gradients::floats_table;
 
 /// The description `info --json` prints (`"kind": "uniform"` or `"adaptive"`).
 pub fn describe(path: &Path) -> anyhow::Result<Value> {
-    if crate::adaptive_files::is_adaptive(path) {
-        return crate::adaptive_files::describe(path);
-    }
-    let (vol, grads) =
-        read_exr_with_gradients(path).with_context(|| format!("reading {}", path.display()))?;
+    let opened = lightvol_volume::open(path).with_context(|| format!("reading {}", path.display()))?;
+    let (vol, grads) = match &opened {
+        AnyVolume::Adaptive(vol) => return crate::adaptive_files::describe(vol, path),
+        AnyVolume::Uniform(vol) => (vol, None),
+        AnyVolume::Gradient(g) => (&g.volume, Some(&g.gradients)),
+    };
     let has_grads = grads.is_some();
     let floats = floats_per_sample(vol.bands(), has_grads);
     // Coordinates in the scene file's frame (the file stores the internal one).

@@ -42,7 +42,7 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
             p.display()
         );
     }
-    if crate::adaptive_files::is_adaptive(p) {
+    if lightvol_volume::adaptive_io::is_adaptive_exr(p).unwrap_or(false) {
         bail!(
             "{} is an adaptive (octree) volume; merge combines uniform shard bakes only (sharded adaptive bakes are assembled by `bake --adaptive --from-shards`)",
             p.display()

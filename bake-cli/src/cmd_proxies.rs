@@ -79,14 +79,18 @@ pub fn run(args: &ProxiesArgs) -> anyhow::Result<ExitCode> {
     };
     cfg.samples = args.samples;
     let report = if let Some(path) = &args.volume {
-        let vol = match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-            Some("exr") => lightvol_volume::exr_io::read_exr(path),
-            Some("ktx2") => lightvol_volume::ktx2_io::read_ktx2(path),
-            Some("dds") => lightvol_volume::dds_io::read_dds(path),
-            _ => bail!("--volume: {} is not an .exr, .ktx2 or .dds file", path.display()),
+        if !path.extension().is_some_and(|e| ["exr", "ktx2", "dds"].iter().any(|x| e.eq_ignore_ascii_case(x)))
+        {
+            bail!("--volume: {} is not an .exr, .ktx2 or .dds file", path.display());
         }
-        .with_context(|| format!("reading {}", path.display()))?;
-        let light = VolumeLight(&vol);
+        let opened = lightvol_volume::open(path).with_context(|| format!("reading {}", path.display()))?;
+        let Some(vol) = opened.uniform() else {
+            bail!(
+                "--volume: {} is an adaptive (octree) volume; proxies are lit by a uniform grid (export it to one first)",
+                path.display()
+            );
+        };
+        let light = VolumeLight(vol);
         let v = if args.order == 4 {
             render_variants::<16>(&scene, &cfg, &light)
         } else {

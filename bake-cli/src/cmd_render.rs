@@ -12,12 +12,10 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_sampler::view::{
-    Camera, CameraSpec, IrradianceField, Quantity, ReferenceConfig, ViewConfig, ViewError, ViewImage,
-    render_reference, render_volume,
+    Camera, CameraSpec, Quantity, ReferenceConfig, ViewConfig, ViewError, ViewImage, render_reference,
+    render_volume,
 };
 use lightvol_sampler::{DVec3, Scene, Tracer, Transport, UpAxis};
-use lightvol_volume::exr_io::read_exr;
-use lightvol_volume::{AdaptiveVolume, GridSpec, IrradianceVolume};
 
 use crate::imaging::{Rgb32, auto_exposure};
 use crate::setup::{SceneArgs, with_threads};
@@ -134,28 +132,6 @@ pub fn resolve_camera(spec: &str, scene: &Scene, frame: UpAxis) -> anyhow::Resul
     spec.parse::<CameraSpec>().and_then(|c| c.resolve(scene, frame)).map_err(|e| camera_error(spec, e))
 }
 
-/// A uniform or an adaptive (octree) volume file, shaded alike.
-enum FileVolume {
-    Uniform(IrradianceVolume),
-    Adaptive(AdaptiveVolume),
-}
-
-impl FileVolume {
-    fn spec(&self) -> &GridSpec {
-        match self {
-            Self::Uniform(v) => v.spec(),
-            Self::Adaptive(v) => v.base().spec(),
-        }
-    }
-
-    fn field(&self) -> &dyn IrradianceField {
-        match self {
-            Self::Uniform(v) => v,
-            Self::Adaptive(v) => v,
-        }
-    }
-}
-
 /// The image of a view.
 #[must_use]
 pub fn to_rgb32(img: ViewImage) -> Rgb32 {
@@ -175,13 +151,9 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     args.size(None)?;
     let quantity: Quantity = args.quantity.parse()?;
     let loaded = args.scene.load()?;
+    // A gradient file is shaded from its coefficients (`AnyVolume::trilinear_field`).
     let vol = match (&args.volume, args.reference) {
-        (Some(p), _) if crate::adaptive_files::is_adaptive(p) => {
-            Some(FileVolume::Adaptive(crate::adaptive_files::read(p)?))
-        }
-        (Some(p), _) => {
-            Some(FileVolume::Uniform(read_exr(p).with_context(|| format!("reading {}", p.display()))?))
-        }
+        (Some(p), _) => Some(lightvol_volume::open(p).with_context(|| format!("reading {}", p.display()))?),
         (None, true) => None,
         (None, false) => bail!("render needs --volume V.exr (or --reference for the path-traced view)"),
     };
@@ -189,7 +161,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         Some(c) => resolve_camera(c, &loaded.scene, loaded.frame)?,
         None => {
             // Frame the volume (or the built-in's recommended grid), else the scene.
-            let grid = vol.as_ref().map(|v| v.spec().clone()).or_else(|| loaded.grid.clone());
+            let grid = vol.as_ref().map(|v| v.field().grid().clone()).or_else(|| loaded.grid.clone());
             let (lo, hi) = match grid {
                 Some(g) if g.placement().is_none() => {
                     let (a, b) = g.bounds();
@@ -207,7 +179,7 @@ pub fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let img = with_threads(args.threads, || -> Result<ViewImage, ViewError> {
         let tracer = Tracer::new(&loaded.scene);
         match shade_vol {
-            Some(v) => render_volume(&loaded.scene, &tracer, &cam, &config, v.field()),
+            Some(v) => render_volume(&loaded.scene, &tracer, &cam, &config, v.trilinear_field()),
             None => {
                 let transport = Transport::new(&loaded.scene, &tracer, args.path.transport());
                 let reference = ReferenceConfig { samples: args.reference_samples, seed: args.seed };

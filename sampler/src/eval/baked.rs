@@ -6,12 +6,12 @@
 use std::fmt;
 use std::sync::Arc;
 
-use glam::DVec3;
-use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
-use lightvol_volume::{AdaptiveVolume, IrradianceVolume, VolumeError};
+use lightvol_volume::gradient::{
+    GradientLookup, coeffs_at as gradient_coeffs_at, irradiance as gradient_irradiance,
+};
+use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec, IrradianceVolume, VolumeError, VolumeField};
 
 use crate::eval::runs::GradientVolume;
-use crate::view::IrradianceField;
 
 /// A run's baked volume and its lookup (shared, cheap to clone).
 #[derive(Clone)]
@@ -34,15 +34,52 @@ pub enum RunVolume {
     Reference(Arc<IrradianceVolume>),
 }
 
-impl IrradianceField for RunVolume {
-    fn irradiance(&self, p: DVec3, n: DVec3) -> Result<[f64; 3], VolumeError> {
+/// Each kind read as its run reads the plate (the enum's docs).
+impl VolumeField for RunVolume {
+    fn grid(&self) -> &GridSpec {
         match self {
-            Self::Uniform(v) => IrradianceField::irradiance(&**v, p, n),
+            Self::Uniform(v) | Self::Reference(v) => v.spec(),
+            Self::Gradient { bake, .. } => bake.volume.spec(),
+            Self::Adaptive(v) => v.base().spec(),
+        }
+    }
+    fn coeffs(&self) -> usize {
+        match self {
+            Self::Uniform(v) | Self::Reference(v) => v.coeffs(),
+            Self::Gradient { bake, .. } => bake.volume.coeffs(),
+            Self::Adaptive(v) => v.coeffs(),
+        }
+    }
+    fn metadata(&self) -> &BakeMetadata {
+        match self {
+            Self::Uniform(v) | Self::Reference(v) => v.metadata(),
+            Self::Gradient { bake, .. } => bake.volume.metadata(),
+            Self::Adaptive(v) => v.metadata(),
+        }
+    }
+    fn coeffs_at(&self, p: [f64; 3]) -> Result<Vec<f64>, VolumeError> {
+        match self {
+            Self::Uniform(v) => VolumeField::coeffs_at(&**v, p),
+            Self::Gradient { bake, lookup } => gradient_coeffs_at(&bake.volume, &bake.gradients, *lookup, p),
+            Self::Adaptive(v) => VolumeField::coeffs_at(&**v, p),
+            Self::Reference(v) => Ok(v.coeffs_reference(p)),
+        }
+    }
+    fn irradiance(&self, p: [f64; 3], n: [f64; 3]) -> Result<[f64; 3], VolumeError> {
+        match self {
+            Self::Uniform(v) => VolumeField::irradiance(&**v, p, n),
             Self::Gradient { bake, lookup } => {
-                gradient_irradiance(&bake.volume, &bake.gradients, *lookup, p.to_array(), n.to_array())
+                gradient_irradiance(&bake.volume, &bake.gradients, *lookup, p, n)
             }
-            Self::Adaptive(v) => IrradianceField::irradiance(&**v, p, n),
-            Self::Reference(v) => Ok(v.irradiance_reference(p.to_array(), n.to_array())),
+            Self::Adaptive(v) => VolumeField::irradiance(&**v, p, n),
+            Self::Reference(v) => Ok(v.irradiance_reference(p, n)),
+        }
+    }
+    fn memory_bytes(&self) -> usize {
+        match self {
+            Self::Uniform(v) | Self::Reference(v) => v.memory_bytes(),
+            Self::Gradient { bake, .. } => bake.volume.memory_bytes() + bake.gradients.memory_bytes(),
+            Self::Adaptive(v) => v.memory_bytes(),
         }
     }
 }

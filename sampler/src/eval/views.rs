@@ -263,7 +263,8 @@ mod tests {
     use crate::eval::compare::{CompareConfig, compare};
     use crate::eval::entries::NamedEntry;
     use crate::eval::observer::Silent;
-    use crate::view::{IrradianceField, ViewError};
+    use crate::view::ViewError;
+    use lightvol_volume::VolumeField;
 
     fn image(pixels: &[f32], surface: &[bool]) -> ViewImage {
         ViewImage {
@@ -314,7 +315,7 @@ mod tests {
         let r = compare(&maze.scene, &config, &Silent).unwrap();
         for run in &r.methods {
             for (p, e) in r.plate.points.iter().zip(&run.estimate) {
-                assert_eq!(run.volume.irradiance(*p, DVec3::Z).unwrap(), *e, "{}", run.name);
+                assert_eq!(run.volume.irradiance(p.to_array(), [0.0, 0.0, 1.0]).unwrap(), *e, "{}", run.name);
             }
         }
         assert_eq!(r.views.len(), 1);

@@ -11,7 +11,7 @@
 //! | module | concept |
 //! | --- | --- |
 //! | [`camera`] | [`Camera`]: look-at, file cameras ([`CameraSpec`]), the default overview, primary rays |
-//! | [`render`](mod@render) | [`render_volume`], [`render_reference`], the pixel [`Quantity`], [`IrradianceField`] |
+//! | [`render`](mod@render) | [`render_volume`] (of any `lightvol_volume::VolumeField`), [`render_reference`], the pixel [`Quantity`] |
 //! | [`error`] | [`ViewError`] |
 //!
 //! ## Guide
@@ -52,8 +52,8 @@ pub mod render;
 pub use camera::{Camera, CameraSpec, DEFAULT_FOV_DEG};
 pub use error::ViewError;
 pub use render::{
-    IrradianceField, MAX_PIXELS, Quantity, REFERENCE_STREAM, ReferenceConfig, ViewConfig, ViewImage,
-    VisibleSurface, render_reference, render_volume, visible_surface,
+    MAX_PIXELS, Quantity, REFERENCE_STREAM, ReferenceConfig, ViewConfig, ViewImage, VisibleSurface,
+    render_reference, render_volume, visible_surface,
 };
 
 #[cfg(test)]

@@ -6,7 +6,7 @@ use std::str::FromStr;
 
 use glam::DVec3;
 use lightvol_sh::lowdisc::hash2;
-use lightvol_volume::{AdaptiveVolume, IrradianceVolume, VolumeError};
+use lightvol_volume::VolumeField;
 use rayon::prelude::*;
 
 use crate::bake::Progress;
@@ -146,29 +146,6 @@ pub fn visible_surface(scene: &Scene, tracer: &Tracer, eye: DVec3, dir: DVec3) -
     })
 }
 
-/// Irradiance at any point and normal: what a view is shaded from.
-pub trait IrradianceField: Sync {
-    /// Irradiance (RGB) at world point `p` for the unit normal `n`.
-    ///
-    /// # Errors
-    /// A lookup the volume refuses.
-    fn irradiance(&self, p: DVec3, n: DVec3) -> Result<[f64; 3], VolumeError>;
-}
-
-impl IrradianceField for IrradianceVolume {
-    /// The trilinear f32 lookup ([`IrradianceVolume::irradiance`]).
-    fn irradiance(&self, p: DVec3, n: DVec3) -> Result<[f64; 3], VolumeError> {
-        Ok(IrradianceVolume::irradiance(self, p.as_vec3().to_array(), n.as_vec3().to_array()).map(f64::from))
-    }
-}
-
-impl IrradianceField for AdaptiveVolume {
-    /// The octree's f32 lookup ([`AdaptiveVolume::irradiance`]).
-    fn irradiance(&self, p: DVec3, n: DVec3) -> Result<[f64; 3], VolumeError> {
-        Ok(AdaptiveVolume::irradiance(self, p.as_vec3().to_array(), n.as_vec3().to_array()).map(f64::from))
-    }
-}
-
 /// How a path-traced view is sampled.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ReferenceConfig {
@@ -184,7 +161,7 @@ pub struct ReferenceConfig {
 ///
 /// # Errors
 /// An invalid `config` (before any ray), a lookup the field refuses.
-pub fn render_volume<F: IrradianceField + ?Sized>(
+pub fn render_volume<F: VolumeField + ?Sized>(
     scene: &Scene,
     tracer: &Tracer,
     camera: &Camera,
@@ -193,7 +170,7 @@ pub fn render_volume<F: IrradianceField + ?Sized>(
 ) -> Result<ViewImage, ViewError> {
     config.validate()?;
     render(scene, tracer, camera, config, None, |_, s| {
-        Ok(field.irradiance(s.position, s.normal)?.map(|c| c.max(0.0)))
+        Ok(field.irradiance(s.position.to_array(), s.normal.to_array())?.map(|c| c.max(0.0)))
     })
 }
 
