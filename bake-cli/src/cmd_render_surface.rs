@@ -40,8 +40,8 @@ use anyhow::{Context, bail};
 use lightvol_hemibasis::HemiBasis;
 use lightvol_hemibasis::lod::{Lod, eval_modified_h};
 use lightvol_sampler::surface::{
-    CoefficientMap, Quantity, SurfaceError, SurfaceGeometry, lighting_fingerprint, read_surface_exr,
-    reference_surface_irradiance,
+    CoefficientMap, LightingRecord, Quantity, SurfaceError, SurfaceGeometry, lighting_fingerprint,
+    read_surface_exr, reference_surface_irradiance,
 };
 use lightvol_sampler::{DVec3, Tracer, Transport, TransportSettings};
 use lightvol_sh::lowdisc::hash2;
@@ -252,23 +252,17 @@ fn read_dir_maps(dir: &Path) -> anyhow::Result<(Vec<BasisMaps>, u64)> {
     Ok((out, invalid))
 }
 
-/// The first `"; "`-separated part in which two lighting fingerprints differ, as
-/// `"LA: part of a, LB: part of b"` (the whole texts when every shared part agrees).
+/// The first part in which two lighting fingerprints differ (`LightingRecord::diff`,
+/// prefixed `"LA vs LB: "`), or both whole texts if either does not read as a record.
 fn lighting_difference(a: &str, b: &str, la: &str, lb: &str) -> String {
-    let (pa, pb): (Vec<&str>, Vec<&str>) = (a.split("; ").collect(), b.split("; ").collect());
-    match pa.iter().zip(&pb).find(|(x, y)| x != y) {
-        Some((x, y)) => format!("{la}: {x}, {lb}: {y}"),
-        None => format!("{la}: {a}, {lb}: {b}"),
+    match (a.parse::<LightingRecord>(), b.parse::<LightingRecord>()) {
+        (Ok(ra), Ok(rb)) => format!("{la} vs {lb}: {}", ra.diff(&rb).unwrap_or_else(|| "equal".into())),
+        _ => format!("{la}: {a}, {lb}: {b}"),
     }
 }
 
 fn file_name(p: &Path) -> String {
     p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned())
-}
-
-/// The path settings recorded in a lighting fingerprint (`bounces=LABEL`, its last part).
-fn fingerprint_bounces(lighting: &str) -> Option<TransportSettings> {
-    lighting.split("; ").find_map(|p| p.strip_prefix("bounces=")).and_then(TransportSettings::from_label)
 }
 
 /// Checks that every map in `sets` was baked under one lighting, and that it is the lighting
@@ -291,7 +285,7 @@ fn check_lighting(
             );
         }
     }
-    let bounces = fingerprint_bounces(lighting).with_context(|| {
+    let bounces = lighting.parse::<LightingRecord>().ok().and_then(|r| r.transport()).with_context(|| {
         format!("{}: the maps' lighting record has no bounce count ('{lighting}')", first.path.display())
     })?;
     let own = lighting_fingerprint(scene, &bounces);

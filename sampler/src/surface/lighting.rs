@@ -22,6 +22,9 @@
 //! Numbers are Rust's shortest round-trip `f64` text (`-0` written as `0`), so two scenes
 //! share a fingerprint exactly when these values are bit-identical.
 
+use std::fmt;
+use std::str::FromStr;
+
 use glam::DVec3;
 use lightvol_core::hash::{FNV_OFFSET, fnv1a, fnv1a_from};
 
@@ -92,59 +95,161 @@ fn punctual(l: &PunctualLight) -> String {
 /// in the EXR part attribute `lightvol.lighting`.
 #[must_use]
 pub fn lighting_fingerprint(scene: &Scene, transport: &crate::transport::TransportSettings) -> String {
-    let mut parts = vec!["lighting=1".to_owned()];
-    parts.push(match &scene.environment {
-        Environment::Black => "environment=black".to_owned(),
-        Environment::UniformSky { sky, ground } => format!(
-            "environment=uniform_sky sky={} ground={}",
-            vec3(*sky),
-            ground.map_or_else(|| "none".to_owned(), vec3)
-        ),
-        Environment::Map(m) => {
-            format!("environment=map {}x{} fnv1a64={:016x}", m.width(), m.height(), env_map_hash(m))
+    LightingRecord::of(scene, transport).to_string()
+}
+
+/// The lighting fingerprint as a typed record: one field per part of the text (module docs),
+/// each the part's canonical text. [`Display`](fmt::Display) writes the fingerprint,
+/// [`FromStr`] reads it back, [`Self::diff`] names the first part in which two differ.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct LightingRecord {
+    /// `environment=…` (the sky, its ground colour, or the map's size and hash).
+    pub environment: String,
+    /// `sun=none` or `sun direction=… irradiance=… angular_radius=…`.
+    pub sun: String,
+    /// `punctual=N | …` (each light) or `punctual=N fnv1a64=HEX`.
+    pub punctual: String,
+    /// `emissive materials=M triangles=T emission_area=[…]`.
+    pub emissive: String,
+    /// The path length, `TransportSettings::label`.
+    pub bounces: String,
+}
+
+/// The format version written as the fingerprint's first part, `lighting=1`.
+pub const LIGHTING_RECORD_VERSION: u32 = 1;
+
+impl LightingRecord {
+    /// The record of `scene` baked with `transport` (module docs).
+    #[must_use]
+    pub fn of(scene: &Scene, transport: &crate::transport::TransportSettings) -> Self {
+        let mut parts = Vec::new();
+        parts.push(match &scene.environment {
+            Environment::Black => "environment=black".to_owned(),
+            Environment::UniformSky { sky, ground } => format!(
+                "environment=uniform_sky sky={} ground={}",
+                vec3(*sky),
+                ground.map_or_else(|| "none".to_owned(), vec3)
+            ),
+            Environment::Map(m) => {
+                format!("environment=map {}x{} fnv1a64={:016x}", m.width(), m.height(), env_map_hash(m))
+            }
+        });
+        parts.push(match &scene.sun {
+            None => "sun=none".to_owned(),
+            Some(s) => format!(
+                "sun direction={} irradiance={} angular_radius={}",
+                dvec(s.direction),
+                vec3(s.irradiance),
+                num(s.angular_radius)
+            ),
+        });
+        let lights: Vec<String> = scene.punctual.iter().map(punctual).collect();
+        if lights.len() <= MAX_LISTED_PUNCTUAL {
+            let mut p = format!("punctual={}", lights.len());
+            for l in &lights {
+                p.push_str(" | ");
+                p.push_str(l);
+            }
+            parts.push(p);
+        } else {
+            let hash = lights.iter().fold(FNV_OFFSET, |h, l| fnv1a_from(fnv1a_from(h, l.as_bytes()), b"\n"));
+            parts.push(format!("punctual={} fnv1a64={hash:016x}", lights.len()));
         }
-    });
-    parts.push(match &scene.sun {
-        None => "sun=none".to_owned(),
-        Some(s) => format!(
-            "sun direction={} irradiance={} angular_radius={}",
-            dvec(s.direction),
-            vec3(s.irradiance),
-            num(s.angular_radius)
-        ),
-    });
-    let lights: Vec<String> = scene.punctual.iter().map(punctual).collect();
-    if lights.len() <= MAX_LISTED_PUNCTUAL {
-        let mut p = format!("punctual={}", lights.len());
-        for l in &lights {
-            p.push_str(" | ");
-            p.push_str(l);
+        let mut used = vec![false; scene.materials.len()];
+        let mut triangles = 0u64;
+        let mut total = [0.0f64; 3];
+        for (_, stored, inst) in scene.stored_triangles() {
+            let Some(m) = scene.materials.get(stored.material as usize) else { continue };
+            if !m.is_emissive() {
+                continue;
+            }
+            let t = inst.map_or(*stored, |i| i.place(stored));
+            used[t.material as usize] = true;
+            triangles += 1;
+            let sides = if m.double_sided { 2.0 } else { 1.0 };
+            for (acc, e) in total.iter_mut().zip(m.emission) {
+                *acc += t.area() * e * sides;
+            }
         }
-        parts.push(p);
-    } else {
-        let hash = lights.iter().fold(FNV_OFFSET, |h, l| fnv1a_from(fnv1a_from(h, l.as_bytes()), b"\n"));
-        parts.push(format!("punctual={} fnv1a64={hash:016x}", lights.len()));
+        let materials = used.iter().filter(|&&u| u).count();
+        parts.push(format!(
+            "emissive materials={materials} triangles={triangles} emission_area={}",
+            vec3(total)
+        ));
+        let [environment, sun, punctual, emissive]: [String; 4] =
+            parts.try_into().expect("four parts, pushed above");
+        Self { environment, sun, punctual, emissive, bounces: transport.label() }
     }
-    let mut used = vec![false; scene.materials.len()];
-    let mut triangles = 0u64;
-    let mut total = [0.0f64; 3];
-    for (_, stored, inst) in scene.stored_triangles() {
-        let Some(m) = scene.materials.get(stored.material as usize) else { continue };
-        if !m.is_emissive() {
-            continue;
-        }
-        let t = inst.map_or(*stored, |i| i.place(stored));
-        used[t.material as usize] = true;
-        triangles += 1;
-        let sides = if m.double_sided { 2.0 } else { 1.0 };
-        for (acc, e) in total.iter_mut().zip(m.emission) {
-            *acc += t.area() * e * sides;
-        }
+
+    /// The path settings the record names (`None` for a label this version cannot read).
+    #[must_use]
+    pub fn transport(&self) -> Option<crate::transport::TransportSettings> {
+        crate::transport::TransportSettings::from_label(&self.bounces)
     }
-    let materials = used.iter().filter(|&&u| u).count();
-    parts.push(format!("emissive materials={materials} triangles={triangles} emission_area={}", vec3(total)));
-    parts.push(format!("bounces={}", transport.label()));
-    parts.join("; ")
+
+    /// The parts as `(name, text)`, in the fingerprint's order.
+    fn parts(&self) -> [(&'static str, String); 5] {
+        [
+            ("environment", self.environment.clone()),
+            ("sun", self.sun.clone()),
+            ("punctual lights", self.punctual.clone()),
+            ("emission", self.emissive.clone()),
+            ("bounces", format!("bounces={}", self.bounces)),
+        ]
+    }
+
+    /// The first part in which `self` and `other` differ, as `"NAME: A vs B"`, or `None`
+    /// when they are equal.
+    #[must_use]
+    pub fn diff(&self, other: &Self) -> Option<String> {
+        self.parts()
+            .into_iter()
+            .zip(other.parts())
+            .find(|(a, b)| a.1 != b.1)
+            .map(|((name, a), (_, b))| format!("{name}: {a} vs {b}"))
+    }
+}
+
+/// The fingerprint text (module docs).
+impl fmt::Display for LightingRecord {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "lighting={LIGHTING_RECORD_VERSION}")?;
+        for (_, p) in self.parts() {
+            write!(f, "; {p}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Reads a fingerprint back: its version and five parts, each by its prefix.
+impl FromStr for LightingRecord {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        let parts: Vec<&str> = s.split("; ").collect();
+        let [version, environment, sun, punctual, emissive, bounces] = parts[..] else {
+            return Err(format!("{} parts, expected 6", parts.len()));
+        };
+        if version != format!("lighting={LIGHTING_RECORD_VERSION}") {
+            return Err(format!("version {version:?}, expected lighting={LIGHTING_RECORD_VERSION}"));
+        }
+        for (p, prefix) in
+            [(environment, "environment="), (sun, "sun"), (punctual, "punctual="), (emissive, "emissive ")]
+        {
+            if !p.starts_with(prefix) {
+                return Err(format!("{p:?} where {prefix}… was expected"));
+            }
+        }
+        let bounces = bounces
+            .strip_prefix("bounces=")
+            .ok_or_else(|| format!("{bounces:?} where bounces=… was expected"))?;
+        Ok(Self {
+            environment: environment.to_owned(),
+            sun: sun.to_owned(),
+            punctual: punctual.to_owned(),
+            emissive: emissive.to_owned(),
+            bounces: bounces.to_owned(),
+        })
+    }
 }
 
 #[cfg(test)]
@@ -238,5 +343,36 @@ mod tests {
         assert!(f6.contains(&format!("punctual={} fnv1a64=", MAX_LISTED_PUNCTUAL + 1)), "{f6}");
         s6.punctual[3] = PunctualLight::Directional { to_light: DVec3::Z, irradiance: [0.5; 3] };
         assert_ne!(lighting_fingerprint(&s6, &rr(2)), f6);
+    }
+
+    /// The record reads its own text back, names the part that differs (by hand: the sun's),
+    /// and refuses texts that are not fingerprints.
+    #[test]
+    fn record_round_trips_and_names_differences() {
+        let mut b = scene();
+        b.sun = Some(Sun { direction: DVec3::Z, irradiance: [3.0; 3], angular_radius: 0.0 });
+        let s = b.build().unwrap();
+        let r = LightingRecord::of(&s, &rr(2));
+        let text = r.to_string();
+        assert_eq!(text, lighting_fingerprint(&s, &rr(2)));
+        assert_eq!(text.parse::<LightingRecord>().unwrap(), r);
+        assert_eq!(r.transport(), Some(rr(2)));
+        assert_eq!(r.diff(&r), None);
+        let mut s2 = s.clone();
+        s2.sun.as_mut().unwrap().irradiance = [4.0; 3];
+        let d = r.diff(&LightingRecord::of(&s2, &rr(2))).unwrap();
+        assert_eq!(
+            d,
+            "sun: sun direction=[0.0, 0.0, 1.0] irradiance=[3.0, 3.0, 3.0] angular_radius=0.0 vs \
+             sun direction=[0.0, 0.0, 1.0] irradiance=[4.0, 4.0, 4.0] angular_radius=0.0"
+        );
+        assert!(
+            r.diff(&LightingRecord::of(&s, &rr(3))).unwrap().starts_with("bounces: bounces=2+roulette vs")
+        );
+        for bad in ["", "lighting=2; a; b; c; d; bounces=1", "lighting=1; environment=black; sun=none"] {
+            assert!(bad.parse::<LightingRecord>().is_err(), "{bad:?}");
+        }
+        let swapped = text.replace("; sun", "; moon");
+        assert!(swapped.parse::<LightingRecord>().is_err());
     }
 }

@@ -46,7 +46,7 @@ pub use bake::{
 pub use error::SurfaceError;
 pub use exr::{read_surface_exr, write_surface_exr};
 pub use geometry::{SurfaceGeometry, SurfaceObject};
-pub use lighting::lighting_fingerprint;
+pub use lighting::{LightingRecord, lighting_fingerprint};
 pub use map::{CoefficientMap, InvalidCounts};
 pub use reference::reference_surface_irradiance;
 pub use tangent::TangentFrame;
