@@ -480,7 +480,7 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
         let transport = Transport::new(&loaded.scene, &tracer, ts);
         for basis in &bases {
             let settings = SurfaceSettings {
-                basis: basis.clone(),
+                basis: *basis,
                 uv_set,
                 texels_per_unit: args.texels_per_unit,
                 resolution,
@@ -492,7 +492,7 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                 seed: args.seed,
                 ..SurfaceSettings::default()
             };
-            let pb = progress_bar(args.quiet, 0, basis.tag());
+            let pb = progress_bar(args.quiet, 0, &basis.tag());
             let report = |p: Progress| {
                 pb.set_length(p.total as u64);
                 pb.set_position(p.done as u64);
@@ -527,13 +527,13 @@ pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                 bake_surface(&transport, &settings, &control)
                     .with_context(|| format!("baking {}", basis.tag()))?
             } else {
-                let records = shard_records(&args.from_shards, basis.tag(), &fingerprint)?;
+                let records = shard_records(&args.from_shards, &basis.tag(), &fingerprint)?;
                 let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
                 assemble_surface(&transport, &geo, &settings, &records)
                     .with_context(|| format!("assembling {} from its shards", basis.tag()))?
             };
             pb.finish_and_clear();
-            bakes.push((basis.clone(), out, t0.elapsed().as_secs_f64()));
+            bakes.push((*basis, out, t0.elapsed().as_secs_f64()));
         }
         Ok(())
     })??;

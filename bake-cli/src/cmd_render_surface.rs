@@ -37,11 +37,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use lightvol_hemibasis::HemiBasis;
 use lightvol_hemibasis::lod::{Lod, eval_modified_h};
+use lightvol_hemibasis::{BasisFamily, HemiBasis};
 use lightvol_sampler::surface::{
-    CoefficientMap, LightingRecord, Quantity, SurfaceError, SurfaceGeometry, lighting_fingerprint,
-    read_surface_exr, reference_surface_irradiance,
+    BasisChoice, CoefficientMap, LightingRecord, Quantity, SurfaceError, SurfaceGeometry,
+    lighting_fingerprint, read_surface_exr, reference_surface_irradiance,
 };
 use lightvol_sampler::{DVec3, Tracer, Transport, TransportSettings};
 use lightvol_sh::lowdisc::hash2;
@@ -203,7 +203,7 @@ pub struct SurfaceRenderReport {
 struct BasisMaps {
     /// The EXR file they came from.
     path: PathBuf,
-    tag: String,
+    tag: BasisChoice,
     basis: Box<dyn HemiBasis>,
     maps: Vec<CoefficientMap>,
 }
@@ -231,7 +231,7 @@ fn read_dir_maps(dir: &Path) -> anyhow::Result<(Vec<BasisMaps>, u64)> {
             Err(e) => return Err(e).with_context(|| format!("reading {}", p.display())),
         };
         let Some(first) = maps.first() else { continue };
-        let tag = first.basis.clone();
+        let tag = first.basis;
         let basis = first.basis().with_context(|| format!("{}", p.display()))?;
         if maps.iter().any(|m| m.basis != tag) {
             bail!("{}: objects use different bases", p.display());
@@ -373,7 +373,7 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
         Quantity::Irradiance => std::f64::consts::FRAC_1_PI,
         Quantity::Radiosity => 1.0,
     };
-    let lightmap_set = sets.iter().position(|s| s.tag.starts_with("hbasis_mod"));
+    let lightmap_set = sets.iter().position(|s| s.tag.family() == BasisFamily::HBasisMod);
     // With a modified H-basis map: its lowest levels of detail (Listing 2.2's stop points),
     // `lightmap` (H1) and `lightmap4` (H1-H4).
     let lods: &[(&str, Lod)] =
@@ -449,7 +449,7 @@ pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<Ex
     })?;
 
     // Errors over lightmapped pixels.
-    let mut names: Vec<(String, usize)> = sets.iter().map(|s| (s.tag.clone(), s.basis.len())).collect();
+    let mut names: Vec<(String, usize)> = sets.iter().map(|s| (s.tag.tag(), s.basis.len())).collect();
     names.extend(lods.iter().map(|&(name, lod)| (name.to_owned(), lod.coefficients())));
     let mut err2 = vec![0.0f64; n_images];
     let mut ref2 = 0.0f64;

@@ -374,7 +374,7 @@ pub fn assemble_surface(
             object: geo.objects()[o].name.clone(),
             width: atlas.width,
             height: atlas.height,
-            basis: settings.basis.tag().to_owned(),
+            basis: settings.basis,
             coeffs: k,
             texels_per_unit: settings.texels_per_unit,
             quantity: settings.quantity,

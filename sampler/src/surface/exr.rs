@@ -103,7 +103,7 @@ fn to_bytes(maps: &[CoefficientMap], version: i32) -> Result<Vec<u8>, String> {
         };
         put("lightvol.kind", AttributeValue::Text(text("surface")?))?;
         put("lightvol.version", AttributeValue::I32(version))?;
-        put("lightvol.basis", AttributeValue::Text(text(&m.basis)?))?;
+        put("lightvol.basis", AttributeValue::Text(text(&m.basis.tag())?))?;
         put("lightvol.coefficients", AttributeValue::I32(m.coeffs as i32))?;
         put("lightvol.texels_per_unit", AttributeValue::Text(text(&format!("{:?}", m.texels_per_unit))?))?;
         put("lightvol.quantity", AttributeValue::Text(text(m.quantity.name())?))?;
@@ -159,7 +159,7 @@ struct Declared {
     object: String,
     width: u32,
     height: u32,
-    basis: String,
+    basis: super::BasisChoice,
     coeffs: usize,
     texels_per_unit: f64,
     quantity: Quantity,
@@ -243,7 +243,7 @@ fn declared(h: &exr::meta::header::Header) -> Result<Declared, String> {
         object,
         width,
         height,
-        basis,
+        basis: choice,
         coeffs,
         texels_per_unit,
         quantity,
@@ -315,7 +315,7 @@ mod tests {
             object: name.into(),
             width: w,
             height: h,
-            basis: "hbasis_mod6".into(),
+            basis: crate::surface::BasisChoice::parse("hbasis_mod6").unwrap(),
             coeffs: 6,
             texels_per_unit: 12.5,
             quantity: Quantity::Radiosity,
@@ -357,7 +357,7 @@ mod tests {
         wrong.coeffs = 4;
         assert!(surface_exr_to_bytes(&[wrong]).is_err());
         let mut renamed = sample_map("x", 2, 2);
-        renamed.basis = "sh4".into(); // 6 channels declared as a 4-coefficient basis
+        renamed.basis = crate::surface::BasisChoice::parse("sh4").unwrap(); // 6 channels declared as a 4-coefficient basis
         let b = surface_exr_to_bytes(&[renamed]).unwrap();
         assert!(surface_exr_from_bytes(&b).unwrap_err().contains("does not have"));
     }

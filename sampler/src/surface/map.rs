@@ -16,8 +16,8 @@ pub struct CoefficientMap {
     pub width: u32,
     /// Height in texels.
     pub height: u32,
-    /// Basis tag (`hbasis_mod6`, see [`BasisChoice`]).
-    pub basis: String,
+    /// The basis (stored as its tag, `hbasis_mod6`, see [`BasisChoice`]).
+    pub basis: BasisChoice,
     /// Coefficients per colour channel.
     pub coeffs: usize,
     /// Texel density the atlas was sized for.
@@ -218,7 +218,7 @@ impl CoefficientMap {
     /// # Errors
     /// [`SurfaceError::UnknownBasis`] when the basis is not compiled in.
     pub fn basis(&self) -> Result<Box<dyn HemiBasis>, SurfaceError> {
-        let b = BasisChoice::parse(&self.basis)?;
+        let b = self.basis;
         if b.coeffs() != self.coeffs {
             return Err(SurfaceError::UnknownBasis(format!(
                 "{} with {} coefficients",
@@ -288,7 +288,7 @@ mod tests {
             object: "o".into(),
             width: w,
             height: h,
-            basis: "sh4".into(),
+            basis: BasisChoice::parse("sh4").unwrap(),
             coeffs: 1,
             texels_per_unit: 1.0,
             quantity: Quantity::Irradiance,

@@ -51,7 +51,7 @@ pub use map::{CoefficientMap, InvalidCounts};
 pub use reference::reference_surface_irradiance;
 pub use tangent::TangentFrame;
 
-use lightvol_hemibasis::HemiBasis;
+use lightvol_hemibasis::{BasisFamily, HemiBasis};
 
 /// Which glTF texture coordinate set holds the lightmap UVs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -148,11 +148,10 @@ pub enum InvalidTexels {
 /// `makhotkin4`, `makhotkin9`, `zernike3`, `zernike6`, `hbasis4`, `hbasis6`, `hbasis_mod4`,
 /// `hbasis_mod6`, or any other size [`lightvol_hemibasis::by_name`] accepts (`hsh16`, ...).
 /// Only bases whose lightvol-hemibasis feature is enabled parse.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct BasisChoice {
-    name: String,
+    family: BasisFamily,
     count: usize,
-    tag: String,
 }
 
 impl BasisChoice {
@@ -161,23 +160,31 @@ impl BasisChoice {
     /// # Errors
     /// [`SurfaceError::UnknownBasis`] when no enabled basis has that name and size.
     pub fn parse(s: &str) -> Result<Self, SurfaceError> {
+        let unknown = || SurfaceError::UnknownBasis(s.to_owned());
         let (name, count) = if s == "hl2" {
             ("hl2", 3)
         } else {
             let split = s.trim_end_matches(|c: char| c.is_ascii_digit()).len();
-            let count = s[split..].parse::<usize>().map_err(|_| SurfaceError::UnknownBasis(s.to_owned()))?;
-            (&s[..split], count)
+            (&s[..split], s[split..].parse::<usize>().map_err(|_| unknown())?)
         };
-        if lightvol_hemibasis::by_name(name, count).is_none() {
-            return Err(SurfaceError::UnknownBasis(s.to_owned()));
+        let family = name.parse::<BasisFamily>().map_err(|_| unknown())?;
+        if lightvol_hemibasis::by_family(family, count).is_none() {
+            return Err(unknown());
         }
-        Ok(Self { name: name.to_owned(), count, tag: s.to_owned() })
+        Ok(Self { family, count })
     }
 
-    /// The name as given (`hbasis_mod6`), stored in files.
+    /// The name stored in files and printed (`hbasis_mod6`; `hl2` without its count), which
+    /// [`Self::parse`] reads back.
     #[must_use]
-    pub fn tag(&self) -> &str {
-        &self.tag
+    pub fn tag(&self) -> String {
+        self.to_string()
+    }
+
+    /// The basis family.
+    #[must_use]
+    pub fn family(&self) -> BasisFamily {
+        self.family
     }
 
     /// Number of coefficients per colour channel.
@@ -189,7 +196,17 @@ impl BasisChoice {
     /// The basis.
     #[must_use]
     pub fn basis(&self) -> Box<dyn HemiBasis> {
-        lightvol_hemibasis::by_name(&self.name, self.count).expect("checked when parsed")
+        lightvol_hemibasis::by_family(self.family, self.count).expect("checked when parsed")
+    }
+}
+
+/// The name [`BasisChoice::parse`] reads.
+impl std::fmt::Display for BasisChoice {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.family {
+            BasisFamily::Hl2 => f.write_str("hl2"),
+            family => write!(f, "{family}{}", self.count),
+        }
     }
 }
 
