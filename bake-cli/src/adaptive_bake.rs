@@ -306,7 +306,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     if args.gradients.is_some() {
         bail!("--adaptive cannot be combined with --gradients (the octree stores no gradients)");
     }
-    if args.sampling.fit != lightvol_sampler::fit::Fit::Average {
+    if args.sampling.fit != lightvol_sampler::node_fit::Fit::Average {
         bail!(
             "--adaptive cannot be combined with --fit {} (the octree levels use Eq. 6's average)",
             args.sampling.fit

@@ -9,8 +9,10 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lightvol_sampler::baselines::{Baseline, bake_baseline};
 use lightvol_sampler::eval::entries::{BakeMethod, parse_bake_method};
-use lightvol_sampler::fit::{Fit, MassMatrix, bake_with_mass, finalize_least_squares, solve_least_squares};
 use lightvol_sampler::gradient_estimator::{GradientEstimator, bake_with_estimator};
+use lightvol_sampler::node_fit::{
+    Fit, MassMatrix, bake_with_mass, finalize_least_squares, solve_least_squares,
+};
 use lightvol_sampler::{
     BakeControl, BakeOutput, BakeSettings, Method, Progress, Tracer, Transport, TransportSettings,
 };
@@ -19,7 +21,7 @@ use lightvol_volume::exr_io::{ExrOptions, write_exr, write_exr_with_gradients};
 use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
 use serde::Serialize;
 
-use crate::gradients::GradientEstimatorArg;
+use crate::gradient_args::GradientEstimatorArg;
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, with_threads};
 
 /// `lightvol bake`.
@@ -296,7 +298,7 @@ enum Grads {
     Gradients(
         lightvol_volume::VolumeGradients,
         GradientsJson,
-        Box<lightvol_sampler::gradients::ShardGradients>,
+        Box<lightvol_sampler::gradient_bake::ShardGradients>,
     ),
     /// The mass matrix of a least-squares fit.
     Mass(MassMatrix),

@@ -25,7 +25,7 @@ use lightvol_hemibasis::HemiBasis;
 use lightvol_hemibasis::bc::{self, BlockFormat, CompressedPlane};
 use lightvol_hemibasis::encode::{ClampStats, DcTransfer, Encoding};
 use lightvol_hemibasis::map::{CoeffMap, MapError, Plane, map_error};
-use lightvol_hemibasis::texture::{ktx2_compressed, ktx2_rgba8};
+use lightvol_hemibasis::plane_ktx2::{ktx2_compressed, ktx2_rgba8};
 use lightvol_sampler::surface::{
     BasisChoice, CoefficientMap, InvalidTexels, Quantity, SurfaceGeometry, SurfaceReport, SurfaceSettings,
     UvSet, assemble_surface, bake_surface, bake_surface_texels, write_surface_exr,

@@ -65,7 +65,7 @@ pub struct CompareArgs {
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for
     /// prefilter/doi-paper, no extra rays; `central` for point, doi and doi-node).
     #[arg(long, value_enum)]
-    pub gradient_estimator: Option<crate::gradients::GradientEstimatorArg>,
+    pub gradient_estimator: Option<crate::gradient_args::GradientEstimatorArg>,
     /// Also run the error-vs-memory study on this plate: uniform doi-paper at several
     /// resolutions, the same bakes read through the Taylor and Hermite gradient lookups,
     /// writing `memory_sweep.json`, `.png` and `.svg`.

@@ -145,7 +145,7 @@ fn scene_compare_args(
             path: crate::setup::PathArgs::default(),
             seed: 1,
             threads: args.threads,
-            fit: lightvol_sampler::fit::Fit::Average,
+            fit: lightvol_sampler::node_fit::Fit::Average,
         },
         plate_height: None,
         plate_res: level.plate_res,

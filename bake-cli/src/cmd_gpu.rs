@@ -11,7 +11,7 @@ use lightvol_proxies::compare::CompareConfig;
 use lightvol_proxies::kernel::{Kernel, KernelIndirect, prepare};
 use lightvol_proxies::light::DistantLight;
 use lightvol_proxies::pipeline::{accumulate_pass, bin_proxies, exponentiate_pass};
-use lightvol_proxies::scene::{ReceiverBuffer, Scene, character};
+use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene, character};
 use lightvol_volume::IrradianceVolume;
 use serde_json::{Value, json};
 

@@ -11,7 +11,7 @@ use lightvol_volume::gradient::floats_per_sample;
 use serde_json::{Value, json};
 
 use crate::cli::InfoArgs;
-use crate::gradients::floats_table;
+use crate::gradient_args::floats_table;
 
 /// The description `info --json` prints (`"kind": "uniform"` or `"adaptive"`).
 pub fn describe(path: &Path) -> anyhow::Result<Value> {

@@ -187,7 +187,7 @@ pub fn summarize(
                 double_sided: m.double_sided,
                 albedo: m.albedo,
                 texture: tex.map(|t| [t.width(), t.height()]),
-                texture_alpha: tex.is_some_and(lightvol_sampler::texture::Texture::has_alpha),
+                texture_alpha: tex.is_some_and(lightvol_sampler::base_color::Texture::has_alpha),
                 emission: m.emission,
                 triangles: n,
             }

@@ -162,9 +162,9 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     // A least-squares bake's shards carry the mass matrix: solve the fit over the whole set.
     // A gradient bake's carry the basis estimator's systems (solved on the merged volume) or
     // the central differences of their nodes.
-    let grad_sums = lightvol_sampler::gradients::ShardGradients::from_accumulator(&acc)
+    let grad_sums = lightvol_sampler::gradient_bake::ShardGradients::from_accumulator(&acc)
         .context("reading the shards' gradients")?;
-    let (vol, fill) = match lightvol_sampler::fit::MassMatrix::from_accumulator(&acc) {
+    let (vol, fill) = match lightvol_sampler::node_fit::MassMatrix::from_accumulator(&acc) {
         None => acc.finalize(),
         Some(mass) => {
             let lambda = lsq_lambda(&meta.method).with_context(|| {
@@ -173,13 +173,13 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
                     meta.method
                 )
             })?;
-            let (values, solve) = lightvol_sampler::fit::solve_least_squares(&mass, &acc, lambda)
+            let (values, solve) = lightvol_sampler::node_fit::solve_least_squares(&mass, &acc, lambda)
                 .context("least-squares node fit")?;
             eprintln!(
                 "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
                 solve.active_nodes, solve.max_iterations, solve.max_relative_residual
             );
-            lightvol_sampler::fit::finalize_least_squares(&acc, values)
+            lightvol_sampler::node_fit::finalize_least_squares(&acc, values)
         }
     };
     drop(acc);
@@ -209,11 +209,11 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
 
 /// λ of a bake labelled `METHOD fit=lsq:λ` (as `bake --fit lsq` labels its metadata).
 fn lsq_lambda(method: &str) -> Option<f64> {
-    let fit: lightvol_sampler::fit::Fit =
+    let fit: lightvol_sampler::node_fit::Fit =
         method.split_whitespace().find_map(|w| w.strip_prefix("fit="))?.parse().ok()?;
     match fit {
-        lightvol_sampler::fit::Fit::LeastSquares { lambda } => Some(lambda),
-        lightvol_sampler::fit::Fit::Average => None,
+        lightvol_sampler::node_fit::Fit::LeastSquares { lambda } => Some(lambda),
+        lightvol_sampler::node_fit::Fit::Average => None,
     }
 }
 

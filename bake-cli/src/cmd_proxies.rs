@@ -10,7 +10,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_proxies::compare::{CompareConfig, compare, render_variants};
 use lightvol_proxies::light::VolumeLight;
-use lightvol_proxies::scene::Scene;
+use lightvol_proxies::receiver_scene::Scene;
 use serde_json::json;
 
 use crate::imaging::{Rgb32, write_atomic, write_png_linear};
@@ -18,7 +18,7 @@ use crate::imaging::{Rgb32, write_atomic, write_png_linear};
 /// `lightvol proxies`.
 #[derive(Debug, Args)]
 pub struct ProxiesArgs {
-    /// A receiver scene as JSON (the serde form of `lightvol_proxies::scene::Scene`), or
+    /// A receiver scene as JSON (the serde form of `lightvol_proxies::receiver_scene::Scene`), or
     /// `default` (ground, two walls and an 18-sphere character under a sky and sun).
     #[arg(default_value = "default")]
     pub scene: String,

@@ -24,7 +24,7 @@ pub mod cmd_shader;
 pub mod cmd_table;
 pub mod compare_views;
 pub mod embree_baseline;
-pub mod gradients;
+pub mod gradient_args;
 pub mod imaging;
 pub mod memory_sweep;
 pub mod setup;

@@ -137,7 +137,7 @@ pub struct SampleArgs {
     /// Eq. 6) or `lsq[:LAMBDA]` (least squares over the domain of interest, regularised
     /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `fit` module).
     #[arg(long, default_value = "average")]
-    pub fit: lightvol_sampler::fit::Fit,
+    pub fit: lightvol_sampler::node_fit::Fit,
 }
 
 /// A loaded scene with its recommended grid (built-ins) and plate heights.

@@ -51,7 +51,7 @@ use lightvol_proxies::kernel::{Accum, Incident, KernelIndirect, PreparedProxy, R
 use lightvol_proxies::light::LightField;
 use lightvol_proxies::operators::d_paper_fit;
 use lightvol_proxies::pipeline::TileBins;
-use lightvol_proxies::scene::ReceiverBuffer;
+use lightvol_proxies::receiver_scene::ReceiverBuffer;
 use lightvol_proxies::tables::{
     MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, TABLE_ENTRIES, Table, table_alpha,
 };

@@ -9,7 +9,7 @@ use lightvol_proxies::light::DistantLight;
 use lightvol_proxies::pipeline::{
     accumulate_pass, bin_proxies, exponentiate_pass, shade_from_scratch, shade_rgb9, total,
 };
-use lightvol_proxies::scene::{ReceiverBuffer, Scene};
+use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene};
 use lightvol_proxies::upsample::{Geometry, bilateral_upsample};
 
 /// Display size of the test frame; the receiver buffer is half of it per axis (the

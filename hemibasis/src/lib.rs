@@ -17,7 +17,7 @@ pub mod bc;
 #[cfg(feature = "hbasis")]
 pub mod lod;
 #[cfg(feature = "ktx2")]
-pub mod texture;
+pub mod plane_ktx2;
 
 #[cfg(feature = "hbasis")]
 pub mod hbasis;

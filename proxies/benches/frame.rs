@@ -16,7 +16,7 @@ use lightvol_proxies::pipeline::{
     total,
 };
 use lightvol_proxies::proxy::SphereProxy;
-use lightvol_proxies::scene::{ReceiverBuffer, Scene, character};
+use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene, character};
 use lightvol_sh::lowdisc::SplitMix64;
 
 fn main() {

@@ -2,7 +2,7 @@
 //!
 //! Renders a receiver scene (the built-in default: ground, two walls, a sphere-set
 //! character under a sky/sun light; or a JSON scene file, the serde form of
-//! `lightvol_proxies::scene::Scene`) without proxies, with proxy shadows, with shadows and
+//! `lightvol_proxies::receiver_scene::Scene`) without proxies, with proxy shadows, with shadows and
 //! indirect light, and path-traced with the spheres as real geometry. Writes `none.png`,
 //! `shadows.png`, `shadows_indirect.png`, `reference.png` and `report.json` (relative RMSE
 //! of each variant against the reference on the receivers) to DIR (default `proxies-out`).
@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, bail};
 use lightvol_proxies::compare::{CompareConfig, compare, render_variants};
 use lightvol_proxies::light::VolumeLight;
-use lightvol_proxies::scene::Scene;
+use lightvol_proxies::receiver_scene::Scene;
 
 struct Args {
     scene: Option<PathBuf>,

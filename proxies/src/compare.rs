@@ -11,8 +11,8 @@ use crate::oracle::{indirect_eta, shadow_eta};
 use crate::pipeline::{
     accumulate_pass, bin_proxies, exponentiate_pass, shade_display, shade_from_scratch, total,
 };
+use crate::receiver_scene::{ReceiverBuffer, Scene};
 use crate::reference::{PathTracer, inside_any, intersect};
-use crate::scene::{ReceiverBuffer, Scene};
 
 /// Settings of a comparison.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -156,7 +156,7 @@ pub fn render_variants<const N: usize>(
         .map(|i| {
             let d = cam.ray(i % fine.width, i / fine.width, fine.width, fine.height);
             let (t, k) = intersect(&scene.proxies, cam.eye, d)?;
-            if fine.valid(i) && f64::from(fine.depth[i]) < t * crate::scene::dot(d, cam.forward) {
+            if fine.valid(i) && f64::from(fine.depth[i]) < t * crate::receiver_scene::dot(d, cam.forward) {
                 return None;
             }
             let s = &scene.proxies[k];

@@ -19,7 +19,7 @@ use crate::batch::{LANES, ReceiverBatch};
 use crate::kernel::{Accum, Incident, Kernel, PreparedProxy, Rgb9, light_f32};
 use crate::light::LightField;
 use crate::proxy::SphereProxy;
-use crate::scene::{CameraFrame, ReceiverBuffer};
+use crate::receiver_scene::{CameraFrame, ReceiverBuffer};
 use crate::upsample::{Geometry, bilateral_upsample_map, bilateral_upsample_map_into};
 
 /// Proxies binned into square screen tiles.

@@ -7,7 +7,7 @@ use lightvol_proxies::light::DistantLight;
 use lightvol_proxies::light::{FnLight, LightField};
 use lightvol_proxies::pipeline::{accumulate_pass, bin_proxies, exponentiate_pass, incident_pass, total};
 use lightvol_proxies::proxy::SphereProxy;
-use lightvol_proxies::scene::{ReceiverBuffer, Scene};
+use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene};
 use lightvol_sh::lowdisc::SplitMix64;
 
 /// The default scene's character plus seeded spheres around it, some crossing the floor and

@@ -3,7 +3,7 @@
 //! RMSE compared with no proxies.
 
 use lightvol_proxies::compare::{CompareConfig, compare};
-use lightvol_proxies::scene::Scene;
+use lightvol_proxies::receiver_scene::Scene;
 
 /// Measured at 96 × 72 (receivers 48 × 36), 256 paths per pixel, η derived for 1/256
 /// (relative RMSE over the receivers' pixel channels, `lightvol_core::metric`): none 0.0365,

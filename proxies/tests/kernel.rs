@@ -5,7 +5,7 @@ use lightvol_proxies::accumulate::{ExpMethod, IndirectMethod, ShadeOptions, shad
 use lightvol_proxies::kernel::{Accum, Kernel, KernelIndirect, light_f32, prepare};
 use lightvol_proxies::light::DistantLight;
 use lightvol_proxies::pipeline::{accumulate_pass, bin_proxies, exponentiate_pass, shade_rgb9, total};
-use lightvol_proxies::scene::{ReceiverBuffer, Scene};
+use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene};
 use lightvol_proxies::tables::SmoothClamp;
 use lightvol_sh::lowdisc::SplitMix64;
 

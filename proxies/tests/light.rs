@@ -43,7 +43,7 @@ fn volume_light_matches_distant_light() {
 #[test]
 fn pipeline_with_volume_light() {
     use lightvol_proxies::compare::{CompareConfig, render_variants};
-    use lightvol_proxies::scene::Scene;
+    use lightvol_proxies::receiver_scene::Scene;
     let scene = Scene::default_scene();
     let l = scene.light.sh::<9>();
     let spec = GridSpec::new([-4.0, -4.0, -1.0], [4.0, 4.0, 4.0], [2, 2, 2]).unwrap();

@@ -49,7 +49,7 @@ fn indirect_eta_order3() {
 #[test]
 fn shadow_eta_for_the_default_light() {
     use lightvol_proxies::oracle::{shadow_difference_for_light, shadow_eta_for_light};
-    let l = lightvol_proxies::scene::Scene::default_scene().light.sh::<16>();
+    let l = lightvol_proxies::receiver_scene::Scene::default_scene().light.sh::<16>();
     let d = shadow_eta_for_light::<16>(&l, TOL);
     println!("{d:?}");
     assert!(shadow_difference_for_light(&l, d.alpha) <= TOL);

@@ -3,7 +3,7 @@
 
 use lightvol_proxies::pipeline::bin_proxies;
 use lightvol_proxies::proxy::SphereProxy;
-use lightvol_proxies::scene::{ReceiverBuffer, Scene};
+use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene};
 use lightvol_sh::lowdisc::SplitMix64;
 
 #[test]

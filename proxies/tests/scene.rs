@@ -1,7 +1,7 @@
 //! Scene files: the default scene round-trips through JSON; bad input is an error.
 
 use lightvol_proxies::error::ProxyError;
-use lightvol_proxies::scene::{ReceiverBuffer, Scene};
+use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene};
 
 #[test]
 fn default_scene_round_trips_through_json() {

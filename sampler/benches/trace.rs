@@ -114,7 +114,7 @@ const ALPHA_RAYS: usize = 100_000;
 /// versions of the same geometry, plus rays from below into it.
 fn canopy(mode: &str) -> (Tracer, Vec<(DVec3, DVec3)>) {
     use lightvol_sampler::AlphaMode;
-    use lightvol_sampler::texture::Texture;
+    use lightvol_sampler::base_color::Texture;
     let n = 64u32;
     let alpha: Vec<f32> = (0..n * n)
         .map(|i| {

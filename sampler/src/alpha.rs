@@ -21,8 +21,8 @@
 
 use glam::{DVec2, DVec3};
 
+use crate::base_color::Texture;
 use crate::scene::{AlphaMode, Scene, Triangle};
-use crate::texture::Texture;
 
 /// `slot` value of an opaque triangle.
 const OPAQUE: u32 = u32::MAX;

@@ -203,7 +203,7 @@ pub fn bake(
 
 /// [`bake`], also handing every unit's kept samples to `sink`, on the calling thread, in
 /// unit order (so whatever `sink` accumulates is as deterministic as the bake; the
-/// gradient estimator of [`crate::gradients`] uses it).
+/// gradient estimator of [`crate::gradient_bake`] uses it).
 pub(crate) fn bake_with_sink(
     transport: &Transport<'_>,
     grid: &GridSpec,

@@ -3,7 +3,7 @@
 //! would otherwise get, not only with naive point sampling.
 //!
 //! Every baseline point-samples the probe grid (\[KL06\] Eq. 4, the `point` bake's
-//! estimator, [`crate::gradients::point_projection`]) and differs in where it samples, what
+//! estimator, [`crate::gradient_bake::point_projection`]) and differs in where it samples, what
 //! it does with probes that see the inside of geometry, and how the result is read. A
 //! probe's **back-face fraction** is the share of [`VALIDITY_RAYS`] uniform rays from it
 //! whose first hit is a back face of a single-sided surface ([`crate::Hit::back_face`]).
@@ -285,7 +285,7 @@ pub fn bake_baseline(
                 Baseline::Vlm => (x, view.back_fraction <= VLM_INVALID_FRACTION),
                 Baseline::Ddgi => (ddgi_relocate(x, &view, sp), true),
             };
-            let (c, st) = crate::gradients::point_projection_counted(
+            let (c, st) = crate::gradient_bake::point_projection_counted(
                 t,
                 settings,
                 capture,

@@ -3,12 +3,12 @@
 //! one entry point, [`bake_with_estimator`], that bakes a grid and computes its gradients by
 //! either.
 //!
-//! The estimators themselves live in [`crate::gradients`]:
+//! The estimators themselves live in [`crate::gradient_bake`]:
 //!
 //! - [`GradientEstimator::Central`]: \[Oat05\]'s central differences, six extra point
-//!   projections per node at 1/16 of a cell ([`crate::gradients::central_difference_data`]);
+//!   projections per node at 1/16 of a cell ([`crate::gradient_bake::central_difference_data`]);
 //! - [`GradientEstimator::Basis`]: the Petrov-Galerkin estimate from the bake's own kept
-//!   samples ([`crate::gradients::bake_with_gradients`]), no extra rays, cell methods only.
+//!   samples ([`crate::gradient_bake::bake_with_gradients`]), no extra rays, cell methods only.
 //!
 //! With either, the bake itself (its Eq. 6 sums and statistics) is bit-identical to a bake
 //! without gradients.
@@ -20,7 +20,7 @@ use serde::Serialize;
 
 use crate::bake::{BakeControl, BakeOutput, BakeSettings, Method, bake};
 use crate::error::BakeError;
-use crate::gradients::{ShardGradients, bake_with_gradients, central_difference_data, default_offset};
+use crate::gradient_bake::{ShardGradients, bake_with_gradients, central_difference_data, default_offset};
 use crate::shard::shard_range;
 use crate::transport::Transport;
 

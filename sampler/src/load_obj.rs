@@ -5,9 +5,9 @@ use std::path::{Path, PathBuf};
 
 use glam::{DVec2, DVec3};
 
+use crate::base_color::Texture;
 use crate::error::SceneError;
 use crate::scene::{Material, Scene, SceneBuilder, UpAxis};
-use crate::texture::Texture;
 
 /// Options shared by the loaders.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -9,10 +9,10 @@
 
 use glam::{DVec2, DVec3, DVec4};
 
+use crate::base_color::Texture;
 use crate::error::SceneError;
 pub use crate::instance::{Instance, Prototype};
 use crate::lights::{Environment, PunctualLight, Sun};
-use crate::texture::Texture;
 
 /// How a material's base-colour alpha affects rays (glTF 2.0 §3.9.4 `alphaMode`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]

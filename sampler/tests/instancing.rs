@@ -285,7 +285,7 @@ fn instanced_bake_equals_the_flattened_bake() {
 /// instance too (its placed vertices 1 and 2 are the stored 2 and 1).
 #[test]
 fn albedo_follows_the_placed_vertex_order() {
-    use lightvol_sampler::texture::Texture;
+    use lightvol_sampler::base_color::Texture;
     let mut b = SceneBuilder::new("tex");
     let tex =
         Texture::from_linear(2, 2, vec![[0.1, 0.2, 0.3], [0.9, 0.1, 0.1], [0.1, 0.8, 0.2], [0.4, 0.4, 0.9]])

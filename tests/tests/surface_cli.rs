@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use lightvol_hemibasis::bc::{self, BlockFormat, CompressedPlane};
 use lightvol_hemibasis::encode::{DcTransfer, Encoding};
 use lightvol_hemibasis::map::{CoeffMap, Plane, map_error};
-use lightvol_hemibasis::texture::{PlaneFormat, read_ktx2_plane};
+use lightvol_hemibasis::plane_ktx2::{PlaneFormat, read_ktx2_plane};
 use surface_util::{Mesh, plane, run, write_gltf};
 
 /// The recomputed error of the files on disk against the JSON's `rel_rms`: the files hold

@@ -17,8 +17,8 @@ use crate::eval::runs::{
 };
 use crate::eval::sweep::{SweepConfig, SweepReport, check_scales, memory_sweep};
 use crate::eval::views::{ComparedView, ViewsConfig, check_cameras, compare_views};
-use crate::fit::Fit;
 use crate::gradient_estimator::GradientEstimator;
+use crate::node_fit::Fit;
 use crate::scene::Scene;
 use crate::transport::{Transport, TransportSettings};
 

@@ -1,6 +1,6 @@
 //! The entries a comparison can bake and read: the three bakes of Kontkanen & Laine 2006
 //! (\[KL06\] §4-6) read by trilinear interpolation, the same bakes finalized with another
-//! node fit ([`crate::fit`]), read through one of Oat 2005's gradient lookups (\[Oat05\],
+//! node fit ([`crate::node_fit`]), read through one of Oat 2005's gradient lookups (\[Oat05\],
 //! "Spherical Harmonic Irradiance Gradients"), \[Oat05\]'s adaptive octree, and the engines'
 //! leak fixes ([`crate::baselines`]).
 //!
@@ -38,7 +38,7 @@ use lightvol_volume::gradient::GradientLookup;
 use crate::bake::Method;
 use crate::baselines::Baseline;
 use crate::eval::error::EvalError;
-use crate::fit::Fit;
+use crate::node_fit::Fit;
 
 /// What one compared entry bakes and how it is read (module docs).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,5 +1,5 @@
 //! Baking one [`Entry`](crate::eval::Entry) and measuring it on the plate: the bakes every
-//! entry kind needs ([`crate::fit::bake_fitted`], [`bake_with_estimator`], [`bake_adaptive`],
+//! entry kind needs ([`crate::node_fit::bake_fitted`], [`bake_with_estimator`], [`bake_adaptive`],
 //! [`bake_baseline`]), their reads at the plate points, and what each adds to the report.
 //!
 //! Everything an entry bakes shares a [`BakeContext`]: one scene and ray tracer, one light
@@ -23,8 +23,8 @@ use crate::eval::error::EvalError;
 use crate::eval::metrics::Metrics;
 use crate::eval::observer::Observer;
 use crate::eval::plate::Plate;
-use crate::fit::{Fit, bake_fitted};
 use crate::gradient_estimator::{GradientEstimator, bake_with_estimator};
+use crate::node_fit::{Fit, bake_fitted};
 use crate::stats::{BakeStats, RayCounts};
 use crate::transport::Transport;
 

@@ -31,8 +31,8 @@ use crate::eval::plate::Plate;
 use crate::eval::runs::{
     BakeContext, adaptive_volume, evaluate_adaptive, gradient_volume, run_uniform, scaled_grid,
 };
-use crate::fit::Fit;
 use crate::gradient_estimator::GradientEstimator;
+use crate::node_fit::Fit;
 
 /// Largest accepted scale of the cell counts (a 16-cell axis becomes 64).
 pub const MAX_SWEEP_SCALE: f64 = 4.0;

@@ -448,5 +448,5 @@ pub fn bake_fitted(
 }
 
 #[cfg(test)]
-#[path = "fit_tests.rs"]
+#[path = "node_fit_tests.rs"]
 mod tests;

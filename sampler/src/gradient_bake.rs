@@ -629,5 +629,5 @@ pub fn bake_field_with_gradients(
 }
 
 #[cfg(test)]
-#[path = "gradients_tests.rs"]
+#[path = "gradient_bake_tests.rs"]
 mod tests;
