@@ -9,7 +9,7 @@
 
 use std::path::PathBuf;
 
-use lightvol_volume::accumulator_io::write_accumulator;
+use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::{Accumulator, BakeMetadata, GridSpec};
 
 fn vm_hwm_bytes() -> u64 {

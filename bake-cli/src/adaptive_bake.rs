@@ -14,8 +14,10 @@ use lightvol_sampler::adaptive::{
 };
 use lightvol_sampler::adaptive_shard::{LevelShardHeader, LevelSums, read_level, write_level};
 use lightvol_sampler::{BakeControl, BakeSettings, Progress, Tracer, Transport, TransportSettings};
-use lightvol_volume::accumulator_io::{merge_accumulator_file, read_accumulator_metadata, write_accumulator};
-use lightvol_volume::adaptive_io::write_adaptive_exr;
+use lightvol_volume::io::accumulator::{
+    merge_accumulator_file, read_accumulator_metadata, write_accumulator,
+};
+use lightvol_volume::io::adaptive::write_adaptive_exr;
 use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
 use serde_json::json;
 

@@ -21,7 +21,7 @@ use std::path::Path;
 use anyhow::Context;
 use lightvol_volume::encode::Encoding;
 use lightvol_volume::gradient::floats_per_sample;
-use lightvol_volume::sidecar::Sidecar;
+use lightvol_volume::io::sidecar::Sidecar;
 use lightvol_volume::{AdaptiveVolume, IrradianceVolume};
 use serde_json::{Value, json};
 

@@ -16,8 +16,8 @@ use lightvol_sampler::node_fit::{
 use lightvol_sampler::{
     BakeControl, BakeOutput, BakeSettings, Method, Progress, Tracer, Transport, TransportSettings,
 };
-use lightvol_volume::accumulator_io::write_accumulator;
-use lightvol_volume::exr_io::{ExrOptions, write_exr, write_exr_with_gradients};
+use lightvol_volume::io::accumulator::write_accumulator;
+use lightvol_volume::io::exr::{ExrOptions, write_exr, write_exr_with_gradients};
 use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
 use serde::Serialize;
 

@@ -481,7 +481,7 @@ pub fn write_plate_exr(
         AnyChannels::sort(channels.into()),
     );
     let ia = ImageAttributes::new(layer.absolute_bounds());
-    let bytes = lightvol_volume::exr_io::encode_image(ia, vec![layer]).context("encoding plate.exr")?;
+    let bytes = lightvol_volume::io::exr::encode_image(ia, vec![layer]).context("encoding plate.exr")?;
     write_atomic(path, &bytes)
 }
 

@@ -7,7 +7,7 @@ use anyhow::{Context, bail};
 use lightvol_volume::AnyVolume;
 use lightvol_volume::IrradianceVolume;
 use lightvol_volume::encode::Encoding;
-use lightvol_volume::sidecar::{Sidecar, sidecar_path, write_sidecar};
+use lightvol_volume::io::sidecar::{Sidecar, sidecar_path, write_sidecar};
 
 use crate::adaptive_files;
 use crate::cli::{ExportArgs, ExportFormat};
@@ -29,14 +29,14 @@ fn write_uniform(args: &ExportArgs, vol: &IrradianceVolume) -> anyhow::Result<()
     let out = &args.output;
     let ctx = || format!("writing {}", out.display());
     match args.format {
-        ExportFormat::Ktx2 => lightvol_volume::ktx2_io::write_ktx2(out, vol).with_context(ctx)?,
-        ExportFormat::Dds => lightvol_volume::dds_io::write_dds(out, vol).with_context(ctx)?,
+        ExportFormat::Ktx2 => lightvol_volume::io::ktx2::write_ktx2(out, vol).with_context(ctx)?,
+        ExportFormat::Dds => lightvol_volume::io::dds::write_dds(out, vol).with_context(ctx)?,
         ExportFormat::Bevy => {
             let format = match args.bevy_format {
-                crate::cli::BevyFormatArg::Rgba16f => lightvol_volume::bevy::BevyFormat::Rgba16f,
-                crate::cli::BevyFormatArg::Rgb9e5 => lightvol_volume::bevy::BevyFormat::Rgb9e5,
+                crate::cli::BevyFormatArg::Rgba16f => lightvol_volume::io::bevy::BevyFormat::Rgba16f,
+                crate::cli::BevyFormatArg::Rgb9e5 => lightvol_volume::io::bevy::BevyFormat::Rgb9e5,
             };
-            lightvol_volume::bevy::write_bevy(out, vol, format).with_context(ctx)?;
+            lightvol_volume::io::bevy::write_bevy(out, vol, format).with_context(ctx)?;
             if let Some(mask) = vol.validity() {
                 eprintln!(
                     "note: Bevy interpolates its voxels plainly; the validity mask ({} invalid nodes) is not in the Bevy export",

@@ -11,8 +11,8 @@ use std::process::ExitCode;
 use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_volume::BakeMetadata;
-use lightvol_volume::accumulator_io::{merge_accumulator_file, read_accumulator_metadata};
-use lightvol_volume::exr_io::{ExrOptions, write_exr};
+use lightvol_volume::io::accumulator::{merge_accumulator_file, read_accumulator_metadata};
+use lightvol_volume::io::exr::{ExrOptions, write_exr};
 
 /// `lightvol merge`.
 #[derive(Debug, Args)]
@@ -42,7 +42,7 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
             p.display()
         );
     }
-    if lightvol_volume::adaptive_io::is_adaptive_exr(p).unwrap_or(false) {
+    if lightvol_volume::io::adaptive::is_adaptive_exr(p).unwrap_or(false) {
         bail!(
             "{} is an adaptive (octree) volume; merge combines uniform shard bakes only (sharded adaptive bakes are assembled by `bake --adaptive --from-shards`)",
             p.display()
@@ -156,7 +156,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     }
     if args.keep_accumulator {
         let ap = args.output.with_extension("lvacc");
-        lightvol_volume::accumulator_io::write_accumulator(&ap, &acc, &meta)
+        lightvol_volume::io::accumulator::write_accumulator(&ap, &acc, &meta)
             .with_context(|| format!("writing {}", ap.display()))?;
     }
     // A least-squares bake's shards carry the mass matrix: solve the fit over the whole set.
@@ -189,7 +189,7 @@ pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         Some(g) => {
             let (grads, rep) = g.finish(&vol).context("solving the basis-gradient systems")?;
             eprintln!("gradients: {} nodes solved, {} singular", rep.solved, rep.singular);
-            lightvol_volume::exr_io::write_exr_with_gradients(
+            lightvol_volume::io::exr::write_exr_with_gradients(
                 &args.output,
                 &vol,
                 &grads,

@@ -83,7 +83,7 @@ pub fn write_exr_linear(path: &Path, img: &Rgb32) -> anyhow::Result<()> {
         AnyChannels::sort(channels.into()),
     );
     let ia = ImageAttributes::new(layer.absolute_bounds());
-    let bytes = lightvol_volume::exr_io::encode_image(ia, vec![layer])
+    let bytes = lightvol_volume::io::exr::encode_image(ia, vec![layer])
         .with_context(|| format!("encoding {}", path.display()))?;
     write_atomic(path, &bytes)
 }

@@ -12,7 +12,7 @@ use lightvol_gpu::engine_shader::{Layout, grid_words, selftest_spirv};
 use lightvol_gpu::pipeline::groups_for;
 use lightvol_gpu::synthetic::{random_queries, smooth_random_volume};
 use lightvol_gpu::{ComputePipeline, gpu_or_skip};
-use lightvol_volume::ktx2_io::{ktx2_from_bytes, ktx2_to_bytes};
+use lightvol_volume::io::ktx2::{ktx2_from_bytes, ktx2_to_bytes};
 use lightvol_volume::slab::slab_texels;
 use lightvol_volume::{GridSpec, Placement};
 

@@ -148,9 +148,9 @@ fn main() -> anyhow::Result<()> {
 fn baked(args: &Args, scene: &Scene, cfg: &CompareConfig, path: &Path) -> anyhow::Result<()> {
     let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase();
     let vol = match ext.as_str() {
-        "exr" => lightvol_volume::exr_io::read_exr(path),
-        "ktx2" => lightvol_volume::ktx2_io::read_ktx2(path),
-        "dds" => lightvol_volume::dds_io::read_dds(path),
+        "exr" => lightvol_volume::io::exr::read_exr(path),
+        "ktx2" => lightvol_volume::io::ktx2::read_ktx2(path),
+        "dds" => lightvol_volume::io::dds::read_dds(path),
         _ => bail!("--volume: unknown extension {ext:?} (want exr, ktx2 or dds)"),
     }
     .with_context(|| format!("reading {}", path.display()))?;

@@ -31,7 +31,7 @@
 //! The split score handed to the builder is `1 + gradient_ratio` for a cell that splits and
 //! 0 otherwise. A memory budget is met afterwards by lightvol-volume, which raises the cull
 //! tolerance until the tree fits (\[Oat05\]'s "discard redundant samples"; see
-//! `lightvol_volume::adaptive_build`).
+//! `lightvol_volume::adaptive::build`).
 //!
 //! **Determinism**: every ray is seeded per (level, node, ray), every bake per cell, and all
 //! reductions run in a fixed order: results are bit-identical for any thread count.

@@ -35,7 +35,7 @@ use std::path::Path;
 
 use lightvol_core::hash::fnv1a;
 use lightvol_volume::fixed::FixedSums;
-use lightvol_volume::io_util::{read_bounded, write_atomic};
+use lightvol_volume::io::util::{read_bounded, write_atomic};
 use serde::{Deserialize, Serialize};
 
 use crate::bake::FixedSubsetSums;

@@ -188,7 +188,7 @@ fn sharded_adaptive_bake_assembles_to_the_whole_bake() {
     let grid = small_city_grid();
     let (s, a) = tiny_settings();
     let (whole, whole_stats) = bake_adaptive(&t, &grid, &s, &a, &BakeControl::default()).unwrap();
-    let whole_bytes = lightvol_volume::adaptive_io::adaptive_exr_to_bytes(&whole).unwrap();
+    let whole_bytes = lightvol_volume::io::adaptive::adaptive_exr_to_bytes(&whole).unwrap();
     let ctl = BakeControl::default();
     for (n, order_kind) in [(1u32, 0), (3, 1), (7, 2)] {
         let order = |n: u32| -> Vec<u32> {
@@ -234,7 +234,7 @@ fn sharded_adaptive_bake_assembles_to_the_whole_bake() {
             levels.push(m);
         }
         let (vol, st) = assemble_adaptive(&t, &grid, &s, &a, &base, base_stats, &levels, &ctl).unwrap();
-        let bytes = lightvol_volume::adaptive_io::adaptive_exr_to_bytes(&vol).unwrap();
+        let bytes = lightvol_volume::io::adaptive::adaptive_exr_to_bytes(&vol).unwrap();
         assert!(
             bytes == whole_bytes,
             "{n} shards per level: the assembled file differs from the whole bake's"

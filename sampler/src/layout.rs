@@ -146,7 +146,7 @@ fn copy_rec(nodes: &[Value], n: u64, out: &mut Vec<Value>, depth: &mut usize) ->
 /// Writes `bytes` to `path` through a temporary file in the same directory, renamed into
 /// place once complete.
 fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), SceneError> {
-    lightvol_volume::io_util::write_atomic(path, bytes)
+    lightvol_volume::io::util::write_atomic(path, bytes)
         .map_err(|e| SceneError::Io { path: path.to_owned(), source: std::io::Error::other(e.to_string()) })
 }
 

@@ -4,7 +4,7 @@
 
 use std::path::Path;
 
-use lightvol_volume::adaptive_io::read_adaptive_exr;
+use lightvol_volume::io::adaptive::read_adaptive_exr;
 use serde_json::Value;
 
 mod common;
@@ -79,7 +79,7 @@ fn adaptive_bake_info_export_round_trip() {
     // KTX2 at the default resolution: the finest level's, every texel the octree's lookup.
     let ktx = d.join("octree.ktx2");
     ok(&["export", s(&vol_path), "--format", "ktx2", "-o", s(&ktx)]);
-    let back = lightvol_volume::ktx2_io::read_ktx2(&ktx).unwrap();
+    let back = lightvol_volume::io::ktx2::read_ktx2(&ktx).unwrap();
     assert_eq!(back.spec().res(), vol.finest_res());
     let spec = back.spec().clone();
     let mut worst = 0.0f32;
@@ -98,13 +98,13 @@ fn adaptive_bake_info_export_round_trip() {
     // A stated resolution.
     let ktx9 = d.join("octree9.ktx2");
     ok(&["export", s(&vol_path), "--format", "ktx2", "--res", "9,9,5", "-o", s(&ktx9)]);
-    assert_eq!(lightvol_volume::ktx2_io::read_ktx2(&ktx9).unwrap().spec().res(), [9, 9, 5]);
+    assert_eq!(lightvol_volume::io::ktx2::read_ktx2(&ktx9).unwrap().spec().res(), [9, 9, 5]);
     for (fmt, ext) in [("dds", "dds"), ("bevy", "ktx2")] {
         let out = d.join(format!("octree_{fmt}.{ext}"));
         ok(&["export", s(&vol_path), "--format", fmt, "--res", "9,9,5", "-o", s(&out)]);
         assert!(out.metadata().unwrap().len() > 0);
     }
-    let dds = lightvol_volume::dds_io::read_dds(&d.join("octree_dds.dds")).unwrap();
+    let dds = lightvol_volume::io::dds::read_dds(&d.join("octree_dds.dds")).unwrap();
     assert_eq!(dds.spec().res(), [9, 9, 5]);
 
     // merge refuses an octree with a clear line.
@@ -116,7 +116,7 @@ fn adaptive_bake_info_export_round_trip() {
     // the finest level, so the uniform resampling at the finest resolution holds the same
     // field and both views agree to 8-bit rounding (one code).
     let uniform = d.join("finest.exr");
-    lightvol_volume::exr_io::write_exr(&uniform, &vol.to_uniform(None).unwrap(), &Default::default())
+    lightvol_volume::io::exr::write_exr(&uniform, &vol.to_uniform(None).unwrap(), &Default::default())
         .unwrap();
     let render = |v: &Path, out: &Path| {
         ok(&[

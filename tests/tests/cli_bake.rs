@@ -1,7 +1,7 @@
 //! The CLI's bake pipeline end to end: bake → info → export → merge, sharded bakes merged
 //! against the whole bake, and bad input.
 
-use lightvol_volume::exr_io::read_exr;
+use lightvol_volume::io::exr::read_exr;
 
 mod common;
 use common::{ok, run, s};
@@ -78,7 +78,7 @@ fn bake_writes_engine_baselines() {
     ok(&["info", s(&apv)]);
     let ktx = d.join("apv.ktx2");
     ok(&["export", s(&apv), "--format", "ktx2", "-o", s(&ktx)]);
-    assert_eq!(lightvol_volume::ktx2_io::read_ktx2(&ktx).unwrap().validity(), Some(mask));
+    assert_eq!(lightvol_volume::io::ktx2::read_ktx2(&ktx).unwrap().validity(), Some(mask));
     let out = d.join("refused.exr");
     for (extra, needle) in [
         (vec!["--shard", "0/2"], "--shard"),

@@ -2,7 +2,7 @@
 
 use std::process::ExitCode;
 
-use lightvol_volume::exr_io::{ExrOptions, write_exr};
+use lightvol_volume::io::exr::{ExrOptions, write_exr};
 use lightvol_volume::{GridSpec, IrradianceVolume};
 
 fn run(args: &[&str]) -> anyhow_like::Result {
@@ -35,8 +35,8 @@ fn info_and_export_round_trip() {
         assert!(out.metadata().unwrap().len() > 0, "{fmt} output is empty");
     }
     // KTX2 reads back to the same coefficients within f16 precision.
-    let back = lightvol_volume::ktx2_io::read_ktx2(&dir.path().join("out_ktx2.ktx2")).unwrap();
-    let orig = lightvol_volume::exr_io::read_exr(std::path::Path::new(v)).unwrap();
+    let back = lightvol_volume::io::ktx2::read_ktx2(&dir.path().join("out_ktx2.ktx2")).unwrap();
+    let orig = lightvol_volume::io::exr::read_exr(std::path::Path::new(v)).unwrap();
     for (a, b) in back.data().iter().zip(orig.data()) {
         // f16 has an 11-bit significand: relative error below 2^-11.
         assert!((a - b).abs() <= b.abs() * 4.9e-4 + 1e-7);

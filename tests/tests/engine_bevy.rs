@@ -28,8 +28,8 @@ use std::path::{Path, PathBuf};
 
 use common::{ok, s};
 use lightvol_volume::IrradianceVolume;
-use lightvol_volume::exr_io::read_exr;
 use lightvol_volume::frame::UpAxis;
+use lightvol_volume::io::exr::read_exr;
 use surface_util::{Mesh, write_gltf};
 
 /// The room in glTF's +Y-up frame: a 4 m floor, a wall along one side and a 1 m block,
@@ -300,9 +300,10 @@ fn bake_and_export(dir: &Path, scene: &Path, frame: UpAxis, tag: &str, format: &
     ok(&a);
     let ktx = dir.join(format!("{tag}-{format}.ktx2"));
     ok(&["export", s(&vol), "--format", "bevy", "--bevy-format", format, "-o", s(&ktx)]);
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(lightvol_volume::sidecar::sidecar_path(&ktx)).unwrap())
-            .unwrap();
+    let json: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(lightvol_volume::io::sidecar::sidecar_path(&ktx)).unwrap(),
+    )
+    .unwrap();
     assert_eq!(json["frame"], frame.name());
     assert_eq!(json["intensity"], 1.0);
     let native = read_exr(&vol).unwrap();
@@ -430,8 +431,9 @@ fn worked_example_of_the_engine_doc() {
     assert!((c[3] - 0.5).abs() < 1e-7 && c[6].abs() < 1e-7, "{:?}", &c[..12]);
     // Bevy's +Y face (Face::ALL order +X, -X, +Y, ...) holds E/π rounded to f16.
     let bytes =
-        lightvol_volume::bevy::bevy_to_bytes(&yup, lightvol_volume::bevy::BevyFormat::Rgba16f).unwrap();
-    let bevy = lightvol_volume::bevy::bevy_from_bytes(&bytes).unwrap();
+        lightvol_volume::io::bevy::bevy_to_bytes(&yup, lightvol_volume::io::bevy::BevyFormat::Rgba16f)
+            .unwrap();
+    let bevy = lightvol_volume::io::bevy::bevy_from_bytes(&bytes).unwrap();
     assert_eq!(bevy.cubes[0][2][0], 0.445_068_36);
 }
 

@@ -3,8 +3,8 @@
 //! Taylor lookup reads them back consistently, and `compare` reports the gradient lookups
 //! with their memory. Bad options are refused with one line and no output file.
 
-use lightvol_volume::exr_io::{read_exr, read_exr_with_gradients};
 use lightvol_volume::gradient::{GradientLookup, coeffs_at};
+use lightvol_volume::io::exr::{read_exr, read_exr_with_gradients};
 use serde_json::Value;
 
 mod common;

@@ -14,7 +14,7 @@ use common::{ok, s};
 use lightvol_core::hash::fnv1a;
 use lightvol_sampler::builtin;
 use lightvol_volume::IrradianceVolume;
-use lightvol_volume::exr_io::{ExrOptions, write_exr};
+use lightvol_volume::io::exr::{ExrOptions, write_exr};
 
 /// A volume on the maze's recommended grid whose coefficients are polynomials of position
 /// (every coefficient, every channel; no libm function, so the file is the same bytes on

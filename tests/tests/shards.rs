@@ -6,7 +6,7 @@
 mod common;
 
 use common::{ok, run, s};
-use lightvol_volume::exr_io::read_exr;
+use lightvol_volume::io::exr::read_exr;
 use std::path::Path;
 
 /// The small bake every case shares (maze, 6×6×3 nodes, 8 samples per cell).
@@ -308,7 +308,7 @@ fn central_gradient_shards_merge_to_the_whole_bake() {
         std::fs::read(&merged).unwrap() == std::fs::read(&whole).unwrap(),
         "merged central-gradient bake differs from the whole"
     );
-    let (_, g) = lightvol_volume::exr_io::read_exr_with_gradients(&merged).unwrap();
+    let (_, g) = lightvol_volume::io::exr::read_exr_with_gradients(&merged).unwrap();
     let g = g.expect("gradients in the merged file");
     let nodes = 6 * 6 * 3;
     let per_node = g.data().len() / nodes;

@@ -8,17 +8,17 @@ use std::path::PathBuf;
 /// The file formats this crate reads and writes, for error messages.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum FileFormat {
-    /// The native multi-part OpenEXR volume ([`crate::exr_io`]).
+    /// The native multi-part OpenEXR volume ([`crate::io::exr`]).
     Exr,
-    /// The KTX2 RGBA16F 3D texture ([`crate::ktx2_io`]).
+    /// The KTX2 RGBA16F 3D texture ([`crate::io::ktx2`]).
     Ktx2,
-    /// The DDS volume texture ([`crate::dds_io`]).
+    /// The DDS volume texture ([`crate::io::dds`]).
     Dds,
-    /// Bevy's ambient-cube irradiance volume ([`crate::bevy`]).
+    /// Bevy's ambient-cube irradiance volume ([`crate::io::bevy`]).
     Bevy,
-    /// The JSON sidecar ([`crate::sidecar`]).
+    /// The JSON sidecar ([`crate::io::sidecar`]).
     Sidecar,
-    /// An accumulator shard file ([`crate::accumulator_io`]).
+    /// An accumulator shard file ([`crate::io::accumulator`]).
     Shard,
 }
 

@@ -234,8 +234,8 @@ impl AnyVolume {
 }
 
 /// Reads a volume file of any kind. `.ktx2` and `.dds` files (lightvol's engine exports,
-/// `crate::ktx2_io`, `crate::dds_io`) are uniform grids; anything else is read as a native
-/// EXR file: an adaptive octree (`crate::adaptive_io::is_adaptive_exr`), a uniform grid with
+/// `crate::io::ktx2`, `crate::io::dds`) are uniform grids; anything else is read as a native
+/// EXR file: an adaptive octree (`crate::io::adaptive::is_adaptive_exr`), a uniform grid with
 /// gradients, or a plain uniform grid. A file whose header cannot be read as an octree's is
 /// read as a uniform grid, so that the uniform reader names the problem.
 ///
@@ -243,14 +243,14 @@ impl AnyVolume {
 /// The file cannot be read or is not a lightvol volume ([`VolumeError`], naming the problem).
 pub fn open(path: &Path) -> Result<AnyVolume, VolumeError> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("ktx2") => return crate::ktx2_io::read_ktx2(path).map(AnyVolume::Uniform),
-        Some("dds") => return crate::dds_io::read_dds(path).map(AnyVolume::Uniform),
+        Some("ktx2") => return crate::io::ktx2::read_ktx2(path).map(AnyVolume::Uniform),
+        Some("dds") => return crate::io::dds::read_dds(path).map(AnyVolume::Uniform),
         _ => {}
     }
-    if crate::adaptive_io::is_adaptive_exr(path).unwrap_or(false) {
-        return crate::adaptive_io::read_adaptive_exr(path).map(AnyVolume::Adaptive);
+    if crate::io::adaptive::is_adaptive_exr(path).unwrap_or(false) {
+        return crate::io::adaptive::read_adaptive_exr(path).map(AnyVolume::Adaptive);
     }
-    Ok(match crate::exr_io::read_exr_with_gradients(path)? {
+    Ok(match crate::io::exr::read_exr_with_gradients(path)? {
         (volume, Some(gradients)) => {
             AnyVolume::Gradient(GradientField { volume, gradients, lookup: GRADIENT_FILE_LOOKUP })
         }
@@ -320,15 +320,15 @@ mod tests {
 
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("v.exr");
-        crate::exr_io::write_exr(&path, &v, &crate::exr_io::ExrOptions::default()).unwrap();
+        crate::io::exr::write_exr(&path, &v, &crate::io::exr::ExrOptions::default()).unwrap();
         let opened = open(&path).unwrap();
         assert_eq!(opened.kind(), "uniform");
         assert_eq!(opened.uniform().unwrap().data(), v.data());
-        crate::exr_io::write_exr_with_gradients(
+        crate::io::exr::write_exr_with_gradients(
             &path,
             &v,
             &g.gradients,
-            &crate::exr_io::ExrOptions::default(),
+            &crate::io::exr::ExrOptions::default(),
         )
         .unwrap();
         assert_eq!(open(&path).unwrap().kind(), "gradient");

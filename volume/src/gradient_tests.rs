@@ -327,7 +327,7 @@ fn hermite_is_c1_across_faces() {
 /// volume reader ignores them; files without gradients are unchanged and read as `None`.
 #[test]
 fn exr_gradient_parts_round_trip() {
-    use crate::exr_io::{
+    use crate::io::exr::{
         ExrOptions, ExrSample, exr_from_bytes, exr_from_bytes_with_gradients, exr_to_bytes,
         exr_to_bytes_with_gradients, read_exr_with_gradients, write_exr_with_gradients,
     };

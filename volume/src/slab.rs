@@ -7,7 +7,7 @@
 //! `n = nx·ny·nz`, because `((j nz + z) ny + y) nx + x = j n + node`.
 
 use crate::error::{FileFormat, VolumeError};
-use crate::io_util::f16_bytes;
+use crate::io::util::f16_bytes;
 use crate::volume::IrradianceVolume;
 
 /// Bytes per RGBA16F texel.

@@ -7,8 +7,8 @@
 //! "Probe Dilation" settings of the Adaptive Probe Volumes panel). A [`ValidityMask`]
 //! attached to an [`crate::IrradianceVolume`] ([`crate::IrradianceVolume::with_validity`])
 //! makes every CPU trilinear lookup of the volume do the same ([`crate::lookup`]), and it
-//! travels with the volume through the native EXR file ([`crate::exr_io`]) and the
-//! KTX2/DDS sidecar ([`crate::sidecar`]).
+//! travels with the volume through the native EXR file ([`crate::io::exr`]) and the
+//! KTX2/DDS sidecar ([`crate::io::sidecar`]).
 //!
 //! ## The weighting
 //!

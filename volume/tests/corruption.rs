@@ -14,12 +14,12 @@ mod common;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed};
 
-use lightvol_volume::accumulator_io::{accumulator_from_bytes, accumulator_to_bytes};
-use lightvol_volume::bevy::{BevyFormat, BevyVolume, bevy_from_bytes, bevy_to_bytes};
-use lightvol_volume::dds_io::{dds_from_bytes, dds_sidecar, dds_to_bytes};
-use lightvol_volume::exr_io::{ExrCompression, ExrOptions, ExrSample, exr_from_bytes, exr_to_bytes};
-use lightvol_volume::ktx2_io::{ktx2_from_bytes, ktx2_to_bytes};
-use lightvol_volume::sidecar::Sidecar;
+use lightvol_volume::io::accumulator::{accumulator_from_bytes, accumulator_to_bytes};
+use lightvol_volume::io::bevy::{BevyFormat, BevyVolume, bevy_from_bytes, bevy_to_bytes};
+use lightvol_volume::io::dds::{dds_from_bytes, dds_sidecar, dds_to_bytes};
+use lightvol_volume::io::exr::{ExrCompression, ExrOptions, ExrSample, exr_from_bytes, exr_to_bytes};
+use lightvol_volume::io::ktx2::{ktx2_from_bytes, ktx2_to_bytes};
+use lightvol_volume::io::sidecar::Sidecar;
 use lightvol_volume::{IrradianceVolume, ValidityMask};
 
 fn config(cases: u32) -> Config {

@@ -3,7 +3,7 @@
 
 mod common;
 
-use lightvol_volume::exr_io::{ExrCompression, ExrOptions, ExrSample, exr_from_bytes, read_exr, write_exr};
+use lightvol_volume::io::exr::{ExrCompression, ExrOptions, ExrSample, exr_from_bytes, read_exr, write_exr};
 use lightvol_volume::{IrradianceVolume, VolumeError};
 
 fn bits(v: &[f32]) -> Vec<u32> {
@@ -39,7 +39,7 @@ fn exr_f32_round_trip_is_bit_exact() {
 #[test]
 fn exr_f16_round_trip_within_half_precision() {
     let vol = common::random_volume(9, [4, 4, 3], 3);
-    let bytes = lightvol_volume::exr_io::exr_to_bytes(
+    let bytes = lightvol_volume::io::exr::exr_to_bytes(
         &vol,
         &ExrOptions { sample: ExrSample::F16, ..Default::default() },
     )
@@ -55,7 +55,7 @@ fn exr_f16_round_trip_within_half_precision() {
 fn exr_is_readable_by_the_exr_crate_as_layers() {
     // Read back with the exr crate's generic reader: one layer per coefficient plus weight.
     let vol = common::random_volume(4, [3, 2, 2], 1);
-    let bytes = lightvol_volume::exr_io::exr_to_bytes(&vol, &ExrOptions::default()).unwrap();
+    let bytes = lightvol_volume::io::exr::exr_to_bytes(&vol, &ExrOptions::default()).unwrap();
     use exr::prelude::{ReadChannels, ReadLayers};
     let image = exr::prelude::read()
         .no_deep_data()
@@ -81,7 +81,7 @@ fn exr_rejects_garbage_and_values_out_of_range() {
     let spec = lightvol_volume::GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
     let big = IrradianceVolume::from_fn(spec, 4, |_| vec![[1e6, 0.0, 0.0]; 4]).unwrap();
     assert!(
-        lightvol_volume::exr_io::exr_to_bytes(
+        lightvol_volume::io::exr::exr_to_bytes(
             &big,
             &ExrOptions { sample: ExrSample::F16, ..Default::default() }
         )
@@ -93,13 +93,15 @@ fn exr_rejects_garbage_and_values_out_of_range() {
 
 mod ktx2_dds_bevy {
     use super::*;
-    use lightvol_volume::bevy::{
+    use lightvol_volume::io::bevy::{
         BevyFormat, Face, ambient_cubes, bevy_from_bytes, bevy_to_bytes, bevy_world_from_probe, read_bevy,
         write_bevy,
     };
-    use lightvol_volume::dds_io::{dds_from_bytes, dds_sidecar, dds_to_bytes, read_dds, write_dds};
-    use lightvol_volume::ktx2_io::{KTX2_SIDECAR_KEY, ktx2_from_bytes, ktx2_to_bytes, read_ktx2, write_ktx2};
-    use lightvol_volume::sidecar::sidecar_path;
+    use lightvol_volume::io::dds::{dds_from_bytes, dds_sidecar, dds_to_bytes, read_dds, write_dds};
+    use lightvol_volume::io::ktx2::{
+        KTX2_SIDECAR_KEY, ktx2_from_bytes, ktx2_to_bytes, read_ktx2, write_ktx2,
+    };
+    use lightvol_volume::io::sidecar::sidecar_path;
 
     fn assert_f16_equal(a: &IrradianceVolume, b: &IrradianceVolume) {
         assert_eq!(a.spec(), b.spec());
@@ -132,7 +134,7 @@ mod ktx2_dds_bevy {
             // KTXwriter is stored NUL-terminated, as the KTX2 specification requires.
             assert_eq!(
                 r.writer().map(|w| w.trim_end_matches('\0')),
-                Some(lightvol_volume::ktx2_io::KTX2_WRITER)
+                Some(lightvol_volume::io::ktx2::KTX2_WRITER)
             );
             let level = r.levels().next().unwrap();
             // Texel (x, y, j nz + z) of coefficient j = 2, node (1, 2, 3): red channel.

@@ -5,16 +5,16 @@
 
 mod common;
 
-use lightvol_volume::bevy::{BevyFormat, bevy_to_bytes};
-use lightvol_volume::dds_io::{dds_sidecar, dds_to_bytes, write_dds};
 use lightvol_volume::encode::Encoding;
-use lightvol_volume::exr_io::{
+use lightvol_volume::gradient::VolumeGradients;
+use lightvol_volume::io::bevy::{BevyFormat, bevy_to_bytes};
+use lightvol_volume::io::dds::{dds_sidecar, dds_to_bytes, write_dds};
+use lightvol_volume::io::exr::{
     ExrCompression, ExrOptions, ExrSample, canonical_attribute_order, exr_from_bytes,
     exr_from_bytes_with_gradients, exr_to_bytes, exr_to_bytes_with_gradients, header_attribute_names,
 };
-use lightvol_volume::gradient::VolumeGradients;
-use lightvol_volume::ktx2_io::ktx2_to_bytes;
-use lightvol_volume::sidecar::Sidecar;
+use lightvol_volume::io::ktx2::ktx2_to_bytes;
+use lightvol_volume::io::sidecar::Sidecar;
 
 /// Writes per check: with about twenty custom attributes, two independently seeded maps
 /// iterate in the same order with negligible probability, so a writer that leaked the map

@@ -7,15 +7,15 @@ mod common;
 
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
-use lightvol_volume::dds_io::{dds_from_bytes, dds_sidecar, dds_to_bytes};
-use lightvol_volume::exr_io::{
+use lightvol_volume::frame::UpAxis;
+use lightvol_volume::gradient::VolumeGradients;
+use lightvol_volume::io::dds::{dds_from_bytes, dds_sidecar, dds_to_bytes};
+use lightvol_volume::io::exr::{
     ExrOptions, ExrSample, exr_from_bytes, exr_from_bytes_with_gradients, exr_to_bytes,
     exr_to_bytes_with_gradients,
 };
-use lightvol_volume::frame::UpAxis;
-use lightvol_volume::gradient::VolumeGradients;
-use lightvol_volume::ktx2_io::{ktx2_from_bytes, ktx2_to_bytes};
-use lightvol_volume::sidecar::VALIDITY_VERSION;
+use lightvol_volume::io::ktx2::{ktx2_from_bytes, ktx2_to_bytes};
+use lightvol_volume::io::sidecar::VALIDITY_VERSION;
 use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume, ValidityMask, VolumeError};
 
 /// `π · Y_00`: irradiance per unit `L_00` (Ramamoorthi & Hanrahan 2001; `A_0 = π`).
@@ -267,7 +267,7 @@ fn ktx2_and_dds_carry_the_mask() {
     let mut flags = vol.validity().unwrap().as_slice().to_vec();
     flags.swap(0, 1);
     let mut damaged = sidecar.clone();
-    damaged.validity = Some(lightvol_volume::sidecar::ValidityJson::of(&ValidityMask::new(flags)));
+    damaged.validity = Some(lightvol_volume::io::sidecar::ValidityJson::of(&ValidityMask::new(flags)));
     let err = dds_from_bytes(&dds, &damaged).unwrap_err();
     assert!(matches!(err, VolumeError::Malformed { .. }) && err.to_string().contains("checksum"), "{err}");
 }

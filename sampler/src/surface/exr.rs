@@ -17,7 +17,7 @@
 //!   and f64 ranges).
 //!
 //! Each header lists the standard EXR attributes first and the `lightvol.*` ones after them,
-//! sorted by name (`lightvol_volume::exr_io::canonical_attribute_order`), so equal maps give
+//! sorted by name (`lightvol_volume::io::exr::canonical_attribute_order`), so equal maps give
 //! byte-identical files.
 //!
 //! Written through a temporary file in the target directory and renamed. The reader checks
@@ -118,7 +118,7 @@ fn to_bytes(maps: &[CoefficientMap], version: i32) -> Result<Vec<u8>, String> {
     }
     let ia = ImageAttributes::new(IntegerBounds::from_dimensions(Vec2(max_w, max_h)));
     // Canonical attribute order: byte-reproducible files.
-    lightvol_volume::exr_io::encode_image(ia, layers).map_err(|e| e.to_string())
+    lightvol_volume::io::exr::encode_image(ia, layers).map_err(|e| e.to_string())
 }
 
 /// Writes `maps` to `path` (temporary file in the same directory, then rename).
@@ -260,7 +260,7 @@ fn parse(bytes: &[u8]) -> Result<Vec<CoefficientMap>, String> {
     if decl.is_empty() {
         return Err("no parts".into());
     }
-    let image = lightvol_volume::exr_io::decode_image(bytes).map_err(|e| e.to_string())?;
+    let image = lightvol_volume::io::exr::decode_image(bytes).map_err(|e| e.to_string())?;
     if image.layer_data.len() != decl.len() {
         return Err("part count changed between header and pixels".into());
     }
@@ -372,7 +372,7 @@ mod tests {
         for _ in 0..5 {
             assert!(surface_exr_to_bytes(&maps).unwrap() == first, "a repeated write differs");
         }
-        let headers = lightvol_volume::exr_io::header_attribute_names(&first).unwrap();
+        let headers = lightvol_volume::io::exr::header_attribute_names(&first).unwrap();
         assert_eq!(headers.len(), 2);
         for names in &headers {
             let from = names.iter().position(|n| n.starts_with("lightvol.")).unwrap();

@@ -15,7 +15,7 @@
 
 use std::path::Path;
 
-use lightvol_volume::io_util::{read_bounded, write_atomic};
+use lightvol_volume::io::util::{read_bounded, write_atomic};
 use serde::{Deserialize, Serialize};
 
 use super::SurfaceError;

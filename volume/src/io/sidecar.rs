@@ -3,7 +3,7 @@
 //! It states everything an engine needs to interpret the texels: the grid (box,
 //! resolution, grid-to-world transform), the SH convention and order, the encoding, the
 //! units, the texture layout and the bake metadata. The KTX2 export embeds it in its
-//! key/value data (key [`crate::ktx2_io::KTX2_SIDECAR_KEY`]); DDS and Bevy exports, which
+//! key/value data (key [`crate::io::ktx2::KTX2_SIDECAR_KEY`]); DDS and Bevy exports, which
 //! have no room for metadata, write it beside the texture. f64 values round-trip exactly
 //! (serde_json with `float_roundtrip`).
 //!
@@ -36,7 +36,7 @@ use serde::{Deserialize, Serialize};
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::{GridSpec, Placement};
-use crate::io_util::{read_bounded, write_atomic};
+use crate::io::util::{read_bounded, write_atomic};
 use crate::validity::ValidityMask;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 

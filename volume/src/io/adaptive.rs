@@ -1,5 +1,5 @@
 //! The adaptive octree volume in the native EXR file: a documented extension of
-//! [`crate::exr_io`]'s layout.
+//! [`crate::io::exr`]'s layout.
 //!
 //! ## Layout
 //! - The base volume (level 0) as the native format writes it: parts `sh00` … and `weight`,
@@ -16,7 +16,7 @@
 //!   `stats` (the [`LevelStats`] per level, which give each part's node count), `row`, and
 //!   `checksum` (FNV-1a over the keys, surplus bits and split keys; hex).
 //!
-//! [`crate::exr_io::read_exr`] rejects such a file with [`VolumeError::Unsupported`] naming
+//! [`crate::io::exr::read_exr`] rejects such a file with [`VolumeError::Unsupported`] naming
 //! this reader (a reader of uniform volumes must not silently drop the fine levels);
 //! [`is_adaptive_exr`] tells the two kinds apart from the headers. Every inconsistency
 //! (part sizes, channel lists, counts, unsorted or out-of-range keys, non-zero padding,
@@ -35,8 +35,8 @@ use serde::{Deserialize, Serialize};
 use crate::adaptive::{AdaptiveVolume, LevelStats, LevelTable, OctreeParams, pack_key, unpack_key};
 use crate::checksum::{Fnv1a, from_hex, to_hex};
 use crate::error::{FileFormat, VolumeError};
-use crate::exr_io::{ExtraPart, OCTREE_ATTRIBUTE, base_layers, encode_image, exr_from_bytes_ext, text};
-use crate::io_util::{read_bounded, write_atomic};
+use crate::io::exr::{ExtraPart, OCTREE_ATTRIBUTE, base_layers, encode_image, exr_from_bytes_ext, text};
+use crate::io::util::{read_bounded, write_atomic};
 
 const F: FileFormat = FileFormat::Exr;
 
@@ -108,7 +108,7 @@ fn octree_checksum(tables: &[LevelTable], split: &[Vec<u64>]) -> u64 {
 
 /// Serialises an adaptive volume (module docs) in memory.
 pub fn adaptive_exr_to_bytes(vol: &AdaptiveVolume) -> Result<Vec<u8>, VolumeError> {
-    let (mut layers, mut ia) = base_layers(&vol.base, None, &crate::exr_io::ExrOptions::default())?;
+    let (mut layers, mut ia) = base_layers(&vol.base, None, &crate::io::exr::ExrOptions::default())?;
     let encoding = layers[0].encoding;
     let coeffs = vol.coeffs();
     let k = coeffs * 3;
@@ -175,7 +175,7 @@ pub fn read_adaptive_exr(path: &Path) -> Result<AdaptiveVolume, VolumeError> {
 /// file cannot be read or is not an EXR file.
 pub fn is_adaptive_exr(path: &Path) -> Result<bool, VolumeError> {
     let bytes = read_bounded(path)?;
-    let meta = crate::io_util::guard(F, || {
+    let meta = crate::io::util::guard(F, || {
         exr::meta::MetaData::read_from_buffered(Cursor::new(&bytes), true)
             .map_err(|e| VolumeError::malformed(F, e.to_string()))
     })?;
@@ -329,8 +329,8 @@ pub fn adaptive_exr_from_bytes(bytes: &[u8]) -> Result<AdaptiveVolume, VolumeErr
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::adaptive::build::build_adaptive;
     use crate::adaptive::tests::{base_from, base_spec, point_bake, step_field, step_volume};
-    use crate::adaptive_build::build_adaptive;
     use crate::volume::BakeMetadata;
 
     fn meta() -> BakeMetadata {
@@ -359,16 +359,16 @@ mod tests {
         assert_eq!(a, b);
         assert!(is_adaptive_exr(&path).unwrap());
         // The uniform reader refuses, naming the adaptive reader.
-        let e = crate::exr_io::read_exr(&path).unwrap_err();
+        let e = crate::io::exr::read_exr(&path).unwrap_err();
         assert!(
             matches!(e, VolumeError::Unsupported { .. }) && e.to_string().contains("read_adaptive_exr"),
             "{e}"
         );
         // A plain file is not adaptive, and the adaptive reader refuses it clearly.
         let plain = dir.path().join("p.lvol.exr");
-        crate::exr_io::write_exr(&plain, v.base(), &Default::default()).unwrap();
+        crate::io::exr::write_exr(&plain, v.base(), &Default::default()).unwrap();
         assert!(!is_adaptive_exr(&plain).unwrap());
-        assert_eq!(&crate::exr_io::read_exr(&plain).unwrap(), v.base());
+        assert_eq!(&crate::io::exr::read_exr(&plain).unwrap(), v.base());
         assert!(read_adaptive_exr(&plain).unwrap_err().to_string().contains("lightvol.octree"));
         // Only the target is left (temporary file renamed).
         assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 2);

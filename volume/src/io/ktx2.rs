@@ -11,7 +11,7 @@
 //!
 //! The key/value data holds `KTXwriter` and the JSON sidecar under [`KTX2_SIDECAR_KEY`]
 //! (grid transform, SH convention, encoding, units, bake metadata and, when the volume has
-//! one, its validity mask; see [`crate::sidecar`]). The reader validates the header against the sidecar and the data
+//! one, its validity mask; see [`crate::io::sidecar`]). The reader validates the header against the sidecar and the data
 //! length against the dimensions and rejects non-finite texels.
 
 use std::path::Path;
@@ -21,8 +21,8 @@ use ktx2::Format;
 use crate::checksum::{through_f16, to_hex, verify, volume_checksum};
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
-use crate::io_util::{guard, read_bounded, write_atomic};
-use crate::sidecar::Sidecar;
+use crate::io::sidecar::Sidecar;
+use crate::io::util::{guard, read_bounded, write_atomic};
 use crate::slab::{SLAB_LAYOUT, slab_texels, volume_from_slab_texels};
 use crate::volume::IrradianceVolume;
 

@@ -4,7 +4,7 @@
 //! weight in alpha) — the 3D-texture route of \[Ish11\] §2.3.
 //!
 //! DDS has no room for metadata, so [`write_dds`] also writes the JSON sidecar (with the
-//! validity mask, if the volume has one) beside the texture (`name.dds.json`, [`crate::sidecar::sidecar_path`]) and [`read_dds`] requires it;
+//! validity mask, if the volume has one) beside the texture (`name.dds.json`, [`crate::io::sidecar::sidecar_path`]) and [`read_dds`] requires it;
 //! the reader checks the DDS header (DX10 extension, format, 3D dimension, one array
 //! element, one mip level) and the data length against the sidecar's grid.
 
@@ -16,8 +16,8 @@ use ddsfile::{AlphaMode, Caps2, D3D10ResourceDimension, Dds, DxgiFormat, NewDxgi
 use crate::checksum::{through_f16, to_hex, verify, volume_checksum};
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
-use crate::io_util::{guard, read_bounded, write_atomic};
-use crate::sidecar::{Sidecar, read_sidecar, sidecar_path, write_sidecar};
+use crate::io::sidecar::{Sidecar, read_sidecar, sidecar_path, write_sidecar};
+use crate::io::util::{guard, read_bounded, write_atomic};
 use crate::slab::{SLAB_LAYOUT, slab_texels, volume_from_slab_texels};
 use crate::volume::IrradianceVolume;
 

@@ -25,8 +25,8 @@ use crate::accumulator::Accumulator;
 use crate::checksum::fnv1a;
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::{GridSpec, Placement};
-use crate::io_util::{read_bounded, write_atomic};
-use crate::sidecar::GridJson;
+use crate::io::sidecar::GridJson;
+use crate::io::util::{read_bounded, write_atomic};
 use crate::volume::{BakeMetadata, check_coeffs};
 
 /// First six bytes of a shard file.

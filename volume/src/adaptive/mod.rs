@@ -43,11 +43,14 @@
 //! divided by π) and keeps the field continuous. Nodes of levels `≤ min_level` are never
 //! culled.
 //!
-//! ## Lookups ([`crate::adaptive_lookup`])
+//! ## Lookups ([`crate::adaptive::lookup`])
 //! [`AdaptiveVolume::coeffs_at_reference`] / [`AdaptiveVolume::irradiance_reference`]: f64,
 //! binary search in each level's sorted key table. [`AdaptiveVolume::coeffs_at`] /
 //! [`AdaptiveVolume::irradiance`]: f32, hash-map index (a fixed hasher: deterministic). A
 //! test bounds their difference. Points outside the box clamp to it, as in [`crate::grid`].
+
+pub mod build;
+pub mod lookup;
 
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
@@ -103,7 +106,7 @@ pub struct OctreeParams {
     /// A node is culled when `max |surplus| ≤ cull_tolerance · value_scale` (module docs).
     pub cull_tolerance: f64,
     /// Upper bound on [`AdaptiveVolume::memory_bytes`], met by raising `budget_tolerance`
-    /// ([`crate::adaptive_build`]).
+    /// ([`crate::adaptive::build`]).
     pub memory_budget: Option<usize>,
     /// The L2-weighted cull threshold (relative to the value scale) that the memory budget
     /// required: a node of level `l` is also culled when `max |s| · 2^(-3l/2) ≤
@@ -461,5 +464,4 @@ fn check_keys(keys: &[u64], n: [u32; 3], what: &str) -> Result<(), VolumeError> 
 }
 
 #[cfg(test)]
-#[path = "adaptive_tests.rs"]
 pub(crate) mod tests;

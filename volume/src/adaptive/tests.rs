@@ -2,7 +2,7 @@
 //! (f32 lookup), f32 vs f64 lookups, budget, culling, resampling.
 
 use super::*;
-use crate::adaptive_build::{LevelSamples, build_adaptive};
+use crate::adaptive::build::{LevelSamples, build_adaptive};
 use crate::grid::corner_weights;
 use lightvol_sh::irradiance::cosine_lobe_factor;
 use lightvol_sh::lowdisc::{SplitMix64, hash2};
@@ -431,7 +431,7 @@ fn memory_budget_is_respected_and_monotone() {
         |c| Ok::<_, VolumeError>(vec![2.0; c.cells().len()]),
         point_bake(&spec, &step_field, |_, _| false),
     );
-    assert!(matches!(r, Err(crate::adaptive_build::BuildError::Volume(VolumeError::InvalidData(_)))));
+    assert!(matches!(r, Err(build::BuildError::Volume(VolumeError::InvalidData(_)))));
 }
 
 #[test]
@@ -585,8 +585,8 @@ fn placement_maps_world_queries_to_the_grid() {
             assert!((f64::from(out[q]) - b[q]).abs() <= tol + slack, "{g:?}: {} vs {}", out[q], b[q]);
         }
     }
-    let back = crate::adaptive_io::adaptive_exr_from_bytes(
-        &crate::adaptive_io::adaptive_exr_to_bytes(&placed).unwrap(),
+    let back = crate::io::adaptive::adaptive_exr_from_bytes(
+        &crate::io::adaptive::adaptive_exr_to_bytes(&placed).unwrap(),
     )
     .unwrap();
     assert_eq!(back, placed);

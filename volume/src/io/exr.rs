@@ -38,7 +38,7 @@
 //! part named `validity` with a single f32 channel `Y` (1.0 valid, 0.0 invalid; any other
 //! value is malformed), in the same slice layout, and the image attribute
 //! `lightvol.validity` (i32, 1); such files are `lightvol.version` 2
-//! ([`crate::sidecar::format_version`]), so readers of version 1 refuse them as newer
+//! ([`crate::io::sidecar::format_version`]), so readers of version 1 refuse them as newer
 //! instead of reading them without their mask. Files of volumes without a mask are version
 //! 1 and unchanged, and version-1 files read as volumes without a mask. The checksum covers
 //! the mask.
@@ -66,8 +66,8 @@ use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError, check_finite};
 use crate::gradient::VolumeGradients;
 use crate::grid::{GridSpec, Placement};
-use crate::io_util::{guard, read_bounded, write_atomic};
-use crate::sidecar::{FORMAT_VERSION, QUANTITY, SH_CONVENTION, VALIDITY_VERSION, format_version};
+use crate::io::sidecar::{FORMAT_VERSION, QUANTITY, SH_CONVENTION, VALIDITY_VERSION, format_version};
+use crate::io::util::{guard, read_bounded, write_atomic};
 use crate::validity::ValidityMask;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 
@@ -153,7 +153,7 @@ pub fn exr_to_bytes_with_gradients(
 
 /// The parts and image attributes of the native format (what
 /// [`exr_to_bytes_with_gradients`] writes), for extensions that add parts
-/// ([`crate::adaptive_io`]).
+/// ([`crate::io::adaptive`]).
 pub(crate) fn base_layers(
     vol: &IrradianceVolume,
     grad: Option<&VolumeGradients>,
@@ -632,7 +632,7 @@ pub(crate) struct ExtraPart {
     pub(crate) channels: Vec<(String, FlatSamples)>,
 }
 
-/// Whether a part name belongs to the adaptive extension ([`crate::adaptive_io`]).
+/// Whether a part name belongs to the adaptive extension ([`crate::io::adaptive`]).
 pub(crate) fn is_octree_part(name: &str) -> bool {
     name.starts_with("octree") || name.starts_with("split")
 }
@@ -663,7 +663,7 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     if !extensions && attrs.keys().any(|k| k.as_slice() == OCTREE_ATTRIBUTE.as_bytes()) {
         return Err(VolumeError::unsupported(
             F,
-            "this is an adaptive octree volume (lightvol.octree); read it with adaptive_io::read_adaptive_exr",
+            "this is an adaptive octree volume (lightvol.octree); read it with io::adaptive::read_adaptive_exr",
         ));
     }
     let d = declared(&attrs)?;

@@ -49,8 +49,8 @@ use lightvol_sh::irradiance::cosine_lobe_factor;
 use crate::checksum::{fnv1a, from_hex, to_hex};
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::GridSpec;
-use crate::io_util::{f16_bytes, guard, read_bounded, write_atomic};
-use crate::ktx2_io::{KTX2_WRITER, parse_ktx2};
+use crate::io::ktx2::{KTX2_WRITER, parse_ktx2};
+use crate::io::util::{f16_bytes, guard, read_bounded, write_atomic};
 use crate::volume::IrradianceVolume;
 
 const F: FileFormat = FileFormat::Bevy;
@@ -332,7 +332,7 @@ pub fn bevy_to_bytes(vol: &IrradianceVolume, format: BevyFormat) -> Result<Vec<u
         texel_checksum: to_hex(fnv1a(&texels)),
     };
     let json = serde_json::to_string(&info).expect("plain data");
-    Ok(crate::ktx2_io::ktx2_bytes(vk, dims, &texels, &[("KTXwriter", KTX2_WRITER), (BEVY_INFO_KEY, &json)]))
+    Ok(crate::io::ktx2::ktx2_bytes(vk, dims, &texels, &[("KTXwriter", KTX2_WRITER), (BEVY_INFO_KEY, &json)]))
 }
 
 /// Writes the Bevy export and its JSON description beside it (`PATH.json`: the transform,
@@ -346,7 +346,7 @@ pub fn write_bevy(path: &Path, vol: &IrradianceVolume, format: BevyFormat) -> Re
     write_atomic(path, &bytes)?;
     let mut json = serde_json::to_string_pretty(&info).expect("plain data");
     json.push('\n');
-    write_atomic(&crate::sidecar::sidecar_path(path), json.as_bytes())
+    write_atomic(&crate::io::sidecar::sidecar_path(path), json.as_bytes())
 }
 
 /// A Bevy irradiance volume read back: its info and the six f16-rounded colours per voxel.
@@ -406,7 +406,7 @@ pub fn bevy_from_bytes(bytes: &[u8]) -> Result<BevyVolume, VolumeError> {
                 format!("texels are {vk:?} but the info says {:?}", info.format),
             ));
         }
-        let tb = crate::ktx2_io::texel_bytes(vk);
+        let tb = crate::io::ktx2::texel_bytes(vk);
         if from_hex(&info.texel_checksum) != Some(fnv1a(&data)) {
             return Err(VolumeError::malformed(F, "texel checksum mismatch: the file is damaged"));
         }

@@ -1,0 +1,13 @@
+//! Every file format of a volume: the native EXR ([`exr`]), the adaptive octree's EXR
+//! ([`adaptive`]), the engine exports ([`ktx2`], [`dds`], [`bevy`] and their JSON
+//! [`sidecar`]), the shard accumulator ([`accumulator`]), and the shared file edges
+//! ([`util`]: atomic writes, bounded reads, the parser panic guard).
+
+pub mod accumulator;
+pub mod adaptive;
+pub mod bevy;
+pub mod dds;
+pub mod exr;
+pub mod ktx2;
+pub mod sidecar;
+pub mod util;
