@@ -33,7 +33,6 @@ pub fn write_atomic_with<E: From<io::Error>>(
     // Dropping `tmp` on any early return deletes the temporary file.
     let mut tmp = tempfile::Builder::new().prefix(".lightvol-").suffix(".tmp").tempfile_in(dir)?;
     write(tmp.as_file_mut())?;
-    tmp.as_file_mut().flush()?;
     tmp.as_file().sync_all()?;
     tmp.persist(path).map_err(|e| e.error)?;
     sync_dir(dir)?;

@@ -11,6 +11,8 @@
 use std::path::Path;
 
 use lightvol_sh::eval::eval_into;
+use lightvol_sh::index::sh_lm;
+use lightvol_sh::irradiance::cosine_lobe_factor;
 
 use crate::adaptive::AdaptiveVolume;
 use crate::error::VolumeError;
@@ -59,20 +61,19 @@ pub trait VolumeField: Sync {
     fn memory_bytes(&self) -> usize;
 }
 
-/// `Σ_j f_j c_j Y_j(d)` per channel, `f_j` the clamped-cosine factor `A_l` (irradiance) or 1.
-fn expand(coeffs: usize, c: &[f64], d: [f64; 3], irradiance: bool) -> [f64; 3] {
-    let bands = coeffs.isqrt();
+/// Interpolated coefficients `c` (`[coeff][rgb]`, `coeffs` per channel) expanded in the
+/// direction `d`: irradiance `Σ_j A_j c_j Y_j(d)` (\[KL06\] Eq. 3, `A_j` the clamped-cosine
+/// factor of `j`'s band) or, with `irradiance` false, radiance `Σ_j c_j Y_j(d)` (Eq. 2). The
+/// f64 expansion of every coefficient lookup (the gradient lookups, the octree's reference).
+#[must_use]
+pub fn expand(coeffs: usize, c: &[f64], d: [f64; 3], irradiance: bool) -> [f64; 3] {
     let mut y = vec![0.0; coeffs];
-    eval_into(bands, d, &mut y);
+    eval_into(coeffs.isqrt(), d, &mut y);
     let mut e = [0.0; 3];
     for j in 0..coeffs {
-        let f = if irradiance {
-            lightvol_sh::irradiance::cosine_lobe_factor(lightvol_sh::index::sh_lm(j).0)
-        } else {
-            1.0
-        };
+        let a = if irradiance { cosine_lobe_factor(sh_lm(j).0) * y[j] } else { y[j] };
         for ch in 0..3 {
-            e[ch] += f * y[j] * c[3 * j + ch];
+            e[ch] += a * c[3 * j + ch];
         }
     }
     e

@@ -45,10 +45,6 @@
 //! accounting: `3 n²` floats of SH per sample for order (bands) `n`, and `3 · 3 n²` more
 //! for the gradients.
 
-use lightvol_sh::eval::eval_into;
-use lightvol_sh::index::sh_lm;
-use lightvol_sh::irradiance::cosine_lobe_factor;
-
 use crate::error::VolumeError;
 use crate::grid::{GridSpec, corner_weights};
 use crate::volume::IrradianceVolume;
@@ -314,16 +310,7 @@ pub fn irradiance(
     n: [f64; 3],
 ) -> Result<[f64; 3], VolumeError> {
     let c = coeffs_at(vol, grad, method, p)?;
-    let mut y = vec![0.0; vol.coeffs()];
-    eval_into(vol.bands(), n, &mut y);
-    let mut e = [0.0; 3];
-    for j in 0..vol.coeffs() {
-        let a = cosine_lobe_factor(sh_lm(j).0) * y[j];
-        for ch in 0..3 {
-            e[ch] += a * c[3 * j + ch];
-        }
-    }
-    Ok(e)
+    Ok(crate::field::expand(vol.coeffs(), &c, n, true))
 }
 
 #[cfg(test)]

@@ -5,10 +5,6 @@
 
 use rayon::prelude::*;
 
-use lightvol_sh::eval::eval_into;
-use lightvol_sh::index::sh_lm;
-use lightvol_sh::irradiance::cosine_lobe_factor;
-
 use crate::adaptive::{AdaptiveVolume, TO_UNIFORM_MAX_NODES, pack_key};
 use crate::error::VolumeError;
 use crate::grid::{GridSpec, corner_weights};
@@ -85,17 +81,7 @@ impl AdaptiveVolume {
     /// [`Self::coeffs_at_reference`], in f64.
     #[must_use]
     pub fn irradiance_reference(&self, p: [f64; 3], n: [f64; 3]) -> [f64; 3] {
-        let c = self.coeffs_at_reference(p);
-        let mut y = vec![0.0; self.coeffs()];
-        eval_into(self.base.bands(), n, &mut y);
-        let mut e = [0.0; 3];
-        for j in 0..self.coeffs() {
-            let a = cosine_lobe_factor(sh_lm(j).0) * y[j];
-            for ch in 0..3 {
-                e[ch] += a * c[3 * j + ch];
-            }
-        }
-        e
+        crate::field::expand(self.coeffs(), &self.coeffs_at_reference(p), n, true)
     }
 
     /// The interpolated coefficients at world point `p` into `out[..3·coeffs]`
