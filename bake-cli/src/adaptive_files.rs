@@ -20,18 +20,18 @@ use std::path::Path;
 
 use anyhow::Context;
 use lightvol_volume::encode::Encoding;
-use lightvol_volume::gradient::floats_per_sample;
+use lightvol_volume::gradient::sample_bytes;
 use lightvol_volume::io::sidecar::Sidecar;
 use lightvol_volume::{AdaptiveVolume, IrradianceVolume};
 use serde_json::{Value, json};
 
 /// Run-time bytes of the uniform grid at the finest level's resolution (3 n² floats per
-/// node, \[Oat05\] "GPU Memory Requirements (Constant Store)"), for comparison in `info`.
+/// node, \[Oat05\] "GPU Memory Requirements (Constant Store)", as
+/// `lightvol_volume::gradient::sample_bytes` counts them), for comparison in `info`.
 #[must_use]
 pub fn finest_uniform_bytes(vol: &AdaptiveVolume) -> usize {
-    let res = vol.finest_res();
-    let bands = vol.base().bands();
-    res.iter().map(|&n| n as usize).product::<usize>() * floats_per_sample(bands, false) * 4
+    let nodes = vol.finest_res().iter().map(|&n| n as usize).product::<usize>();
+    sample_bytes(nodes, vol.base().bands(), false)
 }
 
 /// The octree section of `info --json` and of the JSON export.

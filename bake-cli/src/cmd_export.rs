@@ -4,10 +4,10 @@
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use lightvol_volume::AnyVolume;
 use lightvol_volume::IrradianceVolume;
 use lightvol_volume::encode::Encoding;
 use lightvol_volume::io::sidecar::{Sidecar, sidecar_path, write_sidecar};
+use lightvol_volume::{AnyVolume, GradientField};
 
 use crate::adaptive_files;
 use crate::cli::{ExportArgs, ExportFormat};
@@ -59,8 +59,14 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
     let out = &args.output;
     let opened =
         lightvol_volume::open(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
-    if let AnyVolume::Adaptive(vol) = &opened {
-        if args.format == ExportFormat::Json {
+    match &opened {
+        AnyVolume::Uniform(vol) | AnyVolume::Gradient(GradientField { volume: vol, .. }) => {
+            if res.is_some() {
+                bail!("--res resamples adaptive volumes only; {} is a uniform volume", args.volume.display());
+            }
+            write_uniform(args, vol)?;
+        }
+        AnyVolume::Adaptive(vol) if args.format == ExportFormat::Json => {
             if res.is_some() {
                 bail!(
                     "--res applies to KTX2, DDS and Bevy exports; the JSON export describes the octree itself"
@@ -68,7 +74,8 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             }
             let v = adaptive_files::export_json(vol, &args.volume)?;
             write_atomic(out, serde_json::to_string_pretty(&v)?.as_bytes())?;
-        } else {
+        }
+        AnyVolume::Adaptive(vol) => {
             let (uniform, used) = adaptive_files::resample(vol, res)?;
             let finest = vol.finest_res();
             eprintln!(
@@ -81,11 +88,6 @@ pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             );
             write_uniform(args, &uniform)?;
         }
-    } else if let Some(vol) = opened.uniform() {
-        if res.is_some() {
-            bail!("--res resamples adaptive volumes only; {} is a uniform volume", args.volume.display());
-        }
-        write_uniform(args, vol)?;
     }
     eprintln!("wrote {}", out.display());
     if args.format != ExportFormat::Json {
