@@ -21,8 +21,10 @@ use lightvol_volume::io::adaptive::write_adaptive_exr;
 use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
 use serde_json::json;
 
-use crate::cmd_bake::{BakeArgs, RaysJson, progress_bar, scene_hash};
-use crate::setup::{LoadedScene, parse_method, with_threads};
+use crate::cmd_bake::{BakeArgs, RaysJson, progress_bar};
+use crate::setup::{LoadedScene, with_threads};
+use lightvol_sampler::provenance::scene_hash;
+use lightvol_sampler::request::AdaptiveRequest;
 
 /// Options of `bake --adaptive` (each heuristic with its threshold, Oat 2005, "Subdivision
 /// Heuristics"). Defaults are lightvol-sampler's `AdaptiveSettings::default()`; giving any
@@ -300,67 +302,19 @@ fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<Ad
 
 /// `lightvol bake --adaptive`: whole, one shard of one level, or the assembly of shards.
 pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
-    if args.keep_accumulator {
-        bail!(
-            "--adaptive cannot be combined with --keep-accumulator (shard an octree bake with --shard and --level)"
-        );
-    }
-    if args.gradients.is_some() {
-        bail!("--adaptive cannot be combined with --gradients (the octree stores no gradients)");
-    }
-    if args.sampling.fit != lightvol_sampler::node_fit::Fit::Average {
-        bail!(
-            "--adaptive cannot be combined with --fit {} (the octree levels use Eq. 6's average)",
-            args.sampling.fit
-        );
-    }
-    let method = parse_method(&args.method)?;
+    let a = &args.adaptive;
+    let coeffs = args.grid.coeffs();
+    let adaptive = a.settings(coeffs)?;
+    let request = crate::cmd_bake::request(
+        args,
+        Some(AdaptiveRequest { settings: adaptive, level: a.level, from_shards: !a.from_shards.is_empty() }),
+    )?;
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded)?;
-    if args.sampling.samples == 0 {
-        bail!("--samples must be at least 1");
-    }
-    let coeffs = args.grid.coeffs();
-    let adaptive = args.adaptive.settings(coeffs)?;
-    let settings = BakeSettings {
-        method,
-        samples: args.sampling.samples,
-        coeffs,
-        seed: args.sampling.seed,
-        ..BakeSettings::default()
-    };
-    let ts = args.sampling.transport();
-    let hash = scene_hash(
-        &loaded,
-        &format!(
-            "{:?} {:?} {} {} coeffs={} bounces={} {} {adaptive:?} lightvol={}",
-            grid.bounds(),
-            grid.res(),
-            args.method,
-            settings.samples,
-            coeffs,
-            args.sampling.transport().label(),
-            lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, &args.sampling.transport()),
-            env!("CARGO_PKG_VERSION")
-        ),
-    );
-    let a = &args.adaptive;
-    let shard = lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
-        std::env::var(k).ok()
-    })?;
-    let shard = args.shard.is_some().then_some(shard);
-    match (shard, a.level, a.from_shards.is_empty()) {
-        (None, Some(_), _) => bail!("--level needs --shard K/N (or --shard auto)"),
-        (Some(_), Some(0) | None, false) => {
-            bail!(
-                "level 0 is baked from the scene alone: drop --from-shards, or bake a level >= 1 with --level L"
-            )
-        }
-        (Some(_), Some(l), true) if l > 0 => {
-            bail!("--level {l} needs the shard files of levels 0..{l} (--from-shards)")
-        }
-        _ => {}
-    }
+    let settings = BakeSettings { shard: (0, 1), ..request.settings() };
+    let ts = request.transport;
+    let hash = scene_hash(&loaded.scene, &crate::cmd_bake::bake_key(&loaded, &grid, &request, &args.method));
+    let shard = request.shard;
     if let Some(shard) = shard {
         let level = a.level.unwrap_or(0);
         return with_threads(args.sampling.threads, || -> anyhow::Result<ExitCode> {
@@ -458,13 +412,13 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         "scene": loaded.label,
         "method": args.method,
         "adaptive": true,
-        "grid": crate::cmd_bake::GridJson::of(&grid, loaded.frame),
+        "grid": lightvol_volume::frame::FileGrid::of(&grid, loaded.frame),
         "samples": args.sampling.samples,
         "seed": args.sampling.seed,
         "rays": rays,
         "depth_rays": stats.depth_rays,
         "split_votes": { "gradient": stats.split_votes[0], "geometry": stats.split_votes[1], "depth": stats.split_votes[2] },
-        "octree": crate::adaptive_files::octree_json(&vol),
+        "octree": lightvol_volume::info::octree_json(&vol),
         "seconds": stats.wall_time.as_secs_f64(),
         "bvh_seconds": bvh_seconds,
         "output": args.output.display().to_string(),

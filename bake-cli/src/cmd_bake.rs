@@ -9,20 +9,22 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use lightvol_sampler::baselines::{Baseline, bake_baseline};
 use lightvol_sampler::eval::entries::{BakeMethod, parse_bake_method};
-use lightvol_sampler::gradient_estimator::{GradientEstimator, bake_with_estimator};
-use lightvol_sampler::node_fit::{
-    Fit, MassMatrix, bake_with_mass, finalize_least_squares, solve_least_squares,
+use lightvol_sampler::gradient_estimator::GradientEstimator;
+use lightvol_sampler::provenance;
+use lightvol_sampler::request::{
+    AdaptiveRequest, BakeRequest, Conflict, GradientChoice, Provenance, RequestError, bake_uniform,
 };
 use lightvol_sampler::{
-    BakeControl, BakeOutput, BakeSettings, Method, Progress, Tracer, Transport, TransportSettings,
+    BakeControl, BakeOutput, BakeSettings, Progress, Tracer, Transport, TransportSettings,
 };
+use lightvol_volume::GridSpec;
+use lightvol_volume::frame::FileGrid;
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::exr::{ExrOptions, write_exr, write_exr_with_gradients};
-use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
 use serde::Serialize;
 
 use crate::gradient_args::GradientEstimatorArg;
-use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, parse_method, with_threads};
+use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, with_threads};
 
 /// `lightvol bake`.
 #[derive(Debug, Args)]
@@ -90,7 +92,7 @@ pub struct BakeReport {
     /// Method name.
     pub method: String,
     /// The grid.
-    pub grid: GridJson,
+    pub grid: FileGrid,
     /// Samples per cell or node.
     pub samples: u32,
     /// Seed.
@@ -166,7 +168,7 @@ impl ScaleJson {
             unique_triangles: loaded.scene.unique_triangle_count() as u64,
             instances: loaded.scene.instances.len() as u64,
             estimated_memory_bytes: u64::try_from(
-                crate::setup::bake_memory_bytes(grid.res().map(u64::from), coeffs)
+                lightvol_sampler::scene_setup::bake_memory_bytes(grid.res().map(u64::from), coeffs)
                     + u128::from(loaded.memory.total()),
             )
             .unwrap_or(u64::MAX),
@@ -189,27 +191,6 @@ pub struct GradientsJson {
     pub seconds: f64,
     /// Bytes of gradient data (f32).
     pub memory_bytes: usize,
-}
-
-/// Grid description in reports.
-#[derive(Debug, Serialize, Clone)]
-pub struct GridJson {
-    /// Nodes per axis, along the scene file's axes.
-    pub res: [u32; 3],
-    /// Min and max corners in the scene file's frame.
-    pub bounds: [[f64; 3]; 2],
-    /// The frame of `res` and `bounds` (the scene file's: `y-up` or `z-up`).
-    pub frame: lightvol_sampler::UpAxis,
-}
-
-impl GridJson {
-    /// Describes an (unplaced) internal grid in the scene file's frame `frame`, so that
-    /// `--bounds` and `--res` with these values give the same grid back.
-    pub fn of(spec: &GridSpec, frame: lightvol_sampler::UpAxis) -> Self {
-        let f = lightvol_volume::frame::grid_in_file_frame(spec, frame).unwrap_or_else(|_| spec.clone());
-        let (a, b) = f.bounds();
-        Self { res: f.res(), bounds: [a, b], frame }
-    }
 }
 
 /// Rays by kind in reports.
@@ -291,205 +272,149 @@ pub fn run_bake(
     })
 }
 
-/// What a bake carries besides its accumulator.
-enum Grads {
-    /// Per-node SH gradients, their report, and what a shard file carries of them (boxed:
-    /// the variant is much larger than the others).
-    Gradients(
-        lightvol_volume::VolumeGradients,
-        GradientsJson,
-        Box<lightvol_sampler::gradient_bake::ShardGradients>,
-    ),
-    /// The mass matrix of a least-squares fit.
-    Mass(MassMatrix),
-}
-
-/// [`run_bake`] that also accumulates the least-squares mass matrix.
-fn run_bake_with_mass(
-    loaded: &LoadedScene,
-    tracer: &Tracer,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    transport_settings: TransportSettings,
-    quiet: bool,
-    label: &str,
-) -> anyhow::Result<(BakeOutput, MassMatrix)> {
-    with_progress(loaded, tracer, transport_settings, quiet, label, |t, c| {
-        bake_with_mass(t, grid, settings, c)
-    })
-}
-
-/// A short stable hash of the scene geometry and bake settings (FNV-1a over the triangle
-/// vertices and the settings' text), for the file metadata.
-pub fn scene_hash(loaded: &LoadedScene, extra: &str) -> String {
-    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-    let mut eat = |bytes: &[u8]| {
-        for &b in bytes {
-            h ^= u64::from(b);
-            h = h.wrapping_mul(0x0100_0000_01b3);
-        }
+/// The bake request of the options (the shard resolved from `--shard`, `--shards` and the
+/// scheduler's environment), validated.
+pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> anyhow::Result<BakeRequest> {
+    let shard = lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
+        std::env::var(k).ok()
+    })?;
+    let request = BakeRequest {
+        method: parse_bake_method(&args.method)?,
+        samples: args.sampling.samples,
+        coeffs: args.grid.coeffs(),
+        seed: args.sampling.seed,
+        transport: args.sampling.transport(),
+        fit: args.sampling.fit,
+        gradients: args
+            .gradients
+            .map(|g| g.map_or(GradientChoice::MethodDefault, |e| GradientChoice::Estimator(e.into()))),
+        shard: args.shard.is_some().then_some(shard),
+        keep_accumulator: args.keep_accumulator,
+        adaptive,
     };
-    let scene = &loaded.scene;
-    for t in scene.triangles.iter().chain(scene.prototypes.iter().flat_map(|p| &p.triangles)) {
-        for v in t.v {
-            for c in v.to_array() {
-                eat(&c.to_le_bytes());
-            }
-        }
-    }
-    for i in &scene.instances {
-        eat(&i.prototype.to_le_bytes());
-        for c in i.to_world.to_cols_array() {
-            eat(&c.to_le_bytes());
-        }
-    }
-    eat(extra.as_bytes());
-    format!("{h:016x}")
+    request.validate().map_err(request_error)?;
+    Ok(request)
 }
 
-/// Finalizes an accumulator into a volume with metadata.
-pub fn finish_volume(
-    out: &BakeOutput,
-    meta: BakeMetadata,
-) -> (IrradianceVolume, lightvol_volume::FillReport) {
-    let (vol, fill) = out.accumulator.finalize();
-    (vol.with_metadata(meta), fill)
+/// A refused request, in the options' words.
+pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
+    let option = |c: Conflict| match c {
+        Conflict::Adaptive => "--adaptive".to_owned(),
+        Conflict::Shard => "--shard".to_owned(),
+        Conflict::KeepAccumulator => "--keep-accumulator".to_owned(),
+        Conflict::Gradients => "--gradients".to_owned(),
+        Conflict::Fit(fit) => format!("--fit {fit}"),
+    };
+    match e {
+        RequestError::ZeroSamples => anyhow::anyhow!("--samples must be at least 1"),
+        RequestError::Baseline { baseline, with } => anyhow::anyhow!(
+            "{} cannot be combined with --method {} (the engine baselines bake a whole uniform grid)",
+            option(with),
+            baseline.name()
+        ),
+        RequestError::Adaptive(c @ Conflict::KeepAccumulator) => anyhow::anyhow!(
+            "--adaptive cannot be combined with {} (shard an octree bake with --shard and --level)",
+            option(c)
+        ),
+        RequestError::Adaptive(c @ Conflict::Gradients) => {
+            anyhow::anyhow!(
+                "--adaptive cannot be combined with {} (the octree stores no gradients)",
+                option(c)
+            )
+        }
+        RequestError::Adaptive(c) => {
+            anyhow::anyhow!(
+                "--adaptive cannot be combined with {} (the octree levels use Eq. 6's average)",
+                option(c)
+            )
+        }
+        RequestError::LevelNeedsShard => anyhow::anyhow!("--level needs --shard K/N (or --shard auto)"),
+        RequestError::BaseLevelFromShards => anyhow::anyhow!(
+            "level 0 is baked from the scene alone: drop --from-shards, or bake a level >= 1 with --level L"
+        ),
+        RequestError::LevelNeedsShards(l) => {
+            anyhow::anyhow!("--level {l} needs the shard files of levels 0..{l} (--from-shards)")
+        }
+        RequestError::FitNeedsCells { fit, method } => anyhow::anyhow!(
+            "--fit {fit} needs cell samples (--method prefilter or doi-paper); {} samples per node",
+            lightvol_sampler::eval::entries::method_name(method)
+        ),
+        RequestError::FitWithGradients(fit) => anyhow::anyhow!(
+            "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
+        ),
+        RequestError::BasisNeedsCells(_) => anyhow::anyhow!(
+            "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
+        ),
+    }
+}
+
+/// The settings key of a bake of `request` on `grid` ([`lightvol_sampler::provenance`]).
+pub(crate) fn bake_key(loaded: &LoadedScene, grid: &GridSpec, request: &BakeRequest, label: &str) -> String {
+    let adaptive = request.adaptive.map(|a| a.settings);
+    provenance::bake_key(
+        &loaded.scene,
+        grid,
+        label,
+        request.samples,
+        request.coeffs,
+        &request.transport,
+        adaptive.as_ref(),
+    )
 }
 
 /// Runs `lightvol bake`.
 pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
-    if let BakeMethod::Baseline(b) = parse_bake_method(&args.method)? {
-        return run_baseline(args, b);
-    }
     if args.adaptive.adaptive {
         return crate::adaptive_bake::run(args);
     }
+    let request = request(args, None)?;
     if let Some(first) = args.adaptive.stray_options().first() {
         bail!("{first} needs --adaptive");
     }
-    let method = parse_method(&args.method)?;
+    if let BakeMethod::Baseline(b) = request.method {
+        return run_baseline(args, &request, b);
+    }
     let started = Instant::now();
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded)?;
-    if args.sampling.samples == 0 {
-        anyhow::bail!("--samples must be at least 1");
-    }
-    let shard = lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
-        std::env::var(k).ok()
-    })?;
-    let settings = BakeSettings {
-        method,
-        samples: args.sampling.samples,
-        coeffs: args.grid.coeffs(),
-        seed: args.sampling.seed,
-        shard,
-        ..BakeSettings::default()
-    };
-    let fit = if method == Method::Point { Fit::Average } else { args.sampling.fit };
-    if matches!(method, Method::DoiNode | Method::Doi) && fit != Fit::Average {
-        bail!(
-            "--fit {fit} needs cell samples (--method prefilter or doi-paper); {} samples per node",
-            lightvol_sampler::eval::entries::method_name(method)
-        );
-    }
-    if fit != Fit::Average && args.gradients.is_some() {
-        bail!(
-            "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
-        );
-    }
-    let estimator =
-        args.gradients.map(|g| g.map_or(GradientEstimator::default_for(method), GradientEstimator::from));
-    if estimator.is_some_and(|e| !e.supports(method)) {
-        bail!(
-            "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
-        );
-    }
-    let ts = args.sampling.transport();
-    let (mut out, grads, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
+    let label = request.label();
+    let key = bake_key(&loaded, &grid, &request, &label);
+    let provenance = Provenance { frame: loaded.frame, key: &key };
+    let (bake, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
-        Ok(match estimator {
-            None if fit != Fit::Average => {
-                let (out, mass) =
-                    run_bake_with_mass(&loaded, &tracer, &grid, &settings, ts, args.quiet, &args.method)?;
-                (out, Some(Grads::Mass(mass)), bvh_seconds)
-            }
-            None => (
-                run_bake(&loaded, &tracer, &grid, &settings, ts, args.quiet, &args.method)?,
-                None,
-                bvh_seconds,
-            ),
-            Some(est) => {
-                let transport = Transport::new(&loaded.scene, &tracer, ts);
-                let g = with_bar(args.quiet, &args.method, |c| {
-                    bake_with_estimator(&transport, &grid, &settings, est, c)
-                })?;
-                let json = GradientsJson {
-                    estimator: g.estimator,
-                    singular_nodes: g.singular_nodes,
-                    extra_directions: g.extra_directions,
-                    seconds: g.seconds,
-                    memory_bytes: g.gradients.memory_bytes(),
-                };
-                (g.output, Some(Grads::Gradients(g.gradients, json, Box::new(g.sums))), bvh_seconds)
-            }
-        })
+        let transport = Transport::new(&loaded.scene, &tracer, request.transport);
+        let bake = with_bar(args.quiet, &args.method, |c| {
+            bake_uniform(&transport, &loaded.scene, &grid, &request, provenance, c)
+        })?;
+        Ok((bake, bvh_seconds))
     })??;
-    let method_label =
-        if fit == Fit::Average { args.method.clone() } else { format!("{} fit={fit}", args.method) };
-    let meta = bake_metadata(args, &loaded, &grid, &settings, &method_label, out.stats.rays.sampling, shard);
-    if args.shard.is_some() || args.keep_accumulator {
+    if request.writes_accumulator() {
         let acc_path = args.output.with_extension("lvacc");
-        // A least-squares bake's mass matrix travels in the shard file (exact sums too), so
-        // `merge` solves the fit over the whole set.
-        // (Auxiliary sums do not change what the accumulator finalizes to.)
-        match &grads {
-            Some(Grads::Mass(mass)) => mass.attach_to(&mut out.accumulator),
-            Some(Grads::Gradients(_, _, sums)) => sums.attach_to(&mut out.accumulator),
-            _ => {}
-        }
-        write_accumulator(&acc_path, &out.accumulator, &meta)
+        write_accumulator(&acc_path, &bake.output.accumulator, bake.volume.metadata())
             .with_context(|| format!("writing {}", acc_path.display()))?;
         if !args.json {
             eprintln!("wrote {}", acc_path.display());
         }
     }
-    let (vol, fill, grads, grads_json) = match grads {
-        None => {
-            let (vol, fill) = finish_volume(&out, meta);
-            (vol, fill, None, None)
-        }
-        Some(Grads::Gradients(g, j, _)) => {
-            let (vol, fill) = finish_volume(&out, meta);
-            (vol, fill, Some(g), Some(j))
-        }
-        Some(Grads::Mass(mass)) => {
-            let Fit::LeastSquares { lambda } = fit else {
-                unreachable!("mass matrices are only baked for lsq")
-            };
-            let (values, solve) =
-                solve_least_squares(&mass, &out.accumulator, lambda).context("least-squares node fit")?;
-            if !args.json {
-                eprintln!(
-                    "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
-                    solve.active_nodes, solve.max_iterations, solve.max_relative_residual
-                );
-            }
-            let (vol, fill) = finalize_least_squares(&out.accumulator, values);
-            (vol.with_metadata(meta), fill, None, None)
-        }
-    };
-    match &grads {
-        None => write_exr(&args.output, &vol, &ExrOptions::default()),
-        Some(g) => write_exr_with_gradients(&args.output, &vol, g, &ExrOptions::default()),
+    if let (Some((lambda, solve)), false) = (&bake.least_squares, args.json) {
+        eprintln!(
+            "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
+            solve.active_nodes, solve.max_iterations, solve.max_relative_residual
+        );
+    }
+    let vol = &bake.volume;
+    match &bake.gradients {
+        None => write_exr(&args.output, vol, &ExrOptions::default()),
+        Some(g) => write_exr_with_gradients(&args.output, vol, &g.gradients, &ExrOptions::default()),
     }
     .with_context(|| format!("writing {}", args.output.display()))?;
-    let s = &out.stats;
+    let s = &bake.output.stats;
     let report = BakeReport {
         scene: loaded.label.clone(),
-        method: method_label,
-        grid: GridJson::of(&grid, loaded.frame),
+        method: label,
+        grid: FileGrid::of(&grid, loaded.frame),
         samples: args.sampling.samples,
         seed: args.sampling.seed,
         rays: RaysJson::of(&s.rays),
@@ -498,105 +423,60 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         samples_kept: s.samples_kept,
         samples_rejected: s.samples_rejected,
         zero_weight_nodes: vol.weights().iter().filter(|&&w| w == 0.0).count(),
-        filled_nodes: fill.filled,
+        filled_nodes: bake.fill.filled,
         seconds: s.wall_time.as_secs_f64(),
         bvh_seconds,
         mrays_per_second: s.mrays_per_second(),
         scale: ScaleJson::now(&loaded, &grid, args.grid.coeffs(), started),
         output: args.output.display().to_string(),
-        gradients: grads_json,
+        gradients: bake.gradients.as_ref().map(|g| GradientsJson {
+            estimator: g.estimator,
+            singular_nodes: g.singular_nodes,
+            extra_directions: g.extra_directions,
+            seconds: g.seconds,
+            memory_bytes: g.gradients.memory_bytes(),
+        }),
         baseline: None,
     };
     print_report(args, &report)?;
     Ok(ExitCode::SUCCESS)
 }
 
-/// The file metadata of a bake of `grid` with `settings`, under the method name `label`,
-/// which used `samples` sampling rays.
-fn bake_metadata(
-    args: &BakeArgs,
-    loaded: &LoadedScene,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    label: &str,
-    samples: u64,
-    shard: (u32, u32),
-) -> BakeMetadata {
-    BakeMetadata {
-        method: label.to_owned(),
-        samples,
-        seed: args.sampling.seed,
-        shard_index: shard.0,
-        shard_count: shard.1,
-        scene_hash: scene_hash(
-            loaded,
-            &format!(
-                "{:?} {:?} {} {} coeffs={} bounces={} {} lightvol={}",
-                grid.bounds(),
-                grid.res(),
-                label,
-                settings.samples,
-                settings.coeffs,
-                args.sampling.transport().label(),
-                lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, &args.sampling.transport()),
-                env!("CARGO_PKG_VERSION")
-            ),
-        ),
-        units: "relative".into(),
-        frame: loaded.frame,
-    }
-}
-
 /// `lightvol bake --method point+…`: an engine baseline ([`lightvol_sampler::baselines`]),
 /// whole (no shards, gradients or octree), written as the native EXR (`point+apv` with its
 /// validity mask).
-fn run_baseline(args: &BakeArgs, baseline: Baseline) -> anyhow::Result<ExitCode> {
+fn run_baseline(args: &BakeArgs, request: &BakeRequest, baseline: Baseline) -> anyhow::Result<ExitCode> {
     let name = baseline.name();
-    let refused = [
-        (args.adaptive.adaptive, "--adaptive"),
-        (args.shard.is_some() || args.shards.is_some(), "--shard"),
-        (args.keep_accumulator, "--keep-accumulator"),
-        (args.gradients.is_some(), "--gradients"),
-    ];
-    if let Some((_, option)) = refused.iter().find(|(set, _)| *set) {
-        bail!(
-            "{option} cannot be combined with --method {name} (the engine baselines bake a whole uniform grid)"
-        );
-    }
-    if let Some(first) = args.adaptive.stray_options().first() {
-        bail!("{first} needs --adaptive");
-    }
     let started = Instant::now();
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded)?;
-    if args.sampling.samples == 0 {
-        bail!("--samples must be at least 1");
-    }
-    let settings = BakeSettings {
-        method: Method::Point,
-        samples: args.sampling.samples,
-        coeffs: args.grid.coeffs(),
-        seed: args.sampling.seed,
-        ..BakeSettings::default()
-    };
-    let ts = args.sampling.transport();
+    let settings = request.settings();
     let (bake, bvh_seconds, seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
-        let transport = Transport::new(&loaded.scene, &tracer, ts);
+        let transport = Transport::new(&loaded.scene, &tracer, request.transport);
         let t1 = Instant::now();
         let bake = bake_baseline(&transport, &grid, &settings, baseline).context("baking")?;
         Ok((bake, bvh_seconds, t1.elapsed().as_secs_f64()))
     })??;
-    let meta = bake_metadata(args, &loaded, &grid, &settings, name, bake.rays.sampling, (0, 1));
+    let key = bake_key(&loaded, &grid, request, name);
+    let meta = provenance::bake_metadata(
+        &loaded.scene,
+        loaded.frame,
+        &key,
+        name,
+        bake.rays.sampling,
+        request.seed,
+        (0, 1),
+    );
     let vol = bake.volume.clone().with_metadata(meta);
     write_exr(&args.output, &vol, &ExrOptions::default())
         .with_context(|| format!("writing {}", args.output.display()))?;
     let report = BakeReport {
         scene: loaded.label.clone(),
         method: name.to_owned(),
-        grid: GridJson::of(&grid, loaded.frame),
+        grid: FileGrid::of(&grid, loaded.frame),
         samples: args.sampling.samples,
         seed: args.sampling.seed,
         rays: RaysJson::of(&bake.rays),

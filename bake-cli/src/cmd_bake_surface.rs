@@ -46,9 +46,8 @@ fn shard_fingerprint(
     settings: &SurfaceSettings,
     ts: &TransportSettings,
 ) -> String {
-    let lighting = lightvol_sampler::surface::lighting_fingerprint(&loaded.scene, ts);
-    let extra = format!("{settings:?} {lighting} lightvol={}", env!("CARGO_PKG_VERSION"));
-    crate::cmd_bake::scene_hash(loaded, &extra)
+    use lightvol_sampler::provenance::{scene_hash, surface_key};
+    scene_hash(&loaded.scene, &surface_key(&loaded.scene, settings, ts))
 }
 
 /// The texel records of basis `tag` from shard files: every shard of one bake exactly once,

@@ -25,10 +25,11 @@ use lightvol_sampler::{GridSpec, Progress};
 use serde::Serialize;
 use serde_json::{Map, Value, json};
 
-use crate::cmd_bake::{GridJson, RaysJson, progress_bar};
+use crate::cmd_bake::{RaysJson, progress_bar};
 use crate::compare_views::{ViewArgs, ViewJson, cameras, write_view};
 use crate::imaging::{Rgb32, diverging, write_atomic, write_png_linear};
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, resolve_threads};
+use lightvol_volume::frame::FileGrid;
 
 /// `lightvol compare`.
 #[derive(Debug, Args, Clone)]
@@ -101,7 +102,7 @@ pub struct CompareReport {
     /// The plate.
     pub plate: PlateJson,
     /// The grid.
-    pub grid: GridJson,
+    pub grid: FileGrid,
     /// The reference.
     pub reference: ReferenceJson,
     /// Per method, in the order run.
@@ -394,7 +395,7 @@ fn write_outputs(
             valid_points: plate.valid_points(),
             near_points: plate.near_points(),
         },
-        grid: GridJson::of(&config.grid, loaded.frame),
+        grid: FileGrid::of(&config.grid, loaded.frame),
         reference: ReferenceJson {
             samples: config.plate.reference_samples,
             mean: result.mean_truth,

@@ -1,17 +1,15 @@
-//! `lightvol export`: engine formats. Adaptive volumes: see [`crate::adaptive_files`]
-//! (JSON describes the octree; KTX2, DDS and Bevy resample it to a uniform grid).
+//! `lightvol export`: engine formats (lightvol-volume's `io::export`; JSON describes an
+//! octree, KTX2, DDS and Bevy resample it to a uniform grid).
 
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use lightvol_volume::IrradianceVolume;
-use lightvol_volume::encode::Encoding;
-use lightvol_volume::io::sidecar::{Sidecar, sidecar_path, write_sidecar};
-use lightvol_volume::{AnyVolume, GradientField};
+use lightvol_volume::AnyVolume;
+use lightvol_volume::io::bevy::BevyFormat;
+use lightvol_volume::io::export::{ExportError, ExportFormat, export};
+use lightvol_volume::io::sidecar::sidecar_path;
 
-use crate::adaptive_files;
-use crate::cli::{ExportArgs, ExportFormat};
-use crate::imaging::write_atomic;
+use crate::cli::{BevyFormatArg, ExportArgs, ExportFormat as CliFormat};
 
 /// Parses `--res NX,NY,NZ` (each a whole number of at least 2).
 fn parse_res(s: &str) -> anyhow::Result<[u32; 3]> {
@@ -25,72 +23,51 @@ fn parse_res(s: &str) -> anyhow::Result<[u32; 3]> {
     }
 }
 
-fn write_uniform(args: &ExportArgs, vol: &IrradianceVolume) -> anyhow::Result<()> {
-    let out = &args.output;
-    let ctx = || format!("writing {}", out.display());
-    match args.format {
-        ExportFormat::Ktx2 => lightvol_volume::io::ktx2::write_ktx2(out, vol).with_context(ctx)?,
-        ExportFormat::Dds => lightvol_volume::io::dds::write_dds(out, vol).with_context(ctx)?,
-        ExportFormat::Bevy => {
-            let format = match args.bevy_format {
-                crate::cli::BevyFormatArg::Rgba16f => lightvol_volume::io::bevy::BevyFormat::Rgba16f,
-                crate::cli::BevyFormatArg::Rgb9e5 => lightvol_volume::io::bevy::BevyFormat::Rgb9e5,
-            };
-            lightvol_volume::io::bevy::write_bevy(out, vol, format).with_context(ctx)?;
-            if let Some(mask) = vol.validity() {
-                eprintln!(
-                    "note: Bevy interpolates its voxels plainly; the validity mask ({} invalid nodes) is not in the Bevy export",
-                    mask.invalid_count()
-                );
-            }
-        }
-        ExportFormat::Json => {
-            let file = adaptive_files::described_file_name(&args.volume);
-            let sc = Sidecar::describe(vol, Encoding::F32, file, "native-exr");
-            write_sidecar(out, &sc).with_context(ctx)?;
-        }
-    }
-    Ok(())
-}
-
 /// Runs `lightvol export`.
 pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
     let res = args.res.as_deref().map(parse_res).transpose()?;
     let out = &args.output;
     let opened =
         lightvol_volume::open(&args.volume).with_context(|| format!("reading {}", args.volume.display()))?;
-    match &opened {
-        AnyVolume::Uniform(vol) | AnyVolume::Gradient(GradientField { volume: vol, .. }) => {
-            if res.is_some() {
-                bail!("--res resamples adaptive volumes only; {} is a uniform volume", args.volume.display());
-            }
-            write_uniform(args, vol)?;
+    let format = match args.format {
+        CliFormat::Ktx2 => ExportFormat::Ktx2,
+        CliFormat::Dds => ExportFormat::Dds,
+        CliFormat::Json => ExportFormat::Json,
+        CliFormat::Bevy => ExportFormat::Bevy(match args.bevy_format {
+            BevyFormatArg::Rgba16f => BevyFormat::Rgba16f,
+            BevyFormatArg::Rgb9e5 => BevyFormat::Rgb9e5,
+        }),
+    };
+    let report = export(&opened, &args.volume, format, res, out).map_err(|e| match e {
+        ExportError::ResolutionForUniform => {
+            anyhow::anyhow!(
+                "--res resamples adaptive volumes only; {} is a uniform volume",
+                args.volume.display()
+            )
         }
-        AnyVolume::Adaptive(vol) if args.format == ExportFormat::Json => {
-            if res.is_some() {
-                bail!(
-                    "--res applies to KTX2, DDS and Bevy exports; the JSON export describes the octree itself"
-                );
-            }
-            let v = adaptive_files::export_json(vol, &args.volume)?;
-            write_atomic(out, serde_json::to_string_pretty(&v)?.as_bytes())?;
-        }
-        AnyVolume::Adaptive(vol) => {
-            let (uniform, used) = adaptive_files::resample(vol, res)?;
-            let finest = vol.finest_res();
-            eprintln!(
-                "resampled the adaptive volume (levels 0..{}) to a uniform {}x{}x{} grid{}",
-                vol.max_level(),
-                used[0],
-                used[1],
-                used[2],
-                if used == finest { " (its finest level)" } else { "" }
-            );
-            write_uniform(args, &uniform)?;
-        }
+        ExportError::ResolutionForJson => anyhow::anyhow!(
+            "--res applies to KTX2, DDS and Bevy exports; the JSON export describes the octree itself"
+        ),
+        e @ ExportError::Resample(_) => e.into(),
+        ExportError::Volume(e) => anyhow::Error::new(e).context(format!("writing {}", out.display())),
+    })?;
+    if let (Some((used, finest)), AnyVolume::Adaptive(vol)) = (report.resampled, &opened) {
+        eprintln!(
+            "resampled the adaptive volume (levels 0..{}) to a uniform {}x{}x{} grid{}",
+            vol.max_level(),
+            used[0],
+            used[1],
+            used[2],
+            if finest { " (its finest level)" } else { "" }
+        );
+    }
+    if let Some(n) = report.dropped_mask_nodes {
+        eprintln!(
+            "note: Bevy interpolates its voxels plainly; the validity mask ({n} invalid nodes) is not in the Bevy export"
+        );
     }
     eprintln!("wrote {}", out.display());
-    if args.format != ExportFormat::Json {
+    if args.format != CliFormat::Json {
         let sc = sidecar_path(out);
         if sc.exists() {
             eprintln!("wrote {}", sc.display());

@@ -1,56 +1,52 @@
 //! `lightvol info`: describe a volume file (uniform, with or without the SH gradients
-//! of \[Oat05\], or adaptive: see [`crate::adaptive_files`]).
+//! of \[Oat05\], or adaptive), as lightvol-volume's `info::describe` gives it.
 
 use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use lightvol_sampler::eval::uniform_memory_bytes;
-use lightvol_volume::AnyVolume;
-use lightvol_volume::gradient::floats_per_sample;
-use serde_json::{Value, json};
+use serde_json::Value;
 
 use crate::cli::InfoArgs;
-use crate::gradient_args::floats_table;
 
-/// The description `info --json` prints (`"kind": "uniform"` or `"adaptive"`).
-pub fn describe(path: &Path) -> anyhow::Result<Value> {
+/// The description `info --json` prints (lightvol-volume's `info::describe`).
+fn describe(path: &Path) -> anyhow::Result<Value> {
     let opened = lightvol_volume::open(path).with_context(|| format!("reading {}", path.display()))?;
-    let (vol, grads) = match &opened {
-        AnyVolume::Adaptive(vol) => return crate::adaptive_files::describe(vol, path),
-        AnyVolume::Uniform(vol) => (vol, None),
-        AnyVolume::Gradient(g) => (&g.volume, Some(&g.gradients)),
-    };
-    let has_grads = grads.is_some();
-    let floats = floats_per_sample(vol.bands(), has_grads);
-    // Coordinates in the scene file's frame (the file stores the internal one).
-    let frame = vol.metadata().frame;
-    let spec = &lightvol_volume::frame::grid_in_file_frame(vol.spec(), frame)
-        .with_context(|| format!("{}: grid in the {} frame", path.display(), frame.name()))?;
-    let (min, max) = spec.bounds();
-    let zero_weight = vol.weights().iter().filter(|&&w| w == 0.0).count();
-    let mask_bytes = vol.validity().map_or(0, lightvol_volume::ValidityMask::memory_bytes);
-    let validity =
-        vol.validity().map(|m| json!({ "invalid_nodes": m.invalid_count(), "memory_bytes": mask_bytes }));
-    Ok(json!({
-        "file": path.display().to_string(),
-        "kind": "uniform",
-        "grid": { "frame": frame, "res": spec.res(), "bounds": [min, max], "cell_size": spec.cell_size(),
-                  "nodes": spec.node_count(), "placement": spec.placement().map(|p| p.to_world_matrix()) },
-        "sh": { "coeffs": vol.coeffs(), "bands": vol.bands(),
-                "convention": "real orthonormal, index l(l+1)+m, no Condon-Shortley phase, +z polar",
-                "frame": "z-up (lightvol's internal frame; exports are in the grid's frame)",
-                "quantity": "incident radiance" },
-        "bake": vol.metadata(),
-        "zero_weight_nodes": zero_weight,
-        "memory_bytes": vol.memory_bytes(),
-        "gradients": has_grads,
-        "validity": validity,
-        "memory": { "floats_per_node": floats, "bytes_per_node": floats * 4,
-                    "runtime_bytes": uniform_memory_bytes(vol.spec(), vol.bands(), has_grads) + mask_bytes,
-                    "gradient_bytes": grads.as_ref().map_or(0, |g| g.memory_bytes()),
-                    "floats_per_sample_by_order": floats_table(vol.bands()) },
-    }))
+    lightvol_volume::info::describe(&opened, path).with_context(|| format!("describing {}", path.display()))
+}
+
+/// The text lines `info` prints for the octree section.
+fn print_octree(info: &Value) {
+    let o = &info["octree"];
+    println!(
+        "octree      levels {}..{} (finest used {}), cull tolerance {} x value scale {:.4}, budget {}",
+        o["min_level"],
+        o["max_level"],
+        o["levels_used"],
+        o["cull_tolerance"],
+        o["value_scale"].as_f64().unwrap_or(f64::NAN),
+        o["memory_budget"].as_u64().map_or_else(|| "none".to_owned(), |b| format!("{b} bytes"))
+    );
+    println!("            level    cells   leaves    split  created   stored   culled    empty");
+    for l in o["levels"].as_array().into_iter().flatten() {
+        let n = |k: &str| l[k].as_u64().unwrap_or(0);
+        println!(
+            "            {:>5} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
+            n("level"),
+            n("cells"),
+            n("leaves"),
+            n("split"),
+            n("created_nodes"),
+            n("stored_nodes"),
+            n("culled_nodes"),
+            n("empty_nodes")
+        );
+    }
+    let r = &o["finest_res"];
+    println!(
+        "memory      {} bytes ({} stored nodes: coefficients, base weights, 8-byte keys, split bitmaps; lookup index {} bytes more); uniform {}x{}x{} grid of the finest level: {} bytes",
+        o["memory_bytes"], o["stored_nodes"], o["index_bytes"], r[0], r[1], r[2], o["finest_uniform_bytes"]
+    );
 }
 
 fn f(v: &Value) -> f64 {
@@ -103,7 +99,7 @@ fn print_text(info: &Value) {
     println!("units       {}", m["units"].as_str().unwrap_or("?"));
     println!("zero-weight {} nodes (filled from neighbours)", info["zero_weight_nodes"]);
     if info["kind"] == "adaptive" {
-        crate::adaptive_files::print_octree(info);
+        print_octree(info);
         return;
     }
     let has_grads = info["gradients"].as_bool().unwrap_or(false);

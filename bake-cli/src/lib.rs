@@ -1,7 +1,6 @@
 #![doc = include_str!("../README.md")]
 
 pub mod adaptive_bake;
-pub mod adaptive_files;
 mod bench_scale;
 pub mod cli;
 pub mod cmd_bake;

@@ -1,15 +1,14 @@
 //! Scene, light, grid and bake options shared by `bake`, `compare`, `render`, `lint` and
 //! `bench`, and their validation (every problem is one clear error before any heavy work).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_sampler::TransportSettings;
-use lightvol_sampler::builtin::{BUILTIN_NAMES, builtin};
-use lightvol_sampler::envmap::EnvMap;
-use lightvol_sampler::estimate::SceneMemory;
-use lightvol_sampler::{DVec3, Environment, LoadOptions, Method, Scene, Sun, UpAxis, load_scene};
+pub use lightvol_sampler::scene_setup::LoadedScene;
+use lightvol_sampler::scene_setup::{self, GridChoice, GridError, LightOverrides, SceneSource, SetupError};
+use lightvol_sampler::{DVec3, LoadOptions, Method, Sun, UpAxis};
 use lightvol_volume::GridSpec;
 
 /// Where the scene comes from and how to light it.
@@ -140,23 +139,6 @@ pub struct SampleArgs {
     pub fit: lightvol_sampler::node_fit::Fit,
 }
 
-/// A loaded scene with its recommended grid (built-ins) and plate heights.
-pub struct LoadedScene {
-    /// The scene with lights applied.
-    pub scene: Scene,
-    /// Recommended grid (built-in scenes).
-    pub grid: Option<GridSpec>,
-    /// Recommended plate heights (built-in scenes).
-    pub plate_heights: Vec<f64>,
-    /// Label for reports.
-    pub label: String,
-    /// The source file's frame (built-in scenes: the internal +Z-up frame). Coordinates on
-    /// the command line and in reports are in it.
-    pub frame: UpAxis,
-    /// The scene's estimated memory (geometry, ray tracer, textures), checked before load.
-    pub memory: SceneMemory,
-}
-
 fn parse_floats<const N: usize>(what: &str, s: &str) -> anyhow::Result<[f64; N]> {
     let v: Vec<f64> = s
         .split(',')
@@ -211,13 +193,13 @@ impl SceneArgs {
     /// Loads (or builds) the scene and applies the light options; loader warnings go to
     /// standard error.
     pub fn load(&self) -> anyhow::Result<LoadedScene> {
-        self.load_within(memory_limit(None))
+        self.load_within(scene_setup::memory_limit(None))
     }
 
     /// [`load`](Self::load) with every placement of an instanced mesh written out as its
     /// own triangles and lightmap object (the surface bake and its renders).
     pub fn load_flattened(&self) -> anyhow::Result<LoadedScene> {
-        let loaded = self.load_quiet_with(memory_limit(None), true)?;
+        let loaded = self.load_quiet_with(scene_setup::memory_limit(None), true)?;
         for w in &loaded.scene.report.warnings {
             eprintln!("warning: {w}");
         }
@@ -237,7 +219,7 @@ impl SceneArgs {
 
     /// As [`load`](Self::load), leaving the warnings in the scene's report only.
     pub fn load_quiet(&self) -> anyhow::Result<LoadedScene> {
-        self.load_quiet_within(memory_limit(None))
+        self.load_quiet_within(scene_setup::memory_limit(None))
     }
 
     fn load_quiet_within(&self, limit: u128) -> anyhow::Result<LoadedScene> {
@@ -246,123 +228,40 @@ impl SceneArgs {
 
     fn load_quiet_with(&self, limit: u128, flatten_instances: bool) -> anyhow::Result<LoadedScene> {
         let up = if self.up == "z" { UpAxis::Z } else { UpAxis::Y };
-        let mut loaded = if let Some(name) = self.scene.strip_prefix("builtin:") {
-            let b = builtin(name).with_context(|| {
-                format!("unknown built-in scene '{name}' (choose from {})", BUILTIN_NAMES.join(", "))
-            })?;
-            let memory = SceneMemory::from_counts(b.scene.triangle_count() as u64, 0, 0);
-            LoadedScene {
-                scene: b.scene,
-                grid: Some(b.grid),
-                plate_heights: b.plate_heights,
-                label: format!("builtin:{name}"),
-                frame: UpAxis::Z,
-                memory,
-            }
-        } else {
-            if !(self.scale.is_finite() && self.scale > 0.0) {
-                bail!("--scale must be a positive finite number");
-            }
-            let path = Path::new(&self.scene);
-            let opts = LoadOptions { up, scale: self.scale, flatten_instances, ..LoadOptions::default() };
-            // Estimate first: a scene too large for memory is one line, not an abort mid-load.
-            let memory = lightvol_sampler::estimate::estimate_scene(path, flatten_instances)
-                .with_context(|| format!("loading {}", path.display()))?;
-            if u128::from(memory.total()) > limit {
-                let (what, bytes) = memory.biggest();
-                bail!(
-                    "{} needs about {} ({} triangles placed, {} stored; the {what} alone {}), more than the {} allowed (--max-memory-mib)",
-                    path.display(),
-                    gib(u128::from(memory.total())),
-                    memory.triangles,
-                    memory.unique_triangles,
-                    gib(u128::from(bytes)),
-                    gib(limit)
-                );
-            }
-            let scene = load_scene(path, &opts).with_context(|| format!("loading {}", path.display()))?;
-            LoadedScene {
-                scene,
-                grid: None,
-                plate_heights: Vec::new(),
-                label: self.scene.clone(),
-                frame: up,
-                memory,
-            }
+        let options = LoadOptions { up, scale: self.scale, flatten_instances, ..LoadOptions::default() };
+        let sky = match (&self.sky, &self.ground) {
+            (Some(sky), ground) => Some((
+                parse_rgb("--sky", sky)?,
+                ground.as_deref().map(|g| parse_rgb("--ground", g)).transpose()?,
+            )),
+            (None, Some(_)) => bail!("--ground needs --sky"),
+            (None, None) => None,
         };
-        let s = &mut loaded.scene;
-        if let Some(sky) = &self.sky {
-            let ground = self.ground.as_deref().map(|g| parse_rgb("--ground", g)).transpose()?;
-            s.environment = Environment::UniformSky { sky: parse_rgb("--sky", sky)?, ground };
-        } else if self.ground.is_some() {
-            bail!("--ground needs --sky");
-        }
-        if let Some(env) = &self.env {
-            let map =
-                EnvMap::from_exr(env).with_context(|| format!("loading environment {}", env.display()))?;
-            s.environment = Environment::Map(map);
-        }
-        if let Some(sun) = &self.sun {
-            // The direction is in the file's frame, like every coordinate on the command line.
-            let mut parsed = parse_sun(sun)?;
-            parsed.direction = DVec3::from_array(loaded.frame.to_world(parsed.direction.to_array()));
-            s.sun = Some(parsed);
-        }
-        if self.no_sun {
-            s.sun = None;
-        }
-        let has_emitter = s.materials.iter().any(|m| m.is_emissive());
-        if matches!(s.environment, Environment::Black)
-            && s.sun.is_none()
-            && s.punctual.is_empty()
-            && !has_emitter
-        {
+        let lights = LightOverrides {
+            sky,
+            environment_map: self.env.clone(),
+            sun: self.sun.as_deref().map(parse_sun).transpose()?,
+            no_sun: self.no_sun,
+        };
+        let loaded = scene_setup::load(&SceneSource::parse(&self.scene, options), limit, &lights).map_err(
+            |e| match e {
+                SetupError::BadScale => anyhow::anyhow!("--scale must be a positive finite number"),
+                e @ SetupError::SceneTooLarge { .. } => anyhow::anyhow!("{e} (--max-memory-mib)"),
+                e => e.into(),
+            },
+        )?;
+        if loaded.defaulted_sky {
             eprintln!("note: the scene has no lights; using a uniform white sky (radiance 1)");
-            s.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
         }
         Ok(loaded)
     }
-}
-
-/// Bytes a bake of this grid needs: the exact accumulator (numerators, denominators,
-/// outside sums; 16-byte fixed-point values plus a 1-byte poison flag each, see
-/// `lightvol_volume::fixed`), the f64 estimates the finalizer divides into, and the
-/// finalized f32 volume and weights.
-#[must_use]
-pub fn bake_memory_bytes(res: [u64; 3], coeffs: usize) -> u128 {
-    let nodes = u128::from(res[0]) * u128::from(res[1]) * u128::from(res[2]);
-    let k = coeffs as u128 * 3;
-    nodes * ((k + 2) * 17 + (k + 1) * 8 + (k + 1) * 4)
-}
-
-fn available_memory_bytes() -> u128 {
-    std::fs::read_to_string("/proc/meminfo")
-        .ok()
-        .and_then(|m| {
-            m.lines()
-                .find(|l| l.starts_with("MemAvailable:"))
-                .and_then(|l| l.split_whitespace().nth(1))
-                .and_then(|v| v.parse::<u128>().ok())
-        })
-        .map_or(8 << 30, |kib| kib * 1024)
-}
-
-/// The memory limit: `--max-memory-mib`, or half of the available memory.
-#[must_use]
-pub fn memory_limit(mib: Option<u64>) -> u128 {
-    mib.map_or_else(|| available_memory_bytes() / 2, |m| u128::from(m) << 20)
-}
-
-/// Bytes as `1.23 GiB`.
-fn gib(b: u128) -> String {
-    format!("{:.2} GiB", b as f64 / f64::from(1u32 << 30))
 }
 
 impl GridArgs {
     /// The bake's memory limit in bytes (scene, ray tracer and grid together).
     #[must_use]
     pub fn memory_limit(&self) -> u128 {
-        memory_limit(self.max_memory_mib)
+        scene_setup::memory_limit(self.max_memory_mib)
     }
 
     /// SH coefficients per channel.
@@ -374,90 +273,32 @@ impl GridArgs {
     /// The grid from the options, the built-in recommendation, or the scene bounds; refuses
     /// invalid or oversized grids before anything is allocated.
     pub fn grid(&self, scene: &LoadedScene) -> anyhow::Result<GridSpec> {
-        let (min, max) = match &self.bounds {
+        let bounds = match &self.bounds {
             Some(b) => {
                 let v = parse_floats::<6>("--bounds", b)?;
-                let (min, max) = ([v[0], v[1], v[2]], [v[3], v[4], v[5]]);
-                if (0..3).any(|i| min[i] >= max[i]) {
-                    bail!("--bounds: min {min:?} must be below max {max:?} on every axis");
-                }
-                // Given in the file's frame; the grid is built in the internal one.
-                scene.frame.box_to_world(min, max)
+                Some(([v[0], v[1], v[2]], [v[3], v[4], v[5]]))
             }
-            None => match &scene.grid {
-                Some(g) => g.bounds(),
-                None => {
-                    let (lo, hi) = scene.scene.bounds();
-                    let pad = (hi - lo) * 0.05 + DVec3::splat(1e-3);
-                    ((lo - pad).to_array(), (hi + pad).to_array())
-                }
-            },
+            None => None,
         };
-        let res: [u64; 3] = if let Some(r) = &self.res {
-            let v = parse_floats::<3>("--res", r)?;
-            if v.iter().any(|&x| x < 2.0 || x.fract() != 0.0 || x > f64::from(u32::MAX)) {
-                bail!("--res: each axis needs a whole number of at least 2 nodes, got {r}");
-            }
-            // NX,NY,NZ count nodes along the file's axes.
-            res_to_world(scene.frame, v.map(|x| x as u64))
-        } else if let Some(s) = self.spacing {
-            if !(s.is_finite() && s > 0.0) {
-                bail!("--spacing must be a positive finite number");
-            }
-            core::array::from_fn(|i| (((max[i] - min[i]) / s).ceil() as u64 + 1).max(2))
-        } else if let (Some(g), None) = (&scene.grid, &self.bounds) {
-            g.res().map(u64::from)
-        } else {
-            // Default: about 16 cells along the longest axis.
-            let longest = (0..3).map(|i| max[i] - min[i]).fold(0.0, f64::max);
-            core::array::from_fn(|i| (((max[i] - min[i]) / longest * 16.0).ceil() as u64 + 1).max(2))
+        let res = self.res.as_deref().map(|r| parse_floats::<3>("--res", r)).transpose()?;
+        let choice = GridChoice {
+            bounds,
+            res,
+            spacing: self.spacing,
+            coeffs: self.coeffs(),
+            memory_limit: self.memory_limit(),
         };
-        let coeffs = self.coeffs();
-        let grid_bytes = bake_memory_bytes(res, coeffs);
-        let scene_bytes = u128::from(scene.memory.total());
-        let need = grid_bytes.saturating_add(scene_bytes);
-        let limit = self.memory_limit();
-        if need > limit {
-            let (what, bytes) = if grid_bytes >= scene_bytes {
-                (format!("grid {}x{}x{} with {coeffs} coefficients", res[0], res[1], res[2]), grid_bytes)
-            } else {
-                (format!("scene ({})", scene.memory.biggest().0), scene_bytes)
-            };
-            bail!(
-                "the bake needs about {} (the {what} {} of it), more than the {} allowed (lower --res or raise --max-memory-mib)",
-                gib(need),
-                gib(bytes),
-                gib(limit)
-            );
-        }
-        let res32 = res.map(|r| u32::try_from(r).expect("bounded by the memory check"));
-        let mut spec = GridSpec::new(min, max, res32).context("invalid grid")?;
-        if self.bounds.is_none()
-            && self.res.is_none()
-            && self.spacing.is_none()
-            && let Some(g) = &scene.grid
-            && let Some(p) = g.placement()
-        {
-            spec = spec.with_placement(*p);
-        }
-        Ok(spec)
+        choice.resolve(scene).map_err(|e| match e {
+            GridError::EmptyBounds { .. } => anyhow::anyhow!("--{e}"),
+            GridError::BadResolution(_) => anyhow::anyhow!(
+                "--res: each axis needs a whole number of at least 2 nodes, got {}",
+                self.res.as_deref().unwrap_or_default()
+            ),
+            GridError::BadSpacing => anyhow::anyhow!("--spacing must be a positive finite number"),
+            e @ GridError::TooLarge { .. } => anyhow::anyhow!("{e} (lower --res or raise --max-memory-mib)"),
+            e => e.into(),
+        })
     }
-}
-
-/// A per-axis count along the file's axes (`--res`) as the count along the internal axes.
-#[must_use]
-pub fn res_to_world(up: UpAxis, file: [u64; 3]) -> [u64; 3] {
-    let mut out = [0; 3];
-    for (a, (axis, _)) in up.file_axes().into_iter().enumerate() {
-        out[axis] = file[a];
-    }
-    out
-}
-
-/// An internal per-axis count as the count along the file's axes (for reports).
-#[must_use]
-pub fn res_to_file(up: UpAxis, internal: [u32; 3]) -> [u32; 3] {
-    up.file_axes().map(|(axis, _)| internal[axis])
 }
 
 impl SampleArgs {

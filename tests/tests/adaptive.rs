@@ -49,7 +49,7 @@ fn adaptive_bake_info_export_round_trip() {
 
     // info: kind, level histogram and memory, consistent with the file.
     ok(&["info", s(&vol_path)]);
-    let info = lightvol::cmd_info::describe(&vol_path).unwrap();
+    let info = lightvol_volume::info::describe_file(&vol_path).unwrap();
     assert_eq!(info["kind"], "adaptive");
     assert_eq!(info["grid"]["res"], serde_json::json!([6, 6, 4]));
     let levels = info["octree"]["levels"].as_array().unwrap();

@@ -474,10 +474,11 @@ fn coordinates_round_trip_in_the_file_frame() {
         };
         let first = d.join(format!("{up}-1.exr"));
         bake(&first, &b, &r);
-        // What `info` and the bake report (the same `GridJson`) say.
-        let info = lightvol::cmd_info::describe(&first).unwrap();
+        // What `info` and the bake report (the same `FileGrid`) say.
+        let info = lightvol_volume::info::describe_file(&first).unwrap();
         let native = read_exr(&first).unwrap();
-        let report = serde_json::to_value(lightvol::cmd_bake::GridJson::of(native.spec(), frame)).unwrap();
+        let report =
+            serde_json::to_value(lightvol_volume::frame::FileGrid::of(native.spec(), frame)).unwrap();
         assert_eq!(info["grid"]["frame"], frame.name());
         assert_eq!(report["frame"], frame.name());
         assert_eq!(info["grid"]["bounds"], report["bounds"]);

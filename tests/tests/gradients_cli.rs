@@ -124,7 +124,7 @@ fn bake_gradients_round_trip_and_taylor_lookup() {
     // info reports the gradients and [Oat05]'s floats per sample (order 3: 27 SH floats,
     // 108 with gradients; order 6: 108 and 432), and the run-time bytes they imply.
     ok(&["info", s(&basis)]);
-    let info = lightvol::cmd_info::describe(&basis).unwrap();
+    let info = lightvol_volume::info::describe_file(&basis).unwrap();
     assert_eq!(info["gradients"], Value::Bool(true));
     assert_eq!(info["memory"]["floats_per_node"].as_u64(), Some(108));
     assert_eq!(info["memory"]["runtime_bytes"].as_u64(), Some(10 * 10 * 5 * 108 * 4));
@@ -132,7 +132,7 @@ fn bake_gradients_round_trip_and_taylor_lookup() {
     let row = |order: u64| table.iter().find(|r| r["order"].as_u64() == Some(order)).unwrap();
     assert_eq!((row(3)["floats"].as_u64(), row(3)["floats_with_gradients"].as_u64()), (Some(27), Some(108)));
     assert_eq!((row(6)["floats"].as_u64(), row(6)["floats_with_gradients"].as_u64()), (Some(108), Some(432)));
-    let info = lightvol::cmd_info::describe(&plain).unwrap();
+    let info = lightvol_volume::info::describe_file(&plain).unwrap();
     assert_eq!(info["gradients"], Value::Bool(false));
     assert_eq!(info["memory"]["runtime_bytes"].as_u64(), Some(10 * 10 * 5 * 27 * 4));
 }

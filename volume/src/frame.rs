@@ -245,3 +245,27 @@ mod tests {
         }
     }
 }
+
+/// A grid as users see it in reports: nodes per axis and the corners along the scene file's
+/// axes, with the frame they are in, so that bounds and resolution given back to a bake
+/// give the same grid.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct FileGrid {
+    /// Nodes per axis, along the scene file's axes.
+    pub res: [u32; 3],
+    /// Min and max corners in the scene file's frame.
+    pub bounds: [[f64; 3]; 2],
+    /// The frame of `res` and `bounds`.
+    pub frame: UpAxis,
+}
+
+impl FileGrid {
+    /// Describes an (unplaced) internal grid in the scene file's frame `frame`
+    /// ([`grid_in_file_frame`]; a placed grid is described as it is).
+    #[must_use]
+    pub fn of(spec: &GridSpec, frame: UpAxis) -> Self {
+        let f = grid_in_file_frame(spec, frame).unwrap_or_else(|_| spec.clone());
+        let (a, b) = f.bounds();
+        Self { res: f.res(), bounds: [a, b], frame }
+    }
+}

@@ -11,6 +11,7 @@ pub mod fixed;
 pub mod frame;
 pub mod gradient;
 pub mod grid;
+pub mod info;
 pub mod io;
 pub mod lookup;
 pub mod rgb9e5;

@@ -1,0 +1,482 @@
+//! One volume bake as a request: the method (a grid method, Kontkanen & Laine 2006 Eq. 4-6
+//! and Algorithm 2, or an engine baseline, [`crate::baselines`]) with its settings, the rules
+//! that say which settings go together ([`BakeRequest::validate`]), and the run of a uniform
+//! bake, whole or one shard, with its node fit and gradients ([`bake_uniform`]).
+//!
+//! `lightvol bake` builds a [`BakeRequest`] from its options and calls these; the octree
+//! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
+
+use lightvol_volume::{FillReport, GridSpec, IrradianceVolume, VolumeGradients};
+
+use crate::adaptive::AdaptiveSettings;
+use crate::baselines::Baseline;
+use crate::eval::entries::{BakeMethod, method_name};
+use crate::gradient_bake::ShardGradients;
+use crate::gradient_estimator::{GradientBakeError, GradientEstimator, bake_with_estimator};
+use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
+use crate::{
+    BakeControl, BakeError, BakeOutput, BakeSettings, Method, Scene, Transport, TransportSettings, UpAxis,
+};
+
+pub use crate::node_fit::Fit;
+
+/// Which per-node SH gradients (Oat 2005) a bake also estimates.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GradientChoice {
+    /// The method's own estimator ([`GradientEstimator::default_for`]).
+    MethodDefault,
+    /// This estimator.
+    Estimator(GradientEstimator),
+}
+
+/// The octree part of a request (Oat 2005, "Adaptive Octree Subdivision").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveRequest {
+    /// Levels, heuristics and culling.
+    pub settings: AdaptiveSettings,
+    /// With a shard: the refinement level it bakes (`None` or 0: the base grid).
+    pub level: Option<u32>,
+    /// Whether shard files of earlier levels are given (to bake a level from, or to
+    /// assemble).
+    pub from_shards: bool,
+}
+
+/// A whole volume bake.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BakeRequest {
+    /// A grid method or an engine baseline.
+    pub method: BakeMethod,
+    /// Samples per cell (prefilter, doi-paper), per node (doi-node) or directions per node
+    /// (point, doi, the baselines).
+    pub samples: u32,
+    /// SH coefficients per channel (4, 9 or 16).
+    pub coeffs: usize,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Path length and which light counts directly.
+    pub transport: TransportSettings,
+    /// How node values come from the sums (point sampling always averages).
+    pub fit: Fit,
+    /// Gradients to estimate, if any.
+    pub gradients: Option<GradientChoice>,
+    /// Shard `(k, n)` of a sharded bake; `None` bakes the whole volume.
+    pub shard: Option<(u32, u32)>,
+    /// Keep the exact sums of an unsharded bake (for a later `merge`).
+    pub keep_accumulator: bool,
+    /// An octree bake instead of a uniform one.
+    pub adaptive: Option<AdaptiveRequest>,
+}
+
+impl BakeRequest {
+    /// A whole uniform bake of `method` with `samples`, 9 coefficients, seed 1, unbiased
+    /// paths, the average fit, no gradients.
+    #[must_use]
+    pub fn new(method: BakeMethod, samples: u32) -> Self {
+        Self {
+            method,
+            samples,
+            coeffs: 9,
+            seed: 1,
+            transport: TransportSettings::default(),
+            fit: Fit::Average,
+            gradients: None,
+            shard: None,
+            keep_accumulator: false,
+            adaptive: None,
+        }
+    }
+
+    /// The method's name (`point`, `doi`, `point+apv`, ...).
+    #[must_use]
+    pub fn method_name(&self) -> &'static str {
+        match self.method {
+            BakeMethod::Grid(m) => method_name(m),
+            BakeMethod::Baseline(b) => b.name(),
+        }
+    }
+
+    /// The grid method the samples are taken with (point sampling for the baselines).
+    #[must_use]
+    pub fn grid_method(&self) -> Method {
+        match self.method {
+            BakeMethod::Grid(m) => m,
+            BakeMethod::Baseline(_) => Method::Point,
+        }
+    }
+
+    /// The fit the bake uses: [`Self::fit`], except that point sampling always averages.
+    #[must_use]
+    pub fn effective_fit(&self) -> Fit {
+        if self.grid_method() == Method::Point { Fit::Average } else { self.fit }
+    }
+
+    /// The gradient estimator the bake uses, if any.
+    #[must_use]
+    pub fn estimator(&self) -> Option<GradientEstimator> {
+        self.gradients.map(|g| match g {
+            GradientChoice::MethodDefault => GradientEstimator::default_for(self.grid_method()),
+            GradientChoice::Estimator(e) => e,
+        })
+    }
+
+    /// The method label in reports and file metadata: the method's name, with the fit when it
+    /// is not the average.
+    #[must_use]
+    pub fn label(&self) -> String {
+        match self.effective_fit() {
+            Fit::Average => self.method_name().to_owned(),
+            fit => format!("{} fit={fit}", self.method_name()),
+        }
+    }
+
+    /// Whether the bake writes its exact sums (a shard, or `keep_accumulator`).
+    #[must_use]
+    pub fn writes_accumulator(&self) -> bool {
+        self.shard.is_some() || self.keep_accumulator
+    }
+
+    /// The sampler's settings of this request.
+    #[must_use]
+    pub fn settings(&self) -> BakeSettings {
+        BakeSettings {
+            method: self.grid_method(),
+            samples: self.samples,
+            coeffs: self.coeffs,
+            seed: self.seed,
+            shard: self.shard.unwrap_or((0, 1)),
+            ..BakeSettings::default()
+        }
+    }
+
+    /// Checks that the settings go together, before any scene is read.
+    ///
+    /// # Errors
+    /// The first [`RequestError`] in the order: samples, then the baselines', octree's,
+    /// fit's and gradients' rules.
+    pub fn validate(&self) -> Result<(), RequestError> {
+        if let BakeMethod::Baseline(baseline) = self.method {
+            let refused = [
+                (self.adaptive.is_some(), Conflict::Adaptive),
+                (self.shard.is_some(), Conflict::Shard),
+                (self.keep_accumulator, Conflict::KeepAccumulator),
+                (self.gradients.is_some(), Conflict::Gradients),
+            ];
+            if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
+                return Err(RequestError::Baseline { baseline, with });
+            }
+        }
+        if self.samples == 0 {
+            return Err(RequestError::ZeroSamples);
+        }
+        if let Some(a) = &self.adaptive {
+            if self.keep_accumulator {
+                return Err(RequestError::Adaptive(Conflict::KeepAccumulator));
+            }
+            if self.gradients.is_some() {
+                return Err(RequestError::Adaptive(Conflict::Gradients));
+            }
+            if self.fit != Fit::Average {
+                return Err(RequestError::Adaptive(Conflict::Fit(self.fit)));
+            }
+            match (self.shard, a.level, a.from_shards) {
+                (None, Some(_), _) => return Err(RequestError::LevelNeedsShard),
+                (Some(_), Some(0) | None, true) => return Err(RequestError::BaseLevelFromShards),
+                (Some(_), Some(l), false) if l > 0 => return Err(RequestError::LevelNeedsShards(l)),
+                _ => {}
+            }
+            return Ok(());
+        }
+        let method = self.grid_method();
+        let fit = self.effective_fit();
+        if matches!(method, Method::DoiNode | Method::Doi) && fit != Fit::Average {
+            return Err(RequestError::FitNeedsCells { fit, method });
+        }
+        if fit != Fit::Average && self.gradients.is_some() {
+            return Err(RequestError::FitWithGradients(fit));
+        }
+        if self.estimator().is_some_and(|e| !e.supports(method)) {
+            return Err(RequestError::BasisNeedsCells(method));
+        }
+        Ok(())
+    }
+}
+
+/// A setting that another refuses.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Conflict {
+    /// An octree bake.
+    Adaptive,
+    /// A shard.
+    Shard,
+    /// Keeping the accumulator.
+    KeepAccumulator,
+    /// Gradients.
+    Gradients,
+    /// A fit other than the average.
+    Fit(Fit),
+}
+
+impl std::fmt::Display for Conflict {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Adaptive => f.write_str("an octree bake"),
+            Self::Shard => f.write_str("shards"),
+            Self::KeepAccumulator => f.write_str("keeping the accumulator"),
+            Self::Gradients => f.write_str("gradients"),
+            Self::Fit(fit) => write!(f, "the {fit} fit"),
+        }
+    }
+}
+
+/// Settings that do not go together.
+#[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
+pub enum RequestError {
+    /// No samples.
+    #[error("the samples must be at least 1")]
+    ZeroSamples,
+    /// An engine baseline bakes a whole uniform grid.
+    #[error("{with} cannot be combined with {} (the engine baselines bake a whole uniform grid)", baseline.name())]
+    Baseline {
+        /// The baseline.
+        baseline: Baseline,
+        /// What it refuses.
+        with: Conflict,
+    },
+    /// The octree refuses this.
+    #[error("an octree bake cannot be combined with {0}")]
+    Adaptive(Conflict),
+    /// A refinement level is baked as a shard.
+    #[error("an octree refinement level is baked as a shard")]
+    LevelNeedsShard,
+    /// Level 0 needs the scene only.
+    #[error("level 0 is baked from the scene alone, not from shard files")]
+    BaseLevelFromShards,
+    /// A level above 0 needs the levels below.
+    #[error("level {0} needs the shard files of the levels below it")]
+    LevelNeedsShards(u32),
+    /// A fit other than the average needs cell samples.
+    #[error("the {fit} fit needs cell samples (prefilter or doi-paper); {} samples per node", method_name(*method))]
+    FitNeedsCells {
+        /// The fit.
+        fit: Fit,
+        /// The method.
+        method: Method,
+    },
+    /// The gradient estimators assume the average fit.
+    #[error("the {0} fit cannot be combined with gradients (the gradient estimators assume the average)")]
+    FitWithGradients(Fit),
+    /// The basis estimator needs cell samples.
+    #[error("basis gradients need cell samples (prefilter or doi-paper), not {}", method_name(*.0))]
+    BasisNeedsCells(Method),
+}
+
+/// Per-node gradients of a bake and what they cost.
+pub struct GradientsOutcome {
+    /// The gradients (world units, `[node][coeff][rgb][xyz]`).
+    pub gradients: VolumeGradients,
+    /// Which estimator.
+    pub estimator: GradientEstimator,
+    /// Nodes with a singular basis-gradient system (zero gradient).
+    pub singular_nodes: usize,
+    /// Directions traced beyond the bake.
+    pub extra_directions: u64,
+    /// Wall time beyond the bake, in seconds.
+    pub seconds: f64,
+}
+
+/// A finished uniform bake.
+pub struct UniformBake {
+    /// The exact sums and statistics; the sums carry the fit's or the gradients' auxiliary
+    /// sums when the request writes its accumulator ([`BakeRequest::writes_accumulator`]),
+    /// so that a merge of shards fits and differentiates over the whole set.
+    pub output: BakeOutput,
+    /// The volume (Eq. 6, or the least-squares fit), with metadata.
+    pub volume: IrradianceVolume,
+    /// Zero-weight nodes filled from neighbours.
+    pub fill: FillReport,
+    /// The gradients, when asked for.
+    pub gradients: Option<GradientsOutcome>,
+    /// The least-squares fit's weight λ and solve, when that is the fit.
+    pub least_squares: Option<(f64, FitReport)>,
+}
+
+/// Why a bake failed.
+#[derive(Debug, thiserror::Error)]
+pub enum UniformBakeError {
+    /// The settings do not go together.
+    #[error(transparent)]
+    Request(#[from] RequestError),
+    /// The bake itself.
+    #[error("baking")]
+    Bake(#[source] BakeError),
+    /// The bake with gradients.
+    #[error(transparent)]
+    Gradients(#[from] GradientBakeError),
+    /// The least-squares node fit.
+    #[error("least-squares node fit")]
+    LeastSquares(#[source] BakeError),
+}
+
+/// Where the baked scene's coordinates are shown, and the key of its settings
+/// ([`crate::provenance::bake_key`]); goes into the volume's metadata.
+#[derive(Clone, Copy, Debug)]
+pub struct Provenance<'a> {
+    /// The scene file's frame.
+    pub frame: UpAxis,
+    /// The settings key.
+    pub key: &'a str,
+}
+
+/// Bakes the uniform volume of a grid-method `request` on `grid` (whole or one shard) with
+/// its fit and gradients, and finalizes it with metadata from `provenance`.
+///
+/// # Errors
+/// [`UniformBakeError`]: a request that does not validate or is a baseline or octree bake
+/// ([`RequestError`]), or a failed bake, gradient step or fit.
+pub fn bake_uniform(
+    transport: &Transport<'_>,
+    scene: &Scene,
+    grid: &GridSpec,
+    request: &BakeRequest,
+    provenance: Provenance<'_>,
+    control: &BakeControl<'_>,
+) -> Result<UniformBake, UniformBakeError> {
+    request.validate()?;
+    if let BakeMethod::Baseline(baseline) = request.method {
+        return Err(RequestError::Baseline { baseline, with: Conflict::Shard }.into());
+    }
+    if request.adaptive.is_some() {
+        return Err(RequestError::Adaptive(Conflict::Shard).into());
+    }
+    let settings = request.settings();
+    let fit = request.effective_fit();
+    enum Extra {
+        None,
+        Mass(crate::node_fit::MassMatrix),
+        Gradients(GradientsOutcome, Box<ShardGradients>),
+    }
+    let (mut output, extra) = match (request.estimator(), fit) {
+        (Some(est), _) => {
+            let g = bake_with_estimator(transport, grid, &settings, est, control)?;
+            let outcome = GradientsOutcome {
+                gradients: g.gradients,
+                estimator: g.estimator,
+                singular_nodes: g.singular_nodes,
+                extra_directions: g.extra_directions,
+                seconds: g.seconds,
+            };
+            (g.output, Extra::Gradients(outcome, Box::new(g.sums)))
+        }
+        (None, Fit::Average) => {
+            (crate::bake(transport, grid, &settings, control).map_err(UniformBakeError::Bake)?, Extra::None)
+        }
+        (None, Fit::LeastSquares { .. }) => {
+            let (out, mass) =
+                bake_with_mass(transport, grid, &settings, control).map_err(UniformBakeError::Bake)?;
+            (out, Extra::Mass(mass))
+        }
+    };
+    let meta = crate::provenance::bake_metadata(
+        scene,
+        provenance.frame,
+        provenance.key,
+        &request.label(),
+        output.stats.rays.sampling,
+        request.seed,
+        settings.shard,
+    );
+    if request.writes_accumulator() {
+        // Auxiliary sums do not change what the accumulator finalizes to.
+        match &extra {
+            Extra::Mass(mass) => mass.attach_to(&mut output.accumulator),
+            Extra::Gradients(_, sums) => sums.attach_to(&mut output.accumulator),
+            Extra::None => {}
+        }
+    }
+    let (volume, fill, gradients, least_squares) = match extra {
+        Extra::None => {
+            let (v, fill) = output.accumulator.finalize();
+            (v.with_metadata(meta), fill, None, None)
+        }
+        Extra::Gradients(g, _) => {
+            let (v, fill) = output.accumulator.finalize();
+            (v.with_metadata(meta), fill, Some(g), None)
+        }
+        Extra::Mass(mass) => {
+            let Fit::LeastSquares { lambda } = fit else {
+                unreachable!("mass matrices are only baked for lsq")
+            };
+            let (values, solve) = solve_least_squares(&mass, &output.accumulator, lambda)
+                .map_err(UniformBakeError::LeastSquares)?;
+            let (v, fill) = finalize_least_squares(&output.accumulator, values);
+            (v.with_metadata(meta), fill, None, Some((lambda, solve)))
+        }
+    };
+    Ok(UniformBake { output, volume, fill, gradients, least_squares })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid(m: Method) -> BakeRequest {
+        BakeRequest::new(BakeMethod::Grid(m), 16)
+    }
+
+    const LSQ: Fit = Fit::LeastSquares { lambda: 0.1 };
+
+    #[test]
+    fn compatible_requests_validate() {
+        for m in [Method::Point, Method::Prefilter, Method::Doi, Method::DoiPaper, Method::DoiNode] {
+            assert_eq!(grid(m).validate(), Ok(()));
+            let g = BakeRequest { gradients: Some(GradientChoice::MethodDefault), ..grid(m) };
+            assert_eq!(g.validate(), Ok(()), "{m:?}");
+        }
+        // Point sampling ignores the fit: it always averages.
+        assert_eq!(BakeRequest { fit: LSQ, ..grid(Method::Point) }.validate(), Ok(()));
+        assert_eq!(BakeRequest { fit: LSQ, ..grid(Method::Point) }.label(), "point");
+        assert_eq!(BakeRequest { fit: LSQ, ..grid(Method::DoiPaper) }.label(), "doi-paper fit=lsq:0.1");
+    }
+
+    #[test]
+    fn incompatible_requests_are_refused() {
+        let err = |r: BakeRequest| r.validate().unwrap_err();
+        assert_eq!(err(BakeRequest { samples: 0, ..grid(Method::Doi) }), RequestError::ZeroSamples);
+        assert!(matches!(
+            err(BakeRequest { fit: LSQ, ..grid(Method::Doi) }),
+            RequestError::FitNeedsCells { .. }
+        ));
+        assert_eq!(
+            err(BakeRequest {
+                fit: LSQ,
+                gradients: Some(GradientChoice::MethodDefault),
+                ..grid(Method::Prefilter)
+            }),
+            RequestError::FitWithGradients(LSQ)
+        );
+        let basis = Some(GradientChoice::Estimator(GradientEstimator::Basis));
+        assert_eq!(
+            err(BakeRequest { gradients: basis, ..grid(Method::Doi) }),
+            RequestError::BasisNeedsCells(Method::Doi)
+        );
+        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), 16);
+        assert_eq!(
+            err(BakeRequest { shard: Some((0, 2)), ..apv }),
+            RequestError::Baseline { baseline: Baseline::Apv, with: Conflict::Shard }
+        );
+        let adaptive = Some(AdaptiveRequest {
+            settings: AdaptiveSettings::default(),
+            level: Some(1),
+            from_shards: false,
+        });
+        assert_eq!(err(BakeRequest { adaptive, ..grid(Method::Doi) }), RequestError::LevelNeedsShard);
+        assert_eq!(
+            err(BakeRequest { adaptive, shard: Some((0, 2)), ..grid(Method::Doi) }),
+            RequestError::LevelNeedsShards(1)
+        );
+        assert_eq!(
+            err(BakeRequest { adaptive, keep_accumulator: true, ..grid(Method::Doi) }),
+            RequestError::Adaptive(Conflict::KeepAccumulator)
+        );
+    }
+}
