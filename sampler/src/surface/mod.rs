@@ -31,6 +31,7 @@ pub mod geometry;
 pub mod lighting;
 pub mod map;
 pub mod reference;
+pub mod shaded_view;
 pub mod shard_io;
 pub mod tangent;
 pub mod texel;
