@@ -6,7 +6,6 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use clap::Args;
 use std::path::PathBuf;
 
 use lightvol_sampler::adaptive::{
@@ -21,150 +20,16 @@ use lightvol_volume::io::adaptive::write_adaptive_exr;
 use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
 use serde_json::json;
 
-use crate::cmd_bake::{BakeArgs, RaysJson, progress_bar};
+use crate::bake_args::{BakeArgs, bake_key, request};
+use crate::progress::{progress_bar, run_bake, with_progress};
+use crate::report_parts::RaysJson;
 use crate::setup::{LoadedScene, with_threads};
 use lightvol_sampler::provenance::scene_hash;
 use lightvol_sampler::request::AdaptiveRequest;
 
-/// Options of `bake --adaptive` (each heuristic with its threshold, Oat 2005, "Subdivision
-/// Heuristics"). Defaults are lightvol-sampler's `AdaptiveSettings::default()`; giving any
-/// of them without `--adaptive` is an error.
-#[derive(Debug, Clone, Args)]
-pub struct AdaptiveArgs {
-    /// Bake an adaptive octree volume: the grid options give level 0, cells split by the
-    /// heuristics below down to --max-level, redundant nodes are culled.
-    #[arg(long)]
-    pub adaptive: bool,
-    /// Every cell of the levels below this one is split (nodes of levels up to it are never
-    /// culled). Default 0.
-    #[arg(long, value_name = "L")]
-    pub min_level: Option<u32>,
-    /// The finest level (level l has cells 2^l times smaller than the grid's); at most 8.
-    /// Default 2.
-    #[arg(long, value_name = "L")]
-    pub max_level: Option<u32>,
-    /// Split a cell when the largest coefficient change along its edges, relative to the
-    /// volume's mean DC value, is at least T (`off` disables the heuristic). Default 0.25.
-    #[arg(long, value_name = "T|off", allow_hyphen_values = true)]
-    pub gradient_threshold: Option<String>,
-    /// Do not split cells because scene geometry lies inside them.
-    #[arg(long)]
-    pub no_geometry_split: bool,
-    /// Split a cell when its edge exceeds R times the harmonic-mean scene depth at a corner
-    /// (`off` disables the heuristic). Default 1.
-    #[arg(long, value_name = "R|off", allow_hyphen_values = true)]
-    pub depth_ratio: Option<String>,
-    /// Rays per node for the harmonic-mean depth. Default 32.
-    #[arg(long, value_name = "N")]
-    pub depth_rays: Option<u32>,
-    /// Cull a node whose difference from the coarser levels' interpolation is within this
-    /// fraction of the volume's mean DC value. Default 0.01.
-    #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
-    pub cull_tolerance: Option<f64>,
-    /// Memory budget, stated as the node count of a uniform grid of the same memory: the
-    /// octree's bytes (coefficients, base weights, 8-byte keys, split bitmaps) stay within
-    /// N × (3·coeffs + 1) × 4 bytes, the bytes of N uniform nodes with their weights.
-    #[arg(long, value_name = "N")]
-    pub node_budget: Option<u64>,
-    /// With --shard: bake shard K/N of refinement level L (1..=--max-level) from the
-    /// complete shard sets of the levels below (--from-shards), writing `<stem>.lvref`.
-    /// Without --level, --shard bakes level 0 (the base grid) and writes `<stem>.lvacc`.
-    #[arg(long, value_name = "L")]
-    pub level: Option<u32>,
-    /// Shard files of a level-by-level adaptive bake: the level-0 `.lvacc` set and the
-    /// `.lvref` sets of levels 1, 2, … (each complete). With --shard and --level, the levels
-    /// below L; without --shard, every level: the shards are assembled into the volume the
-    /// whole bake gives, byte for byte.
-    #[arg(long, value_name = "FILE", num_args = 1..)]
-    pub from_shards: Vec<PathBuf>,
-}
-
-fn threshold(name: &str, s: Option<&str>, default: Option<f64>) -> anyhow::Result<Option<f64>> {
-    let Some(s) = s else { return Ok(default) };
-    if s.trim() == "off" {
-        return Ok(None);
-    }
-    let t: f64 = s.trim().parse().with_context(|| format!("{name}: '{s}' is not a number or 'off'"))?;
-    if !(t.is_finite() && t > 0.0) {
-        bail!("{name} must be a positive finite number or 'off', got {s}");
-    }
-    Ok(Some(t))
-}
-
-/// Bytes of `nodes` uniform nodes with their weights (`IrradianceVolume::memory_bytes`).
-#[must_use]
-pub fn node_budget_bytes(nodes: u64, coeffs: usize) -> u128 {
-    u128::from(nodes) * (3 * coeffs as u128 + 1) * 4
-}
-
-impl AdaptiveArgs {
-    /// The options given without `--adaptive`, if any.
-    #[must_use]
-    pub fn stray_options(&self) -> Vec<&'static str> {
-        let given = [
-            ("--min-level", self.min_level.is_some()),
-            ("--max-level", self.max_level.is_some()),
-            ("--gradient-threshold", self.gradient_threshold.is_some()),
-            ("--no-geometry-split", self.no_geometry_split),
-            ("--depth-ratio", self.depth_ratio.is_some()),
-            ("--depth-rays", self.depth_rays.is_some()),
-            ("--cull-tolerance", self.cull_tolerance.is_some()),
-            ("--node-budget", self.node_budget.is_some()),
-            ("--level", self.level.is_some()),
-            ("--from-shards", !self.from_shards.is_empty()),
-        ];
-        if self.adaptive { Vec::new() } else { given.iter().filter(|g| g.1).map(|g| g.0).collect() }
-    }
-
-    /// The sampler's settings, validated (one clear error each).
-    pub fn settings(&self, coeffs: usize) -> anyhow::Result<AdaptiveSettings> {
-        let d = AdaptiveSettings::default();
-        let cull_tolerance = self.cull_tolerance.unwrap_or(d.cull_tolerance);
-        if !(cull_tolerance.is_finite() && cull_tolerance >= 0.0) {
-            bail!("--cull-tolerance must be finite and >= 0, got {cull_tolerance}");
-        }
-        let max = lightvol_volume::adaptive::MAX_LEVEL;
-        let (min_level, max_level) =
-            (self.min_level.unwrap_or(d.min_level), self.max_level.unwrap_or(d.max_level));
-        if max_level > max || min_level > max_level {
-            bail!("--min-level {min_level} and --max-level {max_level} need min <= max <= {max}");
-        }
-        let memory_budget = match self.node_budget {
-            None => None,
-            Some(0) => bail!("--node-budget must be at least 1"),
-            Some(n) => Some(
-                usize::try_from(node_budget_bytes(n, coeffs))
-                    .map_err(|_| anyhow::anyhow!("--node-budget {n} is too large"))?,
-            ),
-        };
-        let depth_ratio_threshold =
-            threshold("--depth-ratio", self.depth_ratio.as_deref(), d.depth_ratio_threshold)?;
-        let depth_rays = self.depth_rays.unwrap_or(d.depth_rays);
-        if depth_ratio_threshold.is_some() && depth_rays == 0 {
-            bail!("--depth-rays must be at least 1 with the depth heuristic on");
-        }
-        let s = AdaptiveSettings {
-            min_level,
-            max_level,
-            gradient_threshold: threshold(
-                "--gradient-threshold",
-                self.gradient_threshold.as_deref(),
-                d.gradient_threshold,
-            )?,
-            geometry: !self.no_geometry_split,
-            depth_ratio_threshold,
-            depth_rays,
-            cull_tolerance,
-            memory_budget,
-        };
-        s.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
-        Ok(s)
-    }
-}
-
 /// Runs `bake_adaptive` with a progress bar.
 #[allow(clippy::too_many_arguments, reason = "the bake's inputs plus its presentation")]
-pub fn run_adaptive_bake(
+pub(crate) fn run_adaptive_bake(
     loaded: &LoadedScene,
     tracer: &Tracer,
     grid: &GridSpec,
@@ -301,11 +166,11 @@ fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<Ad
 }
 
 /// `lightvol bake --adaptive`: whole, one shard of one level, or the assembly of shards.
-pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let a = &args.adaptive;
     let coeffs = args.grid.coeffs();
     let adaptive = a.settings(coeffs)?;
-    let request = crate::cmd_bake::request(
+    let request = request(
         args,
         Some(AdaptiveRequest { settings: adaptive, level: a.level, from_shards: !a.from_shards.is_empty() }),
     )?;
@@ -313,7 +178,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let grid = args.grid.grid(&loaded)?;
     let settings = BakeSettings { shard: (0, 1), ..request.settings() };
     let ts = request.transport;
-    let hash = scene_hash(&loaded.scene, &crate::cmd_bake::bake_key(&loaded, &grid, &request, &args.method));
+    let hash = scene_hash(&loaded.scene, &bake_key(&loaded, &grid, &request, &args.method));
     let shard = request.shard;
     if let Some(shard) = shard {
         let level = a.level.unwrap_or(0);
@@ -321,8 +186,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             let tracer = Tracer::new(&loaded.scene);
             if level == 0 {
                 let s = BakeSettings { shard, ..settings };
-                let out =
-                    crate::cmd_bake::run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
+                let out = run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
                 let meta = BakeMetadata {
                     method: base_label(&args.method),
                     samples: out.stats.rays.sampling,
@@ -346,20 +210,19 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     inputs.levels.len()
                 );
             }
-            let part =
-                crate::cmd_bake::with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
-                    bake_adaptive_level_shard(
-                        t,
-                        &grid,
-                        &settings,
-                        &adaptive,
-                        &inputs.base,
-                        &inputs.levels,
-                        level,
-                        shard,
-                        c,
-                    )
-                })?;
+            let part = with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
+                bake_adaptive_level_shard(
+                    t,
+                    &grid,
+                    &settings,
+                    &adaptive,
+                    &inputs.base,
+                    &inputs.levels,
+                    level,
+                    shard,
+                    c,
+                )
+            })?;
             let path = args.output.with_extension("lvref");
             write_level(&path, &part, shard, &hash).with_context(|| format!("writing {}", path.display()))?;
             if part.units == 0 {
@@ -389,7 +252,7 @@ pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                 rays: lightvol_sampler::RayCounts { sampling: inputs.base_samples, ..Default::default() },
                 ..Default::default()
             };
-            crate::cmd_bake::with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
+            with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
                 assemble_adaptive(t, &grid, &settings, &adaptive, &inputs.base, base_stats, &inputs.levels, c)
             })?
         };

@@ -58,7 +58,7 @@ fn row(label: &str, r: &Value) -> Value {
 }
 
 /// Bakes everything and returns the report (see the module docs).
-pub fn run(data: &Path, samples: u32) -> anyhow::Result<Value> {
+pub(crate) fn run(data: &Path, samples: u32) -> anyhow::Result<Value> {
     let exe = std::env::current_exe().context("locating the lightvol executable")?;
     let dir = tempfile::tempdir().context("creating a temporary directory")?;
     let out = dir.path().join("bake.exr");

@@ -8,19 +8,19 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 /// sampling, Kontkanen & Laine 2006).
 #[derive(Debug, Parser)]
 #[command(name = "lightvol", version, about, long_about = None, propagate_version = true)]
-pub struct Cli {
+pub(crate) struct Cli {
     /// What to do.
     #[command(subcommand)]
-    pub command: Command,
+    pub(crate) command: Command,
 }
 
 /// The verbs.
 #[derive(Debug, Subcommand)]
-pub enum Command {
+pub(crate) enum Command {
     /// Measure ray, lookup and bake throughput (JSON).
     Bench(crate::cmd_bench::BenchArgs),
     /// Bake an irradiance volume from a glTF/OBJ scene or a built-in scene.
-    Bake(crate::cmd_bake::BakeArgs),
+    Bake(crate::bake_args::BakeArgs),
     /// Bake coefficient maps for lightmapped, normal-mapped surfaces in a hemispherical basis
     /// (Ishmukhametov 2011 §2.2), with optional 8-bit / BC1 / BC7 textures.
     BakeSurface(crate::cmd_bake_surface::BakeSurfaceArgs),
@@ -41,7 +41,7 @@ pub enum Command {
     /// Render a view shaded by a baked volume (or path-traced with --reference): the
     /// "helicopter" view that shows leaking; with --surface DIR, lightmapped surfaces shaded
     /// from bake-surface's coefficient maps next to a path-traced reference.
-    Render(crate::cmd_render::RenderArgs),
+    Render(crate::render_args::RenderArgs),
     /// List the Vulkan devices the GPU evaluator can use, and the one it selects.
     GpuInfo(crate::cmd_gpu::GpuInfoArgs),
     /// Reproduce the IMSE comparison of hemispherical bases (Ishmukhametov 2011, Table 3.1
@@ -71,17 +71,17 @@ pub enum Command {
 
 /// `lightvol info`.
 #[derive(Debug, Args)]
-pub struct InfoArgs {
+pub(crate) struct InfoArgs {
     /// The native EXR volume to describe.
-    pub volume: PathBuf,
+    pub(crate) volume: PathBuf,
     /// Print one JSON object instead of text.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
 }
 
 /// Engine export formats.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ExportFormat {
+pub(crate) enum ExportFormat {
     /// KTX2 3D texture, RGBA16F, coefficient slabs along z, weight in alpha (+ JSON sidecar),
     /// in the scene file's frame.
     Ktx2,
@@ -97,29 +97,29 @@ pub enum ExportFormat {
 
 /// `lightvol export`.
 #[derive(Debug, Args)]
-pub struct ExportArgs {
+pub(crate) struct ExportArgs {
     /// The native EXR volume to export.
-    pub volume: PathBuf,
+    pub(crate) volume: PathBuf,
     /// Target format.
     #[arg(long, value_enum)]
-    pub format: ExportFormat,
+    pub(crate) format: ExportFormat,
     /// Output file (a `.json` sidecar is written beside texture outputs).
     #[arg(short, long)]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
     /// Adaptive volumes only: the uniform resolution `NX,NY,NZ` that KTX2, DDS and Bevy
     /// exports resample the octree to (default: the finest level's resolution, which
     /// reproduces every finest-level node exactly). The resolution used is printed.
     #[arg(long, value_name = "NX,NY,NZ")]
-    pub res: Option<String>,
+    pub(crate) res: Option<String>,
     /// Texel format of `--format bevy`: `rgba16f` (default) or `rgb9e5` (shared exponent,
     /// half the memory, as Bevy's example volume; negative values clamp to 0).
     #[arg(long, value_enum, default_value = "rgba16f")]
-    pub bevy_format: BevyFormatArg,
+    pub(crate) bevy_format: BevyFormatArg,
 }
 
 /// `--bevy-format`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum BevyFormatArg {
+pub(crate) enum BevyFormatArg {
     /// RGBA16F.
     Rgba16f,
     /// RGB9E5 (E5B9G9R9_UFLOAT_PACK32).

@@ -1,168 +1,105 @@
 //! `lightvol bake`: bake an irradiance volume.
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use clap::Args;
-use indicatif::{ProgressBar, ProgressStyle};
 use lightvol_sampler::baselines::{Baseline, bake_baseline};
-use lightvol_sampler::eval::entries::{BakeMethod, parse_bake_method};
+use lightvol_sampler::eval::entries::BakeMethod;
 use lightvol_sampler::gradient_estimator::GradientEstimator;
 use lightvol_sampler::provenance;
-use lightvol_sampler::request::{
-    AdaptiveRequest, BakeRequest, Conflict, GradientChoice, Provenance, RequestError, bake_uniform,
-};
-use lightvol_sampler::{
-    BakeControl, BakeOutput, BakeSettings, Progress, Tracer, Transport, TransportSettings,
-};
+use lightvol_sampler::request::{BakeRequest, Provenance, bake_uniform};
+use lightvol_sampler::{Tracer, Transport};
 use lightvol_volume::GridSpec;
 use lightvol_volume::frame::FileGrid;
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::exr::{ExrOptions, write_exr, write_exr_with_gradients};
 use serde::Serialize;
 
-use crate::gradient_args::GradientEstimatorArg;
-use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, with_threads};
-
-/// `lightvol bake`.
-#[derive(Debug, Args)]
-pub struct BakeArgs {
-    /// Scene and lights.
-    #[command(flatten)]
-    pub scene: SceneArgs,
-    /// Grid.
-    #[command(flatten)]
-    pub grid: GridArgs,
-    /// Sampling.
-    #[command(flatten)]
-    pub sampling: SampleArgs,
-    /// Sampling method: `doi` (default: each node point-sampled where it is in the domain of
-    /// interest, at a point relocated through its closest back face or over Eq. 6's support
-    /// where it is not), `doi-paper` (Kontkanen & Laine 2006: Eq. 5-6 restricted to the
-    /// domain of interest, Algorithm 2), `doi-node` (Algorithm 2 over each node's own cell),
-    /// `point` (Eq. 4 at each node), `prefilter` (Eq. 5-6, no domain test); or point
-    /// sampling with an engine's leak fix: `point+validity` (invalid probes dilated),
-    /// `point+apv` (Unity APV: virtual offset, dilation, and a validity mask in the file for
-    /// validity-weighted lookups), `point+vlm` (Unreal) or `point+ddgi` (DDGI relocation).
-    #[arg(long, default_value = "doi")]
-    /// Method name.
-    pub method: String,
-    /// Bake only shard K of N (by cells, or nodes for point sampling), or `auto`: the shard
-    /// from the job scheduler (Slurm array variables, Kubernetes `JOB_COMPLETION_INDEX` or
-    /// AWS Batch `AWS_BATCH_JOB_ARRAY_INDEX` with --shards, or `LIGHTVOL_SHARD=K/N`). The
-    /// shard's exact sums are written beside the output as `<stem>.lvacc`; `lightvol merge`
-    /// combines shards into the volume the whole bake gives, bit for bit.
-    #[arg(long, value_name = "K/N|auto")]
-    pub shard: Option<String>,
-    /// Number of shards, for `--shard auto` with Kubernetes or AWS Batch indices (checked
-    /// against the Slurm array or `LIGHTVOL_SHARD` where those give it).
-    #[arg(long, value_name = "N")]
-    pub shards: Option<u32>,
-    /// Also write the exact accumulator (`<stem>.lvacc`) of an unsharded bake: its Eq. 6
-    /// sums as `merge` reads them (for example to finalize it again with `merge`).
-    #[arg(long)]
-    pub keep_accumulator: bool,
-    /// Also bake per-node SH irradiance gradients (Oat 2005) and store them in the EXR:
-    /// `basis` (from the bake's own samples, no extra rays; prefilter/doi-paper) or
-    /// `central` (six extra point projections per node at 1/16 cell). Without a value, the
-    /// method's own: `basis` for prefilter and doi-paper, `central` for the others.
-    #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1)]
-    pub gradients: Option<Option<GradientEstimatorArg>>,
-    /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
-    #[command(flatten)]
-    pub adaptive: crate::adaptive_bake::AdaptiveArgs,
-    /// Output volume (native multi-part EXR).
-    #[arg(short, long, default_value = "volume.exr")]
-    pub output: PathBuf,
-    /// Print the bake statistics as JSON on stdout.
-    #[arg(long)]
-    pub json: bool,
-    /// No progress bar.
-    #[arg(long)]
-    pub quiet: bool,
-}
+use crate::bake_args::{BakeArgs, bake_key, request};
+use crate::progress::with_bar;
+use crate::report_parts::RaysJson;
+use crate::setup::{LoadedScene, with_threads};
 
 /// Bake statistics as printed by `bake --json`.
 #[derive(Debug, Serialize)]
-pub struct BakeReport {
+pub(crate) struct BakeReport {
     /// Scene label.
-    pub scene: String,
+    pub(crate) scene: String,
     /// Method name.
-    pub method: String,
+    pub(crate) method: String,
     /// The grid.
-    pub grid: FileGrid,
+    pub(crate) grid: FileGrid,
     /// Samples per cell or node.
-    pub samples: u32,
+    pub(crate) samples: u32,
     /// Seed.
-    pub seed: u64,
+    pub(crate) seed: u64,
     /// Rays by kind.
-    pub rays: RaysJson,
+    pub(crate) rays: RaysJson,
     /// Cells where Algorithm 2 found back faces.
-    pub cells_with_back_faces: u64,
+    pub(crate) cells_with_back_faces: u64,
     /// Candidate samples.
-    pub candidates: u64,
+    pub(crate) candidates: u64,
     /// Samples kept.
-    pub samples_kept: u64,
+    pub(crate) samples_kept: u64,
     /// Samples rejected as outside the domain.
-    pub samples_rejected: u64,
+    pub(crate) samples_rejected: u64,
     /// Nodes with zero weight.
-    pub zero_weight_nodes: usize,
+    pub(crate) zero_weight_nodes: usize,
     /// Zero-weight nodes filled from neighbours.
-    pub filled_nodes: usize,
+    pub(crate) filled_nodes: usize,
     /// Sampling wall time.
-    pub seconds: f64,
+    pub(crate) seconds: f64,
     /// BVH build time.
-    pub bvh_seconds: f64,
+    pub(crate) bvh_seconds: f64,
     /// Throughput.
-    pub mrays_per_second: f64,
+    pub(crate) mrays_per_second: f64,
     /// The scene's size, the memory estimate against the peak, and the whole command's time.
     #[serde(flatten)]
-    pub scale: ScaleJson,
+    pub(crate) scale: ScaleJson,
     /// Output file.
-    pub output: String,
+    pub(crate) output: String,
     /// The gradients, when baked.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub gradients: Option<GradientsJson>,
+    pub(crate) gradients: Option<GradientsJson>,
     /// What an engine baseline did, when the method is one.
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub baseline: Option<BaselineJson>,
+    pub(crate) baseline: Option<BaselineJson>,
 }
 
 /// An engine baseline's probes in `bake --json`.
 #[derive(Debug, Serialize)]
-pub struct BaselineJson {
+pub(crate) struct BaselineJson {
     /// Nodes its validity test rejected.
-    pub invalid_nodes: usize,
+    pub(crate) invalid_nodes: usize,
     /// Nodes sampled elsewhere than at the node (virtual offset, relocation).
-    pub moved_nodes: usize,
+    pub(crate) moved_nodes: usize,
     /// Whether the volume file carries the validity mask (`point+apv`).
-    pub validity_mask: bool,
+    pub(crate) validity_mask: bool,
 }
 
 /// Size and cost figures of a bake, in `bake --json` (flattened into [`BakeReport`]).
 #[derive(Debug, Serialize)]
-pub struct ScaleJson {
+pub(crate) struct ScaleJson {
     /// Triangles the scene places (every instance counted).
-    pub triangles: u64,
+    pub(crate) triangles: u64,
     /// Triangles stored (each instanced mesh once).
-    pub unique_triangles: u64,
+    pub(crate) unique_triangles: u64,
     /// Mesh instances.
-    pub instances: u64,
+    pub(crate) instances: u64,
     /// The memory estimate checked against `--max-memory-mib`: scene, ray tracer and grid.
-    pub estimated_memory_bytes: u64,
+    pub(crate) estimated_memory_bytes: u64,
     /// This process's peak resident memory (Linux), measured after writing the volume.
-    pub peak_memory_bytes: Option<u64>,
+    pub(crate) peak_memory_bytes: Option<u64>,
     /// Wall time of the whole command: load, BVH, bake and write.
-    pub total_seconds: f64,
+    pub(crate) total_seconds: f64,
 }
 
 impl ScaleJson {
     /// The figures of a bake of `loaded` on `grid` with `coeffs` coefficients per channel,
     /// begun at `started` (call it once the volume is written).
     #[must_use]
-    pub fn now(loaded: &LoadedScene, grid: &GridSpec, coeffs: usize, started: Instant) -> Self {
+    pub(crate) fn now(loaded: &LoadedScene, grid: &GridSpec, coeffs: usize, started: Instant) -> Self {
         Self {
             triangles: loaded.scene.triangle_count() as u64,
             unique_triangles: loaded.scene.unique_triangle_count() as u64,
@@ -180,190 +117,21 @@ impl ScaleJson {
 
 /// The gradient step in `bake --json`.
 #[derive(Debug, Serialize)]
-pub struct GradientsJson {
+pub(crate) struct GradientsJson {
     /// Estimator name.
-    pub estimator: GradientEstimator,
+    pub(crate) estimator: GradientEstimator,
     /// Nodes with a singular basis-gradient system (zero gradient).
-    pub singular_nodes: usize,
+    pub(crate) singular_nodes: usize,
     /// Directions traced beyond the bake.
-    pub extra_directions: u64,
+    pub(crate) extra_directions: u64,
     /// Wall time beyond the bake.
-    pub seconds: f64,
+    pub(crate) seconds: f64,
     /// Bytes of gradient data (f32).
-    pub memory_bytes: usize,
-}
-
-/// Rays by kind in reports.
-#[derive(Debug, Serialize, Clone, Copy)]
-pub struct RaysJson {
-    /// Sampling rays.
-    pub sampling: u64,
-    /// Query rays (Algorithm 2).
-    pub query: u64,
-    /// Bounce rays.
-    pub bounce: u64,
-    /// Shadow rays.
-    pub shadow: u64,
-    /// All rays.
-    pub total: u64,
-}
-
-impl RaysJson {
-    /// Converts counts.
-    pub fn of(r: &lightvol_sampler::RayCounts) -> Self {
-        Self { sampling: r.sampling, query: r.query, bounce: r.bounce, shadow: r.shadow, total: r.total() }
-    }
-}
-
-/// A progress bar on stderr (hidden when quiet or not a terminal).
-pub fn progress_bar(quiet: bool, len: u64, what: &str) -> ProgressBar {
-    if quiet {
-        return ProgressBar::hidden();
-    }
-    let pb = ProgressBar::new(len);
-    pb.set_style(
-        ProgressStyle::with_template("{msg:>12} [{bar:40}] {pos}/{len} {elapsed_precise} eta {eta}")
-            .expect("valid template")
-            .progress_chars("=> "),
-    );
-    pb.set_message(what.to_owned());
-    pb
-}
-
-/// Runs `f` with a [`BakeControl`] whose progress drives a bar labelled `label` (hidden when
-/// `quiet`), cleared when `f` returns.
-pub fn with_bar<T>(quiet: bool, label: &str, f: impl FnOnce(&BakeControl<'_>) -> T) -> T {
-    let pb = progress_bar(quiet, 0, label);
-    let report = |p: Progress| {
-        pb.set_length(p.total as u64);
-        pb.set_position(p.done as u64);
-    };
-    let out = f(&BakeControl { progress: Some(&report), cancel: None });
-    pb.finish_and_clear();
-    out
-}
-
-/// Runs `bake` with a transport over `loaded` and a progress bar labelled `label` (hidden
-/// when `quiet`), cleared when the bake ends.
-pub(crate) fn with_progress<T>(
-    loaded: &LoadedScene,
-    tracer: &Tracer,
-    transport_settings: TransportSettings,
-    quiet: bool,
-    label: &str,
-    bake: impl FnOnce(&Transport<'_>, &BakeControl<'_>) -> Result<T, lightvol_sampler::BakeError>,
-) -> anyhow::Result<T> {
-    let transport = Transport::new(&loaded.scene, tracer, transport_settings);
-    with_bar(quiet, label, |c| bake(&transport, c)).context("baking")
-}
-
-/// Bakes `loaded` on `grid` with `settings`, showing progress.
-pub fn run_bake(
-    loaded: &LoadedScene,
-    tracer: &Tracer,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    transport_settings: TransportSettings,
-    quiet: bool,
-    label: &str,
-) -> anyhow::Result<BakeOutput> {
-    with_progress(loaded, tracer, transport_settings, quiet, label, |t, c| {
-        lightvol_sampler::bake(t, grid, settings, c)
-    })
-}
-
-/// The bake request of the options (the shard resolved from `--shard`, `--shards` and the
-/// scheduler's environment), validated.
-pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> anyhow::Result<BakeRequest> {
-    let shard = lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
-        std::env::var(k).ok()
-    })?;
-    let request = BakeRequest {
-        method: parse_bake_method(&args.method)?,
-        samples: args.sampling.samples,
-        coeffs: args.grid.coeffs(),
-        seed: args.sampling.seed,
-        transport: args.sampling.transport(),
-        fit: args.sampling.fit,
-        gradients: args
-            .gradients
-            .map(|g| g.map_or(GradientChoice::MethodDefault, |e| GradientChoice::Estimator(e.into()))),
-        shard: args.shard.is_some().then_some(shard),
-        keep_accumulator: args.keep_accumulator,
-        adaptive,
-    };
-    request.validate().map_err(request_error)?;
-    Ok(request)
-}
-
-/// A refused request, in the options' words.
-pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
-    let option = |c: Conflict| match c {
-        Conflict::Adaptive => "--adaptive".to_owned(),
-        Conflict::Shard => "--shard".to_owned(),
-        Conflict::KeepAccumulator => "--keep-accumulator".to_owned(),
-        Conflict::Gradients => "--gradients".to_owned(),
-        Conflict::Fit(fit) => format!("--fit {fit}"),
-    };
-    match e {
-        RequestError::ZeroSamples => anyhow::anyhow!("--samples must be at least 1"),
-        RequestError::Baseline { baseline, with } => anyhow::anyhow!(
-            "{} cannot be combined with --method {} (the engine baselines bake a whole uniform grid)",
-            option(with),
-            baseline.name()
-        ),
-        RequestError::Adaptive(c @ Conflict::KeepAccumulator) => anyhow::anyhow!(
-            "--adaptive cannot be combined with {} (shard an octree bake with --shard and --level)",
-            option(c)
-        ),
-        RequestError::Adaptive(c @ Conflict::Gradients) => {
-            anyhow::anyhow!(
-                "--adaptive cannot be combined with {} (the octree stores no gradients)",
-                option(c)
-            )
-        }
-        RequestError::Adaptive(c) => {
-            anyhow::anyhow!(
-                "--adaptive cannot be combined with {} (the octree levels use Eq. 6's average)",
-                option(c)
-            )
-        }
-        RequestError::LevelNeedsShard => anyhow::anyhow!("--level needs --shard K/N (or --shard auto)"),
-        RequestError::BaseLevelFromShards => anyhow::anyhow!(
-            "level 0 is baked from the scene alone: drop --from-shards, or bake a level >= 1 with --level L"
-        ),
-        RequestError::LevelNeedsShards(l) => {
-            anyhow::anyhow!("--level {l} needs the shard files of levels 0..{l} (--from-shards)")
-        }
-        RequestError::FitNeedsCells { fit, method } => anyhow::anyhow!(
-            "--fit {fit} needs cell samples (--method prefilter or doi-paper); {} samples per node",
-            lightvol_sampler::eval::entries::method_name(method)
-        ),
-        RequestError::FitWithGradients(fit) => anyhow::anyhow!(
-            "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
-        ),
-        RequestError::BasisNeedsCells(_) => anyhow::anyhow!(
-            "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
-        ),
-    }
-}
-
-/// The settings key of a bake of `request` on `grid` ([`lightvol_sampler::provenance`]).
-pub(crate) fn bake_key(loaded: &LoadedScene, grid: &GridSpec, request: &BakeRequest, label: &str) -> String {
-    let adaptive = request.adaptive.map(|a| a.settings);
-    provenance::bake_key(
-        &loaded.scene,
-        grid,
-        label,
-        request.samples,
-        request.coeffs,
-        &request.transport,
-        adaptive.as_ref(),
-    )
+    pub(crate) memory_bytes: usize,
 }
 
 /// Runs `lightvol bake`.
-pub fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     if args.adaptive.adaptive {
         return crate::adaptive_bake::run(args);
     }

@@ -34,8 +34,9 @@ use lightvol_sampler::{BakeControl, Progress, Tracer, Transport, TransportSettin
 use rayon::prelude::*;
 use serde::Serialize;
 
-use crate::cmd_bake::{RaysJson, progress_bar};
 use crate::imaging::{write_atomic, write_png_rgb8};
+use crate::progress::progress_bar;
+use crate::report_parts::RaysJson;
 use crate::setup::{SceneArgs, with_threads};
 use lightvol_sampler::surface::shard_io::{TexelShardHeader, read_texels, write_texels};
 
@@ -98,7 +99,7 @@ fn shard_records(
 
 /// 8-bit texture container for `--encode`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum EncodeFormat {
+pub(crate) enum EncodeFormat {
     /// One RGB PNG per coefficient (DC plane sRGB-encoded).
     Png,
     /// One KTX2 per coefficient: RGBA8 (`R8G8B8A8_SRGB` for the DC plane, `_UNORM` else),
@@ -108,7 +109,7 @@ pub enum EncodeFormat {
 
 /// Block compression for `--compress`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum CompressFormat {
+pub(crate) enum CompressFormat {
     /// BC1 (DXT1), 0.5 bytes per texel and coefficient (Ishmukhametov 2011 §2.2.4).
     Bc1,
     /// BC7, 1 byte per texel and coefficient.
@@ -126,172 +127,172 @@ impl CompressFormat {
 
 /// `lightvol bake-surface`.
 #[derive(Debug, Args)]
-pub struct BakeSurfaceArgs {
+pub(crate) struct BakeSurfaceArgs {
     /// Scene (a glTF file: lightmap objects are its mesh instances) and lights.
     #[command(flatten)]
-    pub scene: SceneArgs,
+    pub(crate) scene: SceneArgs,
     /// Basis, or a comma-separated list baked one after another with the same seed: sh4,
     /// sh9, hl2, hsh4, hsh9, makhotkin4, makhotkin9, zernike3, zernike6, hbasis4, hbasis6,
     /// hbasis_mod4, hbasis_mod6 (those whose lightvol-hemibasis feature is enabled).
     #[arg(long, default_value = "hbasis_mod6")]
-    pub basis: String,
+    pub(crate) basis: String,
     /// Texel density D: every triangle gets at least D texels per world unit.
     #[arg(long, default_value_t = 32.0)]
-    pub texels_per_unit: f64,
+    pub(crate) texels_per_unit: f64,
     /// Fixed atlas size `W,H` for every object (overrides the density).
     #[arg(long, value_name = "W,H")]
-    pub resolution: Option<String>,
+    pub(crate) resolution: Option<String>,
     /// Lightmap UV set: 1 = TEXCOORD_1 (default), 0 = TEXCOORD_0.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=1))]
-    pub uv: u8,
+    pub(crate) uv: u8,
     /// Also write 8-bit textures (Ishmukhametov 2011 §2.2.3 encoding).
     #[arg(long, value_enum)]
-    pub encode: Option<EncodeFormat>,
+    pub(crate) encode: Option<EncodeFormat>,
     /// Block-compress the 8-bit textures (KTX2 containers; implies `--encode ktx2`); a
     /// comma-separated list writes and measures each.
     #[arg(long, value_enum, value_delimiter = ',')]
-    pub compress: Vec<CompressFormat>,
+    pub(crate) compress: Vec<CompressFormat>,
     /// Range compression of the non-DC coefficients: `[-r, r]` maps to `[0, 1]`.
     #[arg(long, default_value_t = 0.75)]
-    pub range: f64,
+    pub(crate) range: f64,
     /// Scale applied before 8-bit encoding (default: 1 / the largest DC value, or `range`
     /// / the largest |coefficient| for bases without a DC term).
     #[arg(long)]
-    pub encode_scale: Option<f64>,
+    pub(crate) encode_scale: Option<f64>,
     /// What the maps hold: `irradiance` (`E`, a sky of radiance L gives π L) or `radiosity`
     /// (`E / π`, Ishmukhametov 2011 Eq. 2.3's normalised convolution).
     #[arg(long, value_parser = ["irradiance", "radiosity"], default_value = "irradiance")]
-    pub quantity: String,
+    pub(crate) quantity: String,
     /// SH bands of the intermediate hemisphere projection (Ishmukhametov 2011 §2.2.1 uses 3).
     #[arg(long, default_value_t = 3)]
-    pub sh_bands: usize,
+    pub(crate) sh_bands: usize,
     /// Dilation passes into empty atlas texels around the charts.
     #[arg(long, default_value_t = 2)]
-    pub gutter: u32,
+    pub(crate) gutter: u32,
     /// Keep invalid texels (sample points that see back faces) as they are: the ablation
     /// that shows the dark leak under intersecting geometry.
     #[arg(long)]
-    pub no_invalid_fix: bool,
+    pub(crate) no_invalid_fix: bool,
     /// In-domain path samples per texel.
     #[arg(long, default_value_t = 256)]
-    pub samples: u32,
+    pub(crate) samples: u32,
     /// Path length and direct light.
     #[command(flatten)]
-    pub path: crate::setup::PathArgs,
+    pub(crate) path: crate::setup::PathArgs,
     /// Seed of every random stream (results are bit-identical for a seed).
     #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    pub(crate) seed: u64,
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
-    pub threads: Option<usize>,
+    pub(crate) threads: Option<usize>,
     /// Output directory.
     #[arg(short, long, default_value = "surface")]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
     /// Integrate only shard K of N of every basis's texels (or `auto`, from the scheduler,
     /// as `bake --shard auto`) and write them to `OUT/texels-BASIS-K-of-N.lvtex`; no maps.
     /// `--from-shards` assembles the maps from all shards, equal to the whole bake's.
     #[arg(long, value_name = "K/N|auto", conflicts_with = "from_shards")]
-    pub shard: Option<String>,
+    pub(crate) shard: Option<String>,
     /// Number of shards for `--shard auto` with Kubernetes or AWS Batch indices.
     #[arg(long, value_name = "N")]
-    pub shards: Option<u32>,
+    pub(crate) shards: Option<u32>,
     /// Assemble the maps from these texel shard files (every shard of every basis, baked
     /// with the same scene and options) instead of tracing.
     #[arg(long, value_name = "FILE.lvtex", num_args = 1..)]
-    pub from_shards: Vec<PathBuf>,
+    pub(crate) from_shards: Vec<PathBuf>,
     /// Print the summary as JSON on stdout.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// No progress bar.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
 }
 
 /// Error of one storage encoding, measured on the covered texels.
 #[derive(Debug, Serialize, Clone)]
-pub struct EncodingJson {
+pub(crate) struct EncodingJson {
     /// Relative RMS irradiance error over covered texels, channels and the hemisphere of
     /// normals (exact, `Δcᵀ G Δc`), against the f32 maps.
-    pub rel_rms: f64,
+    pub(crate) rel_rms: f64,
     /// The same, absolute (in the maps' units, before `encode_scale`).
-    pub rms: f64,
+    pub(crate) rms: f64,
     /// Largest coefficient error (after `encode_scale`, i.e. in stored units).
-    pub max_coeff_error: f64,
+    pub(crate) max_coeff_error: f64,
     /// Values clamped: DC outside `[0, 1]`, others outside `[-range, range]`.
-    pub clamped: [usize; 2],
+    pub(crate) clamped: [usize; 2],
     /// Bytes per texel of this storage (all coefficients), as named by [`Self::storage`].
-    pub bytes_per_texel: f64,
+    pub(crate) bytes_per_texel: f64,
     /// The storage `bytes_per_texel` counts: `"RGB8 PNG"` (3 bytes per coefficient; also
     /// given when no textures were written), `"RGBA8 KTX2"` (4 bytes per coefficient: the
     /// alpha byte is stored), `"BC1 KTX2"` (0.5) or `"BC7 KTX2"` (1).
-    pub storage: String,
+    pub(crate) storage: String,
 }
 
 /// One object's map in the summary.
 #[derive(Debug, Serialize, Clone)]
-pub struct ObjectJson {
+pub(crate) struct ObjectJson {
     /// Object (mesh instance) name.
-    pub name: String,
+    pub(crate) name: String,
     /// Atlas width.
-    pub width: u32,
+    pub(crate) width: u32,
     /// Atlas height.
-    pub height: u32,
+    pub(crate) height: u32,
 }
 
 /// The summary of one basis's bake (`<basis>.json`, `--json`).
 #[derive(Debug, Serialize, Clone)]
-pub struct SurfaceBakeJson {
+pub(crate) struct SurfaceBakeJson {
     /// Scene label.
-    pub scene: String,
+    pub(crate) scene: String,
     /// Basis tag.
-    pub basis: String,
+    pub(crate) basis: String,
     /// Coefficients per channel.
-    pub coefficients: usize,
+    pub(crate) coefficients: usize,
     /// Lightmap UV set.
-    pub uv_set: String,
+    pub(crate) uv_set: String,
     /// Texel density.
-    pub texels_per_unit: f64,
+    pub(crate) texels_per_unit: f64,
     /// Samples per texel.
-    pub samples: u32,
+    pub(crate) samples: u32,
     /// Seed.
-    pub seed: u64,
+    pub(crate) seed: u64,
     /// `"irradiance"` or `"radiosity"`.
-    pub quantity: String,
+    pub(crate) quantity: String,
     /// What lit the bake (`lightvol_sampler::surface::lighting_fingerprint`, also stored in
     /// the EXR; `render --surface` refuses maps whose lighting differs from its own).
-    pub lighting: String,
+    pub(crate) lighting: String,
     /// Whether invalid texels were fixed (domain of interest + dilation).
-    pub invalid_fix: bool,
+    pub(crate) invalid_fix: bool,
     /// Objects and their atlas sizes.
-    pub objects: Vec<ObjectJson>,
+    pub(crate) objects: Vec<ObjectJson>,
     /// Texels covered by geometry.
-    pub texels_covered: u64,
+    pub(crate) texels_covered: u64,
     /// Covered texels whose sample points saw back faces.
-    pub invalid_texels: u64,
+    pub(crate) invalid_texels: u64,
     /// … of which re-sampled inside the valid part of the footprint.
-    pub moved: u64,
+    pub(crate) moved: u64,
     /// … of which dilated from valid neighbours.
-    pub dilated: u64,
+    pub(crate) dilated: u64,
     /// … of which no valid neighbour reached.
-    pub unfilled: u64,
+    pub(crate) unfilled: u64,
     /// Empty texels filled by the gutter dilation.
-    pub gutter_texels: u64,
+    pub(crate) gutter_texels: u64,
     /// Rays traced.
-    pub rays: RaysJson,
+    pub(crate) rays: RaysJson,
     /// Bake wall time: in the `--json` output only, left out of `<basis>.json` (a timing
     /// would make two bakes of the same input write different files).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub seconds: Option<f64>,
+    pub(crate) seconds: Option<f64>,
     /// Scale applied before 8-bit encoding.
-    pub encode_scale: f64,
+    pub(crate) encode_scale: f64,
     /// Range compression factor.
-    pub range: f64,
+    pub(crate) range: f64,
     /// Irradiance error per storage: `rgb8` always, `bc1`/`bc7` when compressed.
-    pub encodings: std::collections::BTreeMap<String, EncodingJson>,
+    pub(crate) encodings: std::collections::BTreeMap<String, EncodingJson>,
     /// Bytes per texel of the f32 EXR coefficients (all coefficients, RGB).
-    pub f32_bytes_per_texel: usize,
+    pub(crate) f32_bytes_per_texel: usize,
     /// Files written, relative to the output directory.
-    pub files: Vec<String>,
+    pub(crate) files: Vec<String>,
 }
 
 /// Parses `W,H`.
@@ -326,7 +327,7 @@ fn covered(maps: &[CoefficientMap], decoded: &[CoeffMap]) -> (CoeffMap, CoeffMap
 }
 
 /// `map` scaled by `s`, as a hemibasis [`CoeffMap`].
-pub fn scaled_map(map: &CoefficientMap, s: f64) -> CoeffMap {
+pub(crate) fn scaled_map(map: &CoefficientMap, s: f64) -> CoeffMap {
     CoeffMap {
         width: map.width as usize,
         height: map.height as usize,
@@ -337,7 +338,7 @@ pub fn scaled_map(map: &CoefficientMap, s: f64) -> CoeffMap {
 
 /// The default encoding scale: `1 / max DC` over covered texels, or `range / max |c|` for
 /// bases without a DC term (Half-Life 2), or 1 for an all-zero map.
-pub fn default_encode_scale(basis: &dyn HemiBasis, maps: &[CoefficientMap], range: f64) -> f64 {
+pub(crate) fn default_encode_scale(basis: &dyn HemiBasis, maps: &[CoefficientMap], range: f64) -> f64 {
     let k = basis.len();
     let mut peak: f64 = 0.0;
     for m in maps {
@@ -425,7 +426,7 @@ fn safe_name(s: &str) -> String {
 }
 
 /// Runs `lightvol bake-surface`.
-pub fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     // Every option is checked before any work.
     let bases: Vec<BasisChoice> = args
         .basis

@@ -18,47 +18,47 @@ use serde_json::json;
 
 /// `lightvol bench`.
 #[derive(Debug, Args)]
-pub struct BenchArgs {
+pub(crate) struct BenchArgs {
     /// Built-in scene for the ray and bake figures.
     #[arg(long, default_value = "city")]
-    pub scene: String,
+    pub(crate) scene: String,
     /// Rays per throughput measurement.
     #[arg(long, default_value_t = 1_000_000)]
-    pub rays: usize,
+    pub(crate) rays: usize,
     /// Lookups per throughput measurement.
     #[arg(long, default_value_t = 2_000_000)]
-    pub lookups: usize,
+    pub(crate) lookups: usize,
     /// Samples per cell/node for the doi vs point bakes.
     #[arg(long, default_value_t = 64)]
-    pub samples: u32,
+    pub(crate) samples: u32,
     /// Also measure the Vulkan evaluator (volume lookups and proxy frame passes; needs a
     /// Vulkan device, see `lightvol gpu-info`).
     #[arg(long)]
-    pub gpu: bool,
+    pub(crate) gpu: bool,
     /// Instead: lightvol's tracer against Embree 3 on the same triangles and rays (closest
     /// hit and occlusion, 1 and 2 threads, with ray-by-ray agreement). `--scene` may then
     /// also be a glTF/OBJ file (+Y up). Needs Debian's `libembree-dev` and a C compiler.
     #[arg(long)]
-    pub embree: bool,
+    pub(crate) embree: bool,
     /// Instead: bake wall time and peak memory (each bake its own process) for the vendored
     /// scenes under `--data`, grid layouts of the occlusion room up to 32 x 32 rooms (65 M
     /// placed triangles, 63,720 stored) and the built-in scenes.
     #[arg(long, conflicts_with = "embree")]
-    pub bakes: bool,
+    pub(crate) bakes: bool,
     /// With --bakes: the folder holding the vendored scenes.
     #[arg(long, default_value = "data/scenes")]
-    pub data: std::path::PathBuf,
+    pub(crate) data: std::path::PathBuf,
     /// With --bakes: samples per cell of each doi bake.
     #[arg(long, default_value_t = 16)]
-    pub bake_samples: u32,
+    pub(crate) bake_samples: u32,
     /// With --embree: how lightvol traces an instanced scene: `auto` (one level up to 2^20
     /// placed triangles), `one` (instances written out), `two` (a BVH per mesh under a
     /// top-level BVH). Embree always gets the triangles written out.
     #[arg(long, default_value = "auto", value_parser = ["auto", "one", "two"])]
-    pub levels: String,
+    pub(crate) levels: String,
     /// With --embree: lightvol's BVH build quality (`fast`, `medium`, `slow`: spatial splits).
     #[arg(long, default_value = "medium", value_parser = ["fast", "medium", "slow"])]
-    pub bvh_quality: String,
+    pub(crate) bvh_quality: String,
 }
 
 fn rays_per_second(tracer: &Tracer, origins: &[(DVec3, DVec3)], pool: &rayon::ThreadPool) -> f64 {
@@ -110,7 +110,7 @@ fn lookups_per_second(
 }
 
 /// Runs `lightvol bench`.
-pub fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     if args.bakes {
         let report = crate::bench_scale::run(&args.data, args.bake_samples)?;
         println!("{}", serde_json::to_string_pretty(&report)?);

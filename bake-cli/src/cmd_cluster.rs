@@ -25,71 +25,71 @@ use std::time::{Duration, Instant};
 use anyhow::{Context, bail};
 use clap::Args;
 
-use crate::cmd_bake::BakeArgs;
+use crate::bake_args::BakeArgs;
 
 /// Options the cluster verbs share, after the bake's own options.
 #[derive(Debug, Args)]
-pub struct JobArgs {
+pub(crate) struct JobArgs {
     /// Work folder for the job files, shard outputs and logs (default: the output's path
     /// with the extension `.slurm`; for k8s, `STEM.k8s` in the current folder).
     #[arg(long)]
-    pub workdir: Option<PathBuf>,
+    pub(crate) workdir: Option<PathBuf>,
     /// The lightvol executable the jobs run (default: this one).
     #[arg(long)]
-    pub lightvol: Option<PathBuf>,
+    pub(crate) lightvol: Option<PathBuf>,
 }
 
 /// `lightvol slurm`.
 #[derive(Debug, Args)]
-pub struct SlurmArgs {
+pub(crate) struct SlurmArgs {
     /// The bake (scene, grid, sampling, method; `-o` is the merged volume). `--shards N` is
     /// required; `--shard` is set by the jobs.
     #[command(flatten)]
-    pub bake: BakeArgs,
+    pub(crate) bake: BakeArgs,
     /// Job files.
     #[command(flatten)]
-    pub job: JobArgs,
+    pub(crate) job: JobArgs,
     /// Slurm partition (`--partition`).
     #[arg(long)]
-    pub partition: Option<String>,
+    pub(crate) partition: Option<String>,
     /// Time limit per shard (`--time`, e.g. `2:00:00`).
     #[arg(long)]
-    pub time: Option<String>,
+    pub(crate) time: Option<String>,
     /// CPUs per shard (`--cpus-per-task`; the bake uses that many threads).
     #[arg(long)]
-    pub cpus: Option<u32>,
+    pub(crate) cpus: Option<u32>,
     /// Memory per shard (`--mem`, e.g. `4G`).
     #[arg(long)]
-    pub mem: Option<String>,
+    pub(crate) mem: Option<String>,
     /// Submit the jobs with sbatch and print their ids.
     #[arg(long)]
-    pub submit: bool,
+    pub(crate) submit: bool,
     /// With --submit: wait for the merge and exit with its status.
     #[arg(long, requires = "submit")]
-    pub wait: bool,
+    pub(crate) wait: bool,
 }
 
 /// `lightvol k8s`.
 #[derive(Debug, Args)]
-pub struct K8sArgs {
+pub(crate) struct K8sArgs {
     /// The bake, as for `slurm`. Paths must be valid inside the container.
     #[command(flatten)]
-    pub bake: BakeArgs,
+    pub(crate) bake: BakeArgs,
     /// Job files.
     #[command(flatten)]
-    pub job: JobArgs,
+    pub(crate) job: JobArgs,
     /// Container image with `lightvol` on its PATH.
     #[arg(long)]
-    pub image: String,
+    pub(crate) image: String,
     /// PersistentVolumeClaim mounted at --mount in every pod (scene, shards and output).
     #[arg(long, default_value = "lightvol-data")]
-    pub pvc: String,
+    pub(crate) pvc: String,
     /// Where the claim is mounted.
     #[arg(long, default_value = "/data")]
-    pub mount: String,
+    pub(crate) mount: String,
     /// CPU request per shard pod.
     #[arg(long, default_value_t = 1)]
-    pub cpus: u32,
+    pub(crate) cpus: u32,
 }
 
 /// Options of the cluster verbs that the shard jobs' `bake` must not see, with whether
@@ -114,7 +114,7 @@ const JOB_ONLY: &[(&str, bool)] = &[
 /// The bake's own arguments from the verb's command line (`argv` without the program and
 /// verb): every job-only option (`--opt V`, `--opt=V`, `-oV`) removed.
 #[must_use]
-pub fn bake_arguments(argv: &[String]) -> Vec<String> {
+pub(crate) fn bake_arguments(argv: &[String]) -> Vec<String> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < argv.len() {
@@ -138,7 +138,7 @@ pub fn bake_arguments(argv: &[String]) -> Vec<String> {
 
 /// POSIX shell single-quoting.
 #[must_use]
-pub fn sh_quote(s: &str) -> String {
+pub(crate) fn sh_quote(s: &str) -> String {
     if !s.is_empty() && s.bytes().all(|b| b.is_ascii_alphanumeric() || b"-_./=:,+@%".contains(&b)) {
         return s.to_owned();
     }
@@ -240,7 +240,7 @@ fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, Pat
 }
 
 /// Runs `lightvol slurm`; `argv` is the verb's command line after `slurm`.
-pub fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
+pub(crate) fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
     let (n, work, out, exe) = common(&args.bake, &args.job, "slurm")?;
     // The scene and lights must load here, so that a typo fails now, not on the cluster.
     args.bake.scene.load_quiet().context("checking the scene before writing jobs")?;
@@ -459,22 +459,22 @@ fn sbatch(args: &[&str]) -> anyhow::Result<String> {
 
 /// One job (or array task) as `scontrol -o show job` prints it.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct JobLine {
+pub(crate) struct JobLine {
     /// `JobId`.
-    pub id: String,
+    pub(crate) id: String,
     /// `ArrayTaskId`, for array tasks.
-    pub task: Option<String>,
+    pub(crate) task: Option<String>,
     /// `JobState`.
-    pub state: String,
+    pub(crate) state: String,
     /// `ExitCode` (`code:signal`).
-    pub exit_code: String,
+    pub(crate) exit_code: String,
     /// `Reason`.
-    pub reason: String,
+    pub(crate) reason: String,
 }
 
 /// Parses `scontrol -o show job` output (one job per line, `Key=Value` fields).
 #[must_use]
-pub fn parse_job_lines(text: &str) -> Vec<JobLine> {
+pub(crate) fn parse_job_lines(text: &str) -> Vec<JobLine> {
     text.lines()
         .filter(|l| l.contains("JobId="))
         .map(|l| {
@@ -545,7 +545,7 @@ fn wait_for(id: &str) -> anyhow::Result<JobLine> {
 }
 
 /// Runs `lightvol k8s`.
-pub fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
+pub(crate) fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
     let n = shard_count(&args.bake)?;
     if args.job.lightvol.is_some() {
         bail!("--lightvol is for slurm; the k8s jobs run the image's lightvol");

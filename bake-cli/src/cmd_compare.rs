@@ -25,32 +25,33 @@ use lightvol_sampler::{GridSpec, Progress};
 use serde::Serialize;
 use serde_json::{Map, Value, json};
 
-use crate::cmd_bake::{RaysJson, progress_bar};
 use crate::compare_views::{ViewArgs, ViewJson, cameras, write_view};
 use crate::imaging::{Rgb32, diverging, write_atomic, write_png_linear};
+use crate::progress::progress_bar;
+use crate::report_parts::{RaysJson, ReferenceJson};
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, resolve_threads};
 use lightvol_volume::frame::FileGrid;
 
 /// `lightvol compare`.
 #[derive(Debug, Args, Clone)]
-pub struct CompareArgs {
+pub(crate) struct CompareArgs {
     /// Scene and lights.
     #[command(flatten)]
-    pub scene: SceneArgs,
+    pub(crate) scene: SceneArgs,
     /// Grid.
     #[command(flatten)]
-    pub grid: GridArgs,
+    pub(crate) grid: GridArgs,
     /// Sampling (the same budget for every method).
     #[command(flatten)]
-    pub sampling: SampleArgs,
+    pub(crate) sampling: SampleArgs,
     /// Height of the horizontal evaluation plate along the scene file's up axis (normal =
     /// up; the same number in either frame, since the internal +Z is the file's up). Default: the built-in
     /// scene's first recommended height, or 10% of the scene's height above its floor.
     #[arg(long)]
-    pub plate_height: Option<f64>,
+    pub(crate) plate_height: Option<f64>,
     /// Plate resolution along its longer side.
     #[arg(long, default_value_t = PlateConfig::DEFAULT_RES)]
-    pub plate_res: u32,
+    pub(crate) plate_res: u32,
     /// Methods to compare: `point`, `prefilter`, `doi`, `doi-paper`, `doi-node` (trilinear
     /// lookup; see `bake --method`), or
     /// `BASE+LOOKUP` for a bake with SH gradients (Oat 2005) read by `taylor` (nearest node,
@@ -62,97 +63,86 @@ pub struct CompareArgs {
     /// `point+validity` (invalid probes dilated), `point+apv` (Unity APV, validity-weighted
     /// lookups), `point+vlm` (Unreal), `point+ddgi` (DDGI relocation).
     #[arg(long, default_value = "point,prefilter,doi-paper,doi", value_delimiter = ',')]
-    pub methods: Vec<String>,
+    pub(crate) methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for
     /// prefilter/doi-paper, no extra rays; `central` for point, doi and doi-node).
     #[arg(long, value_enum)]
-    pub gradient_estimator: Option<crate::gradient_args::GradientEstimatorArg>,
+    pub(crate) gradient_estimator: Option<crate::gradient_args::GradientEstimatorArg>,
     /// Also run the error-vs-memory study on this plate: uniform doi-paper at several
     /// resolutions, the same bakes read through the Taylor and Hermite gradient lookups,
     /// writing `memory_sweep.json`, `.png` and `.svg`.
     #[arg(long)]
-    pub memory_sweep: bool,
+    pub(crate) memory_sweep: bool,
     /// Scale factors of the grid's cell counts for `--memory-sweep`.
     #[arg(long, value_delimiter = ',', default_value = "0.5,0.7,1,1.4")]
-    pub sweep_scales: Vec<f64>,
+    pub(crate) sweep_scales: Vec<f64>,
     /// Path-traced samples per plate point for the reference.
     #[arg(long, default_value_t = PlateConfig::DEFAULT_REFERENCE_SAMPLES)]
-    pub reference_samples: u32,
+    pub(crate) reference_samples: u32,
     /// Directions traced per plate point to decide whether it sees back faces.
     #[arg(long, default_value_t = PlateConfig::DEFAULT_CLASSIFY_DIRS)]
-    pub classify_dirs: u32,
+    pub(crate) classify_dirs: u32,
     /// Views through cameras.
     #[command(flatten)]
-    pub views: ViewArgs,
+    pub(crate) views: ViewArgs,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "compare-out")]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
     /// No progress bars.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
 }
 
 /// `report.json` of `compare`.
 #[derive(Debug, Serialize, Clone)]
-pub struct CompareReport {
+pub(crate) struct CompareReport {
     /// Scene label.
-    pub scene: String,
+    pub(crate) scene: String,
     /// Up axis of the source scene.
-    pub up: String,
+    pub(crate) up: String,
     /// The plate.
-    pub plate: PlateJson,
+    pub(crate) plate: PlateJson,
     /// The grid.
-    pub grid: FileGrid,
+    pub(crate) grid: FileGrid,
     /// The reference.
-    pub reference: ReferenceJson,
+    pub(crate) reference: ReferenceJson,
     /// Per method, in the order run.
-    pub methods: Map<String, Value>,
+    pub(crate) methods: Map<String, Value>,
     /// Per camera, in the order given (only with `--camera`).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub views: Option<Vec<ViewJson>>,
+    pub(crate) views: Option<Vec<ViewJson>>,
 }
 
 /// Plate description.
 #[derive(Debug, Serialize, Clone)]
-pub struct PlateJson {
+pub(crate) struct PlateJson {
     /// Height (z).
-    pub height: f64,
+    pub(crate) height: f64,
     /// Points per side.
-    pub res: [u32; 2],
+    pub(crate) res: [u32; 2],
     /// Points that see no back faces.
-    pub valid_points: usize,
+    pub(crate) valid_points: usize,
     /// Valid points near a surface.
-    pub near_points: usize,
-}
-
-/// Reference description.
-#[derive(Debug, Serialize, Clone)]
-pub struct ReferenceJson {
-    /// Samples per point.
-    pub samples: u32,
-    /// Mean luminance over valid points.
-    pub mean: f64,
-    /// Wall time of the reference.
-    pub seconds: f64,
+    pub(crate) near_points: usize,
 }
 
 /// One method's entry.
 #[derive(Debug, Serialize, Clone)]
-pub struct MethodJson {
+pub(crate) struct MethodJson {
     /// Samples per cell (per node for point).
-    pub samples: u32,
+    pub(crate) samples: u32,
     /// Rays by kind.
-    pub rays: RaysJson,
+    pub(crate) rays: RaysJson,
     /// Bake wall time.
-    pub seconds: f64,
+    pub(crate) seconds: f64,
     /// The leakage metrics.
     #[serde(flatten)]
-    pub metrics: Metrics,
+    pub(crate) metrics: Metrics,
 }
 
 /// Progress bars on stderr for the stages of an evaluation, and the sweeps' lines (nothing
 /// when quiet).
-pub struct ProgressBars {
+pub(crate) struct ProgressBars {
     quiet: bool,
     bar: Mutex<Option<ProgressBar>>,
 }
@@ -160,7 +150,7 @@ pub struct ProgressBars {
 impl ProgressBars {
     /// ProgressBars drawn unless `quiet`.
     #[must_use]
-    pub fn new(quiet: bool) -> Self {
+    pub(crate) fn new(quiet: bool) -> Self {
         Self { quiet, bar: Mutex::new(None) }
     }
 
@@ -212,7 +202,7 @@ impl Observer for ProgressBars {
 
 /// The evaluation's errors in the words of this verb's options.
 #[must_use]
-pub fn flag_error(e: EvalError) -> anyhow::Error {
+pub(crate) fn flag_error(e: EvalError) -> anyhow::Error {
     match e {
         EvalError::NoMethods => anyhow::anyhow!("--methods needs at least one method"),
         EvalError::ZeroSamples => anyhow::anyhow!("--samples and --reference-samples must be at least 1"),
@@ -244,7 +234,7 @@ pub fn flag_error(e: EvalError) -> anyhow::Error {
 /// The evaluation's configuration from the options, for `grid`, the plate at `height` and
 /// the cameras `views`.
 #[must_use]
-pub fn config(
+pub(crate) fn config(
     args: &CompareArgs,
     methods: Vec<NamedEntry>,
     grid: GridSpec,
@@ -278,12 +268,12 @@ pub fn config(
 
 /// The plate height of the options: `--plate-height`, else the scene's default.
 #[must_use]
-pub fn plate_height(args: &CompareArgs, loaded: &LoadedScene) -> f64 {
+pub(crate) fn plate_height(args: &CompareArgs, loaded: &LoadedScene) -> f64 {
     args.plate_height.unwrap_or_else(|| default_plate_height(&loaded.scene, &loaded.plate_heights))
 }
 
 /// Runs the whole comparison and writes its outputs; returns the report.
-pub fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
+pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     // Checks in the order the verb has always made them: the options alone, then with the
     // scene and grid, then (after the output folder exists) the rest, in the evaluation.
     let methods: Vec<NamedEntry> =
@@ -412,7 +402,7 @@ fn write_outputs(
 const INVALID_GREEN: [f32; 3] = [0.0, 4.0, 0.0];
 
 /// Writes the Fig. 6-style panel (method | reference) and the signed error heat map.
-pub fn write_panels(
+pub(crate) fn write_panels(
     dir: &Path,
     name: &str,
     plate: &Plate,
@@ -456,7 +446,7 @@ pub fn write_panels(
 }
 
 /// Writes `plate.exr`: luminance channels `truth`, `valid`, `near` and one per method.
-pub fn write_plate_exr(
+pub(crate) fn write_plate_exr(
     path: &Path,
     plate: &Plate,
     methods: &[(String, Vec<[f64; 3]>)],
@@ -487,7 +477,7 @@ pub fn write_plate_exr(
 }
 
 /// Runs `lightvol compare`.
-pub fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
     let report = compare(args)?;
     eprintln!(
         "{:<14} {:>9} {:>8} {:>9} {:>13} {:>10} {:>10} {:>8} {:>10}",

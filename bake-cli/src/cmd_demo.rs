@@ -18,19 +18,19 @@ use crate::setup::{GridArgs, SampleArgs, SceneArgs, parse_method};
 
 /// `lightvol demo`.
 #[derive(Debug, Args)]
-pub struct DemoArgs {
+pub(crate) struct DemoArgs {
     /// Output directory.
     #[arg(short, long, default_value = "lightvol-demo")]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
     /// Reduced settings that finish in under two minutes on a 2-core machine.
     #[arg(long)]
-    pub quick: bool,
+    pub(crate) quick: bool,
     /// Worker threads (default: all cores).
     #[arg(long)]
-    pub threads: Option<usize>,
+    pub(crate) threads: Option<usize>,
     /// No progress bars.
     #[arg(long)]
-    pub quiet: bool,
+    pub(crate) quiet: bool,
 }
 
 /// Settings of one demo level.
@@ -317,7 +317,7 @@ fn html(reports: &[(String, CompareReport)], sweeps: &[(String, serde_json::Valu
 }
 
 /// Runs `lightvol demo`.
-pub fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     let level = if args.quick { &QUICK } else { &FULL };
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let mut reports = Vec::new();

@@ -24,7 +24,7 @@ fn parse_res(s: &str) -> anyhow::Result<[u32; 3]> {
 }
 
 /// Runs `lightvol export`.
-pub fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
     let res = args.res.as_deref().map(parse_res).transpose()?;
     let out = &args.output;
     let opened =

@@ -17,14 +17,14 @@ use serde_json::{Value, json};
 
 /// `lightvol gpu-info`.
 #[derive(Debug, Args)]
-pub struct GpuInfoArgs {
+pub(crate) struct GpuInfoArgs {
     /// Print JSON.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
 }
 
 /// Runs `lightvol gpu-info`.
-pub fn run_info(args: &GpuInfoArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run_info(args: &GpuInfoArgs) -> anyhow::Result<ExitCode> {
     let devices = gpu_info().context("listing Vulkan devices")?;
     let selector = std::env::var(DEVICE_ENV).ok();
     let selected = select_device(&devices, selector.as_deref()).ok();
@@ -117,7 +117,7 @@ fn proxy_frame(ctx: &GpuContext) -> anyhow::Result<Value> {
 }
 
 /// The `gpu` section of `lightvol bench --gpu`.
-pub fn bench_section(
+pub(crate) fn bench_section(
     vol: &IrradianceVolume,
     coherent: &[[f32; 3]],
     random: &[[f32; 3]],

@@ -12,23 +12,23 @@ use crate::imaging::{Plot, write_atomic};
 
 /// `lightvol imse`.
 #[derive(Debug, Args)]
-pub struct ImseArgs {
+pub(crate) struct ImseArgs {
     /// Random radiance signals (9 SH coefficients each, uniform in [-1, 1]).
     #[arg(long, default_value_t = 10_000)]
-    pub signals: usize,
+    pub(crate) signals: usize,
     /// Seed of the signals.
     #[arg(long, default_value_t = 0)]
-    pub seed: u64,
+    pub(crate) seed: u64,
     /// Print one JSON object instead of the table.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// Also write `imse.svg` (Fig. 3.1-style), `imse.png` and `imse.json` into this directory.
     #[arg(short, long)]
-    pub output: Option<PathBuf>,
+    pub(crate) output: Option<PathBuf>,
 }
 
 /// Runs `lightvol imse`.
-pub fn run(args: &ImseArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &ImseArgs) -> anyhow::Result<ExitCode> {
     if args.signals == 0 {
         bail!("--signals must be at least 1");
     }

@@ -133,7 +133,7 @@ fn print_text(info: &Value) {
 }
 
 /// Runs `lightvol info`.
-pub fn run(args: &InfoArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &InfoArgs) -> anyhow::Result<ExitCode> {
     let info = describe(&args.volume)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&info)?);

@@ -14,143 +14,143 @@ use crate::setup::SceneArgs;
 
 /// `lightvol inspect`.
 #[derive(Debug, Args)]
-pub struct InspectArgs {
+pub(crate) struct InspectArgs {
     /// Scene and lights, as for `bake`.
     #[command(flatten)]
-    pub scene: SceneArgs,
+    pub(crate) scene: SceneArgs,
     /// Print JSON instead of text.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// Write to this file (atomically) instead of standard output.
     #[arg(short, long)]
-    pub output: Option<std::path::PathBuf>,
+    pub(crate) output: Option<std::path::PathBuf>,
 }
 
 /// Axis-aligned bounds.
 #[derive(Debug, Serialize)]
-pub struct Bounds {
+pub(crate) struct Bounds {
     /// Minimum corner.
-    pub min: [f64; 3],
+    pub(crate) min: [f64; 3],
     /// Maximum corner.
-    pub max: [f64; 3],
+    pub(crate) max: [f64; 3],
 }
 
 /// One material as loaded.
 #[derive(Debug, Serialize)]
-pub struct MaterialInfo {
+pub(crate) struct MaterialInfo {
     /// Name.
-    pub name: String,
+    pub(crate) name: String,
     /// `OPAQUE`, `MASK` or `BLEND`.
-    pub alpha_mode: &'static str,
+    pub(crate) alpha_mode: &'static str,
     /// `alphaCutoff` of a `MASK` material.
-    pub alpha_cutoff: Option<f64>,
+    pub(crate) alpha_cutoff: Option<f64>,
     /// Base-colour alpha factor.
-    pub alpha: f64,
+    pub(crate) alpha: f64,
     /// Both sides reflect (no back faces for the domain of interest).
-    pub double_sided: bool,
+    pub(crate) double_sided: bool,
     /// Diffuse albedo factor (linear RGB).
-    pub albedo: [f64; 3],
+    pub(crate) albedo: [f64; 3],
     /// Size of the base-colour texture in use, if any.
-    pub texture: Option<[u32; 2]>,
+    pub(crate) texture: Option<[u32; 2]>,
     /// The texture has an alpha channel.
-    pub texture_alpha: bool,
+    pub(crate) texture_alpha: bool,
     /// Emitted radiance (linear RGB).
-    pub emission: [f64; 3],
+    pub(crate) emission: [f64; 3],
     /// Triangles that use it.
-    pub triangles: usize,
+    pub(crate) triangles: usize,
 }
 
 /// One extension and its treatment.
 #[derive(Debug, Serialize)]
-pub struct ExtensionInfo {
+pub(crate) struct ExtensionInfo {
     /// Name.
-    pub name: String,
+    pub(crate) name: String,
     /// Listed in `extensionsRequired`.
-    pub required: bool,
+    pub(crate) required: bool,
     /// Where the file uses it.
-    pub used_in: Vec<String>,
+    pub(crate) used_in: Vec<String>,
     /// What the loader did.
-    pub treatment: String,
+    pub(crate) treatment: String,
 }
 
 /// One camera, in both frames.
 #[derive(Debug, Serialize)]
-pub struct CameraInfo {
+pub(crate) struct CameraInfo {
     /// Index for `render --camera gltf:INDEX`.
-    pub index: usize,
+    pub(crate) index: usize,
     /// Name for `render --camera gltf:NAME`.
-    pub name: String,
+    pub(crate) name: String,
     /// Eye position in the file's frame.
-    pub position: [f64; 3],
+    pub(crate) position: [f64; 3],
     /// View direction in the file's frame.
-    pub forward: [f64; 3],
+    pub(crate) forward: [f64; 3],
     /// Eye position in lightvol's internal +Z-up frame.
-    pub position_internal: [f64; 3],
+    pub(crate) position_internal: [f64; 3],
     /// Vertical field of view in degrees.
-    pub yfov_deg: f64,
+    pub(crate) yfov_deg: f64,
     /// Width / height, if the file gives one.
-    pub aspect: Option<f64>,
+    pub(crate) aspect: Option<f64>,
 }
 
 /// What the loader understood.
 #[derive(Debug, Serialize)]
-pub struct SceneSummary {
+pub(crate) struct SceneSummary {
     /// The scene argument.
-    pub scene: String,
+    pub(crate) scene: String,
     /// The file's frame (`y-up` or `z-up`, as in reports and sidecars); the internal frame is
     /// +Z up.
-    pub up: &'static str,
+    pub(crate) up: &'static str,
     /// Triangles after instancing (what is traced), without degenerate ones.
-    pub instanced_triangles: usize,
+    pub(crate) instanced_triangles: usize,
     /// Triangles of the unique meshes.
-    pub unique_triangles: usize,
+    pub(crate) unique_triangles: usize,
     /// Degenerate triangles dropped.
-    pub degenerate_skipped: usize,
+    pub(crate) degenerate_skipped: usize,
     /// Mesh instances placed.
-    pub instances: usize,
+    pub(crate) instances: usize,
     /// Lightmap objects (one per mesh instance).
-    pub objects: usize,
+    pub(crate) objects: usize,
     /// Triangles whose material is `MASK` or `BLEND` (alpha-tested in every ray query).
-    pub alpha_triangles: usize,
+    pub(crate) alpha_triangles: usize,
     /// Materials.
-    pub materials: Vec<MaterialInfo>,
+    pub(crate) materials: Vec<MaterialInfo>,
     /// Extensions.
-    pub extensions: Vec<ExtensionInfo>,
+    pub(crate) extensions: Vec<ExtensionInfo>,
     /// Punctual lights (glTF `KHR_lights_punctual`), described in the file's frame.
-    pub lights: Vec<String>,
+    pub(crate) lights: Vec<String>,
     /// The sun, if any (direction towards it, file frame).
-    pub sun: Option<String>,
+    pub(crate) sun: Option<String>,
     /// The environment.
-    pub environment: String,
+    pub(crate) environment: String,
     /// Cameras.
-    pub cameras: Vec<CameraInfo>,
+    pub(crate) cameras: Vec<CameraInfo>,
     /// Bounds in the file's axes (in scene units, after `--scale`).
-    pub bounds_file: Bounds,
+    pub(crate) bounds_file: Bounds,
     /// Bounds in the internal +Z-up frame.
-    pub bounds_internal: Bounds,
+    pub(crate) bounds_internal: Bounds,
     /// Loader warnings.
-    pub warnings: Vec<String>,
+    pub(crate) warnings: Vec<String>,
     /// The memory estimate made before loading (`lightvol_sampler::estimate`), bytes.
-    pub memory: MemoryJson,
+    pub(crate) memory: MemoryJson,
 }
 
 /// The scene-memory estimate in a summary.
 #[derive(Debug, Clone, Serialize)]
-pub struct MemoryJson {
+pub(crate) struct MemoryJson {
     /// Triangles placed (every instance counted) the estimate counted.
-    pub triangles: u64,
+    pub(crate) triangles: u64,
     /// Triangles stored (each instanced mesh once).
-    pub unique_triangles: u64,
+    pub(crate) unique_triangles: u64,
     /// Instances (placements of meshes placed more than once).
-    pub instances: u64,
+    pub(crate) instances: u64,
     /// Triangles and vertex attributes.
-    pub geometry_bytes: u64,
+    pub(crate) geometry_bytes: u64,
     /// The ray tracer (BVH build peak and its arrays).
-    pub tracer_bytes: u64,
+    pub(crate) tracer_bytes: u64,
     /// Decoded textures.
-    pub texture_bytes: u64,
+    pub(crate) texture_bytes: u64,
     /// All three.
-    pub total_bytes: u64,
+    pub(crate) total_bytes: u64,
 }
 
 fn bounds_to_file(up: UpAxis, lo: DVec3, hi: DVec3) -> Bounds {
@@ -160,7 +160,7 @@ fn bounds_to_file(up: UpAxis, lo: DVec3, hi: DVec3) -> Bounds {
 
 /// Summarises a loaded scene.
 #[must_use]
-pub fn summarize(
+pub(crate) fn summarize(
     label: &str,
     scene: &Scene,
     up: UpAxis,
@@ -378,7 +378,7 @@ fn text(s: &SceneSummary) -> String {
 }
 
 /// Runs `lightvol inspect`.
-pub fn run(args: &InspectArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &InspectArgs) -> anyhow::Result<ExitCode> {
     let loaded = args.scene.load_quiet()?;
     let up = loaded.frame;
     let s = summarize(&loaded.label, &loaded.scene, up, &loaded.memory);

@@ -13,54 +13,54 @@ use crate::setup::{GridArgs, SceneArgs, with_threads};
 
 /// `lightvol lint`.
 #[derive(Debug, Args)]
-pub struct LintArgs {
+pub(crate) struct LintArgs {
     /// Scene (lights are irrelevant here).
     #[command(flatten)]
-    pub scene: SceneArgs,
+    pub(crate) scene: SceneArgs,
     /// The lattice of probe points: `--bounds` and `--res`/`--spacing` as for a bake; by
     /// default the scene's own bounds (not padded: space outside a closed room sees its
     /// back faces by design) with about 16 cells along the longest axis.
     #[command(flatten)]
-    pub grid: GridArgs,
+    pub(crate) grid: GridArgs,
     /// Probe points per grid cell.
     #[arg(long, default_value_t = 4)]
-    pub points_per_cell: u32,
+    pub(crate) points_per_cell: u32,
     /// Rays per probe point.
     #[arg(long, default_value_t = 128)]
-    pub dirs: u32,
+    pub(crate) dirs: u32,
     /// Vertices closer than this are welded for the winding check (default: 1e-6 of the
     /// scene's extent).
     #[arg(long)]
-    pub weld: Option<f64>,
+    pub(crate) weld: Option<f64>,
     /// Report back-face suspects only with at least this many hits. A reversed polygon in
     /// open space is hit by a large share of the probe points around it (hundreds of hits);
     /// a handful means a few probe points squeezed into a sliver of space, such as the
     /// 0.8 mm gap between the Cornell box's light and its ceiling.
     #[arg(long, default_value_t = 50)]
-    pub min_score: u32,
+    pub(crate) min_score: u32,
     /// Print suspects as JSON.
     #[arg(long)]
-    pub json: bool,
+    pub(crate) json: bool,
     /// Worker threads.
     #[arg(long)]
-    pub threads: Option<usize>,
+    pub(crate) threads: Option<usize>,
 }
 
 /// One suspect triangle in the JSON output.
 #[derive(Debug, Serialize)]
-pub struct SuspectJson {
+pub(crate) struct SuspectJson {
     /// Which check flagged it: `back_face` or `winding`.
-    pub check: &'static str,
+    pub(crate) check: &'static str,
     /// Triangle index in load order.
-    pub triangle: u32,
+    pub(crate) triangle: u32,
     /// Where to look.
-    pub position: [f64; 3],
+    pub(crate) position: [f64; 3],
     /// Back-face hits, or inconsistent edges.
-    pub score: u32,
+    pub(crate) score: u32,
 }
 
 /// Runs `lightvol lint`.
-pub fn run(args: &LintArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &LintArgs) -> anyhow::Result<ExitCode> {
     let loaded = args.scene.load()?;
     let (lo, hi) = loaded.scene.bounds();
     let mut grid_args = args.grid.clone();

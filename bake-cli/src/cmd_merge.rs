@@ -16,20 +16,20 @@ use lightvol_volume::io::exr::{ExrOptions, write_exr};
 
 /// `lightvol merge`.
 #[derive(Debug, Args)]
-pub struct MergeArgs {
+pub(crate) struct MergeArgs {
     /// Shard files (`.lvacc`, or `.exr` with a sibling `.lvacc`).
     #[arg(required = true, num_args = 1..)]
-    pub inputs: Vec<PathBuf>,
+    pub(crate) inputs: Vec<PathBuf>,
     /// Merged volume (native EXR).
     #[arg(short, long)]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
     /// Also write the merged accumulator (`<stem>.lvacc`) for further merging.
     #[arg(long)]
-    pub keep_accumulator: bool,
+    pub(crate) keep_accumulator: bool,
     /// Merge an incomplete set (missing shards leave their cells unsampled) instead of
     /// refusing it.
     #[arg(long)]
-    pub allow_partial: bool,
+    pub(crate) allow_partial: bool,
 }
 
 fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
@@ -63,7 +63,7 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
 }
 
 /// Runs `lightvol merge`.
-pub fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     // Headers first: the whole set is checked before any sum is read or anything written.
     if args.allow_partial && args.keep_accumulator {
         bail!(

@@ -17,27 +17,27 @@ use crate::imaging::{Rgb32, write_atomic, write_png_linear};
 
 /// `lightvol proxies`.
 #[derive(Debug, Args)]
-pub struct ProxiesArgs {
+pub(crate) struct ProxiesArgs {
     /// A receiver scene as JSON (the serde form of `lightvol_proxies::receiver_scene::Scene`), or
     /// `default` (ground, two walls and an 18-sphere character under a sky and sun).
     #[arg(default_value = "default")]
-    pub scene: String,
+    pub(crate) scene: String,
     /// Light the receivers with this baked volume (EXR, KTX2 or DDS) instead of the scene's
     /// distant light.
     #[arg(long)]
-    pub volume: Option<PathBuf>,
+    pub(crate) volume: Option<PathBuf>,
     /// Display size W H (even; receivers are rendered at half resolution).
     #[arg(long, num_args = 2, default_values_t = [320, 240])]
-    pub size: Vec<usize>,
+    pub(crate) size: Vec<usize>,
     /// Path-traced samples per pixel of the reference.
     #[arg(long, default_value_t = 256)]
-    pub samples: u32,
+    pub(crate) samples: u32,
     /// SH order of the shadows: 3 or 4 bands.
     #[arg(long, default_value_t = 4)]
-    pub order: usize,
+    pub(crate) order: usize,
     /// Output directory.
     #[arg(short, long, default_value = "proxies-out")]
-    pub output: PathBuf,
+    pub(crate) output: PathBuf,
 }
 
 fn save(path: &Path, size: [usize; 2], img: &[[f32; 3]], exposure: f32) -> anyhow::Result<()> {
@@ -56,7 +56,7 @@ fn exposure_of(imgs: &[[f32; 3]], mask: Option<&[bool]>) -> f32 {
 }
 
 /// Runs `lightvol proxies`.
-pub fn run(args: &ProxiesArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &ProxiesArgs) -> anyhow::Result<ExitCode> {
     let [w, h] = [args.size[0], args.size[1]];
     if w < 8 || h < 8 || w % 2 != 0 || h % 2 != 0 || w * h > 16 << 20 {
         bail!("--size needs even dimensions of at least 8 (and at most 16 Mpixels), got {w} {h}");

@@ -31,46 +31,46 @@ use lightvol_sampler::surface::{
 use lightvol_sampler::view::Camera;
 use serde::Serialize;
 
-use crate::cmd_render::{RenderArgs, resolve_camera};
 use crate::imaging::{Rgb32, write_atomic, write_png_linear};
+use crate::render_args::{RenderArgs, resolve_camera};
 use crate::setup::with_threads;
 
 /// One basis's entry in `report.json`.
 #[derive(Debug, Serialize)]
-pub struct BasisReport {
+pub(crate) struct BasisReport {
     /// Relative RMSE against the path-traced reference.
-    pub rel_rmse: f64,
+    pub(crate) rel_rmse: f64,
     /// 8-bit storage per texel as RGB8 (PNG): 3 bytes per coefficient (RGBA8 KTX2 stores 4).
-    pub bytes_per_texel: usize,
+    pub(crate) bytes_per_texel: usize,
     /// Coefficients per channel.
-    pub coefficients: usize,
+    pub(crate) coefficients: usize,
     /// The image, relative to the output directory.
-    pub image: String,
+    pub(crate) image: String,
 }
 
 /// The reference's entry in `report.json`.
 #[derive(Debug, Serialize)]
-pub struct ReferenceReport {
+pub(crate) struct ReferenceReport {
     /// The image.
-    pub image: String,
+    pub(crate) image: String,
     /// Path-traced samples per pixel.
-    pub samples: u32,
+    pub(crate) samples: u32,
 }
 
 /// `report.json`.
 #[derive(Debug, Serialize)]
-pub struct SurfaceRenderReport {
+pub(crate) struct SurfaceRenderReport {
     /// Per basis (and `lightmap` / `lightmap4`, the modified H-basis's lower levels of detail).
-    pub bases: BTreeMap<String, BasisReport>,
+    pub(crate) bases: BTreeMap<String, BasisReport>,
     /// Invalid texels of the bakes, read from the EXR maps (sum over objects; largest over
     /// the bases, which share the geometry and sample points).
-    pub invalid_texels: u64,
+    pub(crate) invalid_texels: u64,
     /// The reference.
-    pub reference: ReferenceReport,
+    pub(crate) reference: ReferenceReport,
     /// Pixels showing lightmapped surfaces (those the RMSE runs over).
-    pub pixels: usize,
+    pub(crate) pixels: usize,
     /// The normal map used.
-    pub normal_map: String,
+    pub(crate) normal_map: String,
 }
 
 /// The maps of one basis found in the directory.
@@ -191,7 +191,7 @@ fn sheet(images: &[&Rgb32]) -> Rgb32 {
 }
 
 /// Runs `lightvol render --surface`.
-pub fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<ExitCode> {
     args.size(None)?;
     if args.reference_samples == 0 {
         bail!("--reference-samples must be at least 1");

@@ -10,7 +10,7 @@ use lightvol_gpu::engine_shader::{Language, Layout, shader_source};
 
 /// `--lang`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum LangArg {
+pub(crate) enum LangArg {
     /// WGSL (the source the others are translated from).
     Wgsl,
     /// HLSL (shader model 5.1), translated by naga.
@@ -21,7 +21,7 @@ pub enum LangArg {
 
 /// `--layout`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum LayoutArg {
+pub(crate) enum LayoutArg {
     /// The KTX2 export (`export --format ktx2`): an RGBA16F 3D texture of coefficient slabs.
     Ktx2,
     /// The native `[node][coeff][rgb]` f32 array, in a storage buffer.
@@ -30,20 +30,20 @@ pub enum LayoutArg {
 
 /// `lightvol shader`.
 #[derive(Debug, Args)]
-pub struct ShaderArgs {
+pub(crate) struct ShaderArgs {
     /// Shading language.
     #[arg(long, value_enum, default_value = "wgsl")]
-    pub lang: LangArg,
+    pub(crate) lang: LangArg,
     /// Where the coefficients live.
     #[arg(long, value_enum, default_value = "ktx2")]
-    pub layout: LayoutArg,
+    pub(crate) layout: LayoutArg,
     /// Output file (default: standard output).
     #[arg(short, long)]
-    pub output: Option<PathBuf>,
+    pub(crate) output: Option<PathBuf>,
 }
 
 /// Runs `lightvol shader`.
-pub fn run(args: &ShaderArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &ShaderArgs) -> anyhow::Result<ExitCode> {
     let lang = match args.lang {
         LangArg::Wgsl => Language::Wgsl,
         LangArg::Hlsl => Language::Hlsl,

@@ -11,10 +11,10 @@ use serde_json::Value;
 
 /// `lightvol table`.
 #[derive(Debug, Args)]
-pub struct TableArgs {
+pub(crate) struct TableArgs {
     /// `compare` output directories (each holding a `report.json`), or report files.
     #[arg(required = true)]
-    pub reports: Vec<PathBuf>,
+    pub(crate) reports: Vec<PathBuf>,
 }
 
 /// The label of a report's scene: `builtin:NAME` as given, a file by its name without
@@ -27,7 +27,7 @@ fn scene_label(scene: &str) -> String {
 }
 
 /// The rows of one `report.json`.
-pub fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
+pub(crate) fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
     let file = if path.is_dir() { path.join("report.json") } else { path.to_path_buf() };
     let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
     let v: Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", file.display()))?;
@@ -58,7 +58,7 @@ pub fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
 }
 
 /// Runs `lightvol table`.
-pub fn run(args: &TableArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: &TableArgs) -> anyhow::Result<ExitCode> {
     let mut rows = Vec::new();
     for p in &args.reports {
         rows.extend(rows_of(p)?);

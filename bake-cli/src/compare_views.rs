@@ -13,14 +13,14 @@ use lightvol_sampler::{DVec3, GridSpec};
 use serde::Serialize;
 use serde_json::{Map, Value};
 
-use crate::cmd_compare::ReferenceJson;
-use crate::cmd_render::{camera_error, image_size, to_rgb32};
 use crate::imaging::{auto_exposure, write_png_linear};
+use crate::render_args::{camera_error, image_size, to_rgb32};
+use crate::report_parts::ReferenceJson;
 use crate::setup::LoadedScene;
 
 /// The views of `compare`: cameras, image size and reference samples.
 #[derive(Debug, Args, Clone)]
-pub struct ViewArgs {
+pub(crate) struct ViewArgs {
     /// Also compare the methods as a person sees them, through camera SPEC (repeatable): a
     /// path-traced view and one view per method (the scene shaded by that method's volume, as
     /// `render` shades it), written as `view_LABEL_reference.png` and `view_LABEL_METHOD.png`,
@@ -29,64 +29,51 @@ pub struct ViewArgs {
     /// its position among the --camera options) or `gltf:NAME|INDEX` (labelled with the
     /// camera's name), or `overview` for `render`'s default view of the grid.
     #[arg(long = "camera", value_name = "SPEC", allow_hyphen_values = true)]
-    pub cameras: Vec<String>,
+    pub(crate) cameras: Vec<String>,
     /// Width of the views.
     #[arg(long, default_value_t = ViewsConfig::DEFAULT_WIDTH)]
-    pub view_width: u32,
+    pub(crate) view_width: u32,
     /// Height of the views (default 128, or width / aspect ratio of a file camera that has
     /// one).
     #[arg(long)]
-    pub view_height: Option<u32>,
+    pub(crate) view_height: Option<u32>,
     /// Path-traced irradiance samples per pixel of the reference views.
     #[arg(long, default_value_t = ViewsConfig::DEFAULT_REFERENCE_SAMPLES)]
-    pub view_samples: u32,
-}
-
-impl ViewArgs {
-    /// No camera, the default size and samples.
-    #[must_use]
-    pub fn none() -> Self {
-        Self {
-            cameras: Vec::new(),
-            view_width: ViewsConfig::DEFAULT_WIDTH,
-            view_height: None,
-            view_samples: ViewsConfig::DEFAULT_REFERENCE_SAMPLES,
-        }
-    }
+    pub(crate) view_samples: u32,
 }
 
 /// One camera's views in `report.json`.
 #[derive(Debug, Serialize, Clone)]
-pub struct ViewJson {
+pub(crate) struct ViewJson {
     /// The camera's label (in the image file names).
-    pub camera: String,
+    pub(crate) camera: String,
     /// The `--camera` specification.
-    pub spec: String,
+    pub(crate) spec: String,
     /// Width and height in pixels.
-    pub resolution: [u32; 2],
+    pub(crate) resolution: [u32; 2],
     /// Pixels that see a surface.
-    pub surface_pixels: usize,
+    pub(crate) surface_pixels: usize,
     /// Pixels that see a surface inside the grid: the pixels measured.
-    pub measured_pixels: usize,
+    pub(crate) measured_pixels: usize,
     /// The path-traced view: samples per pixel, mean luminance over the measured pixels,
     /// wall time.
-    pub reference: ReferenceJson,
+    pub(crate) reference: ReferenceJson,
     /// Per method, by name: its view's metrics against the reference view.
-    pub methods: Map<String, Value>,
+    pub(crate) methods: Map<String, Value>,
 }
 
 /// One method's view metrics in `report.json`.
 #[derive(Debug, Serialize, Clone)]
-pub struct ViewMetricsJson {
+pub(crate) struct ViewMetricsJson {
     /// `sqrt(mean((E - T)²)) / mean(T)` over the measured pixels, `E` and `T` the
     /// luminances of the method's and the reference's pixel.
-    pub rel_rmse: f64,
+    pub(crate) rel_rmse: f64,
     /// `mean(E - T) / mean(T)`.
-    pub bias: f64,
+    pub(crate) bias: f64,
     /// Share of pixels with `E < 0.8 T`.
-    pub too_dark: f64,
+    pub(crate) too_dark: f64,
     /// Share of pixels with `E > 1.25 T`.
-    pub too_bright: f64,
+    pub(crate) too_bright: f64,
 }
 
 /// Characters kept in a file camera's name when it labels a view (the rest become `_`).
@@ -98,7 +85,11 @@ fn label_char(c: char) -> char {
 /// `overview`: labelled `overview`, the file camera's name (characters other than letters,
 /// digits, `-` and `_` as `_`) or `camN` for the N-th option, sized by `--view-width` and
 /// `--view-height` (else the file camera's aspect ratio, else the default height).
-pub fn cameras(args: &ViewArgs, loaded: &LoadedScene, grid: &GridSpec) -> anyhow::Result<Vec<ViewCamera>> {
+pub(crate) fn cameras(
+    args: &ViewArgs,
+    loaded: &LoadedScene,
+    grid: &GridSpec,
+) -> anyhow::Result<Vec<ViewCamera>> {
     args.cameras
         .iter()
         .enumerate()
@@ -125,7 +116,12 @@ pub fn cameras(args: &ViewArgs, loaded: &LoadedScene, grid: &GridSpec) -> anyhow
 /// Writes one camera's images, `view_LABEL_reference.png` and `view_LABEL_METHOD.png`, all
 /// at the reference view's automatic exposure (so that they compare by eye, and the
 /// reference is the image `render --reference` writes), and returns its report entry.
-pub fn write_view(dir: &Path, view: &ComparedView, spec: &str, samples: u32) -> anyhow::Result<ViewJson> {
+pub(crate) fn write_view(
+    dir: &Path,
+    view: &ComparedView,
+    spec: &str,
+    samples: u32,
+) -> anyhow::Result<ViewJson> {
     let reference = to_rgb32(view.reference.clone());
     let exposure = auto_exposure(&reference);
     let label = &view.label;

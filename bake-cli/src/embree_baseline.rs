@@ -211,7 +211,7 @@ fn bake_mix(tracer: &Tracer, scene: &Scene, count: usize, rng: &mut SplitMix64) 
 ///
 /// # Errors
 /// When the harness cannot be built (no `libembree-dev` or no C compiler) or fails.
-pub fn compare(
+pub(crate) fn compare(
     scene: &Scene,
     count: usize,
     seed: u64,

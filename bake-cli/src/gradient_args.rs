@@ -11,7 +11,7 @@ use lightvol_sampler::gradient_estimator::GradientEstimator;
 /// Which estimator computes the per-node gradients (the command-line spelling of
 /// lightvol-sampler's `GradientEstimator`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum GradientEstimatorArg {
+pub(crate) enum GradientEstimatorArg {
     /// Oat 2005's central differences: six extra point projections per node at 1/16 of a
     /// cell (common random numbers); costs 6 × samples extra directions per node.
     Central,

@@ -7,24 +7,24 @@ use anyhow::Context;
 
 /// An RGB float image, row-major, row 0 at the top.
 #[derive(Clone, Debug)]
-pub struct Rgb32 {
+pub(crate) struct Rgb32 {
     /// Width in pixels.
-    pub width: usize,
+    pub(crate) width: usize,
     /// Height in pixels.
-    pub height: usize,
+    pub(crate) height: usize,
     /// Linear RGB, row-major.
-    pub pixels: Vec<[f32; 3]>,
+    pub(crate) pixels: Vec<[f32; 3]>,
 }
 
 impl Rgb32 {
     /// A black image.
-    pub fn new(width: usize, height: usize) -> Self {
+    pub(crate) fn new(width: usize, height: usize) -> Self {
         Self { width, height, pixels: vec![[0.0; 3]; width * height] }
     }
 
     /// Nearest-neighbour enlargement by an integer factor (for small plates).
     #[must_use]
-    pub fn upscale(&self, k: usize) -> Self {
+    pub(crate) fn upscale(&self, k: usize) -> Self {
         let k = k.max(1);
         let mut out = Self::new(self.width * k, self.height * k);
         for y in 0..out.height {
@@ -36,7 +36,7 @@ impl Rgb32 {
     }
 
     /// Sets a pixel (ignored outside the image).
-    pub fn set(&mut self, x: usize, y: usize, c: [f32; 3]) {
+    pub(crate) fn set(&mut self, x: usize, y: usize, c: [f32; 3]) {
         if x < self.width && y < self.height {
             self.pixels[y * self.width + x] = c;
         }
@@ -44,7 +44,7 @@ impl Rgb32 {
 }
 
 /// Writes an 8-bit RGB PNG atomically (temporary file, then rename).
-pub fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> anyhow::Result<()> {
+pub(crate) fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> anyhow::Result<()> {
     let mut bytes = std::io::Cursor::new(Vec::new());
     image::write_buffer_with_format(
         &mut bytes,
@@ -59,7 +59,7 @@ pub fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> a
 }
 
 /// Tone-maps a linear image by `exposure` (value mapped to 1.0 = 1/exposure) and writes it.
-pub fn write_png_linear(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()> {
+pub(crate) fn write_png_linear(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()> {
     let bytes: Vec<u8> =
         img.pixels.iter().flat_map(|p| p.map(|v| lightvol_core::color::srgb8(v * exposure))).collect();
     write_png_rgb8(path, img.width, img.height, &bytes)
@@ -67,7 +67,7 @@ pub fn write_png_linear(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Resu
 
 /// Writes `img` as a linear HDR OpenEXR (channels R, G, B, f32, row 0 at the top), with no
 /// exposure applied, byte-reproducible (attributes in a fixed order), atomically.
-pub fn write_exr_linear(path: &Path, img: &Rgb32) -> anyhow::Result<()> {
+pub(crate) fn write_exr_linear(path: &Path, img: &Rgb32) -> anyhow::Result<()> {
     use exr::prelude::*;
     let (w, h) = (img.width, img.height);
     let channel = |c: usize| -> Vec<f32> { img.pixels.iter().map(|p| p[c]).collect() };
@@ -90,7 +90,7 @@ pub fn write_exr_linear(path: &Path, img: &Rgb32) -> anyhow::Result<()> {
 
 /// Writes `img` by the output's extension: `.exr` linear HDR ([`write_exr_linear`]), else
 /// an sRGB PNG scaled by `exposure`.
-pub fn write_image(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()> {
+pub(crate) fn write_image(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
         write_exr_linear(path, img)
     } else {
@@ -100,33 +100,33 @@ pub fn write_image(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()
 
 /// Display value of a view's mean pixel under [`auto_exposure`]: a mid-grey, leaving
 /// headroom above it for the lit surfaces and the sky.
-pub const AUTO_EXPOSURE_MEAN: f64 = 0.35;
+pub(crate) const AUTO_EXPOSURE_MEAN: f64 = 0.35;
 
 /// The exposure that maps the mean pixel (mean of R, G and B over all pixels) to
 /// [`AUTO_EXPOSURE_MEAN`]; 1 for a black image.
 #[must_use]
-pub fn auto_exposure(img: &Rgb32) -> f32 {
+pub(crate) fn auto_exposure(img: &Rgb32) -> f32 {
     let mean: f64 =
         img.pixels.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>() / img.pixels.len() as f64;
     if mean > 0.0 { (AUTO_EXPOSURE_MEAN / mean) as f32 } else { 1.0 }
 }
 
 /// Blue (negative) - white (0) - red (positive) colour for a signed value in [-1, 1].
-pub fn diverging(t: f32) -> [f32; 3] {
+pub(crate) fn diverging(t: f32) -> [f32; 3] {
     let t = t.clamp(-1.0, 1.0);
     if t < 0.0 { [1.0 + t, 1.0 + t, 1.0] } else { [1.0, 1.0 - t, 1.0 - t] }
 }
 
 /// A line plot: named series of (x, y) points.
-pub struct Plot {
+pub(crate) struct Plot {
     /// Title above the plot.
-    pub title: String,
+    pub(crate) title: String,
     /// X axis label.
-    pub x_label: String,
+    pub(crate) x_label: String,
     /// Y axis label.
-    pub y_label: String,
+    pub(crate) y_label: String,
     /// Named series of (x, y) points.
-    pub series: Vec<(String, Vec<(f64, f64)>)>,
+    pub(crate) series: Vec<(String, Vec<(f64, f64)>)>,
 }
 
 const COLORS: [[u8; 3]; 6] =
@@ -152,7 +152,7 @@ impl Plot {
     }
 
     /// SVG with axes, ticks, labels and a legend.
-    pub fn to_svg(&self) -> String {
+    pub(crate) fn to_svg(&self) -> String {
         let (w, h, ml, mr, mt, mb) = (640.0, 420.0, 70.0, 150.0, 40.0, 55.0);
         let (x0, x1, y0, y1) = self.ranges();
         let sx = |x: f64| ml + (x - x0) / (x1 - x0) * (w - ml - mr);
@@ -229,7 +229,7 @@ impl Plot {
 
     /// PNG rendering of the same plot: grid, frame, series lines and markers, legend swatches
     /// (no text: the SVG carries the labels).
-    pub fn to_png_rgb8(&self) -> (usize, usize, Vec<u8>) {
+    pub(crate) fn to_png_rgb8(&self) -> (usize, usize, Vec<u8>) {
         let (w, h, ml, mr, mt, mb) = (640usize, 420usize, 70.0, 150.0, 40.0, 55.0);
         let (x0, x1, y0, y1) = self.ranges();
         let (wf, hf) = (w as f64, h as f64);
@@ -278,7 +278,7 @@ impl Plot {
     }
 
     /// Writes `stem.svg` and `stem.png`.
-    pub fn write(&self, stem: &Path) -> anyhow::Result<()> {
+    pub(crate) fn write(&self, stem: &Path) -> anyhow::Result<()> {
         let svg = stem.with_extension("svg");
         write_atomic(&svg, self.to_svg().as_bytes())?;
         let (w, h, px) = self.to_png_rgb8();
@@ -292,6 +292,6 @@ fn esc(s: &str) -> String {
 
 /// Writes bytes to `path` atomically (`lightvol_core::fs::write_atomic`: synced, renamed
 /// into place, nothing left behind on error), naming the path in the error.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
+pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> anyhow::Result<()> {
     lightvol_core::fs::write_atomic(path, bytes).with_context(|| format!("writing {}", path.display()))
 }

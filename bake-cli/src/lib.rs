@@ -1,32 +1,40 @@
 #![doc = include_str!("../README.md")]
+// A thin shell over the library crates: the entry points below are its only public items
+// (every other item is `pub(crate)`, checked by `tests/thin_shell.rs`), and a `pub` item in
+// one of its private modules is an error.
+#![deny(unreachable_pub)]
 
-pub mod adaptive_bake;
+mod adaptive_bake;
+mod bake_args;
 mod bench_scale;
-pub mod cli;
-pub mod cmd_bake;
-pub mod cmd_bake_surface;
-pub mod cmd_bench;
-pub mod cmd_cluster;
-pub mod cmd_compare;
-pub mod cmd_demo;
+mod cli;
+mod cmd_bake;
+mod cmd_bake_surface;
+mod cmd_bench;
+mod cmd_cluster;
+mod cmd_compare;
+mod cmd_demo;
 mod cmd_export;
-pub mod cmd_gpu;
-pub mod cmd_imse;
-pub mod cmd_info;
-pub mod cmd_inspect;
-pub mod cmd_lint;
-pub mod cmd_merge;
-pub mod cmd_proxies;
-pub mod cmd_render;
-pub mod cmd_render_surface;
-pub mod cmd_shader;
-pub mod cmd_table;
-pub mod compare_views;
-pub mod embree_baseline;
-pub mod gradient_args;
-pub mod imaging;
-pub mod memory_sweep;
-pub mod setup;
+mod cmd_gpu;
+mod cmd_imse;
+mod cmd_info;
+mod cmd_inspect;
+mod cmd_lint;
+mod cmd_merge;
+mod cmd_proxies;
+mod cmd_render;
+mod cmd_render_surface;
+mod cmd_shader;
+mod cmd_table;
+mod compare_views;
+mod embree_baseline;
+mod gradient_args;
+mod imaging;
+mod memory_sweep;
+mod progress;
+mod render_args;
+mod report_parts;
+mod setup;
 
 use std::ffi::OsString;
 use std::process::ExitCode;
@@ -72,9 +80,9 @@ where
     }
 }
 
-/// Runs a parsed command. (`slurm` and `k8s` need the raw command line: use
-/// [`run_from_args`] for them.)
-pub fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
+/// Runs a parsed command. (`slurm` and `k8s` need the raw command line: they go through
+/// [`run_from_args`].)
+fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
     match args.command {
         cli::Command::Bake(a) => cmd_bake::run(&a),
         cli::Command::BakeSurface(a) => cmd_bake_surface::run(&a),
@@ -137,6 +145,6 @@ fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
 
 /// The error and its context chain on one line.
 #[must_use]
-pub fn one_line(err: &anyhow::Error) -> String {
+fn one_line(err: &anyhow::Error) -> String {
     format!("{err:#}").replace('\n', " ")
 }

@@ -22,7 +22,7 @@ struct SweepJson<'a> {
 
 /// rel_rmse against log2 of the memory in KiB, one line per series.
 #[must_use]
-pub fn plot(scene: &str, report: &SweepReport) -> Plot {
+pub(crate) fn plot(scene: &str, report: &SweepReport) -> Plot {
     let mut series: Vec<(String, Vec<(f64, f64)>)> = Vec::new();
     for p in &report.points {
         // Memories span two orders of magnitude: a log axis (the plot's axis is linear).
@@ -42,7 +42,7 @@ pub fn plot(scene: &str, report: &SweepReport) -> Plot {
 
 /// Writes `memory_sweep.json`, `memory_sweep.svg` and `memory_sweep.png` of the study on
 /// the scene labelled `scene` into `dir`.
-pub fn write(dir: &Path, scene: &str, report: &SweepReport) -> anyhow::Result<()> {
+pub(crate) fn write(dir: &Path, scene: &str, report: &SweepReport) -> anyhow::Result<()> {
     let json = SweepJson { scene, report };
     write_atomic(&dir.join("memory_sweep.json"), serde_json::to_string_pretty(&json)?.as_bytes())?;
     plot(scene, report).write(&dir.join("memory_sweep"))

@@ -6,83 +6,83 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_sampler::TransportSettings;
-pub use lightvol_sampler::scene_setup::LoadedScene;
+pub(crate) use lightvol_sampler::scene_setup::LoadedScene;
 use lightvol_sampler::scene_setup::{self, GridChoice, GridError, LightOverrides, SceneSource, SetupError};
 use lightvol_sampler::{DVec3, LoadOptions, Method, Sun, UpAxis};
 use lightvol_volume::GridSpec;
 
 /// Where the scene comes from and how to light it.
 #[derive(Debug, Clone, Args)]
-pub struct SceneArgs {
+pub(crate) struct SceneArgs {
     /// A glTF (.gltf/.glb) or OBJ file, or `builtin:NAME` (city, interior, maze).
-    pub scene: String,
+    pub(crate) scene: String,
     /// Up axis of the file: glTF is +Y up by specification; many scenes are +Z up. lightvol
     /// works +Z up internally.
     #[arg(long, value_parser = ["y", "z"], default_value = "y")]
-    pub up: String,
+    pub(crate) up: String,
     /// Uniform scale applied to file positions (e.g. 0.001 for millimetres).
     #[arg(long, default_value_t = 1.0)]
-    pub scale: f64,
+    pub(crate) scale: f64,
     /// Sky radiance R,G,B over the upper hemisphere (replaces the scene's environment).
     #[arg(long, value_name = "R,G,B")]
-    pub sky: Option<String>,
+    pub(crate) sky: Option<String>,
     /// Ground radiance R,G,B below the horizon (with --sky).
     #[arg(long, value_name = "R,G,B")]
-    pub ground: Option<String>,
+    pub(crate) ground: Option<String>,
     /// A sun: direction towards it (in the scene file's frame), irradiance on a facing
     /// surface, optional angular radius in degrees (0 = directional light).
     #[arg(long, value_name = "DX,DY,DZ:INTENSITY[:ANGLE_DEG]", allow_hyphen_values = true)]
-    pub sun: Option<String>,
+    pub(crate) sun: Option<String>,
     /// Remove the scene's sun (e.g. to bake sky and bounce light only and add the sun at run
     /// time, as many engines do).
     #[arg(long, conflicts_with = "sun")]
-    pub no_sun: bool,
+    pub(crate) no_sun: bool,
     /// A latitude-longitude EXR environment map (replaces the scene's environment).
     #[arg(long, value_name = "FILE.exr")]
-    pub env: Option<PathBuf>,
+    pub(crate) env: Option<PathBuf>,
 }
 
 /// The grid: bounds and resolution (or spacing), and the SH order.
 #[derive(Debug, Clone, Args)]
-pub struct GridArgs {
+pub(crate) struct GridArgs {
     /// Grid bounds `MINX,MINY,MINZ,MAXX,MAXY,MAXZ` in the scene file's frame (glTF: +Y up;
     /// OBJ: per --up) (default: the built-in scene's recommended grid, or the scene bounds
     /// grown by 5%).
     #[arg(long, value_name = "X0,Y0,Z0,X1,Y1,Z1", allow_hyphen_values = true)]
-    pub bounds: Option<String>,
+    pub(crate) bounds: Option<String>,
     /// Nodes per axis `NX,NY,NZ` along the scene file's axes (each at least 2).
     #[arg(long, value_name = "NX,NY,NZ", conflicts_with = "spacing", allow_hyphen_values = true)]
-    pub res: Option<String>,
+    pub(crate) res: Option<String>,
     /// Node spacing (sets the resolution from the bounds).
     #[arg(long)]
-    pub spacing: Option<f64>,
+    pub(crate) spacing: Option<f64>,
     /// SH order: 2, 3 or 4 bands (4, 9 or 16 coefficients per channel).
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u32).range(2..=4))]
-    pub order: u32,
+    pub(crate) order: u32,
     /// Refuse bakes that would need more memory than this many MiB — the scene's geometry,
     /// ray tracer and textures, estimated before the scene is loaded, plus the grid's sums
     /// (default: half of the available memory).
     #[arg(long)]
-    pub max_memory_mib: Option<u64>,
+    pub(crate) max_memory_mib: Option<u64>,
 }
 
 /// How far paths go and which light counts directly (bake, surface bake and the path-traced
 /// references alike).
 #[derive(Debug, Clone, Args)]
-pub struct PathArgs {
+pub(crate) struct PathArgs {
     /// At most N diffuse bounces (0: the first surface's direct light only). Without it,
     /// paths are unbiased: 2 bounces, then Russian roulette.
     #[arg(long, value_name = "N")]
-    pub bounces: Option<u32>,
+    pub(crate) bounces: Option<u32>,
     /// With --bounces N: continue after the N bounces under Russian roulette (unbiased)
     /// instead of stopping.
     #[arg(long, requires = "bounces")]
-    pub russian_roulette: bool,
+    pub(crate) russian_roulette: bool,
     /// Which light counts when it reaches a probe or surface directly: `all`, `sky+indirect`
     /// (not the sun nor punctual lights, which engines often add at run time) or `indirect`
     /// (only light that bounced). Applies to the bake and to the reference alike.
     #[arg(long, default_value = "all", value_parser = ["all", "sky+indirect", "indirect"])]
-    pub light: String,
+    pub(crate) light: String,
 }
 
 impl Default for PathArgs {
@@ -96,7 +96,7 @@ impl PathArgs {
     /// The path settings (module docs of lightvol-sampler's `transport`): unbiased by
     /// default, else at most N bounces.
     #[must_use]
-    pub fn transport(&self) -> TransportSettings {
+    pub(crate) fn transport(&self) -> TransportSettings {
         let direct = lightvol_sampler::transport::DirectLight::parse(&self.light).unwrap_or_default();
         match self.bounces {
             None => TransportSettings { direct, ..TransportSettings::default() },
@@ -111,32 +111,32 @@ impl PathArgs {
 
     /// Whether no path option was given.
     #[must_use]
-    pub fn is_default(&self) -> bool {
+    pub(crate) fn is_default(&self) -> bool {
         self.bounces.is_none() && self.light == "all"
     }
 }
 
 /// Sampling options.
 #[derive(Debug, Clone, Args)]
-pub struct SampleArgs {
+pub(crate) struct SampleArgs {
     /// Samples per cell (prefilter, doi-paper), per node (doi-node) or directions per node
     /// (point, doi).
     #[arg(long, default_value_t = 256)]
-    pub samples: u32,
+    pub(crate) samples: u32,
     /// Path length and direct light.
     #[command(flatten)]
-    pub path: PathArgs,
+    pub(crate) path: PathArgs,
     /// Seed of every random stream (results are bit-identical for a seed).
     #[arg(long, default_value_t = 1)]
-    pub seed: u64,
+    pub(crate) seed: u64,
     /// Worker threads (default: all cores). Results do not depend on it.
     #[arg(long)]
-    pub threads: Option<usize>,
+    pub(crate) threads: Option<usize>,
     /// How prefilter/doi-paper node values come from their samples: `average` (Kontkanen & Laine
     /// Eq. 6) or `lsq[:LAMBDA]` (least squares over the domain of interest, regularised
     /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `fit` module).
     #[arg(long, default_value = "average")]
-    pub fit: lightvol_sampler::node_fit::Fit,
+    pub(crate) fit: lightvol_sampler::node_fit::Fit,
 }
 
 fn parse_floats<const N: usize>(what: &str, s: &str) -> anyhow::Result<[f64; N]> {
@@ -162,7 +162,7 @@ fn parse_rgb(what: &str, s: &str) -> anyhow::Result<[f64; 3]> {
 }
 
 /// Parses `DX,DY,DZ:INTENSITY[:ANGLE_DEG]`.
-pub fn parse_sun(s: &str) -> anyhow::Result<Sun> {
+pub(crate) fn parse_sun(s: &str) -> anyhow::Result<Sun> {
     let parts: Vec<&str> = s.split(':').collect();
     if !(2..=3).contains(&parts.len()) {
         bail!("--sun: expected DX,DY,DZ:INTENSITY[:ANGLE_DEG], got '{s}'");
@@ -192,13 +192,13 @@ pub fn parse_sun(s: &str) -> anyhow::Result<Sun> {
 impl SceneArgs {
     /// Loads (or builds) the scene and applies the light options; loader warnings go to
     /// standard error.
-    pub fn load(&self) -> anyhow::Result<LoadedScene> {
+    pub(crate) fn load(&self) -> anyhow::Result<LoadedScene> {
         self.load_within(scene_setup::memory_limit(None))
     }
 
     /// [`load`](Self::load) with every placement of an instanced mesh written out as its
     /// own triangles and lightmap object (the surface bake and its renders).
-    pub fn load_flattened(&self) -> anyhow::Result<LoadedScene> {
+    pub(crate) fn load_flattened(&self) -> anyhow::Result<LoadedScene> {
         let loaded = self.load_quiet_with(scene_setup::memory_limit(None), true)?;
         for w in &loaded.scene.report.warnings {
             eprintln!("warning: {w}");
@@ -209,7 +209,7 @@ impl SceneArgs {
     /// [`load`](Self::load), refusing a scene whose estimated memory
     /// (`lightvol_sampler::estimate`: geometry, ray tracer, textures) exceeds `limit` bytes
     /// before its geometry is read.
-    pub fn load_within(&self, limit: u128) -> anyhow::Result<LoadedScene> {
+    pub(crate) fn load_within(&self, limit: u128) -> anyhow::Result<LoadedScene> {
         let loaded = self.load_quiet_within(limit)?;
         for w in &loaded.scene.report.warnings {
             eprintln!("warning: {w}");
@@ -218,7 +218,7 @@ impl SceneArgs {
     }
 
     /// As [`load`](Self::load), leaving the warnings in the scene's report only.
-    pub fn load_quiet(&self) -> anyhow::Result<LoadedScene> {
+    pub(crate) fn load_quiet(&self) -> anyhow::Result<LoadedScene> {
         self.load_quiet_within(scene_setup::memory_limit(None))
     }
 
@@ -260,19 +260,19 @@ impl SceneArgs {
 impl GridArgs {
     /// The bake's memory limit in bytes (scene, ray tracer and grid together).
     #[must_use]
-    pub fn memory_limit(&self) -> u128 {
+    pub(crate) fn memory_limit(&self) -> u128 {
         scene_setup::memory_limit(self.max_memory_mib)
     }
 
     /// SH coefficients per channel.
     #[must_use]
-    pub fn coeffs(&self) -> usize {
+    pub(crate) fn coeffs(&self) -> usize {
         (self.order * self.order) as usize
     }
 
     /// The grid from the options, the built-in recommendation, or the scene bounds; refuses
     /// invalid or oversized grids before anything is allocated.
-    pub fn grid(&self, scene: &LoadedScene) -> anyhow::Result<GridSpec> {
+    pub(crate) fn grid(&self, scene: &LoadedScene) -> anyhow::Result<GridSpec> {
         let bounds = match &self.bounds {
             Some(b) => {
                 let v = parse_floats::<6>("--bounds", b)?;
@@ -304,19 +304,19 @@ impl GridArgs {
 impl SampleArgs {
     /// The path settings ([`PathArgs::transport`]).
     #[must_use]
-    pub fn transport(&self) -> TransportSettings {
+    pub(crate) fn transport(&self) -> TransportSettings {
         self.path.transport()
     }
 }
 
 /// Parses a method name.
-pub fn parse_method(s: &str) -> anyhow::Result<Method> {
+pub(crate) fn parse_method(s: &str) -> anyhow::Result<Method> {
     Ok(lightvol_sampler::eval::entries::parse_method(s)?)
 }
 
 /// The worker threads to use: `threads` (`--threads`), else `SLURM_CPUS_PER_TASK` when the
 /// scheduler sets it, else `None` (the global pool, all cores).
-pub fn resolve_threads(threads: Option<usize>) -> anyhow::Result<Option<usize>> {
+pub(crate) fn resolve_threads(threads: Option<usize>) -> anyhow::Result<Option<usize>> {
     match threads.or_else(|| lightvol_sampler::shard::threads_from_env(|k| std::env::var(k).ok())) {
         Some(0) => bail!("--threads must be at least 1"),
         t => Ok(t),
@@ -325,7 +325,10 @@ pub fn resolve_threads(threads: Option<usize>) -> anyhow::Result<Option<usize>> 
 
 /// Runs `f` on a rayon pool of [`resolve_threads`] threads, or on the global pool (all
 /// cores).
-pub fn with_threads<T: Send>(threads: Option<usize>, f: impl FnOnce() -> T + Send) -> anyhow::Result<T> {
+pub(crate) fn with_threads<T: Send>(
+    threads: Option<usize>,
+    f: impl FnOnce() -> T + Send,
+) -> anyhow::Result<T> {
     match resolve_threads(threads)? {
         None => Ok(f()),
         Some(n) => {

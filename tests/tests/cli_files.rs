@@ -7,7 +7,7 @@ use lightvol_volume::{GridSpec, IrradianceVolume};
 
 fn run(args: &[&str]) -> anyhow_like::Result {
     lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()))
-        .map_err(|e| lightvol::one_line(&e))
+        .map_err(|e| format!("{e:#}").replace('\n', " "))
 }
 
 mod anyhow_like {

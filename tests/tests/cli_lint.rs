@@ -47,7 +47,7 @@ fn lint(path: &std::path::Path) -> ExitCode {
         "--res",
         "9,9,5",
     ];
-    lightvol::run_from_args(args).unwrap_or_else(|e| panic!("{}", lightvol::one_line(&e)))
+    lightvol::run_from_args(args).unwrap_or_else(|e| panic!("{e:#}"))
 }
 
 #[test]

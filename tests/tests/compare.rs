@@ -13,7 +13,7 @@ fn run(args: &[&str]) {
     let code = lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()));
     match code {
         Ok(c) => assert_eq!(c, std::process::ExitCode::SUCCESS),
-        Err(e) => panic!("lightvol {}: {}", args.join(" "), lightvol::one_line(&e)),
+        Err(e) => panic!("lightvol {}: {e:#}", args.join(" ")),
     }
 }
 
@@ -177,7 +177,7 @@ fn bad_view_options_are_refused() {
         let written = out.read_dir().map(|d| d.count()).unwrap_or(0);
         assert!(written == 0, "{extra:?} wrote into {}", out.display());
         assert!(!out.exists() || extra[0].starts_with("--camera="), "{extra:?} made {}", out.display());
-        lightvol::one_line(&e)
+        format!("{e:#}").replace('\n', " ")
     };
     assert_eq!(err(&["--camera", "overview", "--view-samples", "0"]), "--view-samples must be at least 1");
     assert_eq!(

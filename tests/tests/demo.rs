@@ -41,7 +41,7 @@ fn demo_quick_writes_everything() {
     let out = dir.path().join("demo");
     let code =
         lightvol::run_from_args(["lightvol", "demo", "--quick", "--quiet", "-o", out.to_str().unwrap()])
-            .unwrap_or_else(|e| panic!("demo --quick: {}", lightvol::one_line(&e)));
+            .unwrap_or_else(|e| panic!("demo --quick: {e:#}"));
     assert_eq!(code, std::process::ExitCode::SUCCESS);
     let index = std::fs::read_to_string(out.join("index.html")).expect("index.html");
     for scene in ["city", "interior", "maze"] {

@@ -97,7 +97,7 @@ fn run(args: &[&str]) {
     let code = lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()));
     match code {
         Ok(c) => assert_eq!(c, std::process::ExitCode::SUCCESS),
-        Err(e) => panic!("lightvol {}: {}", args.join(" "), lightvol::one_line(&e)),
+        Err(e) => panic!("lightvol {}: {e:#}", args.join(" ")),
     }
 }
 

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 /// Runs `lightvol ARGS` in-process; an error becomes the line the binary would print.
 pub fn run(args: &[&str]) -> Result<ExitCode, String> {
     lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()))
-        .map_err(|e| lightvol::one_line(&e))
+        .map_err(|e| format!("{e:#}").replace('\n', " "))
 }
 
 /// Runs `lightvol ARGS` and panics with the command and its error line if it fails.

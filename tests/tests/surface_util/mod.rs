@@ -126,5 +126,5 @@ pub fn write_gltf(dir: &Path, file: &str, meshes: &[Mesh]) -> PathBuf {
 /// Runs the CLI in-process; `Err` is the one-line error.
 pub fn run(args: &[&str]) -> Result<std::process::ExitCode, String> {
     lightvol::run_from_args(std::iter::once("lightvol").chain(args.iter().copied()))
-        .map_err(|e| lightvol::one_line(&e))
+        .map_err(|e| format!("{e:#}").replace('\n', " "))
 }

@@ -1,0 +1,299 @@
+//! The options of `lightvol bake` (its octree options among them) and the validated
+//! lightvol-sampler `BakeRequest` they give, with the request's errors in the options' words.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, bail};
+use clap::Args;
+use lightvol_sampler::adaptive::AdaptiveSettings;
+use lightvol_sampler::eval::entries::parse_bake_method;
+use lightvol_sampler::provenance;
+use lightvol_sampler::request::{AdaptiveRequest, BakeRequest, Conflict, GradientChoice, RequestError};
+use lightvol_volume::GridSpec;
+
+use crate::gradient_args::GradientEstimatorArg;
+use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs};
+
+/// `lightvol bake`.
+#[derive(Debug, Args)]
+pub(crate) struct BakeArgs {
+    /// Scene and lights.
+    #[command(flatten)]
+    pub(crate) scene: SceneArgs,
+    /// Grid.
+    #[command(flatten)]
+    pub(crate) grid: GridArgs,
+    /// Sampling.
+    #[command(flatten)]
+    pub(crate) sampling: SampleArgs,
+    /// Sampling method: `doi` (default: each node point-sampled where it is in the domain of
+    /// interest, at a point relocated through its closest back face or over Eq. 6's support
+    /// where it is not), `doi-paper` (Kontkanen & Laine 2006: Eq. 5-6 restricted to the
+    /// domain of interest, Algorithm 2), `doi-node` (Algorithm 2 over each node's own cell),
+    /// `point` (Eq. 4 at each node), `prefilter` (Eq. 5-6, no domain test); or point
+    /// sampling with an engine's leak fix: `point+validity` (invalid probes dilated),
+    /// `point+apv` (Unity APV: virtual offset, dilation, and a validity mask in the file for
+    /// validity-weighted lookups), `point+vlm` (Unreal) or `point+ddgi` (DDGI relocation).
+    #[arg(long, default_value = "doi")]
+    /// Method name.
+    pub(crate) method: String,
+    /// Bake only shard K of N (by cells, or nodes for point sampling), or `auto`: the shard
+    /// from the job scheduler (Slurm array variables, Kubernetes `JOB_COMPLETION_INDEX` or
+    /// AWS Batch `AWS_BATCH_JOB_ARRAY_INDEX` with --shards, or `LIGHTVOL_SHARD=K/N`). The
+    /// shard's exact sums are written beside the output as `<stem>.lvacc`; `lightvol merge`
+    /// combines shards into the volume the whole bake gives, bit for bit.
+    #[arg(long, value_name = "K/N|auto")]
+    pub(crate) shard: Option<String>,
+    /// Number of shards, for `--shard auto` with Kubernetes or AWS Batch indices (checked
+    /// against the Slurm array or `LIGHTVOL_SHARD` where those give it).
+    #[arg(long, value_name = "N")]
+    pub(crate) shards: Option<u32>,
+    /// Also write the exact accumulator (`<stem>.lvacc`) of an unsharded bake: its Eq. 6
+    /// sums as `merge` reads them (for example to finalize it again with `merge`).
+    #[arg(long)]
+    pub(crate) keep_accumulator: bool,
+    /// Also bake per-node SH irradiance gradients (Oat 2005) and store them in the EXR:
+    /// `basis` (from the bake's own samples, no extra rays; prefilter/doi-paper) or
+    /// `central` (six extra point projections per node at 1/16 cell). Without a value, the
+    /// method's own: `basis` for prefilter and doi-paper, `central` for the others.
+    #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1)]
+    pub(crate) gradients: Option<Option<GradientEstimatorArg>>,
+    /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
+    #[command(flatten)]
+    pub(crate) adaptive: AdaptiveArgs,
+    /// Output volume (native multi-part EXR).
+    #[arg(short, long, default_value = "volume.exr")]
+    pub(crate) output: PathBuf,
+    /// Print the bake statistics as JSON on stdout.
+    #[arg(long)]
+    pub(crate) json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub(crate) quiet: bool,
+}
+
+/// Options of `bake --adaptive` (each heuristic with its threshold, Oat 2005, "Subdivision
+/// Heuristics"). Defaults are lightvol-sampler's `AdaptiveSettings::default()`; giving any
+/// of them without `--adaptive` is an error.
+#[derive(Debug, Clone, Args)]
+pub(crate) struct AdaptiveArgs {
+    /// Bake an adaptive octree volume: the grid options give level 0, cells split by the
+    /// heuristics below down to --max-level, redundant nodes are culled.
+    #[arg(long)]
+    pub(crate) adaptive: bool,
+    /// Every cell of the levels below this one is split (nodes of levels up to it are never
+    /// culled). Default 0.
+    #[arg(long, value_name = "L")]
+    pub(crate) min_level: Option<u32>,
+    /// The finest level (level l has cells 2^l times smaller than the grid's); at most 8.
+    /// Default 2.
+    #[arg(long, value_name = "L")]
+    pub(crate) max_level: Option<u32>,
+    /// Split a cell when the largest coefficient change along its edges, relative to the
+    /// volume's mean DC value, is at least T (`off` disables the heuristic). Default 0.25.
+    #[arg(long, value_name = "T|off", allow_hyphen_values = true)]
+    pub(crate) gradient_threshold: Option<String>,
+    /// Do not split cells because scene geometry lies inside them.
+    #[arg(long)]
+    pub(crate) no_geometry_split: bool,
+    /// Split a cell when its edge exceeds R times the harmonic-mean scene depth at a corner
+    /// (`off` disables the heuristic). Default 1.
+    #[arg(long, value_name = "R|off", allow_hyphen_values = true)]
+    pub(crate) depth_ratio: Option<String>,
+    /// Rays per node for the harmonic-mean depth. Default 32.
+    #[arg(long, value_name = "N")]
+    pub(crate) depth_rays: Option<u32>,
+    /// Cull a node whose difference from the coarser levels' interpolation is within this
+    /// fraction of the volume's mean DC value. Default 0.01.
+    #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
+    pub(crate) cull_tolerance: Option<f64>,
+    /// Memory budget, stated as the node count of a uniform grid of the same memory: the
+    /// octree's bytes (coefficients, base weights, 8-byte keys, split bitmaps) stay within
+    /// N × (3·coeffs + 1) × 4 bytes, the bytes of N uniform nodes with their weights.
+    #[arg(long, value_name = "N")]
+    pub(crate) node_budget: Option<u64>,
+    /// With --shard: bake shard K/N of refinement level L (1..=--max-level) from the
+    /// complete shard sets of the levels below (--from-shards), writing `<stem>.lvref`.
+    /// Without --level, --shard bakes level 0 (the base grid) and writes `<stem>.lvacc`.
+    #[arg(long, value_name = "L")]
+    pub(crate) level: Option<u32>,
+    /// Shard files of a level-by-level adaptive bake: the level-0 `.lvacc` set and the
+    /// `.lvref` sets of levels 1, 2, … (each complete). With --shard and --level, the levels
+    /// below L; without --shard, every level: the shards are assembled into the volume the
+    /// whole bake gives, byte for byte.
+    #[arg(long, value_name = "FILE", num_args = 1..)]
+    pub(crate) from_shards: Vec<PathBuf>,
+}
+
+fn threshold(name: &str, s: Option<&str>, default: Option<f64>) -> anyhow::Result<Option<f64>> {
+    let Some(s) = s else { return Ok(default) };
+    if s.trim() == "off" {
+        return Ok(None);
+    }
+    let t: f64 = s.trim().parse().with_context(|| format!("{name}: '{s}' is not a number or 'off'"))?;
+    if !(t.is_finite() && t > 0.0) {
+        bail!("{name} must be a positive finite number or 'off', got {s}");
+    }
+    Ok(Some(t))
+}
+
+/// Bytes of `nodes` uniform nodes with their weights (`IrradianceVolume::memory_bytes`).
+#[must_use]
+pub(crate) fn node_budget_bytes(nodes: u64, coeffs: usize) -> u128 {
+    u128::from(nodes) * (3 * coeffs as u128 + 1) * 4
+}
+
+impl AdaptiveArgs {
+    /// The options given without `--adaptive`, if any.
+    #[must_use]
+    pub(crate) fn stray_options(&self) -> Vec<&'static str> {
+        let given = [
+            ("--min-level", self.min_level.is_some()),
+            ("--max-level", self.max_level.is_some()),
+            ("--gradient-threshold", self.gradient_threshold.is_some()),
+            ("--no-geometry-split", self.no_geometry_split),
+            ("--depth-ratio", self.depth_ratio.is_some()),
+            ("--depth-rays", self.depth_rays.is_some()),
+            ("--cull-tolerance", self.cull_tolerance.is_some()),
+            ("--node-budget", self.node_budget.is_some()),
+            ("--level", self.level.is_some()),
+            ("--from-shards", !self.from_shards.is_empty()),
+        ];
+        if self.adaptive { Vec::new() } else { given.iter().filter(|g| g.1).map(|g| g.0).collect() }
+    }
+
+    /// The sampler's settings, validated (one clear error each).
+    pub(crate) fn settings(&self, coeffs: usize) -> anyhow::Result<AdaptiveSettings> {
+        let d = AdaptiveSettings::default();
+        let cull_tolerance = self.cull_tolerance.unwrap_or(d.cull_tolerance);
+        if !(cull_tolerance.is_finite() && cull_tolerance >= 0.0) {
+            bail!("--cull-tolerance must be finite and >= 0, got {cull_tolerance}");
+        }
+        let max = lightvol_volume::adaptive::MAX_LEVEL;
+        let (min_level, max_level) =
+            (self.min_level.unwrap_or(d.min_level), self.max_level.unwrap_or(d.max_level));
+        if max_level > max || min_level > max_level {
+            bail!("--min-level {min_level} and --max-level {max_level} need min <= max <= {max}");
+        }
+        let memory_budget = match self.node_budget {
+            None => None,
+            Some(0) => bail!("--node-budget must be at least 1"),
+            Some(n) => Some(
+                usize::try_from(node_budget_bytes(n, coeffs))
+                    .map_err(|_| anyhow::anyhow!("--node-budget {n} is too large"))?,
+            ),
+        };
+        let depth_ratio_threshold =
+            threshold("--depth-ratio", self.depth_ratio.as_deref(), d.depth_ratio_threshold)?;
+        let depth_rays = self.depth_rays.unwrap_or(d.depth_rays);
+        if depth_ratio_threshold.is_some() && depth_rays == 0 {
+            bail!("--depth-rays must be at least 1 with the depth heuristic on");
+        }
+        let s = AdaptiveSettings {
+            min_level,
+            max_level,
+            gradient_threshold: threshold(
+                "--gradient-threshold",
+                self.gradient_threshold.as_deref(),
+                d.gradient_threshold,
+            )?,
+            geometry: !self.no_geometry_split,
+            depth_ratio_threshold,
+            depth_rays,
+            cull_tolerance,
+            memory_budget,
+        };
+        s.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+        Ok(s)
+    }
+}
+
+/// The bake request of the options (the shard resolved from `--shard`, `--shards` and the
+/// scheduler's environment), validated.
+pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> anyhow::Result<BakeRequest> {
+    let shard = lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
+        std::env::var(k).ok()
+    })?;
+    let request = BakeRequest {
+        method: parse_bake_method(&args.method)?,
+        samples: args.sampling.samples,
+        coeffs: args.grid.coeffs(),
+        seed: args.sampling.seed,
+        transport: args.sampling.transport(),
+        fit: args.sampling.fit,
+        gradients: args
+            .gradients
+            .map(|g| g.map_or(GradientChoice::MethodDefault, |e| GradientChoice::Estimator(e.into()))),
+        shard: args.shard.is_some().then_some(shard),
+        keep_accumulator: args.keep_accumulator,
+        adaptive,
+    };
+    request.validate().map_err(request_error)?;
+    Ok(request)
+}
+
+/// A refused request, in the options' words.
+pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
+    let option = |c: Conflict| match c {
+        Conflict::Adaptive => "--adaptive".to_owned(),
+        Conflict::Shard => "--shard".to_owned(),
+        Conflict::KeepAccumulator => "--keep-accumulator".to_owned(),
+        Conflict::Gradients => "--gradients".to_owned(),
+        Conflict::Fit(fit) => format!("--fit {fit}"),
+    };
+    match e {
+        RequestError::ZeroSamples => anyhow::anyhow!("--samples must be at least 1"),
+        RequestError::Baseline { baseline, with } => anyhow::anyhow!(
+            "{} cannot be combined with --method {} (the engine baselines bake a whole uniform grid)",
+            option(with),
+            baseline.name()
+        ),
+        RequestError::Adaptive(c @ Conflict::KeepAccumulator) => anyhow::anyhow!(
+            "--adaptive cannot be combined with {} (shard an octree bake with --shard and --level)",
+            option(c)
+        ),
+        RequestError::Adaptive(c @ Conflict::Gradients) => {
+            anyhow::anyhow!(
+                "--adaptive cannot be combined with {} (the octree stores no gradients)",
+                option(c)
+            )
+        }
+        RequestError::Adaptive(c) => {
+            anyhow::anyhow!(
+                "--adaptive cannot be combined with {} (the octree levels use Eq. 6's average)",
+                option(c)
+            )
+        }
+        RequestError::LevelNeedsShard => anyhow::anyhow!("--level needs --shard K/N (or --shard auto)"),
+        RequestError::BaseLevelFromShards => anyhow::anyhow!(
+            "level 0 is baked from the scene alone: drop --from-shards, or bake a level >= 1 with --level L"
+        ),
+        RequestError::LevelNeedsShards(l) => {
+            anyhow::anyhow!("--level {l} needs the shard files of levels 0..{l} (--from-shards)")
+        }
+        RequestError::FitNeedsCells { fit, method } => anyhow::anyhow!(
+            "--fit {fit} needs cell samples (--method prefilter or doi-paper); {} samples per node",
+            lightvol_sampler::eval::entries::method_name(method)
+        ),
+        RequestError::FitWithGradients(fit) => anyhow::anyhow!(
+            "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
+        ),
+        RequestError::BasisNeedsCells(_) => anyhow::anyhow!(
+            "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
+        ),
+    }
+}
+
+/// The settings key of a bake of `request` on `grid` ([`lightvol_sampler::provenance`]).
+pub(crate) fn bake_key(loaded: &LoadedScene, grid: &GridSpec, request: &BakeRequest, label: &str) -> String {
+    let adaptive = request.adaptive.map(|a| a.settings);
+    provenance::bake_key(
+        &loaded.scene,
+        grid,
+        label,
+        request.samples,
+        request.coeffs,
+        &request.transport,
+        adaptive.as_ref(),
+    )
+}
