@@ -196,6 +196,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     scene_hash: hash.clone(),
                     units: "relative".into(),
                     frame: loaded.frame,
+                    settings: Some(request.record()),
                 };
                 let path = args.output.with_extension("lvacc");
                 write_accumulator(&path, &out.accumulator, &meta)
@@ -267,6 +268,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         scene_hash: hash,
         units: "relative".into(),
         frame: loaded.frame,
+        settings: Some(request.record()),
     };
     let vol = vol.with_metadata(meta);
     write_adaptive_exr(&args.output, &vol).with_context(|| format!("writing {}", args.output.display()))?;

@@ -229,15 +229,18 @@ fn run_baseline(args: &BakeArgs, request: &BakeRequest, baseline: Baseline) -> a
         Ok((bake, bvh_seconds, t1.elapsed().as_secs_f64()))
     })??;
     let key = bake_key(&loaded, &grid, request, name);
-    let meta = provenance::bake_metadata(
-        &loaded.scene,
-        loaded.frame,
-        &key,
-        name,
-        bake.rays.sampling,
-        request.seed,
-        (0, 1),
-    );
+    let meta = lightvol_volume::BakeMetadata {
+        settings: Some(request.record()),
+        ..provenance::bake_metadata(
+            &loaded.scene,
+            loaded.frame,
+            &key,
+            name,
+            bake.rays.sampling,
+            request.seed,
+            (0, 1),
+        )
+    };
     let vol = bake.volume.clone().with_metadata(meta);
     write_exr(&args.output, &vol, &ExrOptions::default())
         .with_context(|| format!("writing {}", args.output.display()))?;

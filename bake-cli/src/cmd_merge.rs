@@ -167,7 +167,7 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     let (vol, fill) = match lightvol_sampler::node_fit::MassMatrix::from_accumulator(&acc) {
         None => acc.finalize(),
         Some(mass) => {
-            let lambda = lsq_lambda(&meta.method).with_context(|| {
+            let lambda = lsq_lambda(&meta).with_context(|| {
                 format!(
                     "the shards carry a mass matrix but their method '{}' names no least-squares fit",
                     meta.method
@@ -207,13 +207,21 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// λ of a bake labelled `METHOD fit=lsq:λ` (as `bake --fit lsq` labels its metadata).
-fn lsq_lambda(method: &str) -> Option<f64> {
-    let fit: lightvol_sampler::node_fit::Fit =
-        method.split_whitespace().find_map(|w| w.strip_prefix("fit="))?.parse().ok()?;
+/// λ of a least-squares bake: from the typed settings record, or, in files written
+/// before it, from the method label `METHOD fit=lsq:λ`.
+fn lsq_lambda(meta: &BakeMetadata) -> Option<f64> {
+    use lightvol_sampler::node_fit::Fit;
+    use lightvol_volume::FitRecord;
+    if let Some(record) = &meta.settings {
+        return match record.fit {
+            FitRecord::LeastSquares { lambda } => Some(lambda),
+            FitRecord::Average => None,
+        };
+    }
+    let fit: Fit = meta.method.split_whitespace().find_map(|w| w.strip_prefix("fit="))?.parse().ok()?;
     match fit {
-        lightvol_sampler::node_fit::Fit::LeastSquares { lambda } => Some(lambda),
-        lightvol_sampler::node_fit::Fit::Average => None,
+        Fit::LeastSquares { lambda } => Some(lambda),
+        Fit::Average => None,
     }
 }
 

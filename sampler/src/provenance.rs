@@ -72,7 +72,8 @@ pub fn surface_key(scene: &Scene, settings: &impl std::fmt::Debug, transport: &T
 
 /// The metadata of a volume baked from `scene` (in the file frame `frame`) under the method
 /// name `label`, keyed by [`bake_key`] ([`scene_hash`] of it): `samples` sampling rays,
-/// `seed`, shard `(k, n)`.
+/// `seed`, shard `(k, n)`; callers add the typed record of its settings
+/// ([`BakeRequest::record`](crate::request::BakeRequest::record)) as `settings`.
 #[must_use]
 pub fn bake_metadata(
     scene: &Scene,
@@ -92,6 +93,7 @@ pub fn bake_metadata(
         scene_hash: scene_hash(scene, key),
         units: "relative".into(),
         frame,
+        settings: None,
     }
 }
 

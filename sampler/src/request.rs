@@ -6,7 +6,9 @@
 //! `lightvol bake` builds a [`BakeRequest`] from its options and calls these; the octree
 //! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
 
-use lightvol_volume::{FillReport, GridSpec, IrradianceVolume, VolumeGradients};
+use lightvol_volume::{
+    BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, OctreeRecord, VolumeGradients,
+};
 
 use crate::adaptive::AdaptiveSettings;
 use crate::baselines::Baseline;
@@ -126,6 +128,35 @@ impl BakeRequest {
         match self.effective_fit() {
             Fit::Average => self.method_name().to_owned(),
             fit => format!("{} fit={fit}", self.method_name()),
+        }
+    }
+
+    /// The typed record of the method and settings that every file of this bake carries
+    /// ([`BakeRecord`]).
+    #[must_use]
+    pub fn record(&self) -> BakeRecord {
+        BakeRecord {
+            method: self.method_name().to_owned(),
+            samples_per_unit: self.samples,
+            coeffs: self.coeffs,
+            fit: match self.effective_fit() {
+                Fit::Average => FitRecord::Average,
+                Fit::LeastSquares { lambda } => FitRecord::LeastSquares { lambda },
+            },
+            gradients: self.estimator().map(|e| e.name().to_owned()),
+            bounces: self.transport.bounces,
+            russian_roulette: self.transport.russian_roulette,
+            direct_light: self.transport.direct.name().to_owned(),
+            octree: self.adaptive.map(|a| OctreeRecord {
+                min_level: a.settings.min_level,
+                max_level: a.settings.max_level,
+                gradient_threshold: a.settings.gradient_threshold,
+                geometry: a.settings.geometry,
+                depth_ratio_threshold: a.settings.depth_ratio_threshold,
+                depth_rays: a.settings.depth_rays,
+                cull_tolerance: a.settings.cull_tolerance,
+                memory_budget: a.settings.memory_budget,
+            }),
         }
     }
 
@@ -376,15 +407,18 @@ pub fn bake_uniform(
             (out, Extra::Mass(mass))
         }
     };
-    let meta = crate::provenance::bake_metadata(
-        scene,
-        provenance.frame,
-        provenance.key,
-        &request.label(),
-        output.stats.rays.sampling,
-        request.seed,
-        settings.shard,
-    );
+    let meta = lightvol_volume::BakeMetadata {
+        settings: Some(request.record()),
+        ..crate::provenance::bake_metadata(
+            scene,
+            provenance.frame,
+            provenance.key,
+            &request.label(),
+            output.stats.rays.sampling,
+            request.seed,
+            settings.shard,
+        )
+    };
     if request.writes_accumulator() {
         // Auxiliary sums do not change what the accumulator finalizes to.
         match &extra {
@@ -436,6 +470,29 @@ mod tests {
         assert_eq!(BakeRequest { fit: LSQ, ..grid(Method::Point) }.validate(), Ok(()));
         assert_eq!(BakeRequest { fit: LSQ, ..grid(Method::Point) }.label(), "point");
         assert_eq!(BakeRequest { fit: LSQ, ..grid(Method::DoiPaper) }.label(), "doi-paper fit=lsq:0.1");
+    }
+
+    #[test]
+    fn the_record_states_every_setting() {
+        let r = BakeRequest {
+            fit: LSQ,
+            coeffs: 16,
+            transport: TransportSettings {
+                bounces: 3,
+                russian_roulette: false,
+                ..TransportSettings::default()
+            },
+            ..grid(Method::DoiPaper)
+        };
+        let rec = r.record();
+        assert_eq!((rec.method.as_str(), rec.samples_per_unit, rec.coeffs), ("doi-paper", 16, 16));
+        assert_eq!(rec.fit, FitRecord::LeastSquares { lambda: 0.1 });
+        assert_eq!((rec.bounces, rec.russian_roulette, rec.direct_light.as_str()), (3, false, "all"));
+        assert_eq!((rec.gradients, rec.octree), (None, None));
+        let g = BakeRequest { gradients: Some(GradientChoice::MethodDefault), ..grid(Method::Doi) }.record();
+        assert_eq!((g.gradients.as_deref(), g.fit), (Some("central"), FitRecord::Average));
+        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), 16).record();
+        assert_eq!(apv.method, "point+apv");
     }
 
     #[test]

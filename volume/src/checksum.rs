@@ -46,6 +46,13 @@ pub fn volume_checksum(vol: &IrradianceVolume) -> u64 {
     for v in [m.samples, m.seed, u64::from(m.shard_index), u64::from(m.shard_count)] {
         h.write(&v.to_le_bytes());
     }
+    // The typed settings record, where the file has one (files without it keep the checksum
+    // they always had); serde_json writes it the same way every time (fields in declaration
+    // order, shortest round-trip floats).
+    if let Some(settings) = &m.settings {
+        h.write_str("settings");
+        h.write_str(&serde_json::to_string(settings).unwrap_or_default());
+    }
     for v in vol.data().iter().chain(vol.weights()) {
         h.write(&v.to_bits().to_le_bytes());
     }

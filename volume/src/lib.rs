@@ -29,4 +29,4 @@ pub use fill::FillReport;
 pub use gradient::{GradientLookup, VolumeGradients};
 pub use grid::{GridSpec, Placement};
 pub use validity::ValidityMask;
-pub use volume::{BakeMetadata, IrradianceVolume};
+pub use volume::{BakeMetadata, BakeRecord, FitRecord, IrradianceVolume, OctreeRecord};

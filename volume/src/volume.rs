@@ -31,8 +31,70 @@ pub fn check_coeffs(coeffs: usize) -> Result<(), VolumeError> {
     if SUPPORTED_COEFFS.contains(&coeffs) { Ok(()) } else { Err(VolumeError::UnsupportedCoeffs(coeffs)) }
 }
 
+/// The bake method and every setting that shaped a volume, as a typed record: what the
+/// free-text [`BakeMetadata::method`] label says, field by field, for programs that read
+/// files (a merge finds the least-squares weight here, an engine tool the bounce count).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BakeRecord {
+    /// The method: `point`, `prefilter`, `doi`, `doi-paper`, `doi-node` (Kontkanen & Laine
+    /// 2006 Eq. 4-6, Algorithm 2) or an engine baseline (`point+apv`, ...).
+    pub method: String,
+    /// Samples per cell (prefilter, doi-paper), per node (doi-node) or directions per node
+    /// (point, doi, the baselines).
+    pub samples_per_unit: u32,
+    /// SH coefficients per channel.
+    pub coeffs: usize,
+    /// The node fit.
+    pub fit: FitRecord,
+    /// The gradient estimator (`central`, `basis`), when gradients were baked (\[Oat05\]).
+    pub gradients: Option<String>,
+    /// Diffuse bounces traced unconditionally.
+    pub bounces: u32,
+    /// Whether paths continued under Russian roulette after `bounces` (unbiased).
+    pub russian_roulette: bool,
+    /// Which light counted when it reached a probe directly (`all`, `sky+indirect`,
+    /// `indirect`).
+    pub direct_light: String,
+    /// The octree settings of an adaptive bake (\[Oat05\], "Subdivision Heuristics").
+    pub octree: Option<OctreeRecord>,
+}
+
+/// How node values came from their samples.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FitRecord {
+    /// Kontkanen & Laine Eq. 6: each node the weighted average over its support.
+    Average,
+    /// Regularised least squares over the domain of interest with weight `lambda`.
+    LeastSquares {
+        /// The regularisation weight λ.
+        lambda: f64,
+    },
+}
+
+/// The settings of an octree bake.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OctreeRecord {
+    /// Every cell of the levels below is split.
+    pub min_level: u32,
+    /// The finest level.
+    pub max_level: u32,
+    /// Split threshold on the relative change across a cell (`None`: off).
+    pub gradient_threshold: Option<f64>,
+    /// Cells containing geometry are split.
+    pub geometry: bool,
+    /// Split threshold on cell edge over harmonic-mean depth (`None`: off).
+    pub depth_ratio_threshold: Option<f64>,
+    /// Rays per node for the harmonic-mean depth.
+    pub depth_rays: u32,
+    /// Culling tolerance, as a fraction of the value scale.
+    pub cull_tolerance: f64,
+    /// Memory budget in bytes.
+    pub memory_budget: Option<usize>,
+}
+
 /// How a volume was made, carried through every file format.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BakeMetadata {
     /// Sampling method, e.g. `"point"` (Kontkanen & Laine Eq. 4) or `"domain"` (Eq. 5-6).
     pub method: String,
@@ -54,6 +116,10 @@ pub struct BakeMetadata {
     /// and engine exports are converted to this frame. Absent in older files: internal.
     #[serde(default = "internal_frame")]
     pub frame: crate::frame::UpAxis,
+    /// The method and settings as a typed record. Absent in files written before it
+    /// existed, and in volumes made by hand.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settings: Option<BakeRecord>,
 }
 
 fn internal_frame() -> crate::frame::UpAxis {
@@ -71,6 +137,7 @@ impl Default for BakeMetadata {
             scene_hash: String::new(),
             units: "relative".into(),
             frame: crate::frame::UpAxis::INTERNAL,
+            settings: None,
         }
     }
 }

@@ -194,6 +194,30 @@ fn masked_fast_paths_match_each_other_and_the_reference() {
     }
 }
 
+/// `vol` without the typed settings record (whose files are version 3 whatever the mask).
+fn without_settings(vol: IrradianceVolume) -> IrradianceVolume {
+    let meta = BakeMetadata { settings: None, ..vol.metadata().clone() };
+    vol.with_metadata(meta)
+}
+
+/// The typed settings record makes a file version 3 (so that an older reader refuses it as
+/// newer), travels through the EXR, the KTX2 sidecar and the shard file unchanged, and a
+/// record in a file that claims an older version is refused.
+#[test]
+fn settings_records_are_version_3_and_round_trip() {
+    let vol = common::random_volume(9, [4, 3, 5], 8);
+    assert!(vol.metadata().settings.is_some());
+    assert_eq!(lightvol_volume::io::sidecar::format_version(&vol), 3);
+    assert_eq!(lightvol_volume::io::sidecar::format_version(&without_settings(vol.clone())), 1);
+    let exr = exr_to_bytes(&vol, &ExrOptions::default()).unwrap();
+    assert_eq!(exr_from_bytes(&exr).unwrap().metadata(), vol.metadata());
+    assert_eq!(ktx2_from_bytes(&ktx2_to_bytes(&vol).unwrap()).unwrap().metadata(), vol.metadata());
+    let mut sidecar = dds_sidecar(&vol, None).unwrap();
+    assert_eq!(sidecar.version, 3);
+    sidecar.version = 2;
+    assert!(sidecar.validate().unwrap_err().to_string().contains("settings record"));
+}
+
 fn mask_for(vol: &IrradianceVolume) -> ValidityMask {
     ValidityMask::new((0..vol.spec().node_count()).map(|i| i % 3 != 0).collect())
 }
@@ -202,7 +226,7 @@ fn mask_for(vol: &IrradianceVolume) -> ValidityMask {
 /// it as version 2 and covers it by the checksum; a volume without a mask stays version 1.
 #[test]
 fn exr_round_trip_preserves_the_mask() {
-    let plain = common::random_volume(9, [4, 3, 5], 8);
+    let plain = without_settings(common::random_volume(9, [4, 3, 5], 8));
     let vol = plain.clone().with_validity(mask_for(&plain)).unwrap();
     for sample in [ExrSample::F32, ExrSample::F16] {
         let options = ExrOptions { sample, ..Default::default() };
@@ -244,7 +268,10 @@ fn version_1_file_loads_without_a_mask_and_is_written_unchanged() {
     let old = include_bytes!("data/version1.exr");
     let vol = exr_from_bytes(old).unwrap();
     assert_eq!(vol.validity(), None);
-    assert_eq!(vol, common::random_volume(4, [3, 2, 2], 1));
+    // The file predates the typed settings record too.
+    let expected = common::random_volume(4, [3, 2, 2], 1);
+    let meta = BakeMetadata { settings: None, ..expected.metadata().clone() };
+    assert_eq!(vol, expected.with_metadata(meta));
     assert_eq!(exr_to_bytes(&vol, &ExrOptions::default()).unwrap(), old.to_vec());
 }
 
@@ -253,7 +280,7 @@ fn version_1_file_loads_without_a_mask_and_is_written_unchanged() {
 /// bits were changed consistently is caught by the checksum.
 #[test]
 fn ktx2_and_dds_carry_the_mask() {
-    let plain = common::random_volume(4, [3, 4, 2], 9);
+    let plain = without_settings(common::random_volume(4, [3, 4, 2], 9));
     let meta = BakeMetadata { frame: UpAxis::Y, ..plain.metadata().clone() };
     let vol = plain.clone().with_validity(mask_for(&plain)).unwrap().with_metadata(meta);
     let back = ktx2_from_bytes(&ktx2_to_bytes(&vol).unwrap()).unwrap();

@@ -66,7 +66,9 @@ use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError, check_finite};
 use crate::gradient::VolumeGradients;
 use crate::grid::{GridSpec, Placement};
-use crate::io::sidecar::{FORMAT_VERSION, QUANTITY, SH_CONVENTION, VALIDITY_VERSION, format_version};
+use crate::io::sidecar::{
+    FORMAT_VERSION, QUANTITY, SETTINGS_VERSION, SH_CONVENTION, VALIDITY_VERSION, format_version,
+};
 use crate::io::util::{guard, read_bounded, write_atomic};
 use crate::validity::ValidityMask;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
@@ -275,6 +277,10 @@ pub(crate) fn base_layers(
     put("lightvol.bake.scene_hash", AttributeValue::Text(text(&meta.scene_hash)?))?;
     put("lightvol.bake.samples", AttributeValue::Text(text(&meta.samples.to_string())?))?;
     put("lightvol.bake.seed", AttributeValue::Text(text(&meta.seed.to_string())?))?;
+    if let Some(record) = &meta.settings {
+        let json = serde_json::to_string(record).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
+        put("lightvol.bake.settings", AttributeValue::Text(text(&json)?))?;
+    }
     put(
         "lightvol.bake.shard",
         AttributeValue::IntVec2(Vec2(meta.shard_index as i32, meta.shard_count as i32)),
@@ -588,6 +594,21 @@ fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeErr
                 crate::frame::UpAxis::parse(&f)
                     .ok_or_else(|| VolumeError::malformed(F, format!("lightvol.frame {f:?}")))?
             }
+        },
+        settings: match a.opt("lightvol.bake.settings") {
+            None => None,
+            Some(_) if (version as u32) < SETTINGS_VERSION => {
+                return Err(VolumeError::malformed(
+                    F,
+                    format!(
+                        "lightvol.bake.settings in a version {version} file (it needs version {SETTINGS_VERSION})"
+                    ),
+                ));
+            }
+            Some(_) => Some(
+                serde_json::from_str(&a.text("lightvol.bake.settings")?)
+                    .map_err(|e| VolumeError::malformed(F, format!("lightvol.bake.settings: {e}")))?,
+            ),
         },
     };
     let checksum = a.text("lightvol.checksum")?;

@@ -44,12 +44,15 @@ use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 pub const FORMAT_NAME: &str = "lightvol-volume";
 /// Newest sidecar / file-format version (the sidecar's `version`, the EXR's
 /// `lightvol.version`); readers accept it and every older one. Version 2 added the validity
-/// mask. Writers write the oldest version that holds the volume ([`format_version`]), so a
-/// volume without a mask gives the same bytes as before version 2, and a reader of version
-/// 1 refuses a file with a mask as a newer version instead of reading it without the mask.
-pub const FORMAT_VERSION: u32 = 2;
+/// mask, version 3 the typed settings record ([`crate::BakeRecord`]). Writers write the
+/// oldest version that holds the volume ([`format_version`]), so a volume without a mask or
+/// record gives the same bytes as before, and an older reader refuses a file with them as a
+/// newer version instead of reading it without them.
+pub const FORMAT_VERSION: u32 = 3;
 /// The first version that can carry a validity mask.
 pub const VALIDITY_VERSION: u32 = 2;
+/// The first version that can carry the typed settings record.
+pub const SETTINGS_VERSION: u32 = 3;
 /// The bit packing of the `validity.bits` field, in words ([`ValidityMask::to_hex`]).
 pub const VALIDITY_LAYOUT: &str = "one bit per node, node i = x + nx*(y + ny*z) is bit i%8 (least significant \
                                    first) of byte i/8, 1 = valid; each byte as two lowercase hex digits";
@@ -57,11 +60,18 @@ pub const VALIDITY_LAYOUT: &str = "one bit per node, node i = x + nx*(y + ny*z) 
 pub const VALIDITY_LOOKUP: &str = "trilinear weights renormalised over the valid corners of the cell; plain \
                                    trilinear when every corner is valid or no valid corner has weight";
 
-/// The version a file holding `vol` is written as: 1, or [`VALIDITY_VERSION`] when `vol`
-/// has a validity mask.
+/// The version a file holding `vol` is written as: [`SETTINGS_VERSION`] when its metadata
+/// has the typed settings record, else [`VALIDITY_VERSION`] when it has a validity mask,
+/// else 1.
 #[must_use]
 pub fn format_version(vol: &IrradianceVolume) -> u32 {
-    if vol.validity().is_some() { VALIDITY_VERSION } else { 1 }
+    if vol.metadata().settings.is_some() {
+        SETTINGS_VERSION
+    } else if vol.validity().is_some() {
+        VALIDITY_VERSION
+    } else {
+        1
+    }
 }
 /// The SH convention every lightvol file uses (lightvol-sh's); readers reject others.
 pub const SH_CONVENTION: &str = "real orthonormal SH; flat index l*(l+1)+m; no Condon-Shortley phase; \
@@ -105,7 +115,7 @@ pub struct StorageJson {
 }
 
 /// The bake section (everything of [`BakeMetadata`] except the units).
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BakeJson {
     /// Sampling method.
     pub method: String,
@@ -119,6 +129,9 @@ pub struct BakeJson {
     pub shard_count: u32,
     /// Scene/settings hash.
     pub scene_hash: String,
+    /// The method and settings as a typed record, when the bake wrote one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settings: Option<crate::BakeRecord>,
 }
 
 /// The validity section: the mask of [`crate::validity`], packed.
@@ -251,6 +264,7 @@ impl Sidecar {
                 shard_index: m.shard_index,
                 shard_count: m.shard_count,
                 scene_hash: m.scene_hash.clone(),
+                settings: m.settings.clone(),
             },
             frame: crate::frame::UpAxis::INTERNAL,
             source_frame: m.frame,
@@ -307,6 +321,12 @@ impl Sidecar {
                 format!("shard {} of {}", self.bake.shard_index, self.bake.shard_count),
             ));
         }
+        if self.bake.settings.is_some() && self.version < SETTINGS_VERSION {
+            return Err(VolumeError::malformed(
+                f,
+                format!("version {} has no settings record (from version {SETTINGS_VERSION})", self.version),
+            ));
+        }
         let spec = self.grid_spec()?;
         if self.validity.is_some() && self.version < VALIDITY_VERSION {
             return Err(VolumeError::malformed(
@@ -348,6 +368,7 @@ impl Sidecar {
             scene_hash: self.bake.scene_hash.clone(),
             units: self.units.clone(),
             frame: self.source_frame,
+            settings: self.bake.settings.clone(),
         }
     }
 }

@@ -67,5 +67,26 @@ pub fn random_volume(coeffs: usize, res: [u32; 3], seed: u64) -> IrradianceVolum
         scene_hash: "a1b2c3d4e5f60718".into(),
         units: "W sr^-1 m^-2".into(),
         frame: lightvol_volume::frame::UpAxis::Z,
+        // A typed record with every kind of field, so that the round trips carry all of it.
+        settings: Some(lightvol_volume::BakeRecord {
+            method: "doi-paper".into(),
+            samples_per_unit: 256,
+            coeffs,
+            fit: lightvol_volume::FitRecord::LeastSquares { lambda: 0.1 },
+            gradients: Some("basis".into()),
+            bounces: 2,
+            russian_roulette: true,
+            direct_light: "sky+indirect".into(),
+            octree: Some(lightvol_volume::OctreeRecord {
+                min_level: 0,
+                max_level: 2,
+                gradient_threshold: Some(0.25),
+                geometry: true,
+                depth_ratio_threshold: None,
+                depth_rays: 32,
+                cull_tolerance: 0.01,
+                memory_budget: Some(1 << 20),
+            }),
+        }),
     })
 }
