@@ -24,25 +24,8 @@ fn main() {
     println!("map {size}x{size}, DC peak {dc_peak}, DC transfer {dc:?}, range {}", enc.range);
     println!("| basis | clamped (DC/AC) | 8-bit rel RMS | BC1 rel RMS | BC7 rel RMS |");
     println!("| --- | --- | --- | --- | --- |");
-    for name in [
-        "sh4",
-        "sh9",
-        "hl23",
-        "hsh4",
-        "hsh9",
-        "makhotkin4",
-        "makhotkin9",
-        "zernike3",
-        "zernike6",
-        "hbasis4",
-        "hbasis6",
-        "hbasis_mod4",
-        "hbasis_mod6",
-    ] {
-        let split = name.find(|c: char| c.is_ascii_digit()).unwrap();
-        let (n, k) = (&name[..split], name[split..].parse::<usize>().unwrap());
-        let (n, k) = if n == "hl" { ("hl2", 3) } else { (n, k) };
-        let Some(basis) = lightvol_hemibasis::by_name(n, k) else { continue };
+    for (family, count) in lightvol_hemibasis::LIGHTMAP_BASES {
+        let Some(basis) = lightvol_hemibasis::by_family(family, count) else { continue };
         let map = sky_test_map(basis.as_ref(), size, size, dc_peak);
         let (e8, clamped) = stored_map_error(basis.as_ref(), &map, &enc, None);
         let (e1, _) = stored_map_error(basis.as_ref(), &map, &enc, Some(BlockFormat::Bc1));

@@ -232,6 +232,26 @@ impl std::str::FromStr for BasisFamily {
     }
 }
 
+/// The lightmap bases lightvol bakes and compares, as `(family, coefficients)`: each
+/// family at the sizes of \[Ish11\] Table 3.1 (about 4 and about 9 coefficients; the
+/// H-bases at 4 and 6, Zernike at 3 and 6, Half-Life 2 at its 3). [`by_family`] builds them
+/// all when every cargo feature is on.
+pub const LIGHTMAP_BASES: [(BasisFamily, usize); 13] = [
+    (BasisFamily::Sh, 4),
+    (BasisFamily::Sh, 9),
+    (BasisFamily::Hl2, 3),
+    (BasisFamily::Hsh, 4),
+    (BasisFamily::Hsh, 9),
+    (BasisFamily::Makhotkin, 4),
+    (BasisFamily::Makhotkin, 9),
+    (BasisFamily::Zernike, 3),
+    (BasisFamily::Zernike, 6),
+    (BasisFamily::HBasis, 4),
+    (BasisFamily::HBasis, 6),
+    (BasisFamily::HBasisMod, 4),
+    (BasisFamily::HBasisMod, 6),
+];
+
 /// The basis of `family` with `count` coefficients, `None` for a size the family does not
 /// have or a family whose cargo feature is off.
 #[must_use]

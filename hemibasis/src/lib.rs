@@ -33,7 +33,7 @@ pub mod zernike;
 #[cfg(test)]
 mod test_util;
 
-pub use basis::{BasisFamily, HemiBasis, by_family, by_name};
+pub use basis::{BasisFamily, HemiBasis, LIGHTMAP_BASES, by_family, by_name};
 #[cfg(feature = "hbasis")]
 pub use hbasis::HBasis;
 #[cfg(feature = "hl2")]

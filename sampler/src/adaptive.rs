@@ -44,7 +44,7 @@ use lightvol_sh::lowdisc::hash2;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use lightvol_volume::adaptive::{level_grid, pack_key};
 use lightvol_volume::{
-    Accumulator, AdaptiveVolume, BuildError, Candidates, GridSpec, LevelSamples, OctreeParams, build_adaptive,
+    Accumulator, AdaptiveVolume, BuildError, Candidates, GridSpec, LevelSamples, build_adaptive,
 };
 use rayon::prelude::*;
 
@@ -56,74 +56,9 @@ use crate::qmc::Qmc;
 use crate::stats::{BakeStats, RayCounts};
 use crate::transport::Transport;
 
-/// Settings of an adaptive bake (\[Oat05\], "Adaptive Subdivision": "Specify a Min and Max
-/// level of subdivision", "Allow thresholds to be specified for each subdivision heuristic").
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AdaptiveSettings {
-    /// Every cell of the levels below is split.
-    pub min_level: u32,
-    /// The finest level.
-    pub max_level: u32,
-    /// Split when the relative change across a cell is at least this (`None`: off).
-    pub gradient_threshold: Option<f64>,
-    /// Split cells that contain scene geometry.
-    pub geometry: bool,
-    /// Split when a cell edge exceeds this multiple of a corner's harmonic-mean depth
-    /// (`None`: off).
-    pub depth_ratio_threshold: Option<f64>,
-    /// Rays per node for the harmonic mean.
-    pub depth_rays: u32,
-    /// Cull nodes whose surplus is within this fraction of the value scale.
-    pub cull_tolerance: f64,
-    /// Cap on the volume's `memory_bytes` (bytes).
-    pub memory_budget: Option<usize>,
-}
-
-impl Default for AdaptiveSettings {
-    fn default() -> Self {
-        Self {
-            min_level: 0,
-            max_level: 2,
-            gradient_threshold: Some(0.25),
-            geometry: true,
-            depth_ratio_threshold: Some(1.0),
-            depth_rays: 32,
-            cull_tolerance: 0.01,
-            memory_budget: None,
-        }
-    }
-}
-
-impl AdaptiveSettings {
-    /// Errors on non-finite or non-positive thresholds, zero depth rays with the depth
-    /// heuristic on, or bad levels.
-    pub fn validate(&self) -> Result<(), BakeError> {
-        for (name, t) in [("gradient", self.gradient_threshold), ("depth ratio", self.depth_ratio_threshold)]
-        {
-            if let Some(t) = t
-                && !(t.is_finite() && t > 0.0)
-            {
-                return Err(BakeError::Settings(format!("{name} threshold {t} must be finite and positive")));
-            }
-        }
-        if self.depth_ratio_threshold.is_some() && self.depth_rays == 0 {
-            return Err(BakeError::Settings("depth_rays must be positive".into()));
-        }
-        self.params().validate().map_err(|e| BakeError::Settings(e.to_string()))
-    }
-
-    /// The volume crate's parameters.
-    #[must_use]
-    pub fn params(&self) -> OctreeParams {
-        OctreeParams {
-            min_level: self.min_level,
-            max_level: self.max_level,
-            cull_tolerance: self.cull_tolerance,
-            memory_budget: self.memory_budget,
-            budget_tolerance: 0.0,
-        }
-    }
-}
+/// Settings of an adaptive bake: lightvol-volume's [`OctreeSettings`](lightvol_volume::adaptive::OctreeSettings),
+/// the one definition (every octree file records them).
+pub use lightvol_volume::adaptive::OctreeSettings as AdaptiveSettings;
 
 /// What an adaptive bake reports besides the volume.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -418,7 +353,7 @@ fn drive(
     source: &Source<'_>,
     control: &BakeControl<'_>,
 ) -> Result<Driven, BakeError> {
-    adaptive.validate()?;
+    adaptive.validate().map_err(|e| BakeError::Settings(e.to_string()))?;
     if settings.shard != (0, 1) {
         return Err(BakeError::Settings(
             "an adaptive bake is sharded level by level (adaptive_shard), not by settings.shard".into(),

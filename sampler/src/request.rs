@@ -6,9 +6,7 @@
 //! `lightvol bake` builds a [`BakeRequest`] from its options and calls these; the octree
 //! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
 
-use lightvol_volume::{
-    BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, OctreeRecord, VolumeGradients,
-};
+use lightvol_volume::{BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, VolumeGradients};
 
 use crate::adaptive::AdaptiveSettings;
 use crate::baselines::Baseline;
@@ -147,16 +145,7 @@ impl BakeRequest {
             bounces: self.transport.bounces,
             russian_roulette: self.transport.russian_roulette,
             direct_light: self.transport.direct.name().to_owned(),
-            octree: self.adaptive.map(|a| OctreeRecord {
-                min_level: a.settings.min_level,
-                max_level: a.settings.max_level,
-                gradient_threshold: a.settings.gradient_threshold,
-                geometry: a.settings.geometry,
-                depth_ratio_threshold: a.settings.depth_ratio_threshold,
-                depth_rays: a.settings.depth_rays,
-                cull_tolerance: a.settings.cull_tolerance,
-                memory_budget: a.settings.memory_budget,
-            }),
+            octree: self.adaptive.map(|a| a.settings),
         }
     }
 

@@ -21,7 +21,7 @@ pub mod volume;
 
 pub use accumulator::Accumulator;
 pub use adaptive::build::{BuildError, Candidates, LevelSamples, build_adaptive};
-pub use adaptive::{AdaptiveVolume, LevelStats, OctreeParams};
+pub use adaptive::{AdaptiveVolume, LevelStats, OctreeParams, OctreeSettings};
 pub use encode::{EncodedVolume, Encoding, encode, irradiance_error};
 pub use error::{FileFormat, VolumeError};
 pub use field::{AnyVolume, GradientField, VolumeField, open};
@@ -29,4 +29,4 @@ pub use fill::FillReport;
 pub use gradient::{GradientLookup, VolumeGradients};
 pub use grid::{GridSpec, Placement};
 pub use validity::ValidityMask;
-pub use volume::{BakeMetadata, BakeRecord, FitRecord, IrradianceVolume, OctreeRecord};
+pub use volume::{BakeMetadata, BakeRecord, FitRecord, IrradianceVolume};

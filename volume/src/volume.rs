@@ -56,7 +56,7 @@ pub struct BakeRecord {
     /// `indirect`).
     pub direct_light: String,
     /// The octree settings of an adaptive bake (\[Oat05\], "Subdivision Heuristics").
-    pub octree: Option<OctreeRecord>,
+    pub octree: Option<crate::adaptive::OctreeSettings>,
 }
 
 /// How node values came from their samples.
@@ -70,27 +70,6 @@ pub enum FitRecord {
         /// The regularisation weight λ.
         lambda: f64,
     },
-}
-
-/// The settings of an octree bake.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct OctreeRecord {
-    /// Every cell of the levels below is split.
-    pub min_level: u32,
-    /// The finest level.
-    pub max_level: u32,
-    /// Split threshold on the relative change across a cell (`None`: off).
-    pub gradient_threshold: Option<f64>,
-    /// Cells containing geometry are split.
-    pub geometry: bool,
-    /// Split threshold on cell edge over harmonic-mean depth (`None`: off).
-    pub depth_ratio_threshold: Option<f64>,
-    /// Rays per node for the harmonic-mean depth.
-    pub depth_rays: u32,
-    /// Culling tolerance, as a fraction of the value scale.
-    pub cull_tolerance: f64,
-    /// Memory budget in bytes.
-    pub memory_budget: Option<usize>,
 }
 
 /// How a volume was made, carried through every file format.

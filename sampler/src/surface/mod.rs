@@ -218,19 +218,8 @@ impl std::str::FromStr for BasisChoice {
     }
 }
 
-/// The surface basis names, all of which parse when every lightvol-hemibasis feature is on.
-pub const BASIS_NAMES: [&str; 13] = [
-    "sh4",
-    "sh9",
-    "hl2",
-    "hsh4",
-    "hsh9",
-    "makhotkin4",
-    "makhotkin9",
-    "zernike3",
-    "zernike6",
-    "hbasis4",
-    "hbasis6",
-    "hbasis_mod4",
-    "hbasis_mod6",
-];
+/// The surface bases lightvol bakes (lightvol-hemibasis's `LIGHTMAP_BASES`), all of which
+/// build when every lightvol-hemibasis feature is on.
+pub fn basis_choices() -> impl Iterator<Item = BasisChoice> {
+    lightvol_hemibasis::LIGHTMAP_BASES.into_iter().map(|(family, count)| BasisChoice { family, count })
+}

@@ -93,6 +93,80 @@ pub fn unpack_key(key: u64) -> [u32; 3] {
     ]
 }
 
+/// Settings of an adaptive bake (\[Oat05\], "Adaptive Subdivision": "Specify a Min and Max
+/// level of subdivision", "Allow thresholds to be specified for each subdivision heuristic").
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct OctreeSettings {
+    /// Every cell of the levels below is split.
+    pub min_level: u32,
+    /// The finest level.
+    pub max_level: u32,
+    /// Split when the relative change across a cell is at least this (`None`: off).
+    pub gradient_threshold: Option<f64>,
+    /// Split cells that contain scene geometry.
+    pub geometry: bool,
+    /// Split when a cell edge exceeds this multiple of a corner's harmonic-mean depth
+    /// (`None`: off).
+    pub depth_ratio_threshold: Option<f64>,
+    /// Rays per node for the harmonic mean.
+    pub depth_rays: u32,
+    /// Cull nodes whose surplus is within this fraction of the value scale.
+    pub cull_tolerance: f64,
+    /// Cap on the volume's `memory_bytes` (bytes).
+    pub memory_budget: Option<usize>,
+}
+
+impl Default for OctreeSettings {
+    fn default() -> Self {
+        Self {
+            min_level: 0,
+            max_level: 2,
+            gradient_threshold: Some(0.25),
+            geometry: true,
+            depth_ratio_threshold: Some(1.0),
+            depth_rays: 32,
+            cull_tolerance: 0.01,
+            memory_budget: None,
+        }
+    }
+}
+
+impl OctreeSettings {
+    /// Errors on non-finite or non-positive thresholds, zero depth rays with the depth
+    /// heuristic on, or bad levels.
+    ///
+    /// # Errors
+    /// [`VolumeError::InvalidData`] naming the setting.
+    pub fn validate(&self) -> Result<(), VolumeError> {
+        for (name, t) in [("gradient", self.gradient_threshold), ("depth ratio", self.depth_ratio_threshold)]
+        {
+            if let Some(t) = t
+                && !(t.is_finite() && t > 0.0)
+            {
+                return Err(VolumeError::InvalidData(format!(
+                    "{name} threshold {t} must be finite and positive"
+                )));
+            }
+        }
+        if self.depth_ratio_threshold.is_some() && self.depth_rays == 0 {
+            return Err(VolumeError::InvalidData("depth_rays must be positive".into()));
+        }
+        self.params().validate()
+    }
+
+    /// The volume crate's parameters.
+    #[must_use]
+    pub fn params(&self) -> OctreeParams {
+        OctreeParams {
+            min_level: self.min_level,
+            max_level: self.max_level,
+            cull_tolerance: self.cull_tolerance,
+            memory_budget: self.memory_budget,
+            budget_tolerance: 0.0,
+        }
+    }
+}
+
 /// Refinement and culling parameters of an adaptive volume (\[Oat05\], "Adaptive
 /// Subdivision": "Specify a Min and Max level of subdivision", culling of redundant samples,
 /// plus a memory budget).

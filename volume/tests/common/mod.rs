@@ -77,15 +77,10 @@ pub fn random_volume(coeffs: usize, res: [u32; 3], seed: u64) -> IrradianceVolum
             bounces: 2,
             russian_roulette: true,
             direct_light: "sky+indirect".into(),
-            octree: Some(lightvol_volume::OctreeRecord {
-                min_level: 0,
-                max_level: 2,
-                gradient_threshold: Some(0.25),
-                geometry: true,
+            octree: Some(lightvol_volume::OctreeSettings {
                 depth_ratio_threshold: None,
-                depth_rays: 32,
-                cull_tolerance: 0.01,
                 memory_budget: Some(1 << 20),
+                ..lightvol_volume::OctreeSettings::default()
             }),
         }),
     })
