@@ -7,11 +7,10 @@ use anyhow::Context;
 use clap::Args;
 use lightvol_gpu::lookup::Quantity;
 use lightvol_gpu::{DEVICE_ENV, GpuContext, ProxyShading, VolumeLookup, gpu_info, select_device};
-use lightvol_proxies::compare::CompareConfig;
-use lightvol_proxies::kernel::{Kernel, KernelIndirect, prepare};
-use lightvol_proxies::light::DistantLight;
-use lightvol_proxies::pipeline::{accumulate_pass, bin_proxies, exponentiate_pass};
-use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene, character};
+use lightvol_proxies::frame_inputs::FrameInputs;
+use lightvol_proxies::kernel::KernelIndirect;
+use lightvol_proxies::pipeline::{accumulate_pass, exponentiate_pass};
+use lightvol_proxies::receiver_scene::ReceiverBuffer;
 use lightvol_volume::IrradianceVolume;
 use serde_json::{Value, json};
 
@@ -78,39 +77,30 @@ fn lookups(
 fn proxy_frame(ctx: &GpuContext) -> anyhow::Result<Value> {
     const N: usize = 16;
     let size = 256;
-    let mut scene = Scene::default_scene();
-    let mut proxies = scene.proxies.clone();
-    proxies.extend(character([0.9, 0.4, 0.0]));
-    proxies.truncate(32);
-    scene.proxies = proxies;
-    let cfg = CompareConfig::derived::<N>(size, size, 1.0 / 256.0);
-    let buffer = ReceiverBuffer::render(&scene, size, size);
-    let light = DistantLight(scene.light.sh::<N>());
-    let prepared = prepare(&scene.proxies, &light);
-    let eta = cfg.eta_shadow.max(cfg.eta_indirect);
-    let bins = bin_proxies(&scene.camera.frame(), size, size, &scene.proxies, eta, cfg.tile);
+    let f = FrameInputs::<N>::benchmark(size, 32);
+    let (cfg, buffer, light, prepared, bins) = (&f.config, &f.buffer, &f.light, &f.prepared, &f.bins);
     let gpu = ProxyShading::<N>::new(ctx, cfg.eta_shadow, cfg.eta_indirect, KernelIndirect::Averaged)?;
-    let frame = gpu.frame(&buffer, &bins, &prepared, &light)?;
+    let frame = gpu.frame(buffer, bins, prepared, light)?;
     gpu.run(&frame, 1)?;
     gpu.run_exponentiate(&frame, 1)?;
     let repeats = 3;
     let acc = gpu.run(&frame, repeats)?;
     let exp = gpu.run_exponentiate(&frame, repeats)?;
-    let display = ReceiverBuffer::render(&scene, 2 * size, 2 * size);
+    let display = ReceiverBuffer::render(&f.scene, 2 * size, 2 * size);
     let target = gpu.target(&display)?;
     gpu.run_upsample(&frame, &target, 1)?;
     let up = gpu.run_upsample(&frame, &target, repeats)?;
     let per = |s: Option<f64>| s.map(|s| s / f64::from(repeats) * 1e3);
-    let kernel = Kernel::<N>::new(cfg.eta_shadow, cfg.eta_indirect, KernelIndirect::Averaged);
+    let kernel = f.kernel();
     let t = Instant::now();
-    let cpu_acc = accumulate_pass(&kernel, &buffer, &bins, &prepared);
+    let cpu_acc = accumulate_pass(&kernel, buffer, bins, prepared);
     let cpu_acc_ms = t.elapsed().as_secs_f64() * 1e3;
     let t = Instant::now();
-    let _ = exponentiate_pass(&kernel, &buffer, &cpu_acc, &light);
+    let _ = exponentiate_pass(&kernel, buffer, &cpu_acc, light);
     let cpu_exp_ms = t.elapsed().as_secs_f64() * 1e3;
     Ok(json!({
         "receivers": [size, size],
-        "proxies": scene.proxies.len(),
+        "proxies": f.scene.proxies.len(),
         "gpu_ms": { "accumulate": per(acc.gpu_seconds), "exponentiate": per(exp.gpu_seconds), "upsample_2x": per(up.gpu_seconds) },
         "cpu_ms": { "accumulate": cpu_acc_ms, "exponentiate": cpu_exp_ms },
     }))

@@ -17,11 +17,10 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use lightvol_gpu::{GpuContext, ProxyShading};
-use lightvol_proxies::compare::CompareConfig;
-use lightvol_proxies::kernel::{Kernel, KernelIndirect, prepare};
-use lightvol_proxies::light::DistantLight;
-use lightvol_proxies::pipeline::{accumulate_pass, bin_proxies, exponentiate_pass};
-use lightvol_proxies::receiver_scene::{ReceiverBuffer, Scene, character};
+use lightvol_proxies::frame_inputs::FrameInputs;
+use lightvol_proxies::kernel::KernelIndirect;
+use lightvol_proxies::pipeline::{accumulate_pass, exponentiate_pass};
+use lightvol_proxies::receiver_scene::ReceiverBuffer;
 
 const N: usize = 16;
 
@@ -58,39 +57,30 @@ fn run() -> Result<(), Box<dyn std::error::Error>> {
     let ctx = GpuContext::new()?;
     println!("device: {}", ctx.device_info());
 
-    let mut scene = Scene::default_scene();
-    let mut proxies = scene.proxies.clone();
-    proxies.extend(character([0.9, 0.4, 0.0]));
-    proxies.truncate(count);
-    scene.proxies = proxies;
-    let cfg = CompareConfig::derived::<N>(size, size, 1.0 / 256.0);
-    let buffer = ReceiverBuffer::render(&scene, size, size);
-    let light = DistantLight(scene.light.sh::<N>());
-    let prepared = prepare(&scene.proxies, &light);
-    let eta = cfg.eta_shadow.max(cfg.eta_indirect);
-    let t = Instant::now();
-    let bins = bin_proxies(&scene.camera.frame(), size, size, &scene.proxies, eta, cfg.tile);
-    let bin_s = t.elapsed().as_secs_f64();
+    let f = FrameInputs::<N>::benchmark(size, count);
+    let (scene, cfg, buffer, light, prepared, bins) =
+        (&f.scene, &f.config, &f.buffer, &f.light, &f.prepared, &f.bins);
+    let bin_s = f.bin_seconds;
 
     let gpu = ProxyShading::<N>::new(&ctx, cfg.eta_shadow, cfg.eta_indirect, KernelIndirect::Averaged)?;
-    let frame = gpu.frame(&buffer, &bins, &prepared, &light)?;
+    let frame = gpu.frame(buffer, bins, prepared, light)?;
     // Warm-up, then timed runs.
     gpu.run(&frame, 1)?;
     gpu.run_exponentiate(&frame, 1)?;
     let acc = gpu.run(&frame, repeats)?;
     let exp = gpu.run_exponentiate(&frame, repeats)?;
     // Upsampling to a display of twice the receiver resolution per axis (the paper's factor 2).
-    let display = ReceiverBuffer::render(&scene, 2 * size, 2 * size);
+    let display = ReceiverBuffer::render(scene, 2 * size, 2 * size);
     let target = gpu.target(&display)?;
     gpu.run_upsample(&frame, &target, 1)?;
     let up = gpu.run_upsample(&frame, &target, repeats)?;
 
-    let kernel = Kernel::<N>::new(cfg.eta_shadow, cfg.eta_indirect, KernelIndirect::Averaged);
+    let kernel = f.kernel();
     let t = Instant::now();
-    let cpu_acc = accumulate_pass(&kernel, &buffer, &bins, &prepared);
+    let cpu_acc = accumulate_pass(&kernel, buffer, bins, prepared);
     let cpu_acc_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let cpu_inc = exponentiate_pass(&kernel, &buffer, &cpu_acc, &light);
+    let cpu_inc = exponentiate_pass(&kernel, buffer, &cpu_acc, light);
     let cpu_exp_s = t.elapsed().as_secs_f64();
     let gpu_acc = gpu.read(&frame)?;
     let identical = gpu_acc.iter().zip(&cpu_acc).filter(|(g, c)| g == c).count();

@@ -94,7 +94,9 @@ impl ShRecurrence {
     }
 
     /// The basis at unit vector `n` by the shader's f32 recurrence, in the shader's
-    /// operation order (a host mirror of `sh_basis` in `lookup.wgsl`, for tests).
+    /// operation order (a host mirror of `sh_basis` in `lookup.wgsl`, for tests). A
+    /// deliberate twin of lightvol-sh's `eval::eval_recurrence` (the f64 reference it is
+    /// tested against), kept separate to follow the shader's f32 order and tables.
     #[must_use]
     pub fn eval<const N: usize>(&self, n: [f32; 3]) -> [f32; N] {
         let bands = N.isqrt();

@@ -85,10 +85,10 @@ impl HemiRule {
         &self.nodes
     }
 
-    /// `∫_H f dω` under this rule.
+    /// `∫_H f dω` under this rule (lightvol-sh's `quadrature::integrate`).
     #[must_use]
-    pub fn integrate(&self, mut f: impl FnMut([f64; 3]) -> f64) -> f64 {
-        self.nodes.iter().map(|n| n.weight * f(n.dir)).sum()
+    pub fn integrate(&self, f: impl FnMut([f64; 3]) -> f64) -> f64 {
+        lightvol_sh::quadrature::integrate(&self.nodes, f)
     }
 }
 

@@ -4,6 +4,7 @@ pub mod accumulate;
 pub mod batch;
 pub mod compare;
 pub mod error;
+pub mod frame_inputs;
 pub mod kernel;
 pub mod light;
 pub mod operators;

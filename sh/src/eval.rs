@@ -67,7 +67,9 @@ pub fn eval_sh<T: Real, const N: usize>(dir: [T; 3]) -> Sh<T, N> {
 /// number of bands. This is the same mathematics as the generated code (see
 /// `tests/sourcegen.rs`), with the constants of [`crate::recurrence`] computed on the fly;
 /// `Q_m^m` by its ratio form, the twin of [`crate::recurrence::q_diag`], which would
-/// overflow its factorials beyond `m = 10`.
+/// overflow its factorials beyond `m = 10`. Its deliberate twin in lightvol-gpu,
+/// `lookup::ShRecurrence::eval`, follows the shader's f32 tables and operation order and is
+/// tested against this one.
 ///
 /// # Panics
 /// If `out` is shorter than `bands²`.

@@ -73,6 +73,13 @@ pub struct QuadNode {
     pub weight: f64,
 }
 
+/// `Σ wᵢ f(dᵢ)` over `nodes`: the integral of `f` under any rule made of them (the sphere
+/// rules here, lightvol-hemibasis's hemisphere rules).
+#[must_use]
+pub fn integrate(nodes: &[QuadNode], mut f: impl FnMut([f64; 3]) -> f64) -> f64 {
+    nodes.iter().map(|n| n.weight * f(n.dir)).sum()
+}
+
 /// A product quadrature rule over the sphere (or the upper hemisphere).
 #[derive(Clone, Debug)]
 pub struct SphereQuadrature {
@@ -107,10 +114,10 @@ impl SphereQuadrature {
         &self.nodes
     }
 
-    /// `∫ f dω` under this rule.
+    /// `∫ f dω` under this rule ([`integrate`]).
     #[must_use]
-    pub fn integrate(&self, mut f: impl FnMut([f64; 3]) -> f64) -> f64 {
-        self.nodes.iter().map(|n| n.weight * f(n.dir)).sum()
+    pub fn integrate(&self, f: impl FnMut([f64; 3]) -> f64) -> f64 {
+        integrate(&self.nodes, f)
     }
 
     fn from_z_rule(z: &[f64], w: &[f64], n_phi: usize, scale: f64, shift: f64) -> Self {
