@@ -10,6 +10,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use lightvol_sampler::request::finish_merged;
 use lightvol_volume::BakeMetadata;
 use lightvol_volume::io::accumulator::{merge_accumulator_file, read_accumulator_metadata};
 use lightvol_volume::io::exr::{ExrOptions, write_exr};
@@ -159,40 +160,27 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         lightvol_volume::io::accumulator::write_accumulator(&ap, &acc, &meta)
             .with_context(|| format!("writing {}", ap.display()))?;
     }
-    // A least-squares bake's shards carry the mass matrix: solve the fit over the whole set.
-    // A gradient bake's carry the basis estimator's systems (solved on the merged volume) or
-    // the central differences of their nodes.
-    let grad_sums = lightvol_sampler::gradient_bake::ShardGradients::from_accumulator(&acc)
-        .context("reading the shards' gradients")?;
-    let (vol, fill) = match lightvol_sampler::node_fit::MassMatrix::from_accumulator(&acc) {
-        None => acc.finalize(),
-        Some(mass) => {
-            let lambda = lsq_lambda(&meta).with_context(|| {
-                format!(
-                    "the shards carry a mass matrix but their method '{}' names no least-squares fit",
-                    meta.method
-                )
-            })?;
-            let (values, solve) = lightvol_sampler::node_fit::solve_least_squares(&mass, &acc, lambda)
-                .context("least-squares node fit")?;
-            eprintln!(
-                "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
-                solve.active_nodes, solve.max_iterations, solve.max_relative_residual
-            );
-            lightvol_sampler::node_fit::finalize_least_squares(&acc, values)
-        }
-    };
+    // A least-squares bake's shards carry the mass matrix: the fit is solved over the whole
+    // set. A gradient bake's carry the basis estimator's systems (solved on the merged
+    // volume) or the central differences of their nodes.
+    let lambda = lsq_lambda(&meta);
+    let merged = finish_merged(&acc, meta, lambda)?;
     drop(acc);
-    let vol = vol.with_metadata(meta);
-    match grad_sums {
-        None => write_exr(&args.output, &vol, &ExrOptions::default()),
-        Some(g) => {
-            let (grads, rep) = g.finish(&vol).context("solving the basis-gradient systems")?;
+    if let Some((lambda, solve)) = &merged.least_squares {
+        eprintln!(
+            "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
+            solve.active_nodes, solve.max_iterations, solve.max_relative_residual
+        );
+    }
+    let (vol, fill) = (&merged.volume, merged.fill);
+    match &merged.gradients {
+        None => write_exr(&args.output, vol, &ExrOptions::default()),
+        Some((grads, rep)) => {
             eprintln!("gradients: {} nodes solved, {} singular", rep.solved, rep.singular);
             lightvol_volume::io::exr::write_exr_with_gradients(
                 &args.output,
-                &vol,
-                &grads,
+                vol,
+                grads,
                 &ExrOptions::default(),
             )
         }
