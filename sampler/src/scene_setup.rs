@@ -1,5 +1,5 @@
 //! A scene made ready to bake: read from a file (its memory estimated and checked before
-//! any geometry is read, [`crate::estimate`]) or built in ([`crate::builtin`]), with its
+//! any geometry is read, [`crate::estimate`]) or built in ([`crate::builtin`](mod@crate::builtin)), with its
 //! lights replaced as asked, and the grid a bake uses on it ([`GridChoice`]).
 //!
 //! This is what `lightvol bake`, `compare`, `render` and `lint` do before their own work;
