@@ -11,11 +11,9 @@ use std::path::PathBuf;
 use lightvol_sampler::adaptive::{
     AdaptiveSettings, AdaptiveStats, assemble_adaptive, bake_adaptive, bake_adaptive_level_shard,
 };
-use lightvol_sampler::adaptive_shard::{LevelShardHeader, LevelSums, read_level, write_level};
+use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, base_label, write_level};
 use lightvol_sampler::{BakeControl, BakeSettings, Progress, Tracer, Transport, TransportSettings};
-use lightvol_volume::io::accumulator::{
-    merge_accumulator_file, read_accumulator_metadata, write_accumulator,
-};
+use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::adaptive::write_adaptive_exr;
 use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
 use serde_json::json;
@@ -51,118 +49,22 @@ pub(crate) fn run_adaptive_bake(
     Ok(out)
 }
 
-/// Label of a level-0 shard's method in its `.lvacc` metadata: `merge` refuses it (its
-/// volume needs the refinement levels), and assembly checks it.
-fn base_label(method: &str) -> String {
-    format!("{method}{BASE_SUFFIX}")
-}
-
-/// The suffix of [`base_label`].
-pub(crate) const BASE_SUFFIX: &str = " adaptive-level-0";
-
-/// What `--from-shards` holds, merged and checked: the level-0 sums with their sampling
-/// rays, and the refinement levels 1, 2, … in order.
-struct AdaptiveInputs {
-    base: lightvol_volume::Accumulator,
-    base_samples: u64,
-    levels: Vec<LevelSums>,
-}
-
-/// Reads, checks and merges the shard files of a level-by-level bake whose scene and
-/// settings hash to `hash` (one line for each problem; nothing is baked before).
-fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<AdaptiveInputs> {
-    let mut seen = Vec::new();
-    let mut base_files: Vec<(BakeMetadata, PathBuf)> = Vec::new();
-    let mut level_files: Vec<(LevelShardHeader, LevelSums, PathBuf)> = Vec::new();
-    for p in files {
-        let canon = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
-        if seen.contains(&canon) {
-            bail!("{} is given twice (its samples would count twice)", p.display());
+/// The shard set of `--from-shards`, read and checked ([`ShardSet::load`]).
+fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<ShardSet> {
+    ShardSet::load(files, hash, method).map_err(|e| match e {
+        ShardSetError::Extension(p) => {
+            anyhow::anyhow!("{}: --from-shards takes level-0 .lvacc and level .lvref files", p.display())
         }
-        seen.push(canon);
-        match p.extension().and_then(|e| e.to_str()) {
-            Some("lvacc") => {
-                let m = read_accumulator_metadata(p).with_context(|| format!("reading {}", p.display()))?;
-                if m.method != base_label(method) || m.scene_hash != hash {
-                    bail!(
-                        "{} is not a level-0 shard of this adaptive bake (method '{}', scene and settings {}; this bake: '{}', {hash})",
-                        p.display(),
-                        m.method,
-                        m.scene_hash,
-                        base_label(method)
-                    );
-                }
-                base_files.push((m, p.clone()));
-            }
-            Some("lvref") => {
-                let (l, h) = read_level(p).with_context(|| format!("reading {}", p.display()))?;
-                if h.scene_hash != hash {
-                    bail!(
-                        "{} belongs to another bake (scene and settings {}; this bake: {hash})",
-                        p.display(),
-                        h.scene_hash
-                    );
-                }
-                level_files.push((h, l, p.clone()));
-            }
-            _ => bail!("{}: --from-shards takes level-0 .lvacc and level .lvref files", p.display()),
+        ShardSetError::NoBase => {
+            anyhow::anyhow!(
+                "--from-shards has no level-0 .lvacc shard (bake them with --adaptive --shard K/N)"
+            )
         }
-    }
-    let indices = |what: &str, count: u32, have: &mut Vec<u32>| -> anyhow::Result<()> {
-        have.sort_unstable();
-        if let Some(w) = have.windows(2).find(|w| w[0] == w[1]) {
-            bail!("{what}: shard {} of {count} given twice", w[0]);
+        ShardSetError::LevelGap { top, level } => {
+            anyhow::anyhow!("--from-shards has level-{top} shards but none of level {level}")
         }
-        let missing: Vec<String> = (0..count).filter(|k| !have.contains(k)).map(|k| k.to_string()).collect();
-        if !missing.is_empty() {
-            bail!(
-                "incomplete set: {what} shards {} of {count} are missing; nothing written",
-                missing.join(", ")
-            );
-        }
-        Ok(())
-    };
-    let Some(first) = base_files.first() else {
-        bail!("--from-shards has no level-0 .lvacc shard (bake them with --adaptive --shard K/N)")
-    };
-    let count = first.0.shard_count;
-    if let Some((m, p)) = base_files.iter().find(|(m, _)| m.shard_count != count) {
-        bail!("{}: shard of {} where the others are of {count}", p.display(), m.shard_count);
-    }
-    indices("level-0", count, &mut base_files.iter().map(|(m, _)| m.shard_index).collect())?;
-    let mut base = None;
-    let mut base_samples = 0;
-    for (m, p) in &base_files {
-        let (a, _) =
-            merge_accumulator_file(base.take(), p).with_context(|| format!("merging {}", p.display()))?;
-        base = Some(a);
-        base_samples += m.samples;
-    }
-    let mut levels: Vec<LevelSums> = Vec::new();
-    level_files.sort_by_key(|(h, _, _)| (h.level, h.shard_index));
-    let top = level_files.last().map_or(0, |(h, _, _)| h.level);
-    for level in 1..=top {
-        let set: Vec<&(LevelShardHeader, LevelSums, PathBuf)> =
-            level_files.iter().filter(|(h, _, _)| h.level == level).collect();
-        let Some(f) = set.first() else {
-            bail!("--from-shards has level-{top} shards but none of level {level}")
-        };
-        let count = f.0.shard_count;
-        if let Some((h, _, p)) = set.iter().find(|(h, _, _)| h.shard_count != count) {
-            bail!(
-                "{}: level-{level} shard of {} where the others are of {count}",
-                p.display(),
-                h.shard_count
-            );
-        }
-        indices(&format!("level-{level}"), count, &mut set.iter().map(|(h, _, _)| h.shard_index).collect())?;
-        let mut merged = set[0].1.clone();
-        for (_, l, p) in &set[1..] {
-            merged.merge(l).with_context(|| format!("merging {}", p.display()))?;
-        }
-        levels.push(merged);
-    }
-    Ok(AdaptiveInputs { base: base.context("no level-0 shards")?, base_samples, levels })
+        e => e.into(),
+    })
 }
 
 /// `lightvol bake --adaptive`: whole, one shard of one level, or the assembly of shards.

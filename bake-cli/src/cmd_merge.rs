@@ -86,7 +86,7 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     // Deterministic order (the sums are exact, so it changes no bit; it fixes the messages).
     parts.sort_by(|a, b| (a.0.shard_index, &a.1).cmp(&(b.0.shard_index, &b.1)));
     let (first, p0) = (&parts[0].0, &parts[0].1);
-    if first.method.ends_with(crate::adaptive_bake::BASE_SUFFIX) {
+    if first.method.ends_with(lightvol_sampler::adaptive_shard::BASE_SUFFIX) {
         bail!(
             "{} is a level-0 shard of an adaptive bake; assemble its levels with `lightvol bake SCENE --adaptive ... --from-shards FILES`",
             p0.display()

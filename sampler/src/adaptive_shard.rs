@@ -247,6 +247,235 @@ pub fn read_level(path: &Path) -> Result<(LevelSums, LevelShardHeader), BakeErro
     level_from_bytes(&bytes).map_err(|e| err(format!("{}: {e}", path.display())))
 }
 
+/// The suffix of a level-0 shard's method label in its `.lvacc` metadata: a plain merge
+/// refuses such a shard (its volume needs the refinement levels), and assembly checks it.
+pub const BASE_SUFFIX: &str = " adaptive-level-0";
+
+/// The method label of a level-0 shard of a bake labelled `method` ([`BASE_SUFFIX`]).
+#[must_use]
+pub fn base_label(method: &str) -> String {
+    format!("{method}{BASE_SUFFIX}")
+}
+
+/// The shard files of a level-by-level adaptive bake, read, checked and merged: the level-0
+/// sums with their sampling rays, and the refinement levels 1, 2, … in order.
+pub struct ShardSet {
+    /// The merged level-0 sums.
+    pub base: lightvol_volume::Accumulator,
+    /// Sampling rays of the level-0 shards.
+    pub base_samples: u64,
+    /// The merged refinement levels, level 1 first.
+    pub levels: Vec<LevelSums>,
+}
+
+/// Why a set of adaptive shard files was refused (nothing is baked or written before).
+#[derive(Debug, thiserror::Error)]
+pub enum ShardSetError {
+    /// A file appears twice.
+    #[error("{} is given twice (its samples would count twice)", .0.display())]
+    Twice(std::path::PathBuf),
+    /// A `.lvacc` of another bake, or not a level-0 shard.
+    #[error("{} is not a level-0 shard of this adaptive bake (method '{method}', scene and settings {hash}; this bake: '{want_method}', {want_hash})", path.display())]
+    NotBase {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Its method label.
+        method: String,
+        /// Its scene hash.
+        hash: String,
+        /// The label this bake's level-0 shards carry.
+        want_method: String,
+        /// This bake's scene hash.
+        want_hash: String,
+    },
+    /// A `.lvref` of another bake.
+    #[error("{} belongs to another bake (scene and settings {hash}; this bake: {want})", path.display())]
+    OtherBake {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Its scene hash.
+        hash: String,
+        /// This bake's.
+        want: String,
+    },
+    /// Neither a `.lvacc` nor a `.lvref`.
+    #[error("{}: the shard files of an adaptive bake are level-0 .lvacc and level .lvref files", .0.display())]
+    Extension(std::path::PathBuf),
+    /// A file could not be read or merged.
+    #[error("{what} {}", path.display())]
+    File {
+        /// `reading` or `merging`.
+        what: &'static str,
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+    /// No level-0 shard.
+    #[error("no level-0 .lvacc shard among the files (bake them as level-0 shards of the adaptive bake)")]
+    NoBase,
+    /// Shards of one level disagree on their count.
+    #[error("{}: {what}shard of {got} where the others are of {want}", path.display())]
+    MixedCount {
+        /// The file.
+        path: std::path::PathBuf,
+        /// `""` for level 0, `"level-L "` above.
+        what: String,
+        /// Its count.
+        got: u32,
+        /// The others'.
+        want: u32,
+    },
+    /// A shard index appears twice.
+    #[error("{what}: shard {index} of {count} given twice")]
+    DuplicateShard {
+        /// `level-L`.
+        what: String,
+        /// The index.
+        index: u32,
+        /// The count.
+        count: u32,
+    },
+    /// Shards are missing.
+    #[error("incomplete set: {what} shards {missing} of {count} are missing; nothing written")]
+    Incomplete {
+        /// `level-L`.
+        what: String,
+        /// The missing indices, `0, 3`.
+        missing: String,
+        /// The count.
+        count: u32,
+    },
+    /// A level between 1 and the top one has no shards.
+    #[error("the files have level-{top} shards but none of level {level}")]
+    LevelGap {
+        /// The top level given.
+        top: u32,
+        /// The missing level.
+        level: u32,
+    },
+}
+
+impl ShardSet {
+    /// Reads, checks and merges `files` of the adaptive bake whose scene and settings hash
+    /// to `hash` and whose method label is `method` (level-0 shards carry
+    /// [`base_label`]`(method)`): every level complete, each shard once, all of one bake.
+    ///
+    /// # Errors
+    /// [`ShardSetError`], one for the first problem found.
+    pub fn load(files: &[std::path::PathBuf], hash: &str, method: &str) -> Result<Self, ShardSetError> {
+        use lightvol_volume::BakeMetadata;
+        use lightvol_volume::io::accumulator::{merge_accumulator_file, read_accumulator_metadata};
+        use std::path::PathBuf;
+        let file = |what: &'static str, path: &Path| {
+            let path = path.to_owned();
+            move |e: Box<dyn std::error::Error + Send + Sync>| ShardSetError::File { what, path, source: e }
+        };
+        let mut seen = Vec::new();
+        let mut base_files: Vec<(BakeMetadata, PathBuf)> = Vec::new();
+        let mut level_files: Vec<(LevelShardHeader, LevelSums, PathBuf)> = Vec::new();
+        let want_method = base_label(method);
+        for p in files {
+            let canon = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+            if seen.contains(&canon) {
+                return Err(ShardSetError::Twice(p.clone()));
+            }
+            seen.push(canon);
+            match p.extension().and_then(|e| e.to_str()) {
+                Some("lvacc") => {
+                    let m = read_accumulator_metadata(p).map_err(|e| file("reading", p)(Box::new(e)))?;
+                    if m.method != want_method || m.scene_hash != hash {
+                        return Err(ShardSetError::NotBase {
+                            path: p.clone(),
+                            method: m.method,
+                            hash: m.scene_hash,
+                            want_method,
+                            want_hash: hash.to_owned(),
+                        });
+                    }
+                    base_files.push((m, p.clone()));
+                }
+                Some("lvref") => {
+                    let (l, h) = read_level(p).map_err(|e| file("reading", p)(Box::new(e)))?;
+                    if h.scene_hash != hash {
+                        return Err(ShardSetError::OtherBake {
+                            path: p.clone(),
+                            hash: h.scene_hash,
+                            want: hash.to_owned(),
+                        });
+                    }
+                    level_files.push((h, l, p.clone()));
+                }
+                _ => return Err(ShardSetError::Extension(p.clone())),
+            }
+        }
+        let indices = |what: &str, count: u32, have: &mut Vec<u32>| -> Result<(), ShardSetError> {
+            have.sort_unstable();
+            if let Some(w) = have.windows(2).find(|w| w[0] == w[1]) {
+                return Err(ShardSetError::DuplicateShard { what: what.to_owned(), index: w[0], count });
+            }
+            let missing: Vec<String> =
+                (0..count).filter(|k| !have.contains(k)).map(|k| k.to_string()).collect();
+            if !missing.is_empty() {
+                return Err(ShardSetError::Incomplete {
+                    what: what.to_owned(),
+                    missing: missing.join(", "),
+                    count,
+                });
+            }
+            Ok(())
+        };
+        let Some(first) = base_files.first() else { return Err(ShardSetError::NoBase) };
+        let count = first.0.shard_count;
+        if let Some((m, p)) = base_files.iter().find(|(m, _)| m.shard_count != count) {
+            return Err(ShardSetError::MixedCount {
+                path: p.clone(),
+                what: String::new(),
+                got: m.shard_count,
+                want: count,
+            });
+        }
+        indices("level-0", count, &mut base_files.iter().map(|(m, _)| m.shard_index).collect())?;
+        let mut base = None;
+        let mut base_samples = 0;
+        for (m, p) in &base_files {
+            let (a, _) =
+                merge_accumulator_file(base.take(), p).map_err(|e| file("merging", p)(Box::new(e)))?;
+            base = Some(a);
+            base_samples += m.samples;
+        }
+        let mut levels: Vec<LevelSums> = Vec::new();
+        level_files.sort_by_key(|(h, _, _)| (h.level, h.shard_index));
+        let top = level_files.last().map_or(0, |(h, _, _)| h.level);
+        for level in 1..=top {
+            let set: Vec<&(LevelShardHeader, LevelSums, PathBuf)> =
+                level_files.iter().filter(|(h, _, _)| h.level == level).collect();
+            let Some(f) = set.first() else { return Err(ShardSetError::LevelGap { top, level }) };
+            let count = f.0.shard_count;
+            if let Some((h, _, p)) = set.iter().find(|(h, _, _)| h.shard_count != count) {
+                return Err(ShardSetError::MixedCount {
+                    path: p.clone(),
+                    what: format!("level-{level} "),
+                    got: h.shard_count,
+                    want: count,
+                });
+            }
+            indices(
+                &format!("level-{level}"),
+                count,
+                &mut set.iter().map(|(h, _, _)| h.shard_index).collect(),
+            )?;
+            let mut merged = set[0].1.clone();
+            for (_, l, p) in &set[1..] {
+                merged.merge(l).map_err(|e| file("merging", p)(Box::new(e)))?;
+            }
+            levels.push(merged);
+        }
+        Ok(Self { base: base.ok_or(ShardSetError::NoBase)?, base_samples, levels })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
