@@ -12,7 +12,7 @@ use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_sampler::request::finish_merged;
 use lightvol_volume::BakeMetadata;
-use lightvol_volume::io::accumulator::{merge_accumulator_file, read_accumulator_metadata};
+use lightvol_volume::io::accumulator::{check_shard_set, merge_accumulator_file, read_accumulator_metadata};
 use lightvol_volume::io::exr::{ExrOptions, write_exr};
 
 /// `lightvol merge`.
@@ -83,8 +83,7 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         let meta = read_accumulator_metadata(&ap).with_context(|| format!("reading {}", ap.display()))?;
         parts.push((meta, ap));
     }
-    // Deterministic order (the sums are exact, so it changes no bit; it fixes the messages).
-    parts.sort_by(|a, b| (a.0.shard_index, &a.1).cmp(&(b.0.shard_index, &b.1)));
+    let missing = check_shard_set(&mut parts)?;
     let (first, p0) = (&parts[0].0, &parts[0].1);
     if first.method.ends_with(lightvol_sampler::adaptive_shard::BASE_SUFFIX) {
         bail!(
@@ -92,40 +91,7 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
             p0.display()
         );
     }
-    for (m, p) in &parts[1..] {
-        if m.method != first.method
-            || m.shard_count != first.shard_count
-            || m.seed != first.seed
-            || m.scene_hash != first.scene_hash
-        {
-            bail!(
-                "{} does not belong to the same bake as {} (method {} vs {}, seed {} vs {}, shards {} vs {}, scene and settings {} vs {})",
-                p.display(),
-                p0.display(),
-                m.method,
-                first.method,
-                m.seed,
-                first.seed,
-                m.shard_count,
-                first.shard_count,
-                m.scene_hash,
-                first.scene_hash
-            );
-        }
-    }
-    for w in parts.windows(2) {
-        if w[0].0.shard_index == w[1].0.shard_index {
-            bail!(
-                "shard {} of {} given twice ({} and {})",
-                w[0].0.shard_index,
-                first.shard_count,
-                w[0].1.display(),
-                w[1].1.display()
-            );
-        }
-    }
     let have: Vec<u32> = parts.iter().map(|(m, _)| m.shard_index).collect();
-    let missing: Vec<u32> = (0..first.shard_count).filter(|k| !have.contains(k)).collect();
     if !missing.is_empty() && !args.allow_partial {
         bail!(
             "incomplete set: shards {} of {} are missing (have {}); nothing written (--allow-partial merges what is there)",

@@ -322,8 +322,97 @@ pub fn read_accumulator(path: &Path) -> Result<(Accumulator, BakeMetadata), Volu
     accumulator_from_bytes(&read_bounded(path)?)
 }
 
+/// Why the headers of a set of shard files do not make one bake.
+#[derive(Debug, thiserror::Error)]
+pub enum ShardSetError {
+    /// A file of another bake (method, seed, shard count or scene hash differ).
+    #[error(
+        "{} does not belong to the same bake as {} (method {} vs {}, seed {} vs {}, shards {} vs {}, scene and settings {} vs {})",
+        path.display(), first_path.display(), meta.method, first.method, meta.seed, first.seed,
+        meta.shard_count, first.shard_count, meta.scene_hash, first.scene_hash
+    )]
+    OtherBake {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Its metadata.
+        meta: Box<BakeMetadata>,
+        /// The set's first file.
+        first_path: std::path::PathBuf,
+        /// Its metadata.
+        first: Box<BakeMetadata>,
+    },
+    /// One shard index in two files.
+    #[error("shard {index} of {count} given twice ({} and {})", a.display(), b.display())]
+    Twice {
+        /// The index.
+        index: u32,
+        /// The count.
+        count: u32,
+        /// One file.
+        a: std::path::PathBuf,
+        /// The other.
+        b: std::path::PathBuf,
+    },
+}
+
+/// Checks that the shard files `parts` (their metadata and paths, [`read_accumulator_metadata`])
+/// are of one bake, each shard once, and sorts them by shard index (the sums are exact, so
+/// the order changes no bit; it fixes the messages). Returns the indices of the missing
+/// shards (empty for a complete set).
+///
+/// # Errors
+/// [`ShardSetError`] for the first file of another bake or shard given twice.
+///
+/// # Panics
+/// If `parts` is empty.
+pub fn check_shard_set(parts: &mut [(BakeMetadata, std::path::PathBuf)]) -> Result<Vec<u32>, ShardSetError> {
+    parts.sort_by(|a, b| (a.0.shard_index, &a.1).cmp(&(b.0.shard_index, &b.1)));
+    let (first, p0) = (&parts[0].0, &parts[0].1);
+    for (m, p) in &parts[1..] {
+        if m.method != first.method
+            || m.shard_count != first.shard_count
+            || m.seed != first.seed
+            || m.scene_hash != first.scene_hash
+        {
+            return Err(ShardSetError::OtherBake {
+                path: p.clone(),
+                meta: Box::new(m.clone()),
+                first_path: p0.clone(),
+                first: Box::new(first.clone()),
+            });
+        }
+    }
+    for w in parts.windows(2) {
+        if w[0].0.shard_index == w[1].0.shard_index {
+            return Err(ShardSetError::Twice {
+                index: w[0].0.shard_index,
+                count: first.shard_count,
+                a: w[0].1.clone(),
+                b: w[1].1.clone(),
+            });
+        }
+    }
+    let have: Vec<u32> = parts.iter().map(|(m, _)| m.shard_index).collect();
+    Ok((0..first.shard_count).filter(|k| !have.contains(k)).collect())
+}
+
 #[cfg(test)]
 mod tests {
+    use std::path::PathBuf;
+
+    #[test]
+    fn shard_sets_are_checked_and_sorted() {
+        let m = |k: u32| BakeMetadata { shard_index: k, shard_count: 3, ..BakeMetadata::default() };
+        let mut parts = vec![(m(2), PathBuf::from("c")), (m(0), PathBuf::from("a"))];
+        assert_eq!(check_shard_set(&mut parts).unwrap(), [1]);
+        assert_eq!(parts[0].1, PathBuf::from("a"));
+        let mut twice = vec![(m(1), PathBuf::from("a")), (m(1), PathBuf::from("b"))];
+        assert!(check_shard_set(&mut twice).unwrap_err().to_string().starts_with("shard 1 of 3 given twice"));
+        let other = BakeMetadata { seed: 7, ..m(1) };
+        let mut mixed = vec![(m(0), PathBuf::from("a")), (other, PathBuf::from("b"))];
+        assert!(check_shard_set(&mut mixed).unwrap_err().to_string().contains("does not belong"));
+    }
+
     use super::*;
 
     fn acc() -> Accumulator {
