@@ -38,7 +38,7 @@ use crate::imaging::{write_atomic, write_png_rgb8};
 use crate::progress::progress_bar;
 use crate::report_parts::RaysJson;
 use crate::setup::{SceneArgs, with_threads};
-use lightvol_sampler::surface::shard_io::{TexelShardHeader, read_texels, write_texels};
+use lightvol_sampler::surface::shard_io::{TexelSetError, TexelShardHeader, texel_set_records, write_texels};
 
 /// What shards of one surface bake share: the scene's geometry and lighting, every setting
 /// and the lightvol version.
@@ -51,50 +51,19 @@ fn shard_fingerprint(
     scene_hash(&loaded.scene, &surface_key(&loaded.scene, settings, ts))
 }
 
-/// The texel records of basis `tag` from shard files: every shard of one bake exactly once,
-/// with the fingerprint of the current scene and options.
+/// The texel records of basis `tag` from `--from-shards` (lightvol-sampler's
+/// `surface::shard_io::texel_set_records`).
 fn shard_records(
     files: &[PathBuf],
     tag: &str,
     fingerprint: &str,
 ) -> anyhow::Result<Vec<lightvol_sampler::surface::TexelRecord>> {
-    let mut records = Vec::new();
-    let mut have: Vec<u32> = Vec::new();
-    let mut count: Option<u32> = None;
-    for f in files {
-        let (t, h) = read_texels(f).with_context(|| format!("reading {}", f.display()))?;
-        if h.basis != tag {
-            continue;
+    texel_set_records(files, tag, fingerprint).map_err(|e| match e {
+        TexelSetError::NoShards(tag) => {
+            anyhow::anyhow!("no texel shard of basis {tag} among the --from-shards files")
         }
-        if h.fingerprint != fingerprint {
-            bail!(
-                "{} was baked from another scene or other options (fingerprint {} vs {fingerprint})",
-                f.display(),
-                h.fingerprint
-            );
-        }
-        if count.is_some_and(|c| c != h.shard_count) {
-            bail!(
-                "{} is shard {} of {}, the others are of {}",
-                f.display(),
-                h.shard_index,
-                h.shard_count,
-                count.unwrap_or(0)
-            );
-        }
-        count = Some(h.shard_count);
-        if have.contains(&h.shard_index) {
-            bail!("shard {} of {tag} given twice ({})", h.shard_index, f.display());
-        }
-        have.push(h.shard_index);
-        records.extend(t.records);
-    }
-    let Some(n) = count else { bail!("no texel shard of basis {tag} among the --from-shards files") };
-    let missing: Vec<String> = (0..n).filter(|k| !have.contains(k)).map(|k| k.to_string()).collect();
-    if !missing.is_empty() {
-        bail!("incomplete set: shards {} of {n} of {tag} are missing; nothing written", missing.join(", "));
-    }
-    Ok(records)
+        e => e.into(),
+    })
 }
 
 /// 8-bit texture container for `--encode`.

@@ -143,3 +143,112 @@ pub fn read_texels(path: &Path) -> Result<(SurfaceTexels, TexelShardHeader), Sur
     let bytes = read_bounded(path).map_err(|e| err(e.to_string()))?;
     texels_from_bytes(&bytes).map_err(|e| err(format!("{}: {e}", path.display())))
 }
+
+/// Why the texel shards of one basis do not make one surface bake.
+#[derive(Debug, thiserror::Error)]
+pub enum TexelSetError {
+    /// A shard file could not be read.
+    #[error("reading {}", path.display())]
+    Read {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        #[source]
+        source: SurfaceError,
+    },
+    /// A shard of another scene or other settings.
+    #[error("{} was baked from another scene or other options (fingerprint {got} vs {want})", path.display())]
+    OtherBake {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Its fingerprint.
+        got: String,
+        /// This bake's.
+        want: String,
+    },
+    /// Shards of different counts.
+    #[error("{} is shard {index} of {count}, the others are of {others}", path.display())]
+    MixedCount {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Its index.
+        index: u32,
+        /// Its count.
+        count: u32,
+        /// The others' count.
+        others: u32,
+    },
+    /// A shard index given twice.
+    #[error("shard {index} of {tag} given twice ({})", path.display())]
+    Twice {
+        /// The index.
+        index: u32,
+        /// The basis tag.
+        tag: String,
+        /// The second file.
+        path: std::path::PathBuf,
+    },
+    /// No shard of the basis among the files.
+    #[error("no texel shard of basis {0} among the shard files")]
+    NoShards(String),
+    /// Shards are missing.
+    #[error("incomplete set: shards {missing} of {count} of {tag} are missing; nothing written")]
+    Incomplete {
+        /// The missing indices, `0, 3`.
+        missing: String,
+        /// The count.
+        count: u32,
+        /// The basis tag.
+        tag: String,
+    },
+}
+
+/// The texel records of basis `tag` from the shard `files` (files of other bases are
+/// skipped): every shard of one bake exactly once, each with the fingerprint `fingerprint`
+/// of the current scene and settings
+/// ([`provenance::surface_key`](crate::provenance::surface_key)).
+///
+/// # Errors
+/// [`TexelSetError`] for the first problem found.
+pub fn texel_set_records(
+    files: &[std::path::PathBuf],
+    tag: &str,
+    fingerprint: &str,
+) -> Result<Vec<TexelRecord>, TexelSetError> {
+    let mut records = Vec::new();
+    let mut have: Vec<u32> = Vec::new();
+    let mut count: Option<u32> = None;
+    for f in files {
+        let (t, h) = read_texels(f).map_err(|source| TexelSetError::Read { path: f.clone(), source })?;
+        if h.basis != tag {
+            continue;
+        }
+        if h.fingerprint != fingerprint {
+            return Err(TexelSetError::OtherBake {
+                path: f.clone(),
+                got: h.fingerprint,
+                want: fingerprint.to_owned(),
+            });
+        }
+        if let Some(c) = count.filter(|&c| c != h.shard_count) {
+            return Err(TexelSetError::MixedCount {
+                path: f.clone(),
+                index: h.shard_index,
+                count: h.shard_count,
+                others: c,
+            });
+        }
+        count = Some(h.shard_count);
+        if have.contains(&h.shard_index) {
+            return Err(TexelSetError::Twice { index: h.shard_index, tag: tag.to_owned(), path: f.clone() });
+        }
+        have.push(h.shard_index);
+        records.extend(t.records);
+    }
+    let Some(n) = count else { return Err(TexelSetError::NoShards(tag.to_owned())) };
+    let missing: Vec<String> = (0..n).filter(|k| !have.contains(k)).map(|k| k.to_string()).collect();
+    if !missing.is_empty() {
+        return Err(TexelSetError::Incomplete { missing: missing.join(", "), count: n, tag: tag.to_owned() });
+    }
+    Ok(records)
+}
