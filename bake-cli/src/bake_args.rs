@@ -278,6 +278,7 @@ pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
         RequestError::FitWithGradients(fit) => anyhow::anyhow!(
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
         ),
+        e @ RequestError::NotUniform(_) => e.into(),
         RequestError::BasisNeedsCells(_) => anyhow::anyhow!(
             "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
         ),

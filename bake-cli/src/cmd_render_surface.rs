@@ -31,7 +31,7 @@ use lightvol_sampler::surface::{
 use lightvol_sampler::view::Camera;
 use serde::Serialize;
 
-use crate::imaging::{Rgb32, write_atomic, write_png_linear};
+use crate::imaging::{AUTO_EXPOSURE_MEAN, Rgb32, write_atomic, write_png_linear};
 use crate::render_args::{RenderArgs, resolve_camera};
 use crate::setup::with_threads;
 
@@ -261,7 +261,7 @@ pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Re
             .map(|(r, _)| f64::from(r[0] + r[1] + r[2]) / 3.0)
             .sum::<f64>()
             / pixels as f64;
-        if mean > 0.0 { (0.35 / mean) as f32 } else { 1.0 }
+        if mean > 0.0 { (AUTO_EXPOSURE_MEAN / mean) as f32 } else { 1.0 }
     });
     let mut bases = BTreeMap::new();
     for i in &view.images {

@@ -357,6 +357,13 @@ pub enum ShardSetError {
     },
 }
 
+impl ShardSetError {
+    /// [`Self::File`]: reading or merging `path` failed with `e`.
+    fn file(what: &'static str, path: &Path, e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        Self::File { what, path: path.to_owned(), source: Box::new(e) }
+    }
+}
+
 impl ShardSet {
     /// Reads, checks and merges `files` of the adaptive bake whose scene and settings hash
     /// to `hash` and whose method label is `method` (level-0 shards carry
@@ -368,10 +375,6 @@ impl ShardSet {
         use lightvol_volume::BakeMetadata;
         use lightvol_volume::io::accumulator::{merge_accumulator_file, read_accumulator_metadata};
         use std::path::PathBuf;
-        let file = |what: &'static str, path: &Path| {
-            let path = path.to_owned();
-            move |e: Box<dyn std::error::Error + Send + Sync>| ShardSetError::File { what, path, source: e }
-        };
         let mut seen = Vec::new();
         let mut base_files: Vec<(BakeMetadata, PathBuf)> = Vec::new();
         let mut level_files: Vec<(LevelShardHeader, LevelSums, PathBuf)> = Vec::new();
@@ -384,7 +387,7 @@ impl ShardSet {
             seen.push(canon);
             match p.extension().and_then(|e| e.to_str()) {
                 Some("lvacc") => {
-                    let m = read_accumulator_metadata(p).map_err(|e| file("reading", p)(Box::new(e)))?;
+                    let m = read_accumulator_metadata(p).map_err(|e| ShardSetError::file("reading", p, e))?;
                     if m.method != want_method || m.scene_hash != hash {
                         return Err(ShardSetError::NotBase {
                             path: p.clone(),
@@ -397,7 +400,7 @@ impl ShardSet {
                     base_files.push((m, p.clone()));
                 }
                 Some("lvref") => {
-                    let (l, h) = read_level(p).map_err(|e| file("reading", p)(Box::new(e)))?;
+                    let (l, h) = read_level(p).map_err(|e| ShardSetError::file("reading", p, e))?;
                     if h.scene_hash != hash {
                         return Err(ShardSetError::OtherBake {
                             path: p.clone(),
@@ -441,7 +444,7 @@ impl ShardSet {
         let mut base_samples = 0;
         for (m, p) in &base_files {
             let (a, _) =
-                merge_accumulator_file(base.take(), p).map_err(|e| file("merging", p)(Box::new(e)))?;
+                merge_accumulator_file(base.take(), p).map_err(|e| ShardSetError::file("merging", p, e))?;
             base = Some(a);
             base_samples += m.samples;
         }
@@ -468,7 +471,7 @@ impl ShardSet {
             )?;
             let mut merged = set[0].1.clone();
             for (_, l, p) in &set[1..] {
-                merged.merge(l).map_err(|e| file("merging", p)(Box::new(e)))?;
+                merged.merge(l).map_err(|e| ShardSetError::file("merging", p, e))?;
             }
             levels.push(merged);
         }

@@ -285,6 +285,9 @@ pub enum RequestError {
     /// The gradient estimators assume the average fit.
     #[error("the {0} fit cannot be combined with gradients (the gradient estimators assume the average)")]
     FitWithGradients(Fit),
+    /// A baseline or octree request given to the uniform bake, which bakes neither.
+    #[error("{0} has its own bake run, not the uniform one")]
+    NotUniform(&'static str),
     /// The basis estimator needs cell samples.
     #[error("basis gradients need cell samples (prefilter or doi-paper), not {}", method_name(*.0))]
     BasisNeedsCells(Method),
@@ -363,10 +366,10 @@ pub fn bake_uniform(
 ) -> Result<UniformBake, UniformBakeError> {
     request.validate()?;
     if let BakeMethod::Baseline(baseline) = request.method {
-        return Err(RequestError::Baseline { baseline, with: Conflict::Shard }.into());
+        return Err(RequestError::NotUniform(baseline.name()).into());
     }
     if request.adaptive.is_some() {
-        return Err(RequestError::Adaptive(Conflict::Shard).into());
+        return Err(RequestError::NotUniform("an octree bake").into());
     }
     let settings = request.settings();
     let fit = request.effective_fit();
@@ -546,6 +549,24 @@ mod tests {
         assert_eq!((g.gradients.as_deref(), g.fit), (Some("central"), FitRecord::Average));
         let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), 16).record();
         assert_eq!(apv.method, "point+apv");
+    }
+
+    #[test]
+    fn the_uniform_bake_refuses_baselines_and_octrees() {
+        let maze = crate::builtin("maze").unwrap();
+        let tracer = crate::Tracer::new(&maze.scene);
+        let t = Transport::new(&maze.scene, &tracer, TransportSettings::default());
+        let p = Provenance { frame: UpAxis::Z, key: "" };
+        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), 4);
+        let e = bake_uniform(&t, &maze.scene, &maze.grid, &apv, p, &BakeControl::default()).err().unwrap();
+        assert!(matches!(e, UniformBakeError::Request(RequestError::NotUniform("point+apv"))), "{e}");
+        let settings = AdaptiveSettings::default();
+        let octree = BakeRequest {
+            adaptive: Some(AdaptiveRequest { settings, level: None, from_shards: false }),
+            ..grid(Method::Doi)
+        };
+        let e = bake_uniform(&t, &maze.scene, &maze.grid, &octree, p, &BakeControl::default()).err().unwrap();
+        assert!(matches!(e, UniformBakeError::Request(RequestError::NotUniform(_))), "{e}");
     }
 
     #[test]
