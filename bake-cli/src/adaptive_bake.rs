@@ -20,7 +20,6 @@ use serde_json::json;
 
 use crate::bake_args::{BakeArgs, bake_key, request};
 use crate::progress::{progress_bar, run_bake, with_progress};
-use crate::report_parts::RaysJson;
 use crate::setup::{LoadedScene, with_threads};
 use lightvol_sampler::provenance::scene_hash;
 use lightvol_sampler::request::AdaptiveRequest;
@@ -174,7 +173,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     };
     let vol = vol.with_metadata(meta);
     write_adaptive_exr(&args.output, &vol).with_context(|| format!("writing {}", args.output.display()))?;
-    let rays = RaysJson::of(&stats.rays);
+    let rays = stats.rays;
     let report = json!({
         "scene": loaded.label,
         "method": args.method,
@@ -204,7 +203,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         f[0],
         f[1],
         f[2],
-        rays.total,
+        rays.total(),
         stats.wall_time.as_secs_f64()
     );
     eprintln!(

@@ -18,7 +18,6 @@ use serde::Serialize;
 
 use crate::bake_args::{BakeArgs, bake_key, request};
 use crate::progress::with_bar;
-use crate::report_parts::RaysJson;
 use crate::setup::{LoadedScene, with_threads};
 
 /// Bake statistics as printed by `bake --json`.
@@ -35,7 +34,7 @@ pub(crate) struct BakeReport {
     /// Seed.
     pub(crate) seed: u64,
     /// Rays by kind.
-    pub(crate) rays: RaysJson,
+    pub(crate) rays: lightvol_sampler::RayCounts,
     /// Cells where Algorithm 2 found back faces.
     pub(crate) cells_with_back_faces: u64,
     /// Candidate samples.
@@ -185,7 +184,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         grid: FileGrid::of(&grid, loaded.frame),
         samples: args.sampling.samples,
         seed: args.sampling.seed,
-        rays: RaysJson::of(&s.rays),
+        rays: s.rays,
         cells_with_back_faces: s.cells_with_back_faces,
         candidates: s.candidates,
         samples_kept: s.samples_kept,
@@ -250,7 +249,7 @@ fn run_baseline(args: &BakeArgs, request: &BakeRequest, baseline: Baseline) -> a
         grid: FileGrid::of(&grid, loaded.frame),
         samples: args.sampling.samples,
         seed: args.sampling.seed,
-        rays: RaysJson::of(&bake.rays),
+        rays: bake.rays,
         cells_with_back_faces: 0,
         candidates: 0,
         samples_kept: 0,
@@ -285,7 +284,7 @@ fn print_report(args: &BakeArgs, report: &BakeReport) -> anyhow::Result<()> {
             report.grid.res[0],
             report.grid.res[1],
             report.grid.res[2],
-            report.rays.total,
+            report.rays.total(),
             report.rays.sampling,
             report.rays.query,
             report.rays.bounce,

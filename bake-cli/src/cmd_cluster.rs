@@ -17,6 +17,9 @@
 //! one job array per octree level (`bake-levelL`), each reading the complete shard sets of
 //! the levels below and started only after them, and a final job that assembles the levels
 //! with `bake --adaptive --from-shards` instead of `merge`.
+//!
+//! The job files are lightvol-sampler's `cluster` (`slurm_jobs`, `k8s_jobs`); this verb
+//! turns its options into a plan, writes the files, and submits and watches the Slurm jobs.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command as Proc, ExitCode};
@@ -24,6 +27,11 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, bail};
 use clap::Args;
+
+use lightvol_sampler::cluster::{
+    FINAL_STATES, JobLine, JobPlan, K8sJobs, K8sOptions, SlurmJobs, SlurmOptions, check_job_value, k8s_jobs,
+    parse_job_lines, slurm_jobs,
+};
 
 use crate::bake_args::BakeArgs;
 
@@ -136,24 +144,6 @@ pub(crate) fn bake_arguments(argv: &[String]) -> Vec<String> {
     out
 }
 
-/// POSIX shell single-quoting.
-#[must_use]
-pub(crate) fn sh_quote(s: &str) -> String {
-    if !s.is_empty() && s.bytes().all(|b| b.is_ascii_alphanumeric() || b"-_./=:,+@%".contains(&b)) {
-        return s.to_owned();
-    }
-    format!("'{}'", s.replace('\'', r"'\''"))
-}
-
-/// Refuses a value written into an `#SBATCH` line or a job's shell command that could end
-/// the line or mean something else to Slurm (control characters, `%` patterns, `\`).
-fn check_job_value(what: &str, v: &str) -> anyhow::Result<()> {
-    if v.chars().any(|c| c.is_control() || c == '%' || c == '\\') {
-        bail!("{what} {v:?} contains a control character, '%' or '\\', which job files cannot carry safely");
-    }
-    Ok(())
-}
-
 fn absolute(p: &Path) -> anyhow::Result<PathBuf> {
     if p.is_absolute() {
         Ok(p.to_owned())
@@ -184,46 +174,6 @@ fn shard_count(bake: &BakeArgs) -> anyhow::Result<u32> {
     Ok(n)
 }
 
-/// One job array of a sharded bake: its file stem and what follows the bake's options.
-struct Stage {
-    name: String,
-    tail: String,
-}
-
-/// The job arrays of a sharded bake, in dependency order, and the final command's words
-/// after the lightvol executable. A uniform bake is one array and a `merge`; an adaptive
-/// bake is one array per level (each reading the levels below) and an assembling `bake`.
-/// `shards` is the shell-quoted shard folder, `index` the shell text of the task index.
-fn stages(
-    bake: &BakeArgs,
-    words: &str,
-    n: u32,
-    shards: &str,
-    index: &str,
-    out: &str,
-) -> anyhow::Result<(Vec<Stage>, String)> {
-    if !bake.adaptive.adaptive {
-        let st = Stage {
-            name: "bake".into(),
-            tail: format!("--shard auto --shards {n} -o {shards}/shard-{index}.exr"),
-        };
-        return Ok((vec![st], format!("merge {shards}/*.lvacc -o {out}")));
-    }
-    let max_level = bake.adaptive.settings(bake.grid.coeffs())?.max_level;
-    let mut inputs = vec![format!("{shards}/level0-*.lvacc")];
-    let mut out_stages = Vec::new();
-    for level in 0..=max_level {
-        let mut tail = format!("--shard auto --shards {n}");
-        if level > 0 {
-            tail += &format!(" --level {level} --from-shards {}", inputs.join(" "));
-            inputs.push(format!("{shards}/level{level}-*.lvref"));
-        }
-        tail += &format!(" -o {shards}/level{level}-{index}.exr");
-        out_stages.push(Stage { name: format!("bake-level{level}"), tail });
-    }
-    Ok((out_stages, format!("bake {words} --from-shards {} -o {out}", inputs.join(" "))))
-}
-
 /// Checks what both verbs need and returns (shards, work folder, merged output, lightvol).
 fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, PathBuf, PathBuf, PathBuf)> {
     let n = shard_count(bake)?;
@@ -239,13 +189,23 @@ fn common(bake: &BakeArgs, job: &JobArgs, ext: &str) -> anyhow::Result<(u32, Pat
     Ok((n, work, out, exe))
 }
 
+/// The plan of the bake `bake` in `n` shards, whose tasks pass `bake_args`.
+fn plan(bake: &BakeArgs, bake_args: Vec<String>, n: u32) -> anyhow::Result<JobPlan> {
+    let adaptive_max_level = if bake.adaptive.adaptive {
+        Some(bake.adaptive.settings(bake.grid.coeffs())?.max_level)
+    } else {
+        None
+    };
+    Ok(JobPlan { shards: n, bake_args, adaptive_max_level })
+}
+
 /// Runs `lightvol slurm`; `argv` is the verb's command line after `slurm`.
 pub(crate) fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<ExitCode> {
     let (n, work, out, exe) = common(&args.bake, &args.job, "slurm")?;
     // The scene and lights must load here, so that a typo fails now, not on the cluster.
     args.bake.scene.load_quiet().context("checking the scene before writing jobs")?;
-    let bake = bake_arguments(argv);
-    for a in &bake {
+    let bake_args = bake_arguments(argv);
+    for a in &bake_args {
         check_job_value("the bake option", a)?;
     }
     for v in [&args.partition, &args.time, &args.mem].into_iter().flatten() {
@@ -255,90 +215,17 @@ pub(crate) fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<Exi
     // what they mean here.
     let cwd = std::env::current_dir().context("current folder")?;
     check_job_value("the current folder", &cwd.to_string_lossy())?;
-    let q = |p: &Path| sh_quote(&p.to_string_lossy());
-    let mut head = vec![
-        "#!/bin/bash".to_owned(),
-        "#SBATCH --job-name=lightvol-bake".to_owned(),
-        format!("#SBATCH --array=0-{}", n - 1),
-        format!("#SBATCH --output={}", q(&work.join("logs/bake-%A_%a.log"))),
-        format!("#SBATCH --chdir={}", q(&cwd)),
-    ];
-    if let Some(c) = args.cpus {
-        head.push(format!("#SBATCH --cpus-per-task={c}"));
-    }
-    for (k, v) in [("partition", &args.partition), ("time", &args.time), ("mem", &args.mem)] {
-        if let Some(v) = v {
-            head.push(format!("#SBATCH --{k}={}", sh_quote(v)));
-        }
-    }
-    let words: Vec<String> = bake.iter().map(|a| sh_quote(a)).chain(quiet(&bake)).collect();
-    let words = words.join(" ");
-    let (stages, last) =
-        stages(&args.bake, &words, n, &q(&work.join("shards")), "\"$SLURM_ARRAY_TASK_ID\"", &q(&out))?;
-    let mut files: Vec<(String, String)> = Vec::new();
-    for st in &stages {
-        let mut h = head.clone();
-        h[1] = format!("#SBATCH --job-name=lightvol-{}", st.name);
-        h[3] = format!("#SBATCH --output={}", q(&work.join(format!("logs/{}-%A_%a.log", st.name))));
-        files.push((
-            format!("{}.sbatch", st.name),
-            format!(
-                "{}\n# Written by `lightvol slurm`: one array task per shard. `--shard auto` maps the task's\n# SLURM_ARRAY_TASK_ID (with _MIN/_MAX/_STEP) to a dense shard index.\nset -euo pipefail\nexec {} bake {words} {}\n",
-                h.join("\n"),
-                q(&exe),
-                st.tail
-            ),
-        ));
-    }
-    let mut mhead = vec![
-        "#!/bin/bash".to_owned(),
-        "#SBATCH --job-name=lightvol-merge".to_owned(),
-        format!("#SBATCH --output={}", q(&work.join("logs/merge-%j.log"))),
-        format!("#SBATCH --chdir={}", q(&cwd)),
-    ];
-    if let Some(c) = args.cpus.filter(|_| args.bake.adaptive.adaptive) {
-        // The assembly replays the heuristics: it uses the shards' CPUs.
-        mhead.push(format!("#SBATCH --cpus-per-task={c}"));
-    }
-    for (k, v) in [("partition", &args.partition), ("time", &args.time), ("mem", &args.mem)] {
-        if let Some(v) = v {
-            mhead.push(format!("#SBATCH --{k}={}", sh_quote(v)));
-        }
-    }
-    files.push((
-        "merge.sbatch".into(),
-        format!(
-            "{}\n# Written by `lightvol slurm`: {} (refuses an incomplete set).\nset -euo pipefail\nexec {} {last}\n",
-            mhead.join("\n"),
-            if args.bake.adaptive.adaptive {
-                "assembles the levels' exact sums into the octree volume"
-            } else {
-                "merges the shards' exact sums"
-            },
-            q(&exe),
-        ),
-    ));
-    let mut submit = String::from(
-        "#!/bin/bash\n# Written by `lightvol slurm`: submits the shard arrays in order, each running only if\n# every task of the one before succeeded (and cancelled if one failed), then the merge.\nset -euo pipefail\n",
-    );
-    let mut prev: Option<String> = None;
-    let mut names: Vec<String> = stages.iter().map(|st| st.name.clone()).collect();
-    names.push("merge".into());
-    for (i, name) in names.iter().enumerate() {
-        let var = format!("job{i}");
-        let dep = prev.as_ref().map_or_else(String::new, |p| {
-            format!("--dependency=afterok:\"${p}\" --kill-on-invalid-dep=yes ")
-        });
-        submit += &format!(
-            "{var}=$(sbatch --parsable {dep}{})\n{var}=${{{var}%%;*}}\necho \"{name} ${var}\"\n",
-            q(&work.join(format!("{name}.sbatch")))
-        );
-        prev = Some(var);
-    }
+    let plan = plan(&args.bake, bake_args, n)?;
+    let slurm = SlurmOptions {
+        partition: args.partition.clone(),
+        time: args.time.clone(),
+        cpus: args.cpus,
+        mem: args.mem.clone(),
+    };
+    let SlurmJobs { stages, files } = slurm_jobs(&plan, &slurm, &out, &work, &exe, &cwd)?;
     for d in ["shards", "logs"] {
         std::fs::create_dir_all(work.join(d)).with_context(|| format!("creating {}", work.display()))?;
     }
-    files.push(("submit.sh".into(), submit));
     for (name, body) in &files {
         let p = work.join(name);
         crate::imaging::write_atomic(&p, body.as_bytes())
@@ -395,7 +282,7 @@ pub(crate) fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<Exi
     }
     let failed: Vec<String> = lines
         .into_iter()
-        .filter(|(_, j)| j.state != "COMPLETED" && FINAL.contains(&j.state.as_str()))
+        .filter(|(_, j)| j.state != "COMPLETED" && FINAL_STATES.contains(&j.state.as_str()))
         .map(|(prefix, j)| {
             format!(
                 "{prefix}array task {} ({}) {} exit {}",
@@ -417,11 +304,6 @@ pub(crate) fn run_slurm(args: &SlurmArgs, argv: &[String]) -> anyhow::Result<Exi
         state.reason,
         logs.display()
     );
-}
-
-/// `--quiet` for the shard jobs (no progress bars in their logs), unless already given.
-fn quiet(bake: &[String]) -> Option<String> {
-    (!bake.iter().any(|a| a == "--quiet")).then(|| "--quiet".to_owned())
 }
 
 fn s(p: &Path) -> &str {
@@ -457,41 +339,6 @@ fn sbatch(args: &[&str]) -> anyhow::Result<String> {
     Ok(id)
 }
 
-/// One job (or array task) as `scontrol -o show job` prints it.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub(crate) struct JobLine {
-    /// `JobId`.
-    pub(crate) id: String,
-    /// `ArrayTaskId`, for array tasks.
-    pub(crate) task: Option<String>,
-    /// `JobState`.
-    pub(crate) state: String,
-    /// `ExitCode` (`code:signal`).
-    pub(crate) exit_code: String,
-    /// `Reason`.
-    pub(crate) reason: String,
-}
-
-/// Parses `scontrol -o show job` output (one job per line, `Key=Value` fields).
-#[must_use]
-pub(crate) fn parse_job_lines(text: &str) -> Vec<JobLine> {
-    text.lines()
-        .filter(|l| l.contains("JobId="))
-        .map(|l| {
-            let field = |k: &str| {
-                l.split_whitespace().find_map(|f| f.strip_prefix(&format!("{k}="))).map(str::to_owned)
-            };
-            JobLine {
-                id: field("JobId").unwrap_or_default(),
-                task: field("ArrayTaskId"),
-                state: field("JobState").unwrap_or_default(),
-                exit_code: field("ExitCode").unwrap_or_default(),
-                reason: field("Reason").unwrap_or_default(),
-            }
-        })
-        .collect()
-}
-
 fn job_lines(id: &str) -> anyhow::Result<Vec<JobLine>> {
     let o = Proc::new("scontrol").args(["-o", "show", "job", id]).output().context("running scontrol")?;
     if !o.status.success() {
@@ -499,19 +346,6 @@ fn job_lines(id: &str) -> anyhow::Result<Vec<JobLine>> {
     }
     Ok(parse_job_lines(&String::from_utf8_lossy(&o.stdout)))
 }
-
-/// Job states after which a job never runs again.
-const FINAL: &[&str] = &[
-    "COMPLETED",
-    "FAILED",
-    "CANCELLED",
-    "TIMEOUT",
-    "OUT_OF_MEMORY",
-    "NODE_FAIL",
-    "PREEMPTED",
-    "BOOT_FAIL",
-    "DEADLINE",
-];
 
 /// Consecutive failed `scontrol` calls `--wait` tolerates (a busy controller times out).
 const SCONTROL_RETRIES: u32 = 20;
@@ -525,7 +359,7 @@ fn wait_for(id: &str) -> anyhow::Result<JobLine> {
             Ok(lines) => {
                 failures = 0;
                 if let Some(j) = lines.into_iter().next()
-                    && FINAL.contains(&j.state.as_str())
+                    && FINAL_STATES.contains(&j.state.as_str())
                 {
                     return Ok(j);
                 }
@@ -569,62 +403,17 @@ pub(crate) fn run_k8s(args: &K8sArgs, argv: &[String]) -> anyhow::Result<ExitCod
         .file_stem()
         .map_or_else(|| "lightvol".to_owned(), |s| s.to_string_lossy().into_owned());
     let work = absolute(&args.job.workdir.clone().unwrap_or_else(|| PathBuf::from(format!("{stem}.k8s"))))?;
-    let raw = bake_arguments(argv);
-    let words: Vec<String> = raw.iter().map(|a| sh_quote(a)).chain(quiet(&raw)).collect();
-    let words = words.join(" ");
-    let shards = sh_quote(&format!("{mount}/shards"));
-    let (stages, last) =
-        stages(&args.bake, &words, n, &shards, "\"$JOB_COMPLETION_INDEX\"", &sh_quote(&out))?;
-    let volume = serde_json::json!([{"name": "data", "persistentVolumeClaim": {"claimName": args.pvc}}]);
-    let mounts = serde_json::json!([{"name": "data", "mountPath": args.mount}]);
-    let job = |name: &str, cmd: &str, indexed: bool| {
-        let mut spec = serde_json::json!({
-            "backoffLimit": 0,
-            "template": {"spec": {
-                "restartPolicy": "Never",
-                "containers": [{"name": name, "image": args.image, "command": ["sh", "-c", cmd],
-                    "resources": {"requests": {"cpu": args.cpus.to_string()}},
-                    "env": [{"name": "RAYON_NUM_THREADS", "value": args.cpus.to_string()}],
-                    "volumeMounts": mounts}],
-                "volumes": volume}}
-        });
-        if indexed {
-            spec["completions"] = n.into();
-            spec["parallelism"] = n.into();
-            spec["completionMode"] = "Indexed".into();
-        }
-        serde_json::json!({"apiVersion": "batch/v1", "kind": "Job", "metadata": {"name": format!("lightvol-{name}")}, "spec": spec})
+    let plan = plan(&args.bake, bake_arguments(argv), n)?;
+    let k8s = K8sOptions {
+        image: args.image.clone(),
+        pvc: args.pvc.clone(),
+        mount: args.mount.clone(),
+        cpus: args.cpus,
     };
+    let K8sJobs { files, steps } = k8s_jobs(&plan, &k8s, &out, &work)?;
     std::fs::create_dir_all(&work).with_context(|| format!("creating {}", work.display()))?;
-    // Kubernetes has no job dependencies: each job is applied after the one before completes.
-    let mut files: Vec<(String, serde_json::Value)> = stages
-        .iter()
-        .map(|st| {
-            let cmd = format!("mkdir -p {shards} && exec lightvol bake {words} {}", st.tail);
-            (format!("{}-job.yaml", st.name), job(&st.name, &cmd, true))
-        })
-        .collect();
-    files.push(("merge-job.yaml".into(), job("merge", &format!("exec lightvol {last}"), false)));
-    let steps: Vec<String> = stages
-        .iter()
-        .zip(&files)
-        .map(|(st, (file, _))| {
-            format!(
-                "kubectl apply -f {0}/{file} && kubectl wait --for=condition=complete --timeout=24h job/lightvol-{1}",
-                work.display(),
-                st.name
-            )
-        })
-        .chain(std::iter::once(format!("kubectl apply -f {}/merge-job.yaml", work.display())))
-        .collect();
-    // JSON is YAML (YAML 1.2 is a superset), and kubectl reads either.
-    let header = format!(
-        "# Written by `lightvol k8s`. Apply each job after the one before completes, the merge last:\n{}",
-        steps.iter().map(|l| format!("#   {l}\n")).collect::<String>()
-    );
-    for (file, j) in &files {
+    for (file, body) in &files {
         let p = work.join(file);
-        let body = format!("{header}{}\n", serde_json::to_string_pretty(j).expect("plain data"));
         crate::imaging::write_atomic(&p, body.as_bytes())
             .with_context(|| format!("writing {}", p.display()))?;
     }
@@ -667,22 +456,5 @@ mod tests {
             "4,4,4",
         ]);
         assert_eq!(bake_arguments(&argv), v(&["builtin:city", "--samples", "8", "--res", "4,4,4"]));
-    }
-
-    #[test]
-    fn shell_quoting() {
-        assert_eq!(sh_quote("a/b.exr"), "a/b.exr");
-        assert_eq!(sh_quote("it's here"), r"'it'\''s here'");
-        assert_eq!(sh_quote(""), "''");
-    }
-
-    #[test]
-    fn scontrol_lines_parse() {
-        let t = "JobId=12 ArrayJobId=11 ArrayTaskId=1 JobName=lightvol-bake JobState=FAILED Reason=NonZeroExitCode Dependency=(null) ExitCode=1:0\nJobId=13 JobName=m JobState=CANCELLED Reason=DependencyNeverSatisfied ExitCode=0:0\n";
-        let j = parse_job_lines(t);
-        assert_eq!(j.len(), 2);
-        assert_eq!(j[0].task.as_deref(), Some("1"));
-        assert_eq!((j[0].state.as_str(), j[0].exit_code.as_str()), ("FAILED", "1:0"));
-        assert_eq!(j[1].reason, "DependencyNeverSatisfied");
     }
 }

@@ -2,7 +2,8 @@
 //! horizontal plate against a path-traced reference (Kontkanen & Laine 2006, Fig. 6).
 //!
 //! The comparison itself is lightvol-sampler's `eval::compare`; this verb turns the options
-//! into its `CompareConfig`, draws its progress, and writes what it returns: `report.json`,
+//! into its `CompareConfig`, draws its progress, and writes the files `eval::report` makes
+//! of what it returns: `report.json`,
 //! `plate.exr`, the panels, with `--camera` the views (`view_CAMERA_METHOD.png`,
 //! `view_CAMERA_reference.png`) and, with `--memory-sweep`, the sweep's files.
 
@@ -13,24 +14,19 @@ use std::sync::{Mutex, PoisonError};
 use anyhow::Context;
 use clap::Args;
 use indicatif::ProgressBar;
-use lightvol_sampler::envmap::luminance;
-use lightvol_sampler::eval::entries::lookup_name;
+use lightvol_sampler::eval::report::{CompareReport, compare_files};
 use lightvol_sampler::eval::sweep::{MAX_SWEEP_SCALE, SweepConfig, check_scales};
 use lightvol_sampler::eval::{
-    CompareConfig, Comparison, EvalError, MethodRun, Metrics, NamedEntry, Observer, Plate, PlateConfig,
-    RunDetail, SweepPoint, ViewCamera, ViewsConfig, default_plate_height,
+    CompareConfig, Comparison, EvalError, Metrics, NamedEntry, Observer, PlateConfig, SweepPoint, ViewCamera,
+    ViewsConfig, default_plate_height,
 };
 use lightvol_sampler::view::ViewError;
 use lightvol_sampler::{GridSpec, Progress};
-use serde::Serialize;
-use serde_json::{Map, Value, json};
 
-use crate::compare_views::{ViewArgs, ViewJson, cameras, write_view};
-use crate::imaging::{Rgb32, diverging, write_atomic, write_png_linear};
+use crate::compare_views::{ViewArgs, cameras};
+use crate::imaging::write_atomic;
 use crate::progress::progress_bar;
-use crate::report_parts::{RaysJson, ReferenceJson};
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, resolve_threads};
-use lightvol_volume::frame::FileGrid;
 
 /// `lightvol compare`.
 #[derive(Debug, Args, Clone)]
@@ -91,53 +87,6 @@ pub(crate) struct CompareArgs {
     /// No progress bars.
     #[arg(long)]
     pub(crate) quiet: bool,
-}
-
-/// `report.json` of `compare`.
-#[derive(Debug, Serialize, Clone)]
-pub(crate) struct CompareReport {
-    /// Scene label.
-    pub(crate) scene: String,
-    /// Up axis of the source scene.
-    pub(crate) up: String,
-    /// The plate.
-    pub(crate) plate: PlateJson,
-    /// The grid.
-    pub(crate) grid: FileGrid,
-    /// The reference.
-    pub(crate) reference: ReferenceJson,
-    /// Per method, in the order run.
-    pub(crate) methods: Map<String, Value>,
-    /// Per camera, in the order given (only with `--camera`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub(crate) views: Option<Vec<ViewJson>>,
-}
-
-/// Plate description.
-#[derive(Debug, Serialize, Clone)]
-pub(crate) struct PlateJson {
-    /// Height (z).
-    pub(crate) height: f64,
-    /// Points per side.
-    pub(crate) res: [u32; 2],
-    /// Points that see no back faces.
-    pub(crate) valid_points: usize,
-    /// Valid points near a surface.
-    pub(crate) near_points: usize,
-}
-
-/// One method's entry.
-#[derive(Debug, Serialize, Clone)]
-pub(crate) struct MethodJson {
-    /// Samples per cell (per node for point).
-    pub(crate) samples: u32,
-    /// Rays by kind.
-    pub(crate) rays: RaysJson,
-    /// Bake wall time.
-    pub(crate) seconds: f64,
-    /// The leakage metrics.
-    #[serde(flatten)]
-    pub(crate) metrics: Metrics,
 }
 
 /// Progress bars on stderr for the stages of an evaluation, and the sweeps' lines (nothing
@@ -311,36 +260,9 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     write_outputs(&args.output, &loaded, &config, &result, &args.views.cameras)
 }
 
-/// Report fields of one run beyond [`MethodJson`].
-fn extra(run: &MethodRun) -> Map<String, Value> {
-    let mut m = Map::new();
-    m.insert("memory_bytes".into(), json!(run.memory_bytes));
-    m.insert("nodes".into(), json!(run.nodes));
-    match &run.detail {
-        RunDetail::Uniform => {}
-        RunDetail::Gradient { lookup, estimator, extra_directions, singular_nodes } => {
-            m.insert("lookup".into(), json!(lookup_name(*lookup)));
-            m.insert("gradient_estimator".into(), json!(estimator.name()));
-            m.insert("gradient_extra_directions".into(), json!(extra_directions));
-            m.insert("gradient_singular_nodes".into(), json!(singular_nodes));
-        }
-        RunDetail::Adaptive { memory_budget, base_res, finest_res, levels, depth_rays } => {
-            m.insert("memory_budget".into(), json!(memory_budget));
-            m.insert("base_res".into(), json!(base_res));
-            m.insert("finest_res".into(), json!(finest_res));
-            m.insert("levels".into(), json!(levels));
-            m.insert("depth_rays".into(), json!(depth_rays));
-        }
-        RunDetail::Baseline { invalid_nodes, moved_nodes } => {
-            m.insert("invalid_nodes".into(), json!(invalid_nodes));
-            m.insert("moved_nodes".into(), json!(moved_nodes));
-        }
-    }
-    m
-}
-
 /// Writes the panels, the views, the sweep's files, `plate.exr` and `report.json` of
-/// `result` into `dir` (`specs`: the `--camera` options of the views); returns the report.
+/// `result` into `dir` (lightvol-sampler's `eval::report::compare_files`; `specs`: the
+/// `--camera` options of the views); returns the report.
 fn write_outputs(
     dir: &Path,
     loaded: &LoadedScene,
@@ -348,132 +270,12 @@ fn write_outputs(
     result: &Comparison,
     specs: &[String],
 ) -> anyhow::Result<CompareReport> {
-    let plate = &result.plate;
-    for run in &result.methods {
-        write_panels(dir, &run.name, plate, &run.estimate, result.mean_truth)?;
+    let out = compare_files(&loaded.label, loaded.frame, config, result, specs)
+        .with_context(|| format!("encoding the files of {}", dir.display()))?;
+    for (rel, bytes) in &out.files {
+        write_atomic(&dir.join(rel), bytes)?;
     }
-    let mut views_json = Vec::with_capacity(result.views.len());
-    for (view, spec) in result.views.iter().zip(specs) {
-        views_json.push(write_view(dir, view, spec, config.views.reference_samples)?);
-    }
-    if let Some(sweep) = &result.memory_sweep {
-        crate::memory_sweep::write(dir, &loaded.label, sweep)?;
-    }
-    let named: Vec<(String, Vec<[f64; 3]>)> =
-        result.methods.iter().map(|r| (r.name.clone(), r.estimate.clone())).collect();
-    write_plate_exr(&dir.join("plate.exr"), plate, &named)?;
-    let mut methods_json = Map::new();
-    for r in &result.methods {
-        let json = MethodJson {
-            samples: r.samples,
-            rays: RaysJson::of(&r.rays),
-            seconds: r.seconds,
-            metrics: r.metrics,
-        };
-        let mut v = serde_json::to_value(&json)?;
-        if let Value::Object(m) = &mut v {
-            m.extend(extra(r));
-        }
-        methods_json.insert(r.name.clone(), v);
-    }
-    let report = CompareReport {
-        scene: loaded.label.clone(),
-        up: loaded.frame.name().to_owned(),
-        plate: PlateJson {
-            height: plate.height,
-            res: [plate.res[0] as u32, plate.res[1] as u32],
-            valid_points: plate.valid_points(),
-            near_points: plate.near_points(),
-        },
-        grid: FileGrid::of(&config.grid, loaded.frame),
-        reference: ReferenceJson {
-            samples: config.plate.reference_samples,
-            mean: result.mean_truth,
-            seconds: plate.reference_seconds,
-        },
-        methods: methods_json,
-        views: (!views_json.is_empty()).then_some(views_json),
-    };
-    write_atomic(&dir.join("report.json"), serde_json::to_string_pretty(&report)?.as_bytes())?;
-    Ok(report)
-}
-
-/// Bright green for points outside the domain of interest (\[KL06\] Fig. 6).
-const INVALID_GREEN: [f32; 3] = [0.0, 4.0, 0.0];
-
-/// Writes the Fig. 6-style panel (method | reference) and the signed error heat map.
-pub(crate) fn write_panels(
-    dir: &Path,
-    name: &str,
-    plate: &Plate,
-    estimate: &[[f64; 3]],
-    mean_truth: f64,
-) -> anyhow::Result<()> {
-    let [w, h] = plate.res;
-    let exposure = if mean_truth > 0.0 { (0.45 / mean_truth) as f32 } else { 1.0 };
-    let mut panel = Rgb32::new(2 * w + 4, h);
-    let mut err = Rgb32::new(w, h);
-    for j in 0..h {
-        // Image row 0 is the plate's max y (north up).
-        let y = h - 1 - j;
-        for i in 0..w {
-            let k = j * w + i;
-            let (e, t) = (estimate[k], plate.truth[k]);
-            if plate.valid[k] {
-                panel.set(i, y, e.map(|v| v as f32));
-                panel.set(w + 4 + i, y, t.map(|v| v as f32));
-                let rel = ((luminance(e) - luminance(t)) / mean_truth.max(1e-12)) as f32;
-                err.set(i, y, diverging(rel * 2.0));
-            } else {
-                panel.set(i, y, INVALID_GREEN.map(|v| v / exposure));
-                panel.set(w + 4 + i, y, INVALID_GREEN.map(|v| v / exposure));
-                err.set(i, y, [0.0, 1.0, 0.0]);
-            }
-        }
-        for g in 0..4 {
-            panel.set(w + g, y, [1.0 / exposure; 3]);
-        }
-    }
-    // Small plates are enlarged so that a person can see them (at least ~384 px wide).
-    let k = (384 / (2 * w + 4)).max(1);
-    write_png_linear(&dir.join(format!("panel_{name}.png")), &panel.upscale(k), exposure)?;
-    // The error map is already in display units.
-    let err = Rgb32 {
-        pixels: err.pixels.iter().map(|p| p.map(lightvol_core::color::srgb_decode_f32)).collect(),
-        ..err
-    };
-    write_png_linear(&dir.join(format!("error_{name}.png")), &err.upscale(k * 2), 1.0)
-}
-
-/// Writes `plate.exr`: luminance channels `truth`, `valid`, `near` and one per method.
-pub(crate) fn write_plate_exr(
-    path: &Path,
-    plate: &Plate,
-    methods: &[(String, Vec<[f64; 3]>)],
-) -> anyhow::Result<()> {
-    use exr::prelude::*;
-    let [w, h] = plate.res;
-    // EXR rows run top-down: row 0 = max y.
-    let flip = |v: &dyn Fn(usize) -> f32| -> Vec<f32> {
-        (0..h).rev().flat_map(|j| (0..w).map(move |i| j * w + i)).map(v).collect()
-    };
-    let mut channels = vec![
-        AnyChannel::new("truth", FlatSamples::F32(flip(&|k| luminance(plate.truth[k]) as f32))),
-        AnyChannel::new("valid", FlatSamples::F32(flip(&|k| f32::from(u8::from(plate.valid[k]))))),
-        AnyChannel::new("near", FlatSamples::F32(flip(&|k| f32::from(u8::from(plate.near[k]))))),
-    ];
-    for (name, est) in methods {
-        channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(flip(&|k| luminance(est[k]) as f32))));
-    }
-    let layer = Layer::new(
-        (w, h),
-        LayerAttributes::named("plate"),
-        Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(channels.into()),
-    );
-    let ia = ImageAttributes::new(layer.absolute_bounds());
-    let bytes = lightvol_volume::io::exr::encode_image(ia, vec![layer]).context("encoding plate.exr")?;
-    write_atomic(path, &bytes)
+    Ok(out.report)
 }
 
 /// Runs `lightvol compare`.

@@ -1,18 +1,19 @@
 //! `lightvol demo`: the main job on the built-in scenes. Runs `compare` on `city`,
 //! `interior` and `maze` at their recommended settings, sweeps the grid resolution on
-//! `city`, and writes an `index.html` that shows every panel, the metrics and the plot.
+//! `city`, and writes an `index.html` that shows every panel, the metrics and the plot
+//! (lightvol-sampler's `eval::report::index_html`).
 
-use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
 use lightvol_sampler::builtin::BUILTIN_NAMES;
+use lightvol_sampler::eval::report::index_html;
 use lightvol_sampler::eval::{NamedEntry, Plate, resolution_sweep};
 use lightvol_sampler::{Tracer, Transport};
 
-use crate::cmd_compare::{CompareArgs, CompareReport, ProgressBars, compare, config, flag_error};
+use crate::cmd_compare::{CompareArgs, ProgressBars, compare, config, flag_error};
 use crate::imaging::{Plot, write_atomic};
 use crate::setup::{GridArgs, SampleArgs, SceneArgs, parse_method};
 
@@ -198,124 +199,6 @@ fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
     })
 }
 
-/// The error-vs-memory section: plot and numbers per scene (from `memory_sweep.json`).
-fn memory_html(s: &mut String, sweeps: &[(String, serde_json::Value)]) {
-    s.push_str("<h2>Error vs memory (uniform, uniform with SH gradients, adaptive octree; Oat 2005)</h2>\n<p>One doi-paper bake per resolution (same samples per cell), read by trilinear interpolation (uniform) or through the gradient lookups; memory is the run-time f32 data (27 floats per node, 108 with gradients). The adaptive octree is baked to each uniform grid's memory (its own count includes weights, keys and split bitmaps).</p>\n");
-    for (scene, r) in sweeps {
-        let _ = writeln!(
-            s,
-            "<h3>{scene}</h3>\n<img src=\"{scene}/memory_sweep.svg\" alt=\"{scene}: relative RMSE vs memory\"><p>Also as <a href=\"{scene}/memory_sweep.png\">PNG</a>; numbers in <a href=\"{scene}/memory_sweep.json\">memory_sweep.json</a>.</p>"
-        );
-        s.push_str("<table><tr><th>series</th><th>grid</th><th>memory (bytes)</th><th>rel_rmse</th><th>bias</th><th>too_dark_near</th></tr>\n");
-        for p in r["points"].as_array().into_iter().flatten() {
-            let g = |k: &str| p[k].as_f64().unwrap_or(f64::NAN);
-            let res = &p["res"];
-            let _ = writeln!(
-                s,
-                "<tr><th>{}</th><td>{}x{}x{}</td><td>{}</td><td>{:.4}</td><td>{:+.4}</td><td>{:.4}</td></tr>",
-                p["series"].as_str().unwrap_or("?"),
-                res[0],
-                res[1],
-                res[2],
-                p["memory_bytes"],
-                g("rel_rmse"),
-                g("bias"),
-                g("too_dark_near")
-            );
-        }
-        s.push_str("</table>\n");
-    }
-}
-
-/// The methods a person compares in a scene's views: point sampling, the engine baseline
-/// with the lowest relative RMSE over the view's pixels, and `doi`, each beside the
-/// path-traced view.
-fn views_html(s: &mut String, scene: &str, r: &CompareReport) {
-    for v in r.views.iter().flatten() {
-        let rel = |m: &str| v.methods.get(m).and_then(|x| x["rel_rmse"].as_f64());
-        let best = v
-            .methods
-            .keys()
-            .filter(|m| lightvol_sampler::eval::table::is_engine_baseline(m))
-            .filter_map(|m| rel(m).map(|e| (m.clone(), e)))
-            .min_by(|a, b| a.1.total_cmp(&b.1));
-        let mut shown: Vec<(String, String)> = vec![("reference".into(), "path-traced reference".into())];
-        for m in ["point".to_owned()].into_iter().chain(best.map(|b| b.0)).chain(["doi".to_owned()]) {
-            if let Some(e) = rel(&m) {
-                shown.push((m.clone(), format!("{m}: relative RMSE {e:.3}")));
-            }
-        }
-        let _ = writeln!(
-            s,
-            "<p>View <i>{}</i> ({}×{} pixels, reference {} samples per pixel): the scene shaded by each volume.</p>\n<div>",
-            v.camera, v.resolution[0], v.resolution[1], v.reference.samples
-        );
-        for (m, caption) in shown {
-            let _ = writeln!(
-                s,
-                "<figure style=\"display:inline-block;margin:4px\"><img src=\"{scene}/view_{}_{m}.png\" alt=\"{caption}\" width=\"{}\"><figcaption>{caption}</figcaption></figure>",
-                v.camera,
-                v.resolution[0].max(320)
-            );
-        }
-        s.push_str("</div>\n");
-    }
-}
-
-fn html(reports: &[(String, CompareReport)], sweeps: &[(String, serde_json::Value)], quick: bool) -> String {
-    let mut s = String::from(
-        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>lightvol demo</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}table{border-collapse:collapse;}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right;}img{image-rendering:pixelated;margin:4px;border:1px solid #ddd;}</style></head><body>\n<h1>lightvol: domain-of-interest sampling vs point sampling</h1>\n",
-    );
-    let _ = writeln!(
-        s,
-        "<p>Each scene is baked with every method at the same sample budget and evaluated on a horizontal plate (normal up) against a path-traced reference, as in Kontkanen &amp; Laine 2006, Fig. 6. Panels show method | reference; points outside the domain of interest (inside solids) are bright green. Error maps: blue too dark, red too bright (±50% of the mean). Settings: {}.</p>",
-        if quick { "quick" } else { "full" }
-    );
-    for (scene, r) in reports {
-        let _ = writeln!(
-            s,
-            "<h2>{scene}</h2>\n<p>plate at height {} m, {}×{} points, {} valid, {} near a surface; grid {}×{}×{}; reference {} samples per point.</p>",
-            r.plate.height,
-            r.plate.res[0],
-            r.plate.res[1],
-            r.plate.valid_points,
-            r.plate.near_points,
-            r.grid.res[0],
-            r.grid.res[1],
-            r.grid.res[2],
-            r.reference.samples
-        );
-        s.push_str("<table><tr><th>method</th><th>rel_rmse</th><th>bias</th><th>too_dark</th><th>too_dark_near</th><th>too_bright</th><th>rays</th><th>seconds</th></tr>\n");
-        for (name, v) in &r.methods {
-            let g = |k: &str| v.get(k).and_then(serde_json::Value::as_f64).unwrap_or(f64::NAN);
-            let rays =
-                v.get("rays").and_then(|r| r.get("total")).and_then(serde_json::Value::as_u64).unwrap_or(0);
-            let _ = writeln!(
-                s,
-                "<tr><th>{name}</th><td>{:.4}</td><td>{:+.4}</td><td>{:.4}</td><td>{:.4}</td><td>{:.4}</td><td>{rays}</td><td>{:.2}</td></tr>",
-                g("rel_rmse"),
-                g("bias"),
-                g("too_dark"),
-                g("too_dark_near"),
-                g("too_bright"),
-                g("seconds")
-            );
-        }
-        s.push_str("</table>\n");
-        views_html(&mut s, scene, r);
-        for (name, _) in &r.methods {
-            let _ = writeln!(
-                s,
-                "<div><b>{name}</b><br><img src=\"{scene}/panel_{name}.png\" alt=\"{name} | reference\"><img src=\"{scene}/error_{name}.png\" alt=\"{name} error\"></div>"
-            );
-        }
-    }
-    s.push_str("<h2>Grid resolution sweep (city)</h2>\n<img src=\"sweep.svg\" alt=\"relative RMSE vs resolution\"><p>Also as <a href=\"sweep.png\">PNG</a>.</p>\n");
-    memory_html(&mut s, sweeps);
-    s.push_str("</body></html>\n");
-    s
-}
-
 /// Runs `lightvol demo`.
 pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     let level = if args.quick { &QUICK } else { &FULL };
@@ -349,8 +232,8 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         sweeps.push((scene.to_owned(), serde_json::from_str(&text)?));
     }
     let plot = sweep(args, level)?;
-    plot.write(&args.output.join("sweep"))?;
-    write_atomic(&args.output.join("index.html"), html(&reports, &sweeps, args.quick).as_bytes())?;
+    crate::imaging::write_plot(&plot, &args.output.join("sweep"))?;
+    write_atomic(&args.output.join("index.html"), index_html(&reports, &sweeps, args.quick).as_bytes())?;
     eprintln!("wrote {}", args.output.join("index.html").display());
     Ok(ExitCode::SUCCESS)
 }

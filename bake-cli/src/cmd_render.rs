@@ -15,7 +15,7 @@ use lightvol_sampler::view::{
 use lightvol_sampler::{DVec3, Tracer, Transport};
 
 use crate::imaging::auto_exposure;
-use crate::render_args::{RenderArgs, resolve_camera, to_rgb32};
+use crate::render_args::{RenderArgs, resolve_camera};
 use crate::setup::with_threads;
 
 /// Runs `lightvol render`.
@@ -71,7 +71,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         ViewError::ZeroSamples => anyhow::anyhow!("--reference-samples must be at least 1"),
         e => e.into(),
     })?;
-    let img = to_rgb32(img);
+    let img = crate::imaging::Rgb32::from(img);
     let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&img));
     crate::imaging::write_image(&args.output, &img, exposure)?;
     eprintln!("wrote {}", args.output.display());

@@ -7,7 +7,8 @@
 //! environment, sun, punctual lights, emitters and the bounce count). The render refuses, with
 //! one line and before writing anything, maps in `DIR` that disagree with each other (a stale
 //! file) or with its own scene and lights under the maps' bounce count; the reference is
-//! traced with that bounce count. `invalid_texels` is read from the EXR maps.
+//! traced with that bounce count (lightvol-sampler's `surface::map_dir`). `invalid_texels`
+//! is read from the EXR maps.
 //!
 //! `OUT/sheet.png` tiles the reference, the bases in file-name order, `lightmap` and
 //! `lightmap4`, four per row. `OUT/report.json`:
@@ -23,11 +24,10 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use lightvol_sampler::TransportSettings;
+use lightvol_sampler::picture::sheet;
+use lightvol_sampler::surface::SurfaceGeometry;
+use lightvol_sampler::surface::map_dir::{MapDirError, check_lighting, check_objects, read_map_dir};
 use lightvol_sampler::surface::shaded_view::{MapSet, NormalMap, ShadedViewSettings, render_shaded_view};
-use lightvol_sampler::surface::{
-    LightingRecord, SurfaceError, SurfaceGeometry, lighting_fingerprint, read_surface_exr,
-};
 use lightvol_sampler::view::Camera;
 use serde::Serialize;
 
@@ -73,121 +73,9 @@ pub(crate) struct SurfaceRenderReport {
     pub(crate) normal_map: String,
 }
 
-/// The maps of one basis found in the directory.
-struct BasisMaps {
-    /// The EXR file they came from.
-    path: PathBuf,
-    set: MapSet,
-}
-
-/// Reads every lightvol surface EXR in `dir` (sorted by file name), with the invalid texel
-/// count of the bakes (taken from the EXR files: the sum over objects, the largest over the
-/// bases, which share the geometry and sample points).
-fn read_dir_maps(dir: &Path) -> anyhow::Result<(Vec<BasisMaps>, u64)> {
-    let mut paths: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("--surface: reading {}", dir.display()))?
-        .filter_map(Result::ok)
-        .map(|e| e.path())
-        .filter(|p| p.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")))
-        .collect();
-    paths.sort();
-    let mut out: Vec<BasisMaps> = Vec::new();
-    let mut invalid = 0u64;
-    for p in paths {
-        let maps = match read_surface_exr(&p) {
-            Ok(m) => m,
-            Err(SurfaceError::Exr { .. }) => {
-                eprintln!("note: skipping {} (not a lightvol surface EXR)", p.display());
-                continue;
-            }
-            Err(e) => return Err(e).with_context(|| format!("reading {}", p.display())),
-        };
-        let Some(first) = maps.first() else { continue };
-        let tag = first.basis;
-        let basis = first.basis().with_context(|| format!("{}", p.display()))?;
-        if maps.iter().any(|m| m.basis != tag) {
-            bail!("{}: objects use different bases", p.display());
-        }
-        if out.iter().any(|b| b.set.tag == tag) {
-            bail!("{}: a second set of {tag} maps in {}", p.display(), dir.display());
-        }
-        invalid = invalid.max(maps.iter().map(|m| m.invalid.invalid_texels).sum());
-        out.push(BasisMaps { path: p, set: MapSet { tag, basis, maps } });
-    }
-    if out.is_empty() {
-        bail!(
-            "--surface: no coefficient maps in {} (run lightvol bake-surface -o {} first)",
-            dir.display(),
-            dir.display()
-        );
-    }
-    Ok((out, invalid))
-}
-
-/// The first part in which two lighting fingerprints differ (`LightingRecord::diff`,
-/// prefixed `"LA vs LB: "`), or both whole texts if either does not read as a record.
-fn lighting_difference(a: &str, b: &str, la: &str, lb: &str) -> String {
-    match (a.parse::<LightingRecord>(), b.parse::<LightingRecord>()) {
-        (Ok(ra), Ok(rb)) => format!("{la} vs {lb}: {}", ra.diff(&rb).unwrap_or_else(|| "equal".into())),
-        _ => format!("{la}: {a}, {lb}: {b}"),
-    }
-}
-
-fn file_name(p: &Path) -> String {
-    p.file_name().map_or_else(|| p.display().to_string(), |f| f.to_string_lossy().into_owned())
-}
-
-/// Checks that every map in `sets` was baked under one lighting, and that it is the lighting
-/// of `scene` with the maps' bounce count; returns that bounce count (for the reference).
-fn check_lighting(
-    sets: &[BasisMaps],
-    dir: &Path,
-    scene: &lightvol_sampler::Scene,
-) -> anyhow::Result<TransportSettings> {
-    let first = &sets[0];
-    let lighting = &first.set.maps[0].lighting;
-    for s in sets {
-        if let Some(m) = s.set.maps.iter().find(|m| &m.lighting != lighting) {
-            bail!(
-                "--surface: the maps in {} were baked under different lighting ({} vs {}: {}); re-bake or remove the stale file",
-                dir.display(),
-                first.path.display(),
-                s.path.display(),
-                lighting_difference(lighting, &m.lighting, &file_name(&first.path), &file_name(&s.path))
-            );
-        }
-    }
-    let bounces = lighting.parse::<LightingRecord>().ok().and_then(|r| r.transport()).with_context(|| {
-        format!("{}: the maps' lighting record has no bounce count ('{lighting}')", first.path.display())
-    })?;
-    let own = lighting_fingerprint(scene, &bounces);
-    if &own != lighting {
-        bail!(
-            "--surface: the maps in {} were baked under other lighting than this render's scene and lights ({}); pass the bake's --sky/--sun/--ground or re-bake",
-            dir.display(),
-            lighting_difference(lighting, &own, "maps", "render")
-        );
-    }
-    Ok(bounces)
-}
-
-/// Equally sized images side by side (4 columns, 2-pixel black gaps), row by row.
-fn sheet(images: &[&Rgb32]) -> Rgb32 {
-    const COLS: usize = 4;
-    const GAP: usize = 2;
-    let (w, h) = (images[0].width, images[0].height);
-    let cols = COLS.min(images.len());
-    let rows = images.len().div_ceil(COLS);
-    let mut out = Rgb32::new(cols * w + (cols - 1) * GAP, rows * h + (rows - 1) * GAP);
-    for (k, img) in images.iter().enumerate() {
-        let (ox, oy) = ((k % COLS) * (w + GAP), (k / COLS) * (h + GAP));
-        for y in 0..h {
-            for x in 0..w {
-                out.set(ox + x, oy + y, img.pixels[y * w + x]);
-            }
-        }
-    }
-    out
+/// The map folder's errors, those about the folder as a whole named by `--surface`.
+fn surface_error(e: MapDirError) -> anyhow::Error {
+    if e.is_folder_error() { anyhow::Error::new(e).context("--surface") } else { e.into() }
 }
 
 /// Runs `lightvol render --surface`.
@@ -206,25 +94,17 @@ pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Re
     if out_dir.exists() && !out_dir.is_dir() {
         bail!("output {} exists and is not a directory", out_dir.display());
     }
-    let (sets, invalid_texels) = read_dir_maps(dir)?;
+    let maps = read_map_dir(dir).map_err(surface_error)?;
+    for p in &maps.skipped {
+        eprintln!("note: skipping {} (not a lightvol surface EXR)", p.display());
+    }
+    let invalid_texels = maps.invalid_texels;
     let loaded = args.scene.load_flattened()?;
     // The reference is traced with the maps' bounce count, under the same lighting.
-    let bounces = check_lighting(&sets, dir, &loaded.scene)?;
-    let uv_set = sets[0].set.maps[0].uv_set;
-    let quantity = sets[0].set.maps[0].quantity;
+    let bounces = check_lighting(&maps, dir, &loaded.scene).map_err(surface_error)?;
+    let uv_set = maps.sets[0].set.maps[0].uv_set;
     let geo = SurfaceGeometry::new(&loaded.scene, uv_set).context("lightmap objects of the scene")?;
-    for s in &sets {
-        let maps = &s.set.maps;
-        if maps.len() != geo.objects().len()
-            || maps.iter().zip(geo.objects()).any(|(m, o)| m.object != o.name)
-            || maps.iter().any(|m| m.uv_set != uv_set || m.quantity != quantity)
-        {
-            bail!(
-                "the {} maps do not match the scene's lightmap objects (baked from another scene or UV set?)",
-                s.set.tag
-            );
-        }
-    }
+    check_objects(&maps, &geo).map_err(surface_error)?;
     let (camera, aspect) = match &args.camera {
         Some(c) => resolve_camera(c, &loaded.scene, loaded.frame)?,
         None => {
@@ -241,7 +121,7 @@ pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Re
         seed: args.seed,
         transport: bounces,
     };
-    let map_sets: Vec<MapSet> = sets.into_iter().map(|s| s.set).collect();
+    let map_sets: Vec<MapSet> = maps.sets.into_iter().map(|s| s.set).collect();
     let view =
         with_threads(args.threads, || render_shaded_view(&loaded.scene, &geo, &map_sets, &nmap, &settings))?;
     let pixels = view.pixels;

@@ -30,10 +30,8 @@ mod compare_views;
 mod embree_baseline;
 mod gradient_args;
 mod imaging;
-mod memory_sweep;
 mod progress;
 mod render_args;
-mod report_parts;
 mod setup;
 
 use std::ffi::OsString;

@@ -5,10 +5,9 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use lightvol_sampler::view::{Camera, CameraSpec, Quantity, ViewConfig, ViewError, ViewImage};
+use lightvol_sampler::view::{Camera, CameraSpec, Quantity, ViewConfig, ViewError};
 use lightvol_sampler::{Scene, UpAxis};
 
-use crate::imaging::Rgb32;
 use crate::setup::SceneArgs;
 
 /// `lightvol render`.
@@ -125,10 +124,4 @@ pub(crate) fn resolve_camera(
     frame: UpAxis,
 ) -> anyhow::Result<(Camera, Option<f64>)> {
     spec.parse::<CameraSpec>().and_then(|c| c.resolve(scene, frame)).map_err(|e| camera_error(spec, e))
-}
-
-/// The image of a view.
-#[must_use]
-pub(crate) fn to_rgb32(img: ViewImage) -> Rgb32 {
-    Rgb32 { width: img.width as usize, height: img.height as usize, pixels: img.pixels }
 }

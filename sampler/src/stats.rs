@@ -31,6 +31,21 @@ impl RayCounts {
     }
 }
 
+/// Reports show the four kinds and their [`RayCounts::total`]:
+/// `{"sampling", "query", "bounce", "shadow", "total"}`.
+impl serde::Serialize for RayCounts {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut st = s.serialize_struct("RayCounts", 5)?;
+        st.serialize_field("sampling", &self.sampling)?;
+        st.serialize_field("query", &self.query)?;
+        st.serialize_field("bounce", &self.bounce)?;
+        st.serialize_field("shadow", &self.shadow)?;
+        st.serialize_field("total", &self.total())?;
+        st.end()
+    }
+}
+
 /// Everything a bake reports besides the volume.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct BakeStats {

@@ -24,6 +24,7 @@
 //! | [`sweep`] | error against memory ([`memory_sweep`]) and against resolution ([`resolution_sweep`]) |
 //! | [`views`] | the comparison through cameras: path-traced and per-entry views, their metrics ([`ComparedView`]) |
 //! | [`baked`] | what an entry baked, read anywhere through its lookup ([`RunVolume`]) |
+//! | [`report`] | the comparison as `report.json`, panels, views, `plate.exr` and an HTML page, in memory ([`report::compare_files`]) |
 //! | [`observer`] | progress reports to the caller ([`Observer`], [`Silent`]) |
 //! | [`error`] | [`EvalError`] |
 //!
@@ -61,8 +62,8 @@
 //! streams derive from the seed; every sum is taken in a fixed order). Only the wall times
 //! (`seconds`) vary.
 //!
-//! Nothing here writes files or draws: the caller turns a [`Comparison`] into reports and
-//! images, and an [`Observer`] into progress bars.
+//! Nothing here writes files: [`report`] turns a [`Comparison`] into the bytes of its
+//! reports and images, the caller writes them and turns an [`Observer`] into progress bars.
 
 pub mod baked;
 pub mod compare;
@@ -71,6 +72,7 @@ pub mod error;
 pub mod metrics;
 pub mod observer;
 pub mod plate;
+pub mod report;
 pub mod runs;
 pub mod sweep;
 pub mod table;

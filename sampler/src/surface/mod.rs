@@ -21,6 +21,9 @@
 //! 5. [`exr`]: one multi-part EXR per bake, one part per object, with the bake's
 //!    [`lighting_fingerprint`] and the object's [`InvalidCounts`].
 //!
+//! 6. [`storage`]: the maps as 8-bit and block-compressed textures (\[Ish11\] §2.2.3-2.2.4),
+//!    with the irradiance error of each storage, and the bake's [`storage::SurfaceBakeSummary`].
+//!
 //! [`reference_surface_irradiance`] path-traces the quantity the maps approximate.
 
 pub mod atlas;
@@ -30,9 +33,11 @@ pub mod exr;
 pub mod geometry;
 pub mod lighting;
 pub mod map;
+pub mod map_dir;
 pub mod reference;
 pub mod shaded_view;
 pub mod shard_io;
+pub mod storage;
 pub mod tangent;
 pub mod texel;
 
