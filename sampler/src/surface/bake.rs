@@ -76,10 +76,12 @@ impl Default for SurfaceSettings {
 /// Largest SH band count of the intermediate projection.
 pub const MAX_SH_BANDS: usize = 8;
 
-/// Counters of a surface bake.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// Counters of a surface bake. Serialised (in a bake's summary) without `objects` and
+/// `wall_time`, which the summary gives in its own terms.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct SurfaceReport {
     /// Objects baked.
+    #[serde(skip)]
     pub objects: usize,
     /// Texels covered by some triangle.
     pub texels_covered: u64,
@@ -97,6 +99,7 @@ pub struct SurfaceReport {
     /// Rays traced.
     pub rays: RayCounts,
     /// Wall-clock time.
+    #[serde(skip)]
     pub wall_time: Duration,
 }
 

@@ -22,8 +22,7 @@ use lightvol_hemibasis::plane_ktx2::{ktx2_compressed, ktx2_rgba8};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::{BasisChoice, CoefficientMap, SurfaceBake};
-use crate::RayCounts;
+use super::{BasisChoice, CoefficientMap, SurfaceBake, SurfaceReport};
 use crate::picture::png_rgb8;
 
 /// 8-bit texture container.
@@ -376,20 +375,11 @@ pub struct SurfaceBakeSummary {
     pub invalid_fix: bool,
     /// Objects and their atlas sizes.
     pub objects: Vec<ObjectSummary>,
-    /// Texels covered by geometry.
-    pub texels_covered: u64,
-    /// Covered texels whose sample points saw back faces.
-    pub invalid_texels: u64,
-    /// … of which re-sampled inside the valid part of the footprint.
-    pub moved: u64,
-    /// … of which dilated from valid neighbours.
-    pub dilated: u64,
-    /// … of which no valid neighbour reached.
-    pub unfilled: u64,
-    /// Empty texels filled by the gutter dilation.
-    pub gutter_texels: u64,
-    /// Rays traced.
-    pub rays: RayCounts,
+    /// Texels covered, invalid texels and how each was fixed, gutter texels and rays
+    /// (`texels_covered`, `invalid_texels`, `moved`, `dilated`, `unfilled`,
+    /// `gutter_texels`, `rays`).
+    #[serde(flatten)]
+    pub report: SurfaceReport,
     /// Bake wall time, or `None` where the record must not depend on timing (a file: two
     /// bakes of the same input write the same bytes).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -439,13 +429,7 @@ impl SurfaceBakeSummary {
                 .iter()
                 .map(|m| ObjectSummary { name: m.object.clone(), width: m.width, height: m.height })
                 .collect(),
-            texels_covered: r.texels_covered,
-            invalid_texels: r.invalid_texels,
-            moved: r.moved,
-            dilated: r.dilated,
-            unfilled: r.unfilled,
-            gutter_texels: r.gutter_texels,
-            rays: r.rays,
+            report: r.clone(),
             seconds,
             encode_scale: stored.encode_scale,
             range,
