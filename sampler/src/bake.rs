@@ -7,8 +7,8 @@
 //! - [`Method::DoiPaper`]: Eq. 5-6 restricted to the domain of interest by Algorithm 2;
 //! - [`Method::DoiNode`]: Algorithm 2 over the node's own cell;
 //! - [`Method::Doi`] (the default): Eq. 4 at the node where the node is in the domain of
-//!   interest, at a relocated point or over Eq. 6's support where it is not
-//!   ([`ProbeCapture`]).
+//!   interest, at a relocated point where it is not, and from its neighbours where neither
+//!   is ([`ProbeCapture`]).
 //!
 //! Origins and directions come from one 5-D Owen-scrambled Halton sequence per cell
 //! (dimensions 0-2 the position in the cell, 3-4 the direction), scrambled and rotated per
@@ -62,8 +62,8 @@ pub enum Method {
     /// The default (`doi`): a probe per node, kept in the domain of interest. Point-sampled
     /// (Eq. 4) where the node sees no back face; otherwise at the point reached through its
     /// closest back face (the relocation rule of \[Maj21\]) when that point sees none;
-    /// otherwise Algorithm 2 over the node's trilinear support (Eq. 6). See
-    /// [`ProbeCapture`].
+    /// otherwise no samples of its own, so that the volume's fill gives it the mean of its
+    /// neighbours' estimates. See [`ProbeCapture`].
     #[default]
     Doi,
 }
@@ -626,13 +626,8 @@ fn node_box_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, no
 pub const PROBE_SEARCH_RAYS: u64 = 16;
 
 /// [`Method::Doi`]: a node outside the domain of interest spends at most this share of
-/// `samples` on its relocated point or its support.
+/// `samples` on its relocated point.
 pub const PROBE_OUTSIDE_SHARE: f64 = 0.5;
-
-/// [`Method::Doi`]: the support average of a node whose relocated capture point also
-/// sees a back face gets at least this share of `samples` candidates, so that a node whose
-/// budget went on the search is not left with a handful.
-pub const PROBE_MIN_SUPPORT_SHARE: f64 = 0.25;
 
 /// Where [`Method::Doi`] took a node's value from.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -642,9 +637,14 @@ pub enum ProbeCapture {
     /// The node sees a back face; this point, reached through its closest back face
     /// ([`crate::baselines::relocate_through`]), sees none and was point-sampled.
     Relocated(DVec3),
-    /// Neither the node nor its relocated point is in the domain: Algorithm 2 over the
-    /// node's trilinear support, candidates tent-distributed (Eq. 6's weights).
-    Support,
+    /// Neither the node nor its relocated point is in the domain: the node keeps no
+    /// samples, its domain weight is 0, and the accumulator's fill
+    /// ([`lightvol_volume::fill`]) gives it the inverse-square-distance mean of its 26
+    /// neighbours' estimates, the way a node deep inside a solid is filled under Eq. 6.
+    /// (Eq. 6's own average over the node's support was measured worse: with a wall
+    /// inside the support it mixes the light of both sides, and at half the samples it is
+    /// noisy; see the crate README.)
+    Filled,
 }
 
 /// Where [`clean_point_samples`] stopped: the directions it traced, the last one meeting a
@@ -731,58 +731,13 @@ pub(crate) fn probe_unit(
     if left > 0 {
         let (dir, dist) = closest;
         let y = crate::baselines::relocate_through(x, dir, dist, crate::baselines::spacing(grid));
-        match clean_point_samples(t, settings, &h, stream, y, n, left, &mut out) {
-            Ok(samples) => {
-                out.stats.samples_kept = samples.len() as u64;
-                out.samples = samples;
-                return (out, ProbeCapture::Relocated(y));
-            }
-            Err(stopped) => used += stopped.traced,
+        if let Ok(samples) = clean_point_samples(t, settings, &h, stream, y, n, left, &mut out) {
+            out.stats.samples_kept = samples.len() as u64;
+            out.samples = samples;
+            return (out, ProbeCapture::Relocated(y));
         }
     }
-    let count = n
-        .saturating_sub(used)
-        .min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64)
-        .max((n as f64 * PROBE_MIN_SUPPORT_SHARE).ceil() as u64)
-        .max(1);
-    support_samples(t, grid, settings, node, stream, count, &mut out);
-    (out, ProbeCapture::Support)
-}
-
-/// Algorithm 2 over node `node`'s trilinear support (the cells around it, clamped to the
-/// grid) with `count` candidates whose origins are tent-distributed about the node, so that
-/// equal weights over the kept ones give Eq. 6's trilinear-weighted domain average.
-fn support_samples(
-    t: &Transport<'_>,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    node: usize,
-    stream: u64,
-    count: u64,
-    out: &mut UnitOut,
-) {
-    let [i, j, k] = grid.node_coords(node);
-    let neighbour = |a: usize, d: i64| neighbour_coordinate(grid, [i, j, k], a, d);
-    let centre = DVec3::from_array(grid.node_position(i, j, k));
-    let lo = DVec3::new(neighbour(0, -1), neighbour(1, -1), neighbour(2, -1));
-    let hi = DVec3::new(neighbour(0, 1), neighbour(1, 1), neighbour(2, 1));
-    let support_stream = hash2(stream, 0x7375_7070);
-    let hs = Qmc::<5>::new(settings.seed, support_stream);
-    let points: Vec<(DVec3, DVec3)> = (0..count)
-        .map(|s| {
-            let p = hs.point(s);
-            let mut g = centre;
-            for a in 0..3 {
-                let u = tent_inverse(p[a]);
-                g[a] += u * if u < 0.0 { centre[a] - lo[a] } else { hi[a] - centre[a] };
-            }
-            (
-                DVec3::from_array(grid.to_world(g.to_array())),
-                DVec3::from_array(sample_uniform_sphere([p[3], p[4]])),
-            )
-        })
-        .collect();
-    out.stats.back_face_points += kept_node_samples(t, settings, support_stream, &points, out);
+    (out, ProbeCapture::Filled)
 }
 
 /// Algorithm 2 over one node's candidates `(origin, direction)` (stream `stream`): the kept
@@ -818,12 +773,6 @@ fn neighbour_coordinate(grid: &GridSpec, node: [u32; 3], a: usize, d: i64) -> f6
     let mut c = node;
     c[a] = (i64::from(c[a]) + d).clamp(0, m) as u32;
     grid.node_position(c[0], c[1], c[2])[a]
-}
-
-/// The inverse CDF of the tent density `1 - |u|` on `[-1, 1]`.
-#[must_use]
-pub fn tent_inverse(v: f64) -> f64 {
-    if v < 0.5 { (2.0 * v).sqrt() - 1.0 } else { 1.0 - (2.0 - 2.0 * v).sqrt() }
 }
 
 fn cell_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, cell: usize) -> UnitOut {
