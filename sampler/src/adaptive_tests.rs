@@ -46,7 +46,13 @@ fn unit_subset_bake_is_bit_identical_to_the_full_bake() {
             if !own.iter().all(|u| units.binary_search(u).is_ok()) {
                 continue;
             }
-            let p = a.find(node).expect("a node of a baked unit is touched");
+            let Some(p) = a.find(node) else {
+                // A doi node that kept no samples (`ProbeCapture::Filled`) touches no sums,
+                // in the subset bake or the full one.
+                assert!(method == Method::Doi, "{method:?}: node {node} of a baked unit is untouched");
+                assert_eq!((full.denominator()[node], full.outside()[node]), (0.0, 0.0));
+                continue;
+            };
             assert_eq!(&a.numerator[p * k..(p + 1) * k], &full.numerator()[node * k..(node + 1) * k]);
             assert_eq!(a.denominator[p], full.denominator()[node]);
             assert_eq!(a.outside[p], full.outside()[node]);
