@@ -27,6 +27,7 @@ pub mod node_fit;
 pub mod picture;
 pub mod provenance;
 pub mod qmc;
+pub mod reach;
 pub mod reference;
 pub mod request;
 pub mod scene;

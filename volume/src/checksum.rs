@@ -15,8 +15,8 @@ pub use lightvol_core::hash::{Fnv1a, fnv1a};
 
 /// The checksum of everything a reader reconstructs: grid (box, resolution, placement),
 /// coefficient count, metadata, the bits of every coefficient and weight, and the validity
-/// mask when there is one (a volume without a mask hashes as before masks existed, so older
-/// files still verify).
+/// mask and node reach when there are (a volume without them hashes as before they
+/// existed, so older files still verify).
 #[must_use]
 pub fn volume_checksum(vol: &IrradianceVolume) -> u64 {
     let mut h = Fnv1a::default();
@@ -62,6 +62,14 @@ pub fn volume_checksum(vol: &IrradianceVolume) -> u64 {
             h.write(&[u8::from(v)]);
         }
     }
+    if let Some(reach) = vol.reach() {
+        h.write_str("reach");
+        for i in 0..reach.len() {
+            for v in reach.node(i) {
+                h.write(&v.to_bits().to_le_bytes());
+            }
+        }
+    }
     h.finish()
 }
 
@@ -99,7 +107,7 @@ pub(crate) fn verify(
 }
 
 /// `vol` with every coefficient (and, if `weights_too`, every weight) rounded through f16:
-/// what an f16 file decodes to (the validity mask kept). Errors if a value exceeds the f16
+/// what an f16 file decodes to (the validity mask and node reach kept, stored f32). Errors if a value exceeds the f16
 /// range.
 pub(crate) fn through_f16(
     vol: &IrradianceVolume,
@@ -122,6 +130,7 @@ pub(crate) fn through_f16(
     let mut out = IrradianceVolume::new(vol.spec().clone(), vol.coeffs(), data, weights)?
         .with_metadata(vol.metadata().clone());
     out.set_validity(vol.validity().cloned())?;
+    out.set_reach(vol.reach().cloned())?;
     Ok(out)
 }
 

@@ -29,6 +29,12 @@
 //! ([`crate::validity`]). The f32 paths reweight in f32 (batched and scalar alike, so they
 //! stay bit-identical), the references in f64. Without a mask nothing changes.
 //!
+//! **Reach.** When the volume carries a [`crate::NodeReach`], the same lookups then
+//! renormalise the weights over the corners that see the query ([`crate::reach`]): the
+//! irradiance lookups test the point moved a tenth of a cell along the normal
+//! ([`crate::reach::REACH_NORMAL_BIAS`]), the radiance and coefficient lookups the point
+//! itself. A reach of one cell on every axis changes no bit.
+//!
 //! Points are world-space (the volume's placement, if any, maps them to grid space);
 //! normals and directions are world-space unit vectors. Points outside the box are clamped
 //! to it (see [`crate::grid`]); a NaN coordinate is treated as the box's min on that axis.
@@ -65,6 +71,9 @@ pub(crate) struct LookupParams {
     offsets: [usize; 8],
     /// `A_l(j)` per coefficient (irradiance), and all ones (radiance).
     factors: [[f32; 16]; 2],
+    /// The node reach's normal offset of the test point, world units
+    /// ([`crate::reach::REACH_NORMAL_BIAS`] times the smallest world-space cell edge).
+    reach_bias: f32,
 }
 
 impl LookupParams {
@@ -80,6 +89,7 @@ impl LookupParams {
             max_cell: std::array::from_fn(|a| res[a] - 2),
             offsets: [0, 1, nx, nx + 1, nxy, nxy + 1, nxy + nx, nxy + nx + 1],
             factors: [factors(coeffs, true), factors(coeffs, false)],
+            reach_bias: reach_bias(spec) as f32,
         }
     }
 
@@ -110,6 +120,21 @@ impl LookupParams {
         let (k, fz) = self.axis(2, g[2]);
         (i as usize + nx * j as usize + nxy * k as usize, weights8(fx, fy, fz))
     }
+}
+
+/// The node reach's test-point offset along a surface normal, in world units
+/// ([`crate::reach`]): [`crate::reach::REACH_NORMAL_BIAS`] times the smallest world-space
+/// cell edge (grid-space cell size times the placement's stretch of that axis).
+pub(crate) fn reach_bias(spec: &GridSpec) -> f64 {
+    let cell = spec.cell_size();
+    let stretch = |a: usize| {
+        spec.placement().map_or(1.0, |p| {
+            let m = p.to_world_matrix();
+            (m[0][a] * m[0][a] + m[1][a] * m[1][a] + m[2][a] * m[2][a]).sqrt()
+        })
+    };
+    let h = (0..3).map(|a| cell[a] * stretch(a)).fold(f64::INFINITY, f64::min);
+    crate::reach::REACH_NORMAL_BIAS * h
 }
 
 /// Corner weights `Π (1-f | f)` in corner order `c = dx + 2dy + 4dz`, each product formed
@@ -195,10 +220,12 @@ fn query<const N: usize, const K: usize>(
     f: &[f32; 16],
     p: [f32; 3],
     n: [f32; 3],
+    irr: bool,
 ) -> [f32; 3] {
     let [nx, ny, _] = vol.spec().res().map(|v| v as usize);
     let (base, mut w) = lp.locate(nx, nx * ny, p);
     reweight(vol, lp, base, &mut w);
+    reach_reweight(vol, lp, base, p, irr.then_some(n), &mut w);
     let acc = interpolate::<K>(vol.data(), base, &lp.offsets, &w);
     shade::<N, K>(&acc, f, n)
 }
@@ -211,8 +238,30 @@ fn reweight(vol: &IrradianceVolume, lp: &LookupParams, base: usize, w: &mut [f32
     }
 }
 
+/// The node-reach weighting ([`crate::reach`]) of the corners of the cell at `base` for a
+/// query at `p`, tested at `p + n · bias` for a surface normal `n` (at `p` without one);
+/// nothing without a reach. After the validity weighting, in f32 like it.
+#[inline(always)]
+fn reach_reweight(
+    vol: &IrradianceVolume,
+    lp: &LookupParams,
+    base: usize,
+    p: [f32; 3],
+    n: Option<[f32; 3]>,
+    w: &mut [f32; 8],
+) {
+    if let Some(reach) = vol.reach() {
+        let q = n.map_or(p, |n| std::array::from_fn(|a| p[a] + n[a] * lp.reach_bias));
+        let g = lp.grid_point(q);
+        let [nx, ny, _] = vol.spec().res().map(|v| v as usize);
+        let idx = [base % nx, (base / nx) % ny, base / (nx * ny)];
+        let f = std::array::from_fn(|a| f64::from((g[a] - lp.min[a]) * lp.scale[a]) - idx[a] as f64);
+        reach.reweight_f32(|c| base + lp.offsets[c], f, w);
+    }
+}
+
 /// Signature of a monomorphised batched kernel.
-type BatchKernel = fn(&IrradianceVolume, &[f32; 16], &[[f32; 3]], &[[f32; 3]], &mut [[f32; 3]]);
+type BatchKernel = fn(&IrradianceVolume, &[f32; 16], &[[f32; 3]], &[[f32; 3]], &mut [[f32; 3]], bool);
 
 /// The batched kernel over one contiguous run of queries (single thread).
 fn batch_kernel<const N: usize, const K: usize>(
@@ -221,6 +270,7 @@ fn batch_kernel<const N: usize, const K: usize>(
     points: &[[f32; 3]],
     dirs: &[[f32; 3]],
     out: &mut [[f32; 3]],
+    irr: bool,
 ) {
     let lp = vol.lookup_params();
     let [nx, ny, _] = vol.spec().res().map(|v| v as usize);
@@ -266,6 +316,7 @@ fn batch_kernel<const N: usize, const K: usize>(
             let base = base[l];
             let mut w = weights8(frac[0][l], frac[1][l], frac[2][l]);
             reweight(vol, lp, base, &mut w);
+            reach_reweight(vol, lp, base, pb[l], irr.then_some(db[l]), &mut w);
             let acc = interpolate::<K>(data, base, &lp.offsets, &w);
             ob[l] = shade::<N, K>(&acc, f, db[l]);
         }
@@ -292,9 +343,9 @@ impl IrradianceVolume {
         let lp = self.lookup_params();
         let f = &lp.factors[usize::from(!irr)];
         match self.coeffs() {
-            4 => query::<4, 12>(self, lp, f, p, n),
-            9 => query::<9, 27>(self, lp, f, p, n),
-            _ => query::<16, 48>(self, lp, f, p, n),
+            4 => query::<4, 12>(self, lp, f, p, n, irr),
+            9 => query::<9, 27>(self, lp, f, p, n, irr),
+            _ => query::<16, 48>(self, lp, f, p, n, irr),
         }
     }
 
@@ -308,6 +359,7 @@ impl IrradianceVolume {
         let [nx, ny, _] = self.spec().res().map(|v| v as usize);
         let (base, mut w) = lp.locate(nx, nx * ny, p);
         reweight(self, lp, base, &mut w);
+        reach_reweight(self, lp, base, p, None, &mut w);
         let k = self.coeffs() * 3;
         match self.coeffs() {
             4 => out[..k].copy_from_slice(&interpolate::<12>(self.data(), base, &lp.offsets, &w)),
@@ -387,10 +439,10 @@ impl IrradianceVolume {
         if parallel {
             out.par_chunks_mut(PAR_CHUNK).enumerate().for_each(|(c, o)| {
                 let s = c * PAR_CHUNK;
-                kernel(self, &f, &points[s..s + o.len()], &dirs[s..s + o.len()], o);
+                kernel(self, &f, &points[s..s + o.len()], &dirs[s..s + o.len()], o, irr);
             });
         } else {
-            kernel(self, &f, points, dirs, out);
+            kernel(self, &f, points, dirs, out, irr);
         }
         Ok(())
     }
@@ -410,12 +462,12 @@ impl IrradianceVolume {
     }
 
     fn reference(&self, p: [f64; 3], n: [f64; 3], irr: bool) -> [f64; 3] {
-        let (nodes, b) = self.reference_weights(p);
+        let (nodes, b) = self.reference_weights(p, irr.then_some(n));
         let mut y = vec![0.0f64; self.coeffs()];
         eval_into(self.bands(), n, &mut y);
         let mut l = [0.0f64; 3];
         for c in 0..8 {
-            if self.validity().is_some() && b[c] == 0.0 {
+            if (self.validity().is_some() || self.reach().is_some()) && b[c] == 0.0 {
                 // A dropped corner adds nothing (not even the sign of a zero).
                 continue;
             }
@@ -434,7 +486,7 @@ impl IrradianceVolume {
     /// [`Self::coeffs_at`]).
     #[must_use]
     pub fn coeffs_reference(&self, p: [f64; 3]) -> Vec<f64> {
-        let (nodes, b) = self.reference_weights(p);
+        let (nodes, b) = self.reference_weights(p, None);
         let k = self.coeffs() * 3;
         let mut out = vec![0.0; k];
         for c in 0..8 {
@@ -446,11 +498,24 @@ impl IrradianceVolume {
     }
 
     /// The corners and f64 trilinear weights of world point `p`, reweighted by the validity
-    /// mask if there is one (the references' weights).
-    fn reference_weights(&self, p: [f64; 3]) -> ([usize; 8], [f64; 8]) {
+    /// mask and then the node reach (tested at `p + n · bias` for a surface normal `n`) if
+    /// the volume has them (the references' weights).
+    fn reference_weights(&self, p: [f64; 3], n: Option<[f64; 3]>) -> ([usize; 8], [f64; 8]) {
         let (nodes, mut b) = self.spec().trilinear_world(p);
         if let Some(mask) = self.validity() {
             mask.reweight_f64(|c| nodes[c], &mut b);
+        }
+        if let Some(reach) = self.reach() {
+            let bias = reach_bias(self.spec());
+            let q = n.map_or(p, |n| std::array::from_fn(|a| p[a] + n[a] * bias));
+            let g = self.spec().to_grid(q);
+            let (min, max) = self.spec().bounds();
+            let res = self.spec().res();
+            let idx = self.spec().node_coords(nodes[0]);
+            let f = std::array::from_fn(|a| {
+                (g[a] - min[a]) / (max[a] - min[a]) * f64::from(res[a] - 1) - f64::from(idx[a])
+            });
+            reach.reweight_f64(|c| nodes[c], f, &mut b);
         }
         (nodes, b)
     }

@@ -164,20 +164,32 @@ impl ValidityMask {
         T: Copy + Default + PartialOrd + std::ops::AddAssign + std::ops::Div<Output = T>,
     {
         let v: [bool; 8] = std::array::from_fn(|c| self.valid[nodes(c)]);
-        if v.iter().all(|&x| x) {
-            return;
+        renormalise(v, w);
+    }
+}
+
+/// The weighting of the module docs for corner flags `v` (1 = the corner may be read):
+/// nothing when every corner may be read; otherwise the readable weights divided by their
+/// sum and the others zeroed, unless no readable corner has weight (then `w` is left as it
+/// is). Shared by the validity mask and the node reach ([`crate::reach`]).
+#[inline]
+pub(crate) fn renormalise<T>(v: [bool; 8], w: &mut [T; 8])
+where
+    T: Copy + Default + PartialOrd + std::ops::AddAssign + std::ops::Div<Output = T>,
+{
+    if v.iter().all(|&x| x) {
+        return;
+    }
+    let zero = T::default();
+    let mut s = zero;
+    for c in 0..8 {
+        if v[c] {
+            s += w[c];
         }
-        let zero = T::default();
-        let mut s = zero;
+    }
+    if s > zero {
         for c in 0..8 {
-            if v[c] {
-                s += w[c];
-            }
-        }
-        if s > zero {
-            for c in 0..8 {
-                w[c] = if v[c] { w[c] / s } else { zero };
-            }
+            w[c] = if v[c] { w[c] / s } else { zero };
         }
     }
 }

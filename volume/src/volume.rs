@@ -17,6 +17,7 @@ use lightvol_sh::coeffs::{Sh, ShRgb};
 use crate::error::{VolumeError, check_finite};
 use crate::grid::GridSpec;
 use crate::lookup::LookupParams;
+use crate::reach::NodeReach;
 use crate::validity::ValidityMask;
 
 /// The default SH coefficient count per colour channel: 3 bands, the nine coefficients that
@@ -130,7 +131,9 @@ impl Default for BakeMetadata {
 /// `l(l+1)+m`, no Condon-Shortley phase, +z polar axis, world-space directions.
 ///
 /// An optional [`ValidityMask`] ([`Self::with_validity`]) makes the trilinear lookups
-/// renormalise their weights over valid corners ([`crate::validity`]).
+/// renormalise their weights over valid corners ([`crate::validity`]); an optional
+/// [`NodeReach`] ([`Self::with_reach`]) over the corners that see the query
+/// ([`crate::reach`]).
 #[derive(Clone, PartialEq)]
 pub struct IrradianceVolume {
     spec: GridSpec,
@@ -138,6 +141,7 @@ pub struct IrradianceVolume {
     data: Vec<f32>,
     weights: Vec<f32>,
     validity: Option<ValidityMask>,
+    reach: Option<NodeReach>,
     meta: BakeMetadata,
     lut: LookupParams,
 }
@@ -152,6 +156,7 @@ impl std::fmt::Debug for IrradianceVolume {
             .field("data", &format_args!("[{} f32]", self.data.len()))
             .field("weights", &format_args!("[{} f32, {filled} zero]", self.weights.len()))
             .field("validity", &self.validity)
+            .field("reach", &self.reach)
             .field("meta", &self.meta)
             .finish()
     }
@@ -188,7 +193,16 @@ impl IrradianceVolume {
             )));
         }
         let lut = LookupParams::new(&spec, coeffs);
-        Ok(Self { spec, coeffs, data, weights, validity: None, meta: BakeMetadata::default(), lut })
+        Ok(Self {
+            spec,
+            coeffs,
+            data,
+            weights,
+            validity: None,
+            reach: None,
+            meta: BakeMetadata::default(),
+            lut,
+        })
     }
 
     /// An all-zero volume with all weights 1.
@@ -327,6 +341,34 @@ impl IrradianceVolume {
         Ok(self)
     }
 
+    /// The node reach, if the volume has one ([`crate::reach`]).
+    #[must_use]
+    pub fn reach(&self) -> Option<&NodeReach> {
+        self.reach.as_ref()
+    }
+
+    /// Attaches (`Some`) or removes (`None`) the node reach; errors if it does not cover
+    /// every node.
+    pub fn set_reach(&mut self, reach: Option<NodeReach>) -> Result<(), VolumeError> {
+        if let Some(r) = &reach
+            && r.len() != self.spec.node_count()
+        {
+            return Err(VolumeError::Mismatch(format!(
+                "node reach of {} nodes for {} nodes",
+                r.len(),
+                self.spec.node_count()
+            )));
+        }
+        self.reach = reach;
+        Ok(())
+    }
+
+    /// The same volume with `reach` attached ([`Self::set_reach`]).
+    pub fn with_reach(mut self, reach: NodeReach) -> Result<Self, VolumeError> {
+        self.set_reach(Some(reach))?;
+        Ok(self)
+    }
+
     /// The bake metadata.
     #[must_use]
     pub fn metadata(&self) -> &BakeMetadata {
@@ -348,16 +390,18 @@ impl IrradianceVolume {
     /// Bytes of coefficient and weight storage at f32: \[Oat05\]'s run-time figure
     /// ([`crate::gradient::sample_bytes`]: 9 RGB coefficients are 108 bytes per node) plus 4
     /// bytes of bake weight per node (112 per node at 9 coefficients), plus the validity
-    /// mask's ([`ValidityMask::memory_bytes`]) when there is one.
+    /// mask's ([`ValidityMask::memory_bytes`]) and the node reach's
+    /// ([`NodeReach::memory_bytes`]) when there are.
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
         crate::gradient::sample_bytes(self.spec.node_count(), self.bands(), false)
             + self.weights.len() * size_of::<f32>()
             + self.validity.as_ref().map_or(0, ValidityMask::memory_bytes)
+            + self.reach.as_ref().map_or(0, NodeReach::memory_bytes)
     }
 
     /// Consumes the volume, returning `(spec, coeffs, data, weights, metadata)`; the
-    /// validity mask, if any, is dropped (clone it first from [`Self::validity`]).
+    /// validity mask and node reach, if any, are dropped (clone it first from [`Self::validity`]).
     #[must_use]
     pub fn into_parts(self) -> (GridSpec, usize, Vec<f32>, Vec<f32>, BakeMetadata) {
         (self.spec, self.coeffs, self.data, self.weights, self.meta)

@@ -178,7 +178,8 @@ pub fn run_uniform(
         .stage(name, |c| bake_fitted(&ctx.transport, grid, &settings, c, fit))
         .map_err(EvalError::at("baking"))?;
     let estimate = plate.evaluate(&vol);
-    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false);
+    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
+        + vol.reach().map_or(0, lightvol_volume::NodeReach::memory_bytes);
     Ok(MethodRun::new(
         name,
         ctx.samples,

@@ -43,6 +43,14 @@
 //! 1 and unchanged, and version-1 files read as volumes without a mask. The checksum covers
 //! the mask.
 //!
+//! ## Optional reach part
+//! A volume with a node reach ([`crate::reach`]) adds, after the `weight` part and the
+//! validity part (if any), a part named `reach` with six f32 channels `+x -x +y -y +z -z`
+//! (each node's reach along that grid axis in cells, in `[0, 1]`; anything else is
+//! malformed), in the same slice layout, and the image attribute `lightvol.reach` (i32, 1);
+//! such files are `lightvol.version` 4, so older readers refuse them as newer instead of
+//! reading them without their reach. The checksum covers the reach.
+//!
 //! ## Reading
 //! The reader first parses only the headers and checks the attributes, part names, channel
 //! lists, sample types and data-window sizes against the declared dimensions; only then
@@ -67,9 +75,11 @@ use crate::error::{FileFormat, VolumeError, check_finite};
 use crate::gradient::VolumeGradients;
 use crate::grid::{GridSpec, Placement};
 use crate::io::sidecar::{
-    FORMAT_VERSION, QUANTITY, SETTINGS_VERSION, SH_CONVENTION, VALIDITY_VERSION, format_version,
+    FORMAT_VERSION, QUANTITY, REACH_VERSION, SETTINGS_VERSION, SH_CONVENTION, VALIDITY_VERSION,
+    format_version,
 };
 use crate::io::util::{guard, read_bounded, write_atomic};
+use crate::reach::NodeReach;
 use crate::validity::ValidityMask;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 
@@ -118,6 +128,13 @@ fn layer_name(j: usize) -> String {
 
 /// Name of the validity part.
 const VALIDITY_PART: &str = "validity";
+
+/// Name of the reach part.
+const REACH_PART: &str = "reach";
+
+/// Channel names of the reach part, in the exr crate's sorted order, with their
+/// [`crate::reach::REACH_DIRECTIONS`] index.
+const REACH_CHANNELS: [(&str, usize); 6] = [("+x", 0), ("+y", 2), ("+z", 4), ("-x", 1), ("-y", 3), ("-z", 5)];
 
 fn grad_layer_name(j: usize) -> String {
     format!("grad{j:02}")
@@ -222,6 +239,16 @@ pub(crate) fn base_layers(
             AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Y", FlatSamples::F32(flags))]));
         layers.push(Layer::new(size, LayerAttributes::named(text(VALIDITY_PART)?), encoding, channels));
     }
+    if let Some(reach) = vol.reach() {
+        let channels = REACH_CHANNELS
+            .iter()
+            .map(|&(name, d)| {
+                AnyChannel::new(name, FlatSamples::F32((0..n).map(|i| reach.node(i)[d]).collect()))
+            })
+            .collect::<Vec<_>>();
+        let channels = AnyChannels::sort(SmallVec::from_vec(channels));
+        layers.push(Layer::new(size, LayerAttributes::named(text(REACH_PART)?), encoding, channels));
+    }
     if let Some(g) = grad {
         for j in 0..coeffs {
             let channels = GRAD_CHANNELS
@@ -266,6 +293,9 @@ pub(crate) fn base_layers(
     }
     if vol.validity().is_some() {
         put("lightvol.validity", AttributeValue::I32(1))?;
+    }
+    if vol.reach().is_some() {
+        put("lightvol.reach", AttributeValue::I32(1))?;
     }
     put("lightvol.sh_bands", AttributeValue::I32(vol.bands() as i32))?;
     put("lightvol.convention", AttributeValue::Text(text(SH_CONVENTION)?))?;
@@ -535,6 +565,7 @@ struct Declared {
     checksum: String,
     gradients: bool,
     validity: bool,
+    reach: bool,
 }
 
 fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeError> {
@@ -630,7 +661,18 @@ fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeErr
         }
         Some(_) => return Err(VolumeError::malformed(F, "lightvol.validity is not the i32 1")),
     };
-    Ok(Declared { spec, coeffs, sample, meta, checksum, gradients, validity })
+    let reach = match a.opt("lightvol.reach") {
+        None => false,
+        Some(AttributeValue::I32(1)) if version as u32 >= REACH_VERSION => true,
+        Some(AttributeValue::I32(1)) => {
+            return Err(VolumeError::malformed(
+                F,
+                format!("lightvol.reach in a version {version} file (a reach needs version {REACH_VERSION})"),
+            ));
+        }
+        Some(_) => return Err(VolumeError::malformed(F, "lightvol.reach is not the i32 1")),
+    };
+    Ok(Declared { spec, coeffs, sample, meta, checksum, gradients, validity, reach })
 }
 
 /// Parses a multi-part EXR volume from memory (see the module docs for what is checked).
@@ -695,9 +737,13 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     };
     let extra =
         if extensions { meta.headers.iter().filter(|h| is_octree_part(&part_name(h))).count() } else { 0 };
-    // Slots: the coefficients, the weight, the validity (if any), the gradients (if any).
+    // Slots: the coefficients, the weight, the validity (if any), the reach (if any), the
+    // gradients (if any).
     let v = usize::from(d.validity);
-    let grad_base = d.coeffs + 1 + v;
+    let reach_slot = d.coeffs + 1 + v;
+    let grad_base = reach_slot + usize::from(d.reach);
+    let reach_want: Vec<(&str, SampleType)> =
+        REACH_CHANNELS.iter().map(|&(c, _)| (c, SampleType::F32)).collect();
     let parts = grad_base + if d.gradients { d.coeffs } else { 0 } + extra;
     if meta.headers.len() != parts {
         return Err(VolumeError::malformed(F, format!("{} parts, expected {parts}", meta.headers.len())));
@@ -715,6 +761,8 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
             (d.coeffs, &[("Y", SampleType::F32)])
         } else if d.validity && name == VALIDITY_PART {
             (d.coeffs + 1, &[("Y", SampleType::F32)])
+        } else if d.reach && name == REACH_PART {
+            (reach_slot, &reach_want)
         } else if let Some(j) = grad_slot {
             (grad_base + j, &grad_want)
         } else {
@@ -750,6 +798,7 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     let mut data = vec![0.0f32; n * k];
     let mut weights = vec![0.0f32; n];
     let mut flags: Option<Vec<f32>> = None;
+    let mut reach: Option<Vec<[f32; 6]>> = if d.reach { Some(vec![[0.0; 6]; n]) } else { None };
     let mut gdata = vec![0.0f32; if d.gradients { n * k * 3 } else { 0 }];
     let mut extras = Vec::new();
     for layer in &image.layer_data {
@@ -778,6 +827,18 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
             }
             if d.validity && name == VALIDITY_PART {
                 flags = Some(vals);
+                continue;
+            }
+            if let Some(r) = reach.as_mut().filter(|_| name == REACH_PART) {
+                let cname = ch.name.to_string();
+                let dir = REACH_CHANNELS
+                    .iter()
+                    .find(|(c, _)| *c == cname)
+                    .map(|&(_, d)| d)
+                    .ok_or_else(|| VolumeError::malformed(F, format!("channel {cname:?}")))?;
+                for (node, v) in vals.into_iter().enumerate() {
+                    r[node][dir] = v;
+                }
                 continue;
             }
             if let Some(j) = (0..d.coeffs).find(|&j| d.gradients && grad_layer_name(j) == name) {
@@ -816,6 +877,10 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
             ));
         }
         vol.set_validity(Some(ValidityMask::new(flags.iter().map(|&f| f == 1.0).collect())))?;
+    }
+    if let Some(r) = reach {
+        let r = NodeReach::new(r).map_err(|e| VolumeError::malformed(F, e.to_string()))?;
+        vol.set_reach(Some(r))?;
     }
     verify(F, Some(&d.checksum), &vol)?;
     let grad = if d.gradients { Some(VolumeGradients::new(&vol, gdata)?) } else { None };

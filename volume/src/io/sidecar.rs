@@ -44,15 +44,18 @@ use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 pub const FORMAT_NAME: &str = "lightvol-volume";
 /// Newest sidecar / file-format version (the sidecar's `version`, the EXR's
 /// `lightvol.version`); readers accept it and every older one. Version 2 added the validity
-/// mask, version 3 the typed settings record ([`crate::BakeRecord`]). Writers write the
+/// mask, version 3 the typed settings record ([`crate::BakeRecord`]), version 4 the node
+/// reach ([`crate::reach`]). Writers write the
 /// oldest version that holds the volume ([`format_version`]), so a volume without a mask or
 /// record gives the same bytes as before, and an older reader refuses a file with them as a
 /// newer version instead of reading it without them.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 /// The first version that can carry a validity mask.
 pub const VALIDITY_VERSION: u32 = 2;
 /// The first version that can carry the typed settings record.
 pub const SETTINGS_VERSION: u32 = 3;
+/// The first version that can carry a node reach.
+pub const REACH_VERSION: u32 = 4;
 /// The bit packing of the `validity.bits` field, in words ([`ValidityMask::to_hex`]).
 pub const VALIDITY_LAYOUT: &str = "one bit per node, node i = x + nx*(y + ny*z) is bit i%8 (least significant \
                                    first) of byte i/8, 1 = valid; each byte as two lowercase hex digits";
@@ -60,12 +63,14 @@ pub const VALIDITY_LAYOUT: &str = "one bit per node, node i = x + nx*(y + ny*z) 
 pub const VALIDITY_LOOKUP: &str = "trilinear weights renormalised over the valid corners of the cell; plain \
                                    trilinear when every corner is valid or no valid corner has weight";
 
-/// The version a file holding `vol` is written as: [`SETTINGS_VERSION`] when its metadata
-/// has the typed settings record, else [`VALIDITY_VERSION`] when it has a validity mask,
-/// else 1.
+/// The version a file holding `vol` is written as: [`REACH_VERSION`] when it has a node
+/// reach, else [`SETTINGS_VERSION`] when its metadata has the typed settings record, else
+/// [`VALIDITY_VERSION`] when it has a validity mask, else 1.
 #[must_use]
 pub fn format_version(vol: &IrradianceVolume) -> u32 {
-    if vol.metadata().settings.is_some() {
+    if vol.reach().is_some() {
+        REACH_VERSION
+    } else if vol.metadata().settings.is_some() {
         SETTINGS_VERSION
     } else if vol.validity().is_some() {
         VALIDITY_VERSION

@@ -1,0 +1,97 @@
+//! Baking the node reach of [`lightvol_volume::reach`]: six rays per node, one cell long,
+//! along the grid axes.
+//!
+//! Node `i`'s reach along `±a` is `t / ℓ_a`, `t` the distance of the closest surface its
+//! ray along the world image of that axis meets within one cell (`ℓ_a`, the cell's world
+//! length along `a`), or 1 when the ray meets none. A ray that first meets a *back face*
+//! (§5 of Kontkanen & Laine 2006: the node is inside a solid) also gives 1: such a node's
+//! value was made for the points next to it (relocated or filled by the bake), so it must
+//! not be left out of their lookups. Rays that would leave the grid are not traced (no
+//! lookup reads a node from outside the grid); they give 1 too.
+//!
+//! The rays depend only on the node's position, so the reach is the same for any thread
+//! count, shard count or seed.
+
+use glam::DVec3;
+use lightvol_volume::reach::REACH_DIRECTIONS;
+use lightvol_volume::{GridSpec, NodeReach};
+use rayon::prelude::*;
+
+use crate::bvh::Tracer;
+
+/// The reach of every node of `grid` in `tracer`'s scene, and the rays traced.
+///
+/// # Panics
+/// Never for a valid grid: the values built are in `[0, 1]` by construction.
+#[must_use]
+pub fn bake_reach(tracer: &Tracer, grid: &GridSpec) -> (NodeReach, u64) {
+    let res = grid.res();
+    let per_node: Vec<([f32; 6], u64)> = (0..grid.node_count())
+        .into_par_iter()
+        .map(|node| {
+            let ijk = grid.node_coords(node);
+            let g = grid.node_position(ijk[0], ijk[1], ijk[2]);
+            let x = DVec3::from_array(grid.to_world(g));
+            let cell = grid.cell_size();
+            let mut reach = [1.0f32; 6];
+            let mut rays = 0;
+            for (d, step) in REACH_DIRECTIONS.iter().enumerate() {
+                let a = d / 2;
+                let to = i64::from(ijk[a]) + i64::from(step[a]);
+                if to < 0 || to >= i64::from(res[a]) {
+                    continue;
+                }
+                let mut h = g;
+                h[a] += f64::from(step[a]) * cell[a];
+                let span = DVec3::from_array(grid.to_world(h)) - x;
+                let len = span.length();
+                if !(len > 0.0) {
+                    continue;
+                }
+                rays += 1;
+                if let Some(hit) = tracer.closest_hit(x, span / len, 0.0, len)
+                    && !hit.back_face
+                {
+                    reach[d] = ((hit.t / len) as f32).clamp(0.0, 1.0);
+                }
+            }
+            (reach, rays)
+        })
+        .collect();
+    let rays = per_node.iter().map(|p| p.1).sum();
+    let reach =
+        NodeReach::new(per_node.into_iter().map(|p| p.0).collect()).expect("reaches are clamped to [0, 1]");
+    (reach, rays)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Material, SceneBuilder};
+
+    /// A closed slab `0.3 ≤ x ≤ 0.4` across a 3×3×3 grid over [0, 2]³ (cells of 1): the
+    /// nodes at x = 0 reach 0.3 cells along +x, those at x = 1 reach 0.6 along -x, and
+    /// nothing else is limited.
+    #[test]
+    fn a_wall_limits_the_nodes_on_both_sides() {
+        let mut b = SceneBuilder::new("slab");
+        let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();
+        b.add_box(DVec3::new(0.3, -1.0, -1.0), DVec3::new(0.4, 3.0, 3.0), m, true, false).unwrap();
+        let tracer = Tracer::new(&b.build().unwrap());
+        let grid = GridSpec::new([0.0; 3], [2.0; 3], [3, 3, 3]).unwrap();
+        let (reach, rays) = bake_reach(&tracer, &grid);
+        // 27 nodes × 6 directions, less the 9 × 6 that would leave the grid.
+        assert_eq!(rays, 27 * 6 - 54);
+        for node in 0..grid.node_count() {
+            let [i, _, _] = grid.node_coords(node);
+            let r = reach.node(node);
+            let want_plus_x = if i == 0 { 0.3 } else { 1.0 };
+            let want_minus_x = if i == 1 { 0.6 } else { 1.0 };
+            // f64 ray distances of O(1) rounded to f32.
+            assert!((r[0] - want_plus_x).abs() < 1e-6, "node {node}: {r:?}");
+            assert!((r[1] - want_minus_x).abs() < 1e-6, "node {node}: {r:?}");
+            assert_eq!(&r[2..], &[1.0; 4], "node {node}");
+        }
+        assert_eq!(reach.limited_count(), 18);
+    }
+}
