@@ -66,6 +66,11 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             "note: Bevy interpolates its voxels plainly; the validity mask ({n} invalid nodes) is not in the Bevy export"
         );
     }
+    if let Some(n) = report.dropped_reach_nodes {
+        eprintln!(
+            "note: Bevy interpolates its voxels plainly; the node reach ({n} limited nodes) is not in the Bevy export, so its lookups read nodes through thin walls"
+        );
+    }
     eprintln!("wrote {}", out.display());
     if args.format != CliFormat::Json {
         let sc = sidecar_path(out);

@@ -226,7 +226,22 @@ pub(crate) fn bake_with_sink(
     };
     let range = crate::shard::shard_range(units, (k, n));
     let lo = range.start;
-    let stats = run_units(transport, grid, settings, control, range.len(), |i| lo + i, &mut acc, &mut sink)?;
+    let mut stats =
+        run_units(transport, grid, settings, control, range.len(), |i| lo + i, &mut acc, &mut sink)?;
+    if settings.method == Method::Doi {
+        // The node reach of the shard's nodes (its units), recorded in node order.
+        let t0 = Instant::now();
+        let reach: Vec<([f32; 6], u64)> = range
+            .clone()
+            .into_par_iter()
+            .map(|node| crate::reach::node_reach(transport.tracer(), grid, node))
+            .collect();
+        for (node, (r, rays)) in range.zip(reach) {
+            acc.set_reach(node, r);
+            stats.rays.query += rays;
+        }
+        stats.wall_time += t0.elapsed();
+    }
     Ok(BakeOutput { accumulator: acc, stats })
 }
 

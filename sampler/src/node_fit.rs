@@ -416,10 +416,8 @@ pub fn bake_with_mass(
 }
 
 /// A whole (unsharded) bake with the chosen [`Fit`]. For [`Method::Point`] or
-/// [`Fit::Average`] this is [`crate::bake()`] followed by `finish`; [`Method::Doi`] then
-/// also bakes the node reach ([`crate::reach::bake_reach`], its rays counted as query
-/// rays) and attaches it, so that the volume's lookups leave out the nodes that do not see
-/// the query point ([`lightvol_volume::reach`]).
+/// [`Fit::Average`] this is [`crate::bake()`] followed by `finish` (a [`Method::Doi`] volume carries the node reach the
+/// bake recorded, [`crate::reach`]).
 ///
 /// # Errors
 /// As [`crate::bake()`]; [`BakeError::Settings`] for least squares with
@@ -436,15 +434,6 @@ pub fn bake_fitted(
             "least-squares fits need cell samples (prefilter, doi-paper); doi and doi-node sample per node"
                 .into(),
         )),
-        (Method::Doi, Fit::Average) => {
-            let (v, mut s) = crate::bake::bake(transport, grid, settings, control)?.finish();
-            let t0 = std::time::Instant::now();
-            let (reach, rays) = crate::reach::bake_reach(transport.tracer(), grid);
-            s.rays.query += rays;
-            s.wall_time += t0.elapsed();
-            let v = v.with_reach(reach).map_err(|e| BakeError::Volume(e.to_string()))?;
-            Ok((v, s, None))
-        }
         (Method::Point, _) | (_, Fit::Average) => {
             let (v, s) = crate::bake::bake(transport, grid, settings, control)?.finish();
             Ok((v, s, None))

@@ -25,42 +25,44 @@ use crate::bvh::Tracer;
 /// Never for a valid grid: the values built are in `[0, 1]` by construction.
 #[must_use]
 pub fn bake_reach(tracer: &Tracer, grid: &GridSpec) -> (NodeReach, u64) {
-    let res = grid.res();
-    let per_node: Vec<([f32; 6], u64)> = (0..grid.node_count())
-        .into_par_iter()
-        .map(|node| {
-            let ijk = grid.node_coords(node);
-            let g = grid.node_position(ijk[0], ijk[1], ijk[2]);
-            let x = DVec3::from_array(grid.to_world(g));
-            let cell = grid.cell_size();
-            let mut reach = [1.0f32; 6];
-            let mut rays = 0;
-            for (d, step) in REACH_DIRECTIONS.iter().enumerate() {
-                let a = d / 2;
-                let to = i64::from(ijk[a]) + i64::from(step[a]);
-                if to < 0 || to >= i64::from(res[a]) {
-                    continue;
-                }
-                let mut h = g;
-                h[a] += f64::from(step[a]) * cell[a];
-                let span = DVec3::from_array(grid.to_world(h)) - x;
-                let len = span.length();
-                if !(len > 0.0) {
-                    continue;
-                }
-                rays += 1;
-                if let Some(hit) = tracer.closest_hit(x, span / len, 0.0, len)
-                    && !hit.back_face
-                {
-                    reach[d] = ((hit.t / len) as f32).clamp(0.0, 1.0);
-                }
-            }
-            (reach, rays)
-        })
-        .collect();
+    let per_node: Vec<([f32; 6], u64)> =
+        (0..grid.node_count()).into_par_iter().map(|node| node_reach(tracer, grid, node)).collect();
     let rays = per_node.iter().map(|p| p.1).sum();
     let reach =
         NodeReach::new(per_node.into_iter().map(|p| p.0).collect()).expect("reaches are clamped to [0, 1]");
+    (reach, rays)
+}
+
+/// Node `node`'s reach in [`REACH_DIRECTIONS`] order (module docs), and the rays traced.
+#[must_use]
+pub fn node_reach(tracer: &Tracer, grid: &GridSpec, node: usize) -> ([f32; 6], u64) {
+    let res = grid.res();
+    let ijk = grid.node_coords(node);
+    let g = grid.node_position(ijk[0], ijk[1], ijk[2]);
+    let x = DVec3::from_array(grid.to_world(g));
+    let cell = grid.cell_size();
+    let mut reach = [1.0f32; 6];
+    let mut rays = 0;
+    for (d, step) in REACH_DIRECTIONS.iter().enumerate() {
+        let a = d / 2;
+        let to = i64::from(ijk[a]) + i64::from(step[a]);
+        if to < 0 || to >= i64::from(res[a]) {
+            continue;
+        }
+        let mut h = g;
+        h[a] += f64::from(step[a]) * cell[a];
+        let span = DVec3::from_array(grid.to_world(h)) - x;
+        let len = span.length();
+        if !(len > 0.0) {
+            continue;
+        }
+        rays += 1;
+        if let Some(hit) = tracer.closest_hit(x, span / len, 0.0, len)
+            && !hit.back_face
+        {
+            reach[d] = ((hit.t / len) as f32).clamp(0.0, 1.0);
+        }
+    }
     (reach, rays)
 }
 

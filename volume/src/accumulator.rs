@@ -23,6 +23,14 @@
 //! support `∫ b_i` that lies in the domain (the denominator of Eq. 5 relative to the full
 //! support). A baker that never calls `add_outside` gets weight 1 for every sampled node.
 //!
+//! ## Node reach
+//! A bake may record each node's reach ([`crate::reach`]) with [`Accumulator::set_reach`].
+//! It travels with the sums as six more integers per node, each the f32 bits of one reach
+//! plus one (0 = not recorded), so that shards covering disjoint nodes merge by the same
+//! integer addition into the whole bake's values. `finalize` attaches the reach to the
+//! volume; a node no shard recorded (an incomplete shard set), or a value no single
+//! record gives, reaches a full cell (no lookup leaves it out).
+//!
 //! ## Zero-weight fill
 //! Nodes whose denominator is zero (no sample landed in their support inside the domain)
 //! have no estimate. `finalize` fills them as documented in [`crate::fill`] and counts
@@ -46,6 +54,8 @@ pub struct Accumulator {
     /// Auxiliary exact sums that travel with the accumulator (for example a least-squares
     /// fit's mass matrix), by name.
     aux: Option<(String, FixedSums)>,
+    /// The node reach as recorded (module docs): `6 · node + direction`, f32 bits + 1.
+    reach: Option<FixedSums>,
 }
 
 /// A summary, not the sums themselves.
@@ -74,7 +84,50 @@ impl Accumulator {
             outside: FixedSums::zeros(n),
             contributions: 0,
             aux: None,
+            reach: None,
         })
+    }
+
+    /// Records node `node`'s reach ([`crate::reach`], six values in `[0, 1]`, module docs).
+    ///
+    /// # Panics
+    /// If `node` is out of range.
+    pub fn set_reach(&mut self, node: usize, reach: [f32; 6]) {
+        let n = self.spec.node_count();
+        let sums = self.reach.get_or_insert_with(|| FixedSums::zeros(6 * n));
+        for (d, v) in reach.iter().enumerate() {
+            sums.add_raw(6 * node + d, i128::from(v.to_bits()) + 1);
+        }
+    }
+
+    /// Whether the accumulator carries a node reach (module docs).
+    #[must_use]
+    pub fn has_reach(&self) -> bool {
+        self.reach.is_some()
+    }
+
+    /// Starts an empty node reach (every node unrecorded), for a shard file that carries
+    /// one.
+    pub fn enable_reach(&mut self) {
+        let n = self.spec.node_count();
+        self.reach.get_or_insert_with(|| FixedSums::zeros(6 * n));
+    }
+
+    /// The recorded node reach's raw integers (module docs), if any.
+    #[must_use]
+    pub fn reach_raw(&self) -> Option<&[i128]> {
+        self.reach.as_ref().map(FixedSums::raw)
+    }
+
+    /// The node reach the records give (module docs), if the accumulator carries one.
+    #[must_use]
+    pub fn reach(&self) -> Option<crate::NodeReach> {
+        let raw = self.reach.as_ref()?.raw();
+        let decode = |v: i128| {
+            u32::try_from(v - 1).ok().map(f32::from_bits).filter(|r| (0.0..=1.0).contains(r)).unwrap_or(1.0)
+        };
+        let nodes = raw.chunks_exact(6).map(|c| std::array::from_fn(|d| decode(c[d]))).collect();
+        Some(crate::NodeReach::new(nodes).expect("decoded reaches are in [0, 1]"))
     }
 
     /// Attaches auxiliary exact sums (named, e.g. `"mass"`); they are merged, saved and
@@ -117,11 +170,12 @@ impl Accumulator {
             outside: FixedSums::from_raw(outside),
             contributions,
             aux: None,
+            reach: None,
         })
     }
 
     /// Adds raw fixed-point value `v` to the sum at flat index `i` of the concatenation
-    /// numerator ‖ denominator ‖ outside (the shard-file order), and counts `contributions`
+    /// numerator ‖ denominator ‖ outside ‖ auxiliary sums ‖ node reach (the shard-file order), and counts `contributions`
     /// when `i` is the last index. Used to merge shard files as they stream in.
     ///
     /// # Panics
@@ -134,9 +188,12 @@ impl Accumulator {
             self.denominator.add_raw(i - a, v);
         } else if i < a + b + c {
             self.outside.add_raw(i - a - b, v);
-        } else {
-            let aux = &mut self.aux.as_mut().expect("an index past the sums needs auxiliary sums").1;
+        } else if let Some(aux) = self.aux.as_mut().map(|x| &mut x.1).filter(|x| i < a + b + c + x.len()) {
             aux.add_raw(i - a - b - c, v);
+        } else {
+            let d = self.aux.as_ref().map_or(0, |x| x.1.len());
+            let reach = self.reach.as_mut().expect("an index past the sums needs auxiliary sums or a reach");
+            reach.add_raw(i - a - b - c - d, v);
         }
     }
 
@@ -283,6 +340,15 @@ impl Accumulator {
                 ));
             }
         }
+        match (&mut self.reach, &other.reach) {
+            (None, None) => {}
+            (Some(x), Some(y)) => x.merge(y),
+            _ => {
+                return Err(VolumeError::Mismatch(
+                    "cannot merge accumulators with and without a node reach (doi and another method)".into(),
+                ));
+            }
+        }
         self.numerator.merge(&other.numerator);
         self.denominator.merge(&other.denominator);
         self.outside.merge(&other.outside);
@@ -379,6 +445,10 @@ impl Accumulator {
         let volume = IrradianceVolume::new(self.spec.clone(), self.coeffs, data, weights)
             .expect("finalize builds consistent, finite parts")
             .with_metadata(BakeMetadata::default());
+        let volume = match self.reach() {
+            Some(r) => volume.with_reach(r).expect("the reach covers the accumulator's nodes"),
+            None => volume,
+        };
         (volume, report)
     }
 }

@@ -129,7 +129,8 @@ pub fn grid_in_file_frame(spec: &GridSpec, up: UpAxis) -> Result<GridSpec, Volum
 /// positions are file positions), and every node's SH rotated by it (so SH directions are
 /// file directions; lightvol-sh's `ShRotation`, in f64, rounded once to f32). Looking the
 /// result up at `(R p, R n)` gives the original at `(p, n)` to f32 rounding. The metadata
-/// records `up`; the weights and the validity mask are kept. For `UpAxis::Z` the volume is
+/// records `up`; the weights, the validity mask and the node reach (in grid axes, which the
+/// rotation leaves alone) are kept. For `UpAxis::Z` the volume is
 /// returned unchanged (apart from the frame).
 ///
 /// # Errors
@@ -176,6 +177,7 @@ pub fn to_file_frame(vol: &IrradianceVolume, up: UpAxis) -> Result<IrradianceVol
     }
     let mut out = IrradianceVolume::new(placed, coeffs, data, vol.weights().to_vec())?.with_metadata(meta);
     out.set_validity(vol.validity().cloned())?;
+    out.set_reach(vol.reach().cloned())?;
     Ok(out)
 }
 

@@ -95,6 +95,9 @@ pub fn describe(vol: &AnyVolume, path: &Path) -> Result<Value, VolumeError> {
     let mask_bytes = vol.validity().map_or(0, ValidityMask::memory_bytes);
     let validity =
         vol.validity().map(|m| json!({ "invalid_nodes": m.invalid_count(), "memory_bytes": mask_bytes }));
+    let reach_bytes = vol.reach().map_or(0, crate::NodeReach::memory_bytes);
+    let reach =
+        vol.reach().map(|r| json!({ "limited_nodes": r.limited_count(), "memory_bytes": reach_bytes }));
     Ok(json!({
         "file": path.display().to_string(),
         "kind": "uniform",
@@ -109,8 +112,9 @@ pub fn describe(vol: &AnyVolume, path: &Path) -> Result<Value, VolumeError> {
         "memory_bytes": vol.memory_bytes(),
         "gradients": has_grads,
         "validity": validity,
+        "reach": reach,
         "memory": { "floats_per_node": floats, "bytes_per_node": floats * 4,
-                    "runtime_bytes": sample_bytes(vol.spec().node_count(), vol.bands(), has_grads) + mask_bytes,
+                    "runtime_bytes": sample_bytes(vol.spec().node_count(), vol.bands(), has_grads) + mask_bytes + reach_bytes,
                     "gradient_bytes": grads.as_ref().map_or(0, |g| g.memory_bytes()),
                     "floats_per_sample_by_order": floats_table(vol.bands()) },
     }))

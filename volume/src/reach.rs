@@ -128,6 +128,52 @@ impl NodeReach {
         self.reach.len() * size_of::<[f32; 6]>()
     }
 
+    /// The reach as text: every node's six values in [`REACH_DIRECTIONS`] order, each as
+    /// its f32 bits little-endian, two lowercase hex digits per byte (48 per node).
+    #[must_use]
+    pub fn to_hex(&self) -> String {
+        use std::fmt::Write;
+        let mut s = String::with_capacity(self.reach.len() * 48);
+        for r in &self.reach {
+            for v in r {
+                for b in v.to_bits().to_le_bytes() {
+                    write!(s, "{b:02x}").expect("writing to a String");
+                }
+            }
+        }
+        s
+    }
+
+    /// Parses [`Self::to_hex`] for `nodes` nodes; errors on another length, a character
+    /// that is not a lowercase hex digit, or a value outside `[0, 1]`.
+    pub fn from_hex(text: &str, nodes: usize) -> Result<Self, VolumeError> {
+        let bytes = text.as_bytes();
+        if bytes.len() != nodes * 48 {
+            return Err(VolumeError::Mismatch(format!(
+                "node reach of {} hex digits for {nodes} nodes (48 per node)",
+                bytes.len()
+            )));
+        }
+        let digit = |c: u8| match c {
+            b'0'..=b'9' => Ok(c - b'0'),
+            b'a'..=b'f' => Ok(c - b'a' + 10),
+            _ => Err(VolumeError::Mismatch(format!("{:?} is not a lowercase hex digit", c as char))),
+        };
+        let mut reach = Vec::with_capacity(nodes);
+        for node in bytes.chunks_exact(48) {
+            let mut r = [0.0f32; 6];
+            for (d, v) in node.chunks_exact(8).enumerate() {
+                let mut b = [0u8; 4];
+                for (i, pair) in v.chunks_exact(2).enumerate() {
+                    b[i] = digit(pair[0])? << 4 | digit(pair[1])?;
+                }
+                r[d] = f32::from_bits(u32::from_le_bytes(b));
+            }
+            reach.push(r);
+        }
+        Self::new(reach)
+    }
+
     /// Which corners of a cell see a query at `f` cells from the cell's base corner (the
     /// test point's position, module docs), corner `c` being node `nodes(c)`.
     #[must_use]
@@ -277,6 +323,20 @@ mod tests {
         let r = NodeReach::new(reach).unwrap();
         let seen = r.sees(|c| c, [0.5, 0.5, 0.5]);
         assert!(!seen[0] && seen[1..].iter().all(|&s| s), "{seen:?}");
+    }
+
+    #[test]
+    fn hex_round_trips_and_is_checked() {
+        let r = NodeReach::new(vec![[0.25, 1.0, 0.0, 0.5, 0.75, 1.0], [1.0; 6]]).unwrap();
+        let hex = r.to_hex();
+        assert_eq!(hex.len(), 96);
+        // 0.25 = 0x3e800000, little-endian.
+        assert_eq!(&hex[..8], "0000803e");
+        assert_eq!(NodeReach::from_hex(&hex, 2).unwrap(), r);
+        assert!(NodeReach::from_hex(&hex, 3).is_err());
+        assert!(NodeReach::from_hex(&hex.replace('e', "E"), 2).is_err());
+        // 2.0 = 0x40000000 is outside one cell.
+        assert!(NodeReach::from_hex(&hex.replacen("0000803e", "00000040", 1), 2).is_err());
     }
 
     #[test]

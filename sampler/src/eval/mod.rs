@@ -53,7 +53,9 @@
 //! let result = compare(&maze.scene, &config, &Silent)?;
 //! let [point, doi, hermite] = [0, 1, 2].map(|i| &result.methods[i]);
 //! assert!(doi.metrics.rel_rmse < point.metrics.rel_rmse);
-//! assert_eq!(hermite.memory_bytes, 4 * doi.memory_bytes); // [Oat05]: gradients quadruple the floats
+//! assert_eq!(hermite.memory_bytes, 4 * point.memory_bytes); // [Oat05]: gradients quadruple the floats
+//! // doi's volume also carries its node reach: six f32 per node.
+//! assert_eq!(doi.memory_bytes, point.memory_bytes + 24 * maze.grid.node_count());
 //! # Ok::<(), lightvol_sampler::eval::EvalError>(())
 //! ```
 //!

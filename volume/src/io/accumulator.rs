@@ -4,10 +4,12 @@
 //! ## Format (little-endian)
 //! | bytes | content |
 //! | --- | --- |
-//! | 8 | magic `LVACC\0`, then the format version as u16 (2) |
+//! | 8 | magic `LVACC\0`, then the format version as u16 (2, or 3 with a node reach) |
 //! | 4 | length `h` of the JSON header |
 //! | h | JSON header: grid (as in the sidecar), coefficient count, contribution count, bake metadata |
 //! | 16·(n·3c + 2n) | i128 fixed-point sums ([`crate::fixed`], units of 2^-64): numerator `[node][coeff][rgb]`, denominator `[node]`, outside `[node]` |
+//! | 16·a | the auxiliary sums the header names, if any |
+//! | 16·6n | the node reach's records ([`crate::accumulator`]), if the header says `"reach": true` (version 3) |
 //! | 8 | FNV-1a 64 of every preceding byte |
 //!
 //! Version 1 stored the same sums as f64 (8 bytes each); it is still read, each sum rounded
@@ -32,7 +34,9 @@ use crate::volume::{BakeMetadata, check_coeffs};
 /// First six bytes of a shard file.
 pub const ACC_MAGIC: &[u8; 6] = b"LVACC\0";
 /// Current shard-file version.
-pub const ACC_VERSION: u16 = 2;
+pub const ACC_VERSION: u16 = 3;
+/// The version of shard files without a node reach (they are written as before it).
+const ACC_VERSION_PLAIN: u16 = 2;
 /// Largest JSON header accepted (1 MiB; real headers are well under 1 KiB).
 const MAX_HEADER: usize = 1 << 20;
 const F: FileFormat = FileFormat::Shard;
@@ -46,6 +50,9 @@ struct AccHeader {
     /// Auxiliary sums after the outside sums (version 2): name and count.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     aux: Option<AuxHeader>,
+    /// Node reach records after the auxiliary sums (version 3).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    reach: bool,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -111,6 +118,7 @@ pub fn accumulator_to_bytes(acc: &Accumulator, meta: &BakeMetadata) -> Result<Ve
         contributions: acc.contributions(),
         bake: meta.clone(),
         aux: acc.aux().map(|(name, s)| AuxHeader { name: name.to_owned(), len: s.len() as u64 }),
+        reach: acc.has_reach(),
     };
     let json = serde_json::to_vec(&header).expect("plain data");
     let parts = acc.fixed_parts().map_err(|(what, index)| VolumeError::NonFinite { what, index })?;
@@ -118,11 +126,13 @@ pub fn accumulator_to_bytes(acc: &Accumulator, meta: &BakeMetadata) -> Result<Ve
     if let Some(index) = aux.and_then(crate::fixed::FixedSums::first_poisoned) {
         return Err(VolumeError::NonFinite { what: "auxiliary sum", index });
     }
-    let arrays: Vec<&[i128]> = parts.into_iter().chain(aux.map(crate::fixed::FixedSums::raw)).collect();
+    let arrays: Vec<&[i128]> =
+        parts.into_iter().chain(aux.map(crate::fixed::FixedSums::raw)).chain(acc.reach_raw()).collect();
     let values: usize = arrays.iter().map(|a| a.len()).sum();
     let mut out = Vec::with_capacity(8 + 4 + json.len() + 16 * values + 8);
     out.extend_from_slice(ACC_MAGIC);
-    out.extend_from_slice(&ACC_VERSION.to_le_bytes());
+    let version = if acc.has_reach() { ACC_VERSION } else { ACC_VERSION_PLAIN };
+    out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(&json);
     for v in arrays.into_iter().flatten() {
@@ -154,7 +164,8 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
     let data = &body[12 + h..];
     let width: u64 = if version == 1 { 8 } else { 16 };
     let aux_len = check_aux(&header, n as u64).map_err(bad)?;
-    let need = width * (n as u64 * k as u64 + 2 * n as u64 + aux_len);
+    let reach_len = check_reach(&header, version, n as u64).map_err(bad)?;
+    let need = width * (n as u64 * k as u64 + 2 * n as u64 + aux_len + reach_len);
     if data.len() as u64 != need {
         return Err(bad(format!("{} data bytes, the grid needs {need}", data.len())));
     }
@@ -178,11 +189,32 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
             header.contributions,
         )?;
         if let Some(a) = &header.aux {
-            acc.set_aux(&a.name, crate::fixed::FixedSums::from_raw(vals.collect()));
+            acc.set_aux(
+                &a.name,
+                crate::fixed::FixedSums::from_raw(vals.by_ref().take(a.len as usize).collect()),
+            );
+        }
+        if header.reach {
+            acc.enable_reach();
+            for (i, v) in vals.enumerate() {
+                acc.add_raw_at(n * k + 2 * n + aux_len as usize + i, v);
+            }
         }
         acc
     };
     Ok((acc, header.bake))
+}
+
+/// The node reach records a header declares: 6 per node, or 0 without (a reach needs
+/// version 3).
+fn check_reach(header: &AccHeader, version: u16, nodes: u64) -> Result<u64, String> {
+    match (header.reach, version >= ACC_VERSION) {
+        (false, _) => Ok(0),
+        (true, true) => Ok(6 * nodes),
+        (true, false) => {
+            Err(format!("a node reach in a version {version} file (it needs version {ACC_VERSION})"))
+        }
+    }
 }
 
 /// The auxiliary sum count a header declares (0 without), bounded per node.
@@ -231,7 +263,7 @@ pub fn merge_accumulator_file(
     let k = header.coeffs as u64 * 3;
     let width: u64 = if version == 1 { 8 } else { 16 };
     let aux_len = check_aux(&header, n).map_err(bad)?;
-    let total = n * k + 2 * n + aux_len;
+    let total = n * k + 2 * n + aux_len + check_reach(&header, version, n).map_err(bad)?;
     if len != 12 + h as u64 + width * total + 8 {
         return Err(bad(format!("{} data bytes, the grid needs {}", len - 12 - h as u64 - 8, width * total)));
     }
@@ -254,6 +286,9 @@ pub fn merge_accumulator_file(
             if let Some(x) = &header.aux {
                 a.set_aux(&x.name, crate::fixed::FixedSums::zeros(x.len as usize));
             }
+            if header.reach {
+                a.enable_reach();
+            }
             a
         }
     };
@@ -265,6 +300,11 @@ pub fn merge_accumulator_file(
     if !same_aux {
         return Err(VolumeError::Mismatch(
             "cannot merge accumulators with different auxiliary sums (e.g. one with a least-squares mass matrix)".into(),
+        ));
+    }
+    if acc.has_reach() != header.reach {
+        return Err(VolumeError::Mismatch(
+            "cannot merge accumulators with and without a node reach (doi and another method)".into(),
         ));
     }
     const CHUNK: u64 = 4096;

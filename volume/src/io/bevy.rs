@@ -35,8 +35,9 @@
 //! and scale only ([`bevy_transform`] decomposes the matrix, glam's `DQuat::from_mat3`); a sheared or mirrored
 //! placement cannot be represented there and is refused.
 //!
-//! A validity mask ([`crate::validity`]) is not exported: Bevy's shader interpolates its
-//! voxels plainly, so the ambient cubes are the nodes' own (dilated) values.
+//! A validity mask ([`crate::validity`]) and a node reach ([`crate::reach`]) are not
+//! exported: Bevy's shader interpolates its voxels plainly, so the ambient cubes are the
+//! nodes' own (dilated) values, read through thin walls.
 
 use std::path::Path;
 

@@ -119,6 +119,7 @@ pub fn dds_from_bytes(bytes: &[u8], sidecar: &Sidecar) -> Result<IrradianceVolum
         let mut vol =
             IrradianceVolume::new(spec.clone(), coeffs, values, weights)?.with_metadata(sidecar.metadata());
         vol.set_validity(sidecar.validity_mask()?)?;
+        vol.set_reach(sidecar.node_reach()?)?;
         verify(F, sidecar.checksum.as_deref(), &vol)?;
         Ok(vol)
     })

@@ -32,6 +32,8 @@ pub struct ExportReport {
     pub resampled: Option<([u32; 3], bool)>,
     /// Invalid nodes of a validity mask the format cannot carry (Bevy).
     pub dropped_mask_nodes: Option<usize>,
+    /// Limited nodes of a node reach the format cannot carry (Bevy).
+    pub dropped_reach_nodes: Option<usize>,
 }
 
 /// Why an export was refused.
@@ -105,6 +107,7 @@ fn write_uniform(
         ExportFormat::Bevy(f) => {
             super::bevy::write_bevy(out, vol, f)?;
             report.dropped_mask_nodes = vol.validity().map(crate::ValidityMask::invalid_count);
+            report.dropped_reach_nodes = vol.reach().map(crate::NodeReach::limited_count);
         }
         ExportFormat::Json => {
             let file = crate::info::described_file_name(source);

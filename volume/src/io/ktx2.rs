@@ -175,6 +175,7 @@ pub fn ktx2_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
         let (values, weights) = volume_from_slab_texels(spec.node_count(), coeffs, &data, f)?;
         let mut vol = IrradianceVolume::new(spec, coeffs, values, weights)?.with_metadata(sidecar.metadata());
         vol.set_validity(sidecar.validity_mask()?)?;
+        vol.set_reach(sidecar.node_reach()?)?;
         verify(f, sidecar.checksum.as_deref(), &vol)?;
         Ok(vol)
     })

@@ -28,6 +28,15 @@
 //! `bits` is the mask packed one bit per node ([`crate::ValidityMask::to_hex`];
 //! [`VALIDITY_LAYOUT`] in words) and `lookup` the run-time weighting it asks for
 //! ([`VALIDITY_LOOKUP`]).
+//!
+//! A volume with a node reach ([`crate::reach`]) adds a `reach` section (version 4):
+//!
+//! ```json
+//! "reach": { "limited_nodes": 12, "layout": "...", "lookup": "...", "values": "0000803e..." }
+//! ```
+//!
+//! `values` holds every node's six reaches ([`crate::NodeReach::to_hex`]; [`REACH_LAYOUT`]
+//! in words) and `lookup` the run-time test they are for ([`REACH_LOOKUP`]).
 
 use std::path::Path;
 
@@ -37,6 +46,7 @@ use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::{GridSpec, Placement};
 use crate::io::util::{read_bounded, write_atomic};
+use crate::reach::NodeReach;
 use crate::validity::ValidityMask;
 use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
 
@@ -62,6 +72,17 @@ pub const VALIDITY_LAYOUT: &str = "one bit per node, node i = x + nx*(y + ny*z) 
 /// The run-time weighting a validity mask asks for, in words ([`crate::validity`]).
 pub const VALIDITY_LOOKUP: &str = "trilinear weights renormalised over the valid corners of the cell; plain \
                                    trilinear when every corner is valid or no valid corner has weight";
+
+/// The packing of the `reach.values` field, in words ([`NodeReach::to_hex`]).
+pub const REACH_LAYOUT: &str = "six f32 per node, node i = x + nx*(y + ny*z), in the order +x -x +y -y +z -z of the \
+                                grid axes: how far the node sees along that axis, in cells, capped at 1; each \
+                                value's bits little-endian, each byte as two lowercase hex digits";
+/// The run-time test a node reach asks for, in words ([`crate::reach`]).
+pub const REACH_LOOKUP: &str = "a corner is left out of the trilinear weights when the query (moved a tenth of the \
+                                smallest cell edge along the surface normal) lies beyond its reach on an axis \
+                                whose cell edge both end nodes see blocked (their reaches along it sum to at most \
+                                one cell); the other weights renormalised; plain trilinear when every corner sees \
+                                the query or none with weight does";
 
 /// The version a file holding `vol` is written as: [`REACH_VERSION`] when it has a node
 /// reach, else [`SETTINGS_VERSION`] when its metadata has the typed settings record, else
@@ -190,6 +211,57 @@ impl ValidityJson {
     }
 }
 
+/// The reach section: the node reach of [`crate::reach`], packed.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ReachJson {
+    /// Nodes that see less than a cell in some direction (checked against `values`).
+    pub limited_nodes: usize,
+    /// The packing of `values` ([`REACH_LAYOUT`]).
+    pub layout: String,
+    /// The lookup the reach is for ([`REACH_LOOKUP`]).
+    pub lookup: String,
+    /// The packed reach ([`NodeReach::to_hex`]).
+    pub values: String,
+}
+
+impl ReachJson {
+    /// The section describing `reach`.
+    #[must_use]
+    pub fn of(reach: &NodeReach) -> Self {
+        Self {
+            limited_nodes: reach.limited_count(),
+            layout: REACH_LAYOUT.into(),
+            lookup: REACH_LOOKUP.into(),
+            values: reach.to_hex(),
+        }
+    }
+
+    /// The reach for a grid of `nodes` nodes; errors on another layout or lookup, values
+    /// that do not parse ([`NodeReach::from_hex`]) or a limited count that differs.
+    pub fn reach(&self, nodes: usize) -> Result<NodeReach, VolumeError> {
+        let f = FileFormat::Sidecar;
+        if self.layout != REACH_LAYOUT {
+            return Err(VolumeError::unsupported(f, format!("reach layout {:?}", self.layout)));
+        }
+        if self.lookup != REACH_LOOKUP {
+            return Err(VolumeError::unsupported(f, format!("reach lookup {:?}", self.lookup)));
+        }
+        let reach =
+            NodeReach::from_hex(&self.values, nodes).map_err(|e| VolumeError::malformed(f, e.to_string()))?;
+        if reach.limited_count() != self.limited_nodes {
+            return Err(VolumeError::malformed(
+                f,
+                format!(
+                    "reach says {} limited nodes, its values limit {}",
+                    self.limited_nodes,
+                    reach.limited_count()
+                ),
+            ));
+        }
+        Ok(reach)
+    }
+}
+
 /// The whole sidecar document.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Sidecar {
@@ -210,6 +282,9 @@ pub struct Sidecar {
     /// The validity mask, when the volume has one (version 2 and later).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub validity: Option<ValidityJson>,
+    /// The node reach, when the volume has one (version 4 and later).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub reach: Option<ReachJson>,
     /// Bake metadata.
     pub bake: BakeJson,
     /// The frame of the described file's data (`y-up` or `z-up`): its world positions
@@ -262,6 +337,7 @@ impl Sidecar {
             units: m.units.clone(),
             storage: StorageJson { file, layout: layout.into() },
             validity: vol.validity().map(ValidityJson::of),
+            reach: vol.reach().map(ReachJson::of),
             bake: BakeJson {
                 method: m.method.clone(),
                 samples: m.samples,
@@ -340,7 +416,23 @@ impl Sidecar {
             ));
         }
         self.validity_mask_for(&spec)?;
+        if self.reach.is_some() && self.version < REACH_VERSION {
+            return Err(VolumeError::malformed(
+                f,
+                format!("version {} has no reach section (from version {REACH_VERSION})", self.version),
+            ));
+        }
+        self.node_reach_for(&spec)?;
         Ok(())
+    }
+
+    /// The node reach the sidecar describes, if any (checked as in [`Self::validate`]).
+    pub fn node_reach(&self) -> Result<Option<NodeReach>, VolumeError> {
+        self.node_reach_for(&self.grid_spec()?)
+    }
+
+    fn node_reach_for(&self, spec: &GridSpec) -> Result<Option<NodeReach>, VolumeError> {
+        self.reach.as_ref().map(|r| r.reach(spec.node_count())).transpose()
     }
 
     /// The validity mask the sidecar describes, if any (checked as in [`Self::validate`]).
