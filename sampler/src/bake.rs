@@ -63,7 +63,9 @@ pub enum Method {
     /// (Eq. 4) where the node sees no back face; otherwise at the point reached through its
     /// closest back face (the relocation rule of \[Maj21\]) when that point sees none;
     /// otherwise no samples of its own, so that the volume's fill gives it the mean of its
-    /// neighbours' estimates. See [`ProbeCapture`].
+    /// neighbours' estimates. See [`ProbeCapture`]. The bake also records every node's
+    /// reach ([`crate::reach`]), with which the volume's lookups leave out the nodes on the
+    /// far side of a wall from the query point.
     #[default]
     Doi,
 }

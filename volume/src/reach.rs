@@ -9,9 +9,9 @@
 //! the room reads the node outside through the wall: the rim of the room comes out as
 //! bright as the street, and the street next to the wall as dark as the room. No single
 //! value per node can serve both sides of the wall. Renderers with ray-traced probes answer
-//! at run time with a per-probe depth test (Majercik et al. 2019, *Dynamic Diffuse Global
-//! Illumination with Ray-Traced Irradiance Fields*, §4: a Chebyshev test against the
-//! probe's mean distance in the query's direction). A [`NodeReach`] is the smallest such
+//! at run time with a per-probe depth test (\[Maj19\]: a Chebyshev test of the query's
+//! distance against the probe's mean and mean-square ray distance in the query's
+//! direction). A [`NodeReach`] is the smallest such
 //! record that removes the thin-wall leak: six distances per node, each the free distance
 //! from the node along one grid axis, in cells, capped at one cell (a lookup never reads a
 //! node from farther than one cell along an axis).
@@ -43,9 +43,15 @@
 //! node behind a two-sided wall measured the same distance from the other side. The test
 //! point is therefore `x + n · REACH_NORMAL_BIAS · h`, `h` the smallest world-space cell
 //! edge: a little in front of the surface, so that the nodes in front see it and the nodes
-//! behind do not (the normal bias of Majercik et al. 2019 §4, for the same reason). Only
+//! behind do not (\[Maj19\]'s normal bias, for the same reason). Only
 //! the test point moves; the trilinear weights stay those of `x`. Radiance lookups and
 //! coefficient lookups have no normal and test `x` itself.
+//!
+//! Only the trilinear CPU lookups ([`crate::lookup`]) read the reach, like the validity
+//! mask; the gradient lookups ([`crate::gradient`]), the adaptive octree, the shaders of
+//! `lightvol shader` and the Vulkan evaluator do not, and the Bevy export drops it. It
+//! travels with the volume through the native EXR ([`crate::io::exr`]), the KTX2/DDS
+//! sidecar ([`crate::io::sidecar`]) and shard files ([`crate::accumulator`]).
 //!
 //! A reach of 1 on every axis (the value of a node that sees nothing within a cell, and of
 //! a node inside a solid, whose rays meet back faces and whose value the bake filled for

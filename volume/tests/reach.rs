@@ -106,7 +106,9 @@ fn ktx2_and_dds_carry_the_reach() {
 #[test]
 fn shard_files_carry_the_reach_and_merge_it() {
     use lightvol_volume::Accumulator;
-    use lightvol_volume::io::accumulator::{accumulator_from_bytes, accumulator_to_bytes, merge_accumulator_file};
+    use lightvol_volume::io::accumulator::{
+        accumulator_from_bytes, accumulator_to_bytes, merge_accumulator_file,
+    };
     let spec = lightvol_volume::GridSpec::new([0.0; 3], [1.0; 3], [3, 2, 2]).unwrap();
     let n = spec.node_count();
     let reach_of = |node: usize| -> [f32; 6] { std::array::from_fn(|d| ((node * 6 + d) % 11) as f32 / 10.0) };
