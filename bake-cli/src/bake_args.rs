@@ -28,7 +28,8 @@ pub(crate) struct BakeArgs {
     pub(crate) sampling: SampleArgs,
     /// Sampling method: `doi` (default: each node point-sampled where it is in the domain of
     /// interest, at a point relocated through its closest back face where it is not, filled
-    /// from its neighbours where neither is), `doi-paper` (Kontkanen & Laine 2006: Eq. 5-6
+    /// from its neighbours where neither is, and a node reach in the file so that lookups
+    /// leave out nodes on the far side of a thin wall), `doi-paper` (Kontkanen & Laine 2006: Eq. 5-6
     /// restricted to the domain of interest, Algorithm 2), `doi-node` (Algorithm 2 over each node's own cell),
     /// `point` (Eq. 4 at each node), `prefilter` (Eq. 5-6, no domain test); or point
     /// sampling with an engine's leak fix: `point+validity` (invalid probes dilated),
