@@ -111,16 +111,23 @@ fn print_text(info: &Value) {
         Some(n) => {
             println!("validity    mask of {} invalid nodes (lookups renormalise over valid corners)", n)
         }
-        None => println!("validity    no mask (plain trilinear lookups)"),
+        None => println!("validity    no mask"),
+    }
+    match info["reach"]["limited_nodes"].as_u64() {
+        Some(n) => println!(
+            "reach       node reach, {n} nodes limited (lookups leave out nodes on the far side of a wall)"
+        ),
+        None => println!("reach       none"),
     }
     let mem = &info["memory"];
     println!(
-        "memory      {} bytes at run time ({} floats = {} bytes per node{}{}); file data {} bytes with bake weights",
+        "memory      {} bytes at run time ({} floats = {} bytes per node{}{}{}); file data {} bytes with bake weights",
         mem["runtime_bytes"],
         mem["floats_per_node"],
         mem["bytes_per_node"],
         if has_grads { ", SH and gradients" } else { ", SH" },
         if info["validity"].is_null() { "" } else { ", plus 1 byte of validity mask" },
+        if info["reach"].is_null() { "" } else { ", plus 24 bytes of node reach" },
         info["memory_bytes"].as_u64().unwrap_or(0) + mem["gradient_bytes"].as_u64().unwrap_or(0)
     );
     println!("[Oat05]     floats per sample: order | SH | SH + gradients");
