@@ -13,25 +13,10 @@
 //! count, shard count or seed.
 
 use glam::DVec3;
+use lightvol_volume::GridSpec;
 use lightvol_volume::reach::REACH_DIRECTIONS;
-use lightvol_volume::{GridSpec, NodeReach};
-use rayon::prelude::*;
 
 use crate::bvh::Tracer;
-
-/// The reach of every node of `grid` in `tracer`'s scene, and the rays traced.
-///
-/// # Panics
-/// Never for a valid grid: the values built are in `[0, 1]` by construction.
-#[must_use]
-pub fn bake_reach(tracer: &Tracer, grid: &GridSpec) -> (NodeReach, u64) {
-    let per_node: Vec<([f32; 6], u64)> =
-        (0..grid.node_count()).into_par_iter().map(|node| node_reach(tracer, grid, node)).collect();
-    let rays = per_node.iter().map(|p| p.1).sum();
-    let reach =
-        NodeReach::new(per_node.into_iter().map(|p| p.0).collect()).expect("reaches are clamped to [0, 1]");
-    (reach, rays)
-}
 
 /// Node `node`'s reach in [`REACH_DIRECTIONS`] order (module docs), and the rays traced.
 #[must_use]
@@ -81,7 +66,10 @@ mod tests {
         b.add_box(DVec3::new(0.3, -1.0, -1.0), DVec3::new(0.4, 3.0, 3.0), m, true, false).unwrap();
         let tracer = Tracer::new(&b.build().unwrap());
         let grid = GridSpec::new([0.0; 3], [2.0; 3], [3, 3, 3]).unwrap();
-        let (reach, rays) = bake_reach(&tracer, &grid);
+        let per_node: Vec<([f32; 6], u64)> =
+            (0..grid.node_count()).map(|node| node_reach(&tracer, &grid, node)).collect();
+        let rays: u64 = per_node.iter().map(|p| p.1).sum();
+        let reach = lightvol_volume::NodeReach::new(per_node.into_iter().map(|p| p.0).collect()).unwrap();
         // 27 nodes × 6 directions, less the 9 × 6 that would leave the grid.
         assert_eq!(rays, 27 * 6 - 54);
         for node in 0..grid.node_count() {

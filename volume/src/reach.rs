@@ -160,10 +160,10 @@ impl NodeReach {
                 bytes.len()
             )));
         }
-        let digit = |c: u8| match c {
-            b'0'..=b'9' => Ok(c - b'0'),
-            b'a'..=b'f' => Ok(c - b'a' + 10),
-            _ => Err(VolumeError::Mismatch(format!("{:?} is not a lowercase hex digit", c as char))),
+        let digit = |c: u8| {
+            crate::checksum::hex_digit(c).ok_or_else(|| {
+                VolumeError::Mismatch(format!("{:?} is not a lowercase hex digit", char::from(c)))
+            })
         };
         let mut reach = Vec::with_capacity(nodes);
         for node in bytes.chunks_exact(48) {

@@ -123,11 +123,8 @@ impl ValidityMask {
             return Err(bad(format!("{} hex digits, {nodes} nodes need {want}", text.len())));
         }
         let digit = |c: u8| -> Result<u8, VolumeError> {
-            match c {
-                b'0'..=b'9' => Ok(c - b'0'),
-                b'a'..=b'f' => Ok(c - b'a' + 10),
-                _ => Err(bad(format!("{:?} is not a lowercase hex digit", char::from(c)))),
-            }
+            crate::checksum::hex_digit(c)
+                .ok_or_else(|| bad(format!("{:?} is not a lowercase hex digit", char::from(c))))
         };
         let mut valid = Vec::with_capacity(nodes);
         for (i, pair) in text.as_bytes().chunks_exact(2).enumerate() {

@@ -136,6 +136,16 @@ const REACH_PART: &str = "reach";
 /// [`crate::reach::REACH_DIRECTIONS`] index.
 const REACH_CHANNELS: [(&str, usize); 6] = [("+x", 0), ("+y", 2), ("+z", 4), ("-x", 1), ("-y", 3), ("-z", 5)];
 
+/// The slot a channel table (`GRAD_CHANNELS`, `REACH_CHANNELS`) gives channel `name`, or
+/// malformed data for a channel it does not list.
+fn channel_slot(table: &[(&str, usize)], name: &str) -> Result<usize, VolumeError> {
+    table
+        .iter()
+        .find(|(c, _)| *c == name)
+        .map(|&(_, slot)| slot)
+        .ok_or_else(|| VolumeError::malformed(F, format!("channel {name:?}")))
+}
+
 fn grad_layer_name(j: usize) -> String {
     format!("grad{j:02}")
 }
@@ -830,24 +840,14 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
                 continue;
             }
             if let Some(r) = reach.as_mut().filter(|_| name == REACH_PART) {
-                let cname = ch.name.to_string();
-                let dir = REACH_CHANNELS
-                    .iter()
-                    .find(|(c, _)| *c == cname)
-                    .map(|&(_, d)| d)
-                    .ok_or_else(|| VolumeError::malformed(F, format!("channel {cname:?}")))?;
+                let dir = channel_slot(&REACH_CHANNELS, &ch.name.to_string())?;
                 for (node, v) in vals.into_iter().enumerate() {
                     r[node][dir] = v;
                 }
                 continue;
             }
             if let Some(j) = (0..d.coeffs).find(|&j| d.gradients && grad_layer_name(j) == name) {
-                let cname = ch.name.to_string();
-                let o = GRAD_CHANNELS
-                    .iter()
-                    .find(|(c, _)| *c == cname)
-                    .map(|&(_, o)| o)
-                    .ok_or_else(|| VolumeError::malformed(F, format!("channel {cname:?}")))?;
+                let o = channel_slot(&GRAD_CHANNELS, &ch.name.to_string())?;
                 for (node, v) in vals.into_iter().enumerate() {
                     gdata[(node * d.coeffs + j) * 9 + o] = v;
                 }
