@@ -184,6 +184,8 @@ pub(crate) struct UnitOut {
     pub(crate) samples: Vec<SampleOut>,
     rejected: Vec<[f64; 8]>,
     stats: BakeStats,
+    /// [`Method::Doi`]: the point a node outside the domain was relocated to.
+    pub(crate) relocated: Option<DVec3>,
 }
 
 /// Density of uniform sphere directions.
@@ -228,15 +230,22 @@ pub(crate) fn bake_with_sink(
     };
     let range = crate::shard::shard_range(units, (k, n));
     let lo = range.start;
+    let mut relocated = vec![None; if settings.method == Method::Doi { range.len() } else { 0 }];
+    let mut record = |out: &UnitOut| {
+        if let Some(y) = out.relocated {
+            relocated[out.nodes[0] - lo] = Some(y);
+        }
+        sink(out);
+    };
     let mut stats =
-        run_units(transport, grid, settings, control, range.len(), |i| lo + i, &mut acc, &mut sink)?;
+        run_units(transport, grid, settings, control, range.len(), |i| lo + i, &mut acc, &mut record)?;
     if settings.method == Method::Doi {
         // The node reach of the shard's nodes (its units), recorded in node order.
         let t0 = Instant::now();
         let reach: Vec<([f32; 6], u64)> = range
             .clone()
             .into_par_iter()
-            .map(|node| crate::reach::node_reach(transport.tracer(), grid, node))
+            .map(|node| crate::reach::node_reach(transport.tracer(), grid, node, relocated[node - lo]))
             .collect();
         for (node, (r, rays)) in range.zip(reach) {
             acc.set_reach(node, r);
@@ -506,7 +515,13 @@ fn run_units(
                 Some(match settings.method {
                     Method::Point => point_unit(transport, grid, settings, u),
                     Method::DoiNode => node_box_unit(transport, grid, settings, u),
-                    Method::Doi => probe_unit(transport, grid, settings, u).0,
+                    Method::Doi => {
+                        let (mut out, capture) = probe_unit(transport, grid, settings, u);
+                        if let ProbeCapture::Relocated(y) = capture {
+                            out.relocated = Some(y);
+                        }
+                        out
+                    }
                     Method::Prefilter | Method::DoiPaper => cell_unit(transport, grid, settings, u),
                 })
             })

@@ -6,8 +6,12 @@
 //! length along `a`), or 1 when the ray meets none. A ray that first meets a *back face*
 //! (§5 of Kontkanen & Laine 2006: the node is inside a solid) also gives 1: such a node's
 //! value was made for the points next to it (relocated or filled by the bake), so it must
-//! not be left out of their lookups. Rays that would leave the grid are not traced (no
-//! lookup reads a node from outside the grid); they give 1 too.
+//! not be left out of their lookups. The exception is a node the bake *relocated*: its
+//! value is the light on the side it was moved to, so a back face met by a ray that points
+//! away from that side (`(y − x)·d ≤ 0`, `y` the relocated point) limits the reach like a
+//! front face, and the points beyond the solid on the far side do not read the node. Rays
+//! that would leave the grid are not traced (no lookup reads a node from outside the
+//! grid); they give 1 too.
 //!
 //! The rays depend only on the node's position, so the reach is the same for any thread
 //! count, shard count or seed.
@@ -18,9 +22,15 @@ use lightvol_volume::reach::REACH_DIRECTIONS;
 
 use crate::bvh::Tracer;
 
-/// Node `node`'s reach in [`REACH_DIRECTIONS`] order (module docs), and the rays traced.
+/// Node `node`'s reach in [`REACH_DIRECTIONS`] order (module docs), and the rays traced;
+/// `relocated` is where the bake moved the node's capture point, if it did.
 #[must_use]
-pub fn node_reach(tracer: &Tracer, grid: &GridSpec, node: usize) -> ([f32; 6], u64) {
+pub fn node_reach(
+    tracer: &Tracer,
+    grid: &GridSpec,
+    node: usize,
+    relocated: Option<DVec3>,
+) -> ([f32; 6], u64) {
     let res = grid.res();
     let ijk = grid.node_coords(node);
     let g = grid.node_position(ijk[0], ijk[1], ijk[2]);
@@ -43,7 +53,7 @@ pub fn node_reach(tracer: &Tracer, grid: &GridSpec, node: usize) -> ([f32; 6], u
         }
         rays += 1;
         if let Some(hit) = tracer.closest_hit(x, span / len, 0.0, len)
-            && !hit.back_face
+            && (!hit.back_face || relocated.is_some_and(|y| (y - x).dot(span) <= 0.0))
         {
             reach[d] = ((hit.t / len) as f32).clamp(0.0, 1.0);
         }
@@ -67,7 +77,7 @@ mod tests {
         let tracer = Tracer::new(&b.build().unwrap());
         let grid = GridSpec::new([0.0; 3], [2.0; 3], [3, 3, 3]).unwrap();
         let per_node: Vec<([f32; 6], u64)> =
-            (0..grid.node_count()).map(|node| node_reach(&tracer, &grid, node)).collect();
+            (0..grid.node_count()).map(|node| node_reach(&tracer, &grid, node, None)).collect();
         let rays: u64 = per_node.iter().map(|p| p.1).sum();
         let reach = lightvol_volume::NodeReach::new(per_node.into_iter().map(|p| p.0).collect()).unwrap();
         // 27 nodes × 6 directions, less the 9 × 6 that would leave the grid.
@@ -83,5 +93,32 @@ mod tests {
             assert_eq!(&r[2..], &[1.0; 4], "node {node}");
         }
         assert_eq!(reach.limited_count(), 18);
+    }
+
+    /// A node inside a closed slab `0.8 ≤ x ≤ 1.4` (the grid's x = 1 node) sees its back
+    /// faces at 0.4 cells along +x and 0.2 along -x. Not relocated, or relocated to +x, it
+    /// reaches a full cell along +x; relocated to +x it reaches only 0.2 along -x, where the
+    /// far side of the slab begins.
+    #[test]
+    fn a_relocated_node_inside_a_wall_reaches_only_the_side_it_was_moved_to() {
+        let mut b = SceneBuilder::new("thick slab");
+        let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();
+        // Off-centre in y and z, so that no ray runs along a quad's diagonal.
+        b.add_box(DVec3::new(0.8, -1.3, -1.1), DVec3::new(1.4, 3.2, 3.1), m, true, false).unwrap();
+        let tracer = Tracer::new(&b.build().unwrap());
+        let grid = GridSpec::new([0.0; 3], [2.0; 3], [3, 3, 3]).unwrap();
+        let node = grid.node_index(1, 1, 1);
+        // f64 ray distances of O(1) rounded to f32.
+        let close = |a: f32, b: f32| (a - b).abs() < 1e-6;
+        let (r, rays) = node_reach(&tracer, &grid, node, None);
+        assert_eq!(rays, 6);
+        assert_eq!(r, [1.0; 6], "not relocated: every back face gives a full cell");
+        let (r, _) = node_reach(&tracer, &grid, node, Some(DVec3::new(1.41, 1.0, 1.0)));
+        assert_eq!(r[0], 1.0, "{r:?}");
+        assert!(close(r[1], 0.2), "{r:?}");
+        assert_eq!(&r[2..], &[1.0; 4], "along the slab no ray meets a face");
+        let (r, _) = node_reach(&tracer, &grid, node, Some(DVec3::new(0.79, 1.0, 1.0)));
+        assert!(close(r[0], 0.4), "{r:?}");
+        assert_eq!(r[1], 1.0, "{r:?}");
     }
 }
