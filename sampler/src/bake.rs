@@ -515,13 +515,7 @@ fn run_units(
                 Some(match settings.method {
                     Method::Point => point_unit(transport, grid, settings, u),
                     Method::DoiNode => node_box_unit(transport, grid, settings, u),
-                    Method::Doi => {
-                        let (mut out, capture) = probe_unit(transport, grid, settings, u);
-                        if let ProbeCapture::Relocated(y) = capture {
-                            out.relocated = Some(y);
-                        }
-                        out
-                    }
+                    Method::Doi => probe_unit(transport, grid, settings, u).0,
                     Method::Prefilter | Method::DoiPaper => cell_unit(transport, grid, settings, u),
                 })
             })
@@ -766,6 +760,7 @@ pub(crate) fn probe_unit(
         if let Ok(samples) = clean_point_samples(t, settings, &h, stream, y, n, left, &mut out) {
             out.stats.samples_kept = samples.len() as u64;
             out.samples = samples;
+            out.relocated = Some(y);
             return (out, ProbeCapture::Relocated(y));
         }
     }

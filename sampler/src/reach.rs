@@ -13,8 +13,9 @@
 //! that would leave the grid are not traced (no lookup reads a node from outside the
 //! grid); they give 1 too.
 //!
-//! The rays depend only on the node's position, so the reach is the same for any thread
-//! count, shard count or seed.
+//! The rays depend only on the node's position and, for a relocated node, on the point it
+//! was moved to (which depends on the seed like the node's samples do), so the reach is the
+//! same for any thread count or shard count.
 
 use glam::DVec3;
 use lightvol_volume::GridSpec;
