@@ -61,7 +61,8 @@ pub enum Method {
     DoiNode,
     /// The default (`doi`): a probe per node, kept in the domain of interest. Point-sampled
     /// (Eq. 4) where the node sees no back face; otherwise at the point reached through its
-    /// closest back face (the relocation rule of \[Maj21\]) when that point sees none;
+    /// closest back face (the relocation rule of \[Maj21\], preferring points that stay in
+    /// the grid's box, up to [`PROBE_MAX_OFFSET`] of a cell) when that point sees none;
     /// otherwise no samples of its own, so that the volume's fill gives it the mean of its
     /// neighbours' estimates. See [`ProbeCapture`]. The bake also records every node's
     /// reach ([`crate::reach`]), with which the volume's lookups leave out the nodes on the
@@ -651,6 +652,14 @@ fn node_box_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, no
 /// interest, also the rays among which the closest back face is looked for.
 pub const PROBE_SEARCH_RAYS: u64 = 16;
 
+/// [`Method::Doi`]: each axis of a relocation's offset is clamped to this share of the grid
+/// spacing. DDGI's [`crate::baselines::DDGI_MAX_OFFSET`] (0.45) leaves a node at the middle
+/// of a wall one cell thick inside it (half a cell from either face), so it would be filled
+/// from the nodes on both sides of the wall; half a cell plus a tenth moves it out of walls
+/// up to 1.1 cells thick, and the node's reach ([`crate::reach::node_reach`]) then cuts it
+/// off from the side it was not moved to.
+pub const PROBE_MAX_OFFSET: f64 = 0.55;
+
 /// [`Method::Doi`]: a node outside the domain of interest spends at most this share of
 /// `samples` on its relocated point.
 pub const PROBE_OUTSIDE_SHARE: f64 = 0.5;
@@ -660,8 +669,12 @@ pub const PROBE_OUTSIDE_SHARE: f64 = 0.5;
 pub enum ProbeCapture {
     /// The node is in the domain of interest: point-sampled there (Eq. 4).
     AtNode,
-    /// The node sees a back face; this point, reached through its closest back face
-    /// ([`crate::baselines::relocate_through`]), sees none and was point-sampled.
+    /// The node sees a back face; this point, reached through the closest back face among
+    /// the first [`PROBE_SEARCH_RAYS`] directions whose move keeps it in the grid's box (the
+    /// closest of all when no move does: a node moved out of the box serves no lookup, so a
+    /// node in the middle of a wall on the grid's boundary moves to the side the lookups
+    /// read), each axis of the move clamped to [`PROBE_MAX_OFFSET`] × spacing
+    /// ([`crate::baselines::relocate_within`]), sees none and was point-sampled.
     Relocated(DVec3),
     /// Neither the node nor its relocated point is in the domain: the node keeps no
     /// samples, its domain weight is 0, and the accumulator's fill
@@ -741,22 +754,37 @@ pub(crate) fn probe_unit(
     };
     out.stats.back_face_points = 1;
     out.stats.cells_with_back_faces = 1;
-    // The closest back face among the first PROBE_SEARCH_RAYS directions.
+    let spacing = crate::baselines::spacing(grid);
+    let (lo, hi) = grid.bounds();
+    let moved_to = |(dir, dist): (DVec3, f64)| {
+        crate::baselines::relocate_within(x, dir, dist, spacing, PROBE_MAX_OFFSET)
+    };
+    let in_box = |y: DVec3| {
+        let g = grid.to_grid(y.to_array());
+        (0..3).all(|a| (lo[a]..=hi[a]).contains(&g[a]))
+    };
+    // A back face `c` beats `b` if only its relocated point stays in the grid's box, or if
+    // both or neither do and it is closer.
+    let better = |c: (DVec3, f64), b: (DVec3, f64)| match (in_box(moved_to(c)), in_box(moved_to(b))) {
+        (true, false) => true,
+        (false, true) => false,
+        _ => c.1 < b.1,
+    };
+    // The best back face (`better`) among the first PROBE_SEARCH_RAYS directions.
     let search = PROBE_SEARCH_RAYS.min(n);
     while used < search {
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(used)));
         out.stats.rays.sampling += 1;
         used += 1;
         if let Some(b) = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY).filter(|h| h.back_face)
-            && b.t < closest.1
+            && better((dir, b.t), closest)
         {
             closest = (dir, b.t);
         }
     }
     let left = n.saturating_sub(used).min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64);
     if left > 0 {
-        let (dir, dist) = closest;
-        let y = crate::baselines::relocate_through(x, dir, dist, crate::baselines::spacing(grid));
+        let y = moved_to(closest);
         if let Ok(samples) = clean_point_samples(t, settings, &h, stream, y, n, left, &mut out) {
             out.stats.samples_kept = samples.len() as u64;
             out.samples = samples;

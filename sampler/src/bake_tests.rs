@@ -262,7 +262,7 @@ fn interior_walls_do_not_leak_with_doi() {
 /// an independent classification of where its samples were taken.
 /// - `AtNode`: the node's own samples met no back face, and the node's value is `point`'s
 ///   bit for bit (same stream, same directions);
-/// - `Relocated(y)`: the node sees a back face, `y` is within DDGI's 0.45 × spacing per axis
+/// - `Relocated(y)`: the node sees a back face, `y` is within [`PROBE_MAX_OFFSET`] × spacing per axis
 ///   and 256 classification rays from `y` find no back face (256 against the bake's 96 or so:
 ///   a point that a stricter test puts outside would fail here);
 /// - `Filled`: the node and its relocated point both see back faces; the node keeps no
@@ -299,7 +299,10 @@ fn doi_probe_captures_each_node_in_the_domain() {
             ProbeCapture::Relocated(y) => {
                 counts[1] += 1;
                 for a in 0..3 {
-                    assert!((y[a] - x[a]).abs() <= 0.45 * sp[a] + 1e-9, "node {node}: {x} -> {y}");
+                    assert!(
+                        (y[a] - x[a]).abs() <= PROBE_MAX_OFFSET * sp[a] + 1e-9,
+                        "node {node}: {x} -> {y}"
+                    );
                 }
                 assert!(crate::domain::classify_point(&tracer, y, 256, 9).inside, "node {node}: {y}");
                 assert_eq!(out.samples.len() as u64, out.stats.samples_kept);
@@ -316,4 +319,33 @@ fn doi_probe_captures_each_node_in_the_domain() {
     }
     eprintln!("at node {}, relocated {}, filled {}", counts[0], counts[1], counts[2]);
     assert!(counts.iter().all(|&c| c > 0), "{counts:?}");
+}
+
+/// A node in the middle of a closed wall one cell thick on the grid's boundary (the wall
+/// `-0.5 ≤ x ≤ 0.5`, cells of 1, the node at x = 0) is half a cell from either face: DDGI's
+/// 0.45 × spacing would leave it inside, [`PROBE_MAX_OFFSET`] moves it out, and it moves
+/// into the grid's box (x just above 0.5), not out of it (x below -0.5), whatever side its
+/// first back face was on.
+#[test]
+fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
+    use crate::scene::{Material, SceneBuilder};
+    let mut b = SceneBuilder::new("boundary wall");
+    let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();
+    b.add_box(DVec3::new(-0.5, -3.0, -3.0), DVec3::new(0.5, 5.0, 5.0), m, true, false).unwrap();
+    let scene = b.build().unwrap();
+    let tracer = Tracer::new(&scene);
+    let t = Transport::new(&scene, &tracer, TransportSettings::default());
+    let grid = GridSpec::new([0.0; 3], [2.0; 3], [3, 3, 3]).unwrap();
+    let ddgi = crate::baselines::relocate_through(DVec3::ZERO, DVec3::X, 0.5, [1.0; 3]);
+    assert!(ddgi.x < 0.5, "DDGI's clamp leaves the node in the wall: {ddgi}");
+    for seed in 1..=8 {
+        let s = BakeSettings { method: Method::Doi, samples: 64, seed, ..Default::default() };
+        let node = grid.node_index(0, 1, 1);
+        let (out, capture) = probe_unit(&t, &grid, &s, node);
+        let ProbeCapture::Relocated(y) = capture else { panic!("seed {seed}: {capture:?}") };
+        assert!(y.x > 0.5 && y.x <= PROBE_MAX_OFFSET + 1e-12, "seed {seed}: {y}");
+        assert!((y.y - 1.0).abs() <= PROBE_MAX_OFFSET && (y.z - 1.0).abs() <= PROBE_MAX_OFFSET, "{y}");
+        assert_eq!(out.relocated, Some(y));
+        assert!(!out.samples.is_empty());
+    }
 }

@@ -198,9 +198,16 @@ pub fn ddgi_relocate(x: DVec3, view: &ProbeView, spacing: [f64; 3]) -> DVec3 {
 /// [`DDGI_MAX_OFFSET`] × `spacing`.
 #[must_use]
 pub fn relocate_through(x: DVec3, d: DVec3, t: f64, spacing: [f64; 3]) -> DVec3 {
+    relocate_within(x, d, t, spacing, DDGI_MAX_OFFSET)
+}
+
+/// [`relocate_through`] with the per-axis clamp `max_offset` × `spacing` instead of
+/// [`DDGI_MAX_OFFSET`].
+#[must_use]
+pub fn relocate_within(x: DVec3, d: DVec3, t: f64, spacing: [f64; 3], max_offset: f64) -> DVec3 {
     let bias = 0.01 * spacing.iter().copied().fold(f64::INFINITY, f64::min);
     let off = d * (t + bias);
-    let lim = DVec3::from_array(spacing) * DDGI_MAX_OFFSET;
+    let lim = DVec3::from_array(spacing) * max_offset;
     x + off.clamp(-lim, lim)
 }
 
