@@ -655,9 +655,9 @@ pub const PROBE_SEARCH_RAYS: u64 = 16;
 /// [`Method::Doi`]: each axis of a relocation's offset is clamped to this share of the grid
 /// spacing. DDGI's [`crate::baselines::DDGI_MAX_OFFSET`] (0.45) leaves a node at the middle
 /// of a wall one cell thick inside it (half a cell from either face), so it would be filled
-/// from the nodes on both sides of the wall; half a cell plus a tenth moves it out of walls
-/// up to 1.1 cells thick, and the node's reach ([`crate::reach::node_reach`]) then cuts it
-/// off from the side it was not moved to.
+/// from the nodes on both sides of the wall; half a cell plus a tenth moves the middle node
+/// out of any wall thinner than 1.1 cells, and the node's reach
+/// ([`crate::reach::node_reach`]) then cuts it off from the side it was not moved to.
 pub const PROBE_MAX_OFFSET: f64 = 0.55;
 
 /// [`Method::Doi`]: a node outside the domain of interest spends at most this share of
@@ -671,9 +671,9 @@ pub enum ProbeCapture {
     AtNode,
     /// The node sees a back face; this point, reached through the closest back face among
     /// the first [`PROBE_SEARCH_RAYS`] directions whose move keeps it in the grid's box (the
-    /// closest of all when no move does: a node moved out of the box serves no lookup, so a
-    /// node in the middle of a wall on the grid's boundary moves to the side the lookups
-    /// read), each axis of the move clamped to [`PROBE_MAX_OFFSET`] × spacing
+    /// closest of all when no move does: moved out of the box, the node would carry the
+    /// light of a place that no lookup asks about, so a node in the middle of a wall on the
+    /// grid's boundary moves to the side the lookups read), each axis of the move clamped to [`PROBE_MAX_OFFSET`] × spacing
     /// ([`crate::baselines::relocate_within`]), sees none and was point-sampled.
     Relocated(DVec3),
     /// Neither the node nor its relocated point is in the domain: the node keeps no

@@ -324,8 +324,7 @@ fn doi_probe_captures_each_node_in_the_domain() {
 /// A node in the middle of a closed wall one cell thick on the grid's boundary (the wall
 /// `-0.5 ≤ x ≤ 0.5`, cells of 1, the node at x = 0) is half a cell from either face: DDGI's
 /// 0.45 × spacing would leave it inside, [`PROBE_MAX_OFFSET`] moves it out, and it moves
-/// into the grid's box (x just above 0.5), not out of it (x below -0.5), whatever side its
-/// first back face was on.
+/// into the grid's box (x just above 0.5), not out of it (x below -0.5), on each of 8 seeds.
 #[test]
 fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
     use crate::scene::{Material, SceneBuilder};
