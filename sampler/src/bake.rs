@@ -673,8 +673,9 @@ pub enum ProbeCapture {
     /// the first [`PROBE_SEARCH_RAYS`] directions whose move keeps it in the grid's box (the
     /// closest of all when no move does: moved out of the box, the node would carry the
     /// light of a place that no lookup asks about, so a node in the middle of a wall on the
-    /// grid's boundary moves to the side the lookups read), each axis of the move clamped to [`PROBE_MAX_OFFSET`] × spacing
-    /// ([`crate::baselines::relocate_within`]), sees none and was point-sampled.
+    /// grid's boundary moves to the side the lookups read), each axis of the move clamped
+    /// to [`PROBE_MAX_OFFSET`] × spacing ([`crate::baselines::relocate_within`]), sees none
+    /// and was point-sampled.
     Relocated(DVec3),
     /// Neither the node nor its relocated point is in the domain: the node keeps no
     /// samples, its domain weight is 0, and the accumulator's fill
@@ -744,7 +745,7 @@ pub(crate) fn probe_unit(
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     out.stats.units = 1;
     out.stats.candidates = n;
-    let (mut used, mut closest) = match clean_point_samples(t, settings, &h, stream, x, 0, n, &mut out) {
+    let (mut used, first_back) = match clean_point_samples(t, settings, &h, stream, x, 0, n, &mut out) {
         Ok(samples) => {
             out.stats.samples_kept = samples.len() as u64;
             out.samples = samples;
@@ -756,35 +757,32 @@ pub(crate) fn probe_unit(
     out.stats.cells_with_back_faces = 1;
     let spacing = crate::baselines::spacing(grid);
     let (lo, hi) = grid.bounds();
-    let moved_to = |(dir, dist): (DVec3, f64)| {
-        crate::baselines::relocate_within(x, dir, dist, spacing, PROBE_MAX_OFFSET)
-    };
-    let in_box = |y: DVec3| {
+    // A back face met at `dist` along `dir`: where the node moves through it, and whether
+    // that point stays in the grid's box.
+    let candidate = |(dir, dist): (DVec3, f64)| {
+        let y = crate::baselines::relocate_within(x, dir, dist, spacing, PROBE_MAX_OFFSET);
         let g = grid.to_grid(y.to_array());
-        (0..3).all(|a| (lo[a]..=hi[a]).contains(&g[a]))
+        (dist, y, (0..3).all(|a| (lo[a]..=hi[a]).contains(&g[a])))
     };
-    // A back face `c` beats `b` if only its relocated point stays in the grid's box, or if
-    // both or neither do and it is closer.
-    let better = |c: (DVec3, f64), b: (DVec3, f64)| match (in_box(moved_to(c)), in_box(moved_to(b))) {
-        (true, false) => true,
-        (false, true) => false,
-        _ => c.1 < b.1,
-    };
-    // The best back face (`better`) among the first PROBE_SEARCH_RAYS directions.
+    // The best back face among the first PROBE_SEARCH_RAYS directions: one whose move stays
+    // in the box beats one whose move leaves it; otherwise the closer one wins.
+    let rank = |(dist, _, in_box): (f64, DVec3, bool)| (!in_box, dist);
+    let mut best = candidate(first_back);
     let search = PROBE_SEARCH_RAYS.min(n);
     while used < search {
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(used)));
         out.stats.rays.sampling += 1;
         used += 1;
-        if let Some(b) = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY).filter(|h| h.back_face)
-            && better((dir, b.t), closest)
-        {
-            closest = (dir, b.t);
+        if let Some(b) = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY).filter(|h| h.back_face) {
+            let c = candidate((dir, b.t));
+            if rank(c) < rank(best) {
+                best = c;
+            }
         }
     }
     let left = n.saturating_sub(used).min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64);
     if left > 0 {
-        let y = moved_to(closest);
+        let y = best.1;
         if let Ok(samples) = clean_point_samples(t, settings, &h, stream, y, n, left, &mut out) {
             out.stats.samples_kept = samples.len() as u64;
             out.samples = samples;

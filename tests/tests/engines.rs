@@ -120,8 +120,8 @@ const MEAN_RATIO: f64 = 0.9;
 /// walls, which its lookups leave out). Elsewhere it does not: on the living room point's
 /// share is 0.105, about the noise of the measure (doi 0.007); on the interior 0.29 against
 /// 0.42; on the Breakfast Room doi's near-geometry points are darker than point's (0.35
-/// against 0.13: the nodes that see the back faces of its single-sided slats and panels are moved
-/// next to them or filled from neighbours in their shade).
+/// against 0.13: the nodes that see the back faces of its single-sided slats and panels are
+/// moved next to them or filled from neighbours in their shade).
 const LEAKY: [&str; 5] = ["builtin:city", "builtin:maze", "zdm2", "CornellBox-Original", "room"];
 
 fn run(args: &[&str]) {
@@ -229,7 +229,8 @@ fn doi_is_at_or_below_every_engine_baseline() {
 }
 
 /// `doi`'s view (relative RMSE over pixels) is at or below every engine baseline's and point
-/// sampling's within twice the view's noise floor; adds the view's errors to `sums` (doi, then [`BASELINES`]).
+/// sampling's within twice the view's noise floor; adds the view's errors to `sums` (doi,
+/// then [`BASELINES`]).
 fn check_view(scene: &str, r: &Value, sums: &mut [f64; 5]) {
     let v = &r["views"][0]["methods"];
     let e = |m: &str| v[m]["rel_rmse"].as_f64().unwrap_or_else(|| panic!("view {m}.rel_rmse"));
