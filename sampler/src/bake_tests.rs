@@ -260,9 +260,10 @@ fn interior_walls_do_not_leak_with_doi() {
 
 /// `doi` takes each node from one of three places; every city node is checked against
 /// an independent classification of where its samples were taken.
-/// - `AtNode`: the node's own samples met no back face, and the node's value is `point`'s
-///   bit for bit (same stream, same directions);
-/// - `Relocated(y)`: the node sees a back face, `y` is within [`PROBE_MAX_OFFSET`] × spacing
+/// - `AtNode`: the node's own samples met no back face that takes it out of the domain
+///   (none inside its support, far ones in at most a quarter of its directions), and the
+///   node's value is `point`'s bit for bit (same stream, same directions);
+/// - `Relocated(y)`: the node is outside the domain, `y` is within [`PROBE_MAX_OFFSET`] × spacing
 ///   per axis and 256 classification rays from `y` find no back face (256 against the bake's
 ///   96 or so: a point that a stricter test puts outside would fail here);
 /// - `Filled`: the node and its relocated point both see back faces; the node keeps no
@@ -347,4 +348,71 @@ fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
         assert_eq!(out.relocated, Some(y));
         assert!(!out.samples.is_empty());
     }
+}
+
+/// The distance-limited back-face test of `doi` ([`PROBE_FAR_BACK_SHARE`]), on a node at the
+/// origin of a grid of spacing 1:
+/// - behind a single-sided panel 2.5 cells away that covers about a fifth of its sphere
+///   (its back faces all lie outside the node's support, in fewer than a quarter of the
+///   directions), the node stays in the domain and keeps `point`'s samples bit for bit;
+/// - the same panel half a cell away lies inside the support: the node is relocated
+///   through it;
+/// - inside a closed box whose faces are 3 cells away every direction meets a far back
+///   face: the node is outside, and no move of at most [`PROBE_MAX_OFFSET`] gets it out.
+///
+/// The panel's share of directions is checked independently, over 4096 spherical
+/// Fibonacci directions.
+#[test]
+fn doi_back_faces_count_inside_the_support_or_in_a_quarter_of_directions() {
+    use crate::scene::{Material, SceneBuilder};
+    let panel = |x: f64| {
+        let mut b = SceneBuilder::new("panel");
+        let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();
+        // Counter-clockwise seen from +X: the front faces +X, away from the node.
+        let q = [[x, -3.0, -3.0], [x, 3.0, -3.0], [x, 3.0, 3.0], [x, -3.0, 3.0]].map(DVec3::from_array);
+        b.add_quad(q, m).unwrap();
+        b.build().unwrap()
+    };
+    let grid = GridSpec::new([-2.0; 3], [2.0; 3], [5, 5, 5]).unwrap();
+    let node = grid.node_index(2, 2, 2);
+    let s = BakeSettings { method: Method::Doi, samples: 64, seed: 3, ..Default::default() };
+    let point = BakeSettings { method: Method::Point, ..s };
+
+    let far = panel(2.5);
+    let tracer = Tracer::new(&far);
+    let dirs: Vec<DVec3> = lightvol_sh::sampling::fibonacci_sphere(4096).map(DVec3::from_array).collect();
+    let backs: Vec<f64> = dirs
+        .iter()
+        .filter_map(|&d| {
+            tracer.closest_hit(DVec3::ZERO, d, 0.0, f64::INFINITY).filter(|h| h.back_face).map(|h| h.t)
+        })
+        .collect();
+    let share = backs.len() as f64 / dirs.len() as f64;
+    assert!((0.15..0.25).contains(&share), "the panel's share of directions {share}");
+    assert!(backs.iter().all(|&t| t >= 2.5 - 1e-9), "every back face lies outside the support");
+    let t = Transport::new(&far, &tracer, TransportSettings::default());
+    let (out, capture) = probe_unit(&t, &grid, &s, node);
+    assert_eq!(capture, ProbeCapture::AtNode);
+    let p = point_unit(&t, &grid, &point, node);
+    assert_eq!(out.samples.len(), p.samples.len());
+    for (a, b) in out.samples.iter().zip(&p.samples) {
+        assert_eq!(a.terms[0].0, b.terms[0].0);
+    }
+
+    let near = panel(0.5);
+    let tracer = Tracer::new(&near);
+    let t = Transport::new(&near, &tracer, TransportSettings::default());
+    let (_, capture) = probe_unit(&t, &grid, &s, node);
+    let ProbeCapture::Relocated(y) = capture else { panic!("{capture:?}") };
+    assert!(y.x > 0.5 && y.x <= PROBE_MAX_OFFSET + 1e-12, "{y}");
+
+    let mut b = SceneBuilder::new("closed box");
+    let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();
+    b.add_box(DVec3::splat(-3.0), DVec3::splat(3.0), m, true, false).unwrap();
+    let boxed = b.build().unwrap();
+    let tracer = Tracer::new(&boxed);
+    let t = Transport::new(&boxed, &tracer, TransportSettings::default());
+    let (out, capture) = probe_unit(&t, &grid, &s, node);
+    assert_eq!(capture, ProbeCapture::Filled);
+    assert!(out.samples.is_empty());
 }
