@@ -263,10 +263,11 @@ fn interior_walls_do_not_leak_with_doi() {
 /// - `AtNode`: the node's own samples met no back face that takes it out of the domain
 ///   (none inside its support, far ones in at most a quarter of its directions), and the
 ///   node's value is `point`'s bit for bit (same stream, same directions);
-/// - `Relocated(y)`: the node is outside the domain, `y` is within [`PROBE_MAX_OFFSET`] × spacing
-///   per axis and 256 classification rays from `y` find no back face (256 against the bake's
-///   96 or so: a point that a stricter test puts outside would fail here);
-/// - `Filled`: the node and its relocated point both see back faces; the node keeps no
+/// - `Relocated(y)`: the node is outside the domain, `y` is within [`PROBE_MAX_OFFSET`] ×
+///   spacing per axis and 256 classification rays from `y` find no back face at all (256
+///   against the bake's 96 or so, and no far back face allowed either: a point that a
+///   stricter test puts outside would fail here);
+/// - `Filled`: the node and its relocated point are both outside; the node keeps no
 ///   samples (so the volume's fill takes over) and traced at most `point`'s directions
 ///   plus its relocated share. Nodes inside the buildings (deep in a solid) must land here
 ///   or be relocated, never `AtNode`.
