@@ -137,8 +137,6 @@ fn run(args: &[&str]) {
 }
 
 fn compare(scene: &str, height: Option<&str>, view: Option<&str>) -> Value {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
     let methods = format!("doi,point,{}", BASELINES.join(","));
     let mut args = vec![
         "compare",
@@ -153,9 +151,6 @@ fn compare(scene: &str, height: Option<&str>, view: Option<&str>) -> Value {
         "256",
         "--methods",
         &methods,
-        "--quiet",
-        "-o",
-        out,
     ];
     if let Some(h) = height {
         args.extend(["--plate-height", h]);
@@ -163,6 +158,16 @@ fn compare(scene: &str, height: Option<&str>, view: Option<&str>) -> Value {
     if let Some(c) = view {
         args.extend(["--camera", c, "--view-width", "96", "--view-samples", "256"]);
     }
+    report(&args)
+}
+
+/// Runs `lightvol` with `args` (a `compare` command line without its output options),
+/// quietly, into a temporary folder, and returns the parsed `report.json`.
+fn report(args: &[&str]) -> Value {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    let mut args = args.to_vec();
+    args.extend(["--quiet", "-o", out]);
     run(&args);
     let text = std::fs::read_to_string(dir.path().join("report.json")).expect("report.json");
     serde_json::from_str(&text).expect("report.json parses")
@@ -262,9 +267,7 @@ fn check_view(scene: &str, r: &Value, sums: &mut [f64; 5]) {
 /// against 0.468, over half, which is why this runs at 512).
 #[test]
 fn doi_halves_the_interiors_dark_walls_above_the_noise() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().to_str().unwrap();
-    let args = [
+    let r = report(&[
         "compare",
         "builtin:interior",
         "--light",
@@ -277,13 +280,7 @@ fn doi_halves_the_interiors_dark_walls_above_the_noise() {
         "2048",
         "--methods",
         "doi,point",
-        "--quiet",
-        "-o",
-        out,
-    ];
-    run(&args);
-    let text = std::fs::read_to_string(dir.path().join("report.json")).expect("report.json");
-    let r: Value = serde_json::from_str(&text).expect("report.json parses");
+    ]);
     let dark = |m: &str| r["methods"][m]["too_dark_near"].as_f64().unwrap();
     println!("interior at 512 samples: too_dark_near doi {:.3} point {:.3}", dark("doi"), dark("point"));
     assert!(dark("point") > 0.1, "point sampling must leak dark here: {}", dark("point"));
