@@ -76,7 +76,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         Some(AdaptiveRequest { settings: adaptive, level: a.level, from_shards: !a.from_shards.is_empty() }),
     )?;
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
-    let grid = args.grid.grid(&loaded)?;
+    let grid = args.grid.grid(&loaded, request.records_node_reach())?;
     let settings = BakeSettings { shard: (0, 1), ..request.settings() };
     let ts = request.transport;
     let hash = scene_hash(&loaded.scene, &bake_key(&loaded, &grid, &request, &args.method));

@@ -96,16 +96,26 @@ pub(crate) struct ScaleJson {
 
 impl ScaleJson {
     /// The figures of a bake of `loaded` on `grid` with `coeffs` coefficients per channel,
-    /// begun at `started` (call it once the volume is written).
+    /// recording the node reach or not (`node_reach`), begun at `started` (call it once the
+    /// volume is written).
     #[must_use]
-    pub(crate) fn now(loaded: &LoadedScene, grid: &GridSpec, coeffs: usize, started: Instant) -> Self {
+    pub(crate) fn now(
+        loaded: &LoadedScene,
+        grid: &GridSpec,
+        coeffs: usize,
+        node_reach: bool,
+        started: Instant,
+    ) -> Self {
         Self {
             triangles: loaded.scene.triangle_count() as u64,
             unique_triangles: loaded.scene.unique_triangle_count() as u64,
             instances: loaded.scene.instances.len() as u64,
             estimated_memory_bytes: u64::try_from(
-                lightvol_sampler::scene_setup::bake_memory_bytes(grid.res().map(u64::from), coeffs)
-                    + u128::from(loaded.memory.total()),
+                lightvol_sampler::scene_setup::bake_memory_bytes(
+                    grid.res().map(u64::from),
+                    coeffs,
+                    node_reach,
+                ) + u128::from(loaded.memory.total()),
             )
             .unwrap_or(u64::MAX),
             peak_memory_bytes: lightvol_sampler::estimate::peak_resident_bytes(),
@@ -143,7 +153,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     }
     let started = Instant::now();
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
-    let grid = args.grid.grid(&loaded)?;
+    let grid = args.grid.grid(&loaded, request.records_node_reach())?;
     let label = request.label();
     let key = bake_key(&loaded, &grid, &request, &label);
     let provenance = Provenance { frame: loaded.frame, key: &key };
@@ -194,7 +204,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         seconds: s.wall_time.as_secs_f64(),
         bvh_seconds,
         mrays_per_second: s.mrays_per_second(),
-        scale: ScaleJson::now(&loaded, &grid, args.grid.coeffs(), started),
+        scale: ScaleJson::now(&loaded, &grid, args.grid.coeffs(), request.records_node_reach(), started),
         output: args.output.display().to_string(),
         gradients: bake.gradients.as_ref().map(|g| GradientsJson {
             estimator: g.estimator,
@@ -216,7 +226,7 @@ fn run_baseline(args: &BakeArgs, request: &BakeRequest, baseline: Baseline) -> a
     let name = baseline.name();
     let started = Instant::now();
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
-    let grid = args.grid.grid(&loaded)?;
+    let grid = args.grid.grid(&loaded, false)?;
     let settings = request.settings();
     let (bake, bvh_seconds, seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
@@ -259,7 +269,7 @@ fn run_baseline(args: &BakeArgs, request: &BakeRequest, baseline: Baseline) -> a
         seconds,
         bvh_seconds,
         mrays_per_second: if seconds > 0.0 { bake.rays.total() as f64 / seconds / 1e6 } else { 0.0 },
-        scale: ScaleJson::now(&loaded, &grid, args.grid.coeffs(), started),
+        scale: ScaleJson::now(&loaded, &grid, args.grid.coeffs(), request.records_node_reach(), started),
         output: args.output.display().to_string(),
         gradients: None,
         baseline: Some(BaselineJson {

@@ -240,7 +240,7 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
         return Err(flag_error(EvalError::View(ViewError::ZeroSamples)));
     }
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
-    let grid = args.grid.grid(&loaded)?;
+    let grid = args.grid.grid(&loaded, methods.iter().any(|m| m.entry.records_node_reach()))?;
     if grid.placement().is_some() {
         return Err(flag_error(EvalError::PlacedGrid));
     }

@@ -71,7 +71,7 @@ pub(crate) fn run(args: &LintArgs) -> anyhow::Result<ExitCode> {
         let (a, b) = loaded.frame.box_to_file((lo + e).to_array(), (hi - e).to_array());
         grid_args.bounds = Some(format!("{},{},{},{},{},{}", a[0], a[1], a[2], b[0], b[1], b[2]));
     }
-    let grid = grid_args.grid(&loaded)?;
+    let grid = grid_args.grid(&loaded, false)?;
     let weld = args.weld.unwrap_or(1e-6 * (hi - lo).length().max(1e-12));
     let (bf, wr) = with_threads(args.threads, || {
         let tracer = Tracer::new(&loaded.scene);

@@ -271,8 +271,9 @@ impl GridArgs {
     }
 
     /// The grid from the options, the built-in recommendation, or the scene bounds; refuses
-    /// invalid or oversized grids before anything is allocated.
-    pub(crate) fn grid(&self, scene: &LoadedScene) -> anyhow::Result<GridSpec> {
+    /// invalid or oversized grids before anything is allocated (counting the node reach
+    /// when the bake records one, `node_reach`).
+    pub(crate) fn grid(&self, scene: &LoadedScene, node_reach: bool) -> anyhow::Result<GridSpec> {
         let bounds = match &self.bounds {
             Some(b) => {
                 let v = parse_floats::<6>("--bounds", b)?;
@@ -287,6 +288,7 @@ impl GridArgs {
             spacing: self.spacing,
             coeffs: self.coeffs(),
             memory_limit: self.memory_limit(),
+            node_reach,
         };
         choice.resolve(scene).map_err(|e| match e {
             GridError::EmptyBounds { .. } => anyhow::anyhow!("--{e}"),

@@ -86,6 +86,14 @@ impl BakeRequest {
         }
     }
 
+    /// The bake records the node reach ([`crate::reach`]): a uniform `doi` bake (the
+    /// octree keeps none). Its memory estimate counts it
+    /// ([`crate::scene_setup::NODE_REACH_BYTES`]).
+    #[must_use]
+    pub fn records_node_reach(&self) -> bool {
+        self.method == BakeMethod::Grid(Method::Doi) && self.adaptive.is_none()
+    }
+
     /// The method's name (`point`, `doi`, `point+apv`, ...).
     #[must_use]
     pub fn method_name(&self) -> &'static str {

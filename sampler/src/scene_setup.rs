@@ -203,15 +203,32 @@ fn load_file(path: &Path, options: &LoadOptions, limit: u128) -> Result<LoadedSc
     })
 }
 
+/// Bytes of one exact sum of the accumulator: a 16-byte fixed-point value plus a 1-byte
+/// poison flag (`lightvol_volume::fixed`).
+pub const SUM_BYTES: u128 = 17;
+
+/// Bytes per node that a bake recording the node reach
+/// ([`crate::bake::Method::Doi`], [`crate::reach`]) needs on top of
+/// [`bake_memory_bytes`]'s arrays: the accumulator's six reach sums, the relocated
+/// capture point (`Option<DVec3>`, 32 bytes), the reach rays' results before they are
+/// recorded (`([f32; 6], u64)`, 32 bytes) and the finalized volume's six f32 reaches.
+/// Measured on a 120 × 120 × 40 grid of the built-in maze at one sample per node
+/// (`lightvol bake builtin:maze --res 120,120,40 --samples 1 --json --method M`, its
+/// `peak_memory_bytes`): 439 MiB for `point`, 518 MiB for `doi`, 143 bytes per node more, as
+/// the relocated points and the reach rays' results are freed before the volume's reach
+/// is made.
+pub const NODE_REACH_BYTES: u128 = 6 * SUM_BYTES + 32 + 32 + 6 * 4;
+
 /// Bytes a bake of this grid needs: the exact accumulator (numerators, denominators,
-/// outside sums; 16-byte fixed-point values plus a 1-byte poison flag each, see
-/// `lightvol_volume::fixed`), the f64 estimates the finalizer divides into, and the
-/// finalized f32 volume and weights.
+/// outside sums; [`SUM_BYTES`] each), the f64 estimates the finalizer divides into, and
+/// the finalized f32 volume and weights; plus [`NODE_REACH_BYTES`] per node when the bake
+/// records the node reach (`node_reach`).
 #[must_use]
-pub fn bake_memory_bytes(res: [u64; 3], coeffs: usize) -> u128 {
+pub fn bake_memory_bytes(res: [u64; 3], coeffs: usize, node_reach: bool) -> u128 {
     let nodes = u128::from(res[0]) * u128::from(res[1]) * u128::from(res[2]);
     let k = coeffs as u128 * 3;
-    nodes * ((k + 2) * 17 + (k + 1) * 8 + (k + 1) * 4)
+    let reach = if node_reach { NODE_REACH_BYTES } else { 0 };
+    nodes * ((k + 2) * SUM_BYTES + (k + 1) * 8 + (k + 1) * 4 + reach)
 }
 
 /// Bytes the system reports available (`MemAvailable`), or 8 GiB where it does not say.
@@ -249,6 +266,8 @@ pub struct GridChoice {
     pub coeffs: usize,
     /// The bake's memory limit in bytes: scene, ray tracer and grid together.
     pub memory_limit: u128,
+    /// The bake records the node reach ([`NODE_REACH_BYTES`]).
+    pub node_reach: bool,
 }
 
 /// Why a grid could not be chosen.
@@ -327,7 +346,7 @@ impl GridChoice {
             core::array::from_fn(|i| (((max[i] - min[i]) / longest * 16.0).ceil() as u64 + 1).max(2))
         };
         let coeffs = self.coeffs;
-        let grid_bytes = bake_memory_bytes(res, coeffs);
+        let grid_bytes = bake_memory_bytes(res, coeffs, self.node_reach);
         let scene_bytes = u128::from(scene.memory.total());
         let need = grid_bytes.saturating_add(scene_bytes);
         let limit = self.memory_limit;
@@ -381,16 +400,33 @@ mod tests {
     fn bake_memory_counts_each_array() {
         // One node, 9 coefficients: 27 numerators + denominator + outside sum at 17 bytes,
         // 28 f64 estimates, 28 f32 values.
-        assert_eq!(bake_memory_bytes([1, 1, 1], 9), 29 * 17 + 28 * 8 + 28 * 4);
-        assert_eq!(bake_memory_bytes([2, 3, 4], 4), 24 * (14 * 17 + 13 * 12));
+        assert_eq!(bake_memory_bytes([1, 1, 1], 9, false), 29 * 17 + 28 * 8 + 28 * 4);
+        assert_eq!(bake_memory_bytes([2, 3, 4], 4, false), 24 * (14 * 17 + 13 * 12));
+        assert_eq!(bake_memory_bytes([2, 3, 4], 4, true), 24 * (14 * 17 + 13 * 12 + 190));
+    }
+
+    #[test]
+    fn node_reach_bytes_are_the_sizes_of_its_arrays() {
+        use std::mem::size_of;
+        let fixed = size_of::<i128>() + size_of::<bool>();
+        let per_node =
+            6 * fixed + size_of::<Option<DVec3>>() + size_of::<([f32; 6], u64)>() + size_of::<[f32; 6]>();
+        assert_eq!(NODE_REACH_BYTES, per_node as u128);
     }
 
     #[test]
     fn builtin_grid_is_the_recommended_one() {
         let m = maze();
-        let g = GridChoice { bounds: None, res: None, spacing: None, coeffs: 9, memory_limit: u128::MAX }
-            .resolve(&m)
-            .unwrap();
+        let g = GridChoice {
+            bounds: None,
+            res: None,
+            spacing: None,
+            coeffs: 9,
+            memory_limit: u128::MAX,
+            node_reach: false,
+        }
+        .resolve(&m)
+        .unwrap();
         assert_eq!(g.res(), m.grid.as_ref().unwrap().res());
         assert!(!m.defaulted_sky);
     }
@@ -398,7 +434,14 @@ mod tests {
     #[test]
     fn grid_choices_are_checked() {
         let m = maze();
-        let base = GridChoice { bounds: None, res: None, spacing: None, coeffs: 9, memory_limit: u128::MAX };
+        let base = GridChoice {
+            bounds: None,
+            res: None,
+            spacing: None,
+            coeffs: 9,
+            memory_limit: u128::MAX,
+            node_reach: false,
+        };
         let bad = |c: GridChoice| c.resolve(&m).unwrap_err().to_string();
         assert!(bad(GridChoice { res: Some([1.0, 4.0, 4.0]), ..base.clone() }).contains("at least 2"));
         assert!(bad(GridChoice { res: Some([2.5, 4.0, 4.0]), ..base.clone() }).contains("whole number"));
@@ -410,10 +453,17 @@ mod tests {
         let e = bad(GridChoice { res: Some([100.0; 3]), memory_limit: 1 << 20, ..base.clone() });
         assert!(e.starts_with("the bake needs about") && e.contains("grid 100x100x100"), "{e}");
         // Spacing 1 over a box of 4 gives 5 nodes.
-        let g = GridChoice { bounds: Some(([0.0; 3], [4.0; 3])), spacing: Some(1.0), ..base }
+        let g = GridChoice { bounds: Some(([0.0; 3], [4.0; 3])), spacing: Some(1.0), ..base.clone() }
             .resolve(&m)
             .unwrap();
         assert_eq!(g.res(), [5, 5, 5]);
+        // A limit that fits a 50³ grid only without the node reach refuses a doi bake of it.
+        let res = Some([50.0; 3]);
+        let fits = bake_memory_bytes([50; 3], 9, false) + u128::from(m.memory.total());
+        let plain = GridChoice { res, memory_limit: fits, ..base.clone() };
+        assert_eq!(plain.resolve(&m).unwrap().res(), [50; 3]);
+        let e = bad(GridChoice { node_reach: true, ..plain });
+        assert!(e.starts_with("the bake needs about") && e.contains("grid 50x50x50"), "{e}");
     }
 
     #[test]

@@ -76,6 +76,18 @@ pub const ADAPTIVE_LEVELS_MAX: u32 = 3;
 pub const LOOKUPS: [GradientLookup; 3] =
     [GradientLookup::Taylor, GradientLookup::GradientTrilinear, GradientLookup::Hermite];
 
+impl Entry {
+    /// The entry's bake records the node reach ([`crate::reach`]): a uniform `doi` bake,
+    /// whatever its fit or lookup.
+    #[must_use]
+    pub fn records_node_reach(&self) -> bool {
+        matches!(
+            self,
+            Self::Uniform(Method::Doi) | Self::Gradient(Method::Doi, _) | Self::Fitted(Method::Doi, _)
+        )
+    }
+}
+
 /// Parses an entry name (module docs).
 ///
 /// # Errors
