@@ -15,6 +15,7 @@ use lightvol_sampler::view::{
 use lightvol_sampler::{DVec3, Tracer, Transport};
 
 use crate::imaging::auto_exposure;
+use crate::progress::with_report_bar;
 use crate::render_args::{RenderArgs, resolve_camera};
 use crate::setup::with_threads;
 
@@ -63,7 +64,9 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             None => {
                 let transport = Transport::new(&loaded.scene, &tracer, args.path.transport());
                 let reference = ReferenceConfig { samples: args.reference_samples, seed: args.seed };
-                render_reference(&transport, &cam, &config, &reference, None)
+                with_report_bar(args.quiet, "reference", |p| {
+                    render_reference(&transport, &cam, &config, &reference, Some(p))
+                })
             }
         }
     })?

@@ -32,6 +32,7 @@ use lightvol_sampler::view::Camera;
 use serde::Serialize;
 
 use crate::imaging::{AUTO_EXPOSURE_MEAN, Rgb32, write_atomic, write_png_linear};
+use crate::progress::with_report_bar;
 use crate::render_args::{RenderArgs, resolve_camera};
 use crate::setup::with_threads;
 
@@ -122,8 +123,11 @@ pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Re
         transport: bounces,
     };
     let map_sets: Vec<MapSet> = maps.sets.into_iter().map(|s| s.set).collect();
-    let view =
-        with_threads(args.threads, || render_shaded_view(&loaded.scene, &geo, &map_sets, &nmap, &settings))?;
+    let view = with_threads(args.threads, || {
+        with_report_bar(args.quiet, "reference", |p| {
+            render_shaded_view(&loaded.scene, &geo, &map_sets, &nmap, &settings, Some(p))
+        })
+    })?;
     let pixels = view.pixels;
     if pixels == 0 {
         bail!("no lightmapped surface is visible from the camera (use --camera)");

@@ -27,12 +27,22 @@ pub(crate) fn progress_bar(quiet: bool, len: u64, what: &str) -> ProgressBar {
 /// Runs `f` with a [`BakeControl`] whose progress drives a bar labelled `label` (hidden when
 /// `quiet`), cleared when `f` returns.
 pub(crate) fn with_bar<T>(quiet: bool, label: &str, f: impl FnOnce(&BakeControl<'_>) -> T) -> T {
+    with_report_bar(quiet, label, |report| f(&BakeControl { progress: Some(report), cancel: None }))
+}
+
+/// Runs `f` with a progress report that drives a bar labelled `label` (hidden when
+/// `quiet`), cleared when `f` returns: bakes, and the path-traced views of `render`.
+pub(crate) fn with_report_bar<T>(
+    quiet: bool,
+    label: &str,
+    f: impl FnOnce(&(dyn Fn(Progress) + Sync)) -> T,
+) -> T {
     let pb = progress_bar(quiet, 0, label);
     let report = |p: Progress| {
         pb.set_length(p.total as u64);
         pb.set_position(p.done as u64);
     };
-    let out = f(&BakeControl { progress: Some(&report), cancel: None });
+    let out = f(&report);
     pb.finish_and_clear();
     out
 }

@@ -47,6 +47,9 @@ pub(crate) struct RenderArgs {
     /// Worker threads.
     #[arg(long)]
     pub(crate) threads: Option<usize>,
+    /// No progress bar.
+    #[arg(long)]
+    pub(crate) quiet: bool,
     /// Output image: `.png` (sRGB, scaled by --exposure) or `.exr` (linear HDR, unscaled, for
     /// numeric comparison in other tools) (with --surface: output directory, default
     /// `surface_render`).

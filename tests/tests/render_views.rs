@@ -42,7 +42,7 @@ fn hash(path: &Path) -> String {
 
 /// Volume-shaded views (default camera, PNG; a look-at camera, irradiance as linear EXR;
 /// radiosity) and path-traced views (EXR on one thread with another seed, PNG with one
-/// bounce and a fixed exposure) hash as before.
+/// bounce, a fixed exposure and no progress bar) hash as before.
 #[test]
 fn render_outputs_are_unchanged() {
     let dir = tempfile::tempdir().unwrap();
@@ -93,6 +93,7 @@ fn render_outputs_are_unchanged() {
                 "1",
                 "--exposure",
                 "2",
+                "--quiet",
             ],
             "3d4eb27bb0172d16",
         ),

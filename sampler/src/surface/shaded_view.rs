@@ -20,16 +20,18 @@
 //! tangent-space normal map (`n = 2 c - 1`, +Y up as in glTF), sampled bilinearly with
 //! wrapping at the same coordinates.
 
+use std::convert::Infallible;
 use std::path::{Path, PathBuf};
 
 use lightvol_core::metric::RelRmse;
 use lightvol_hemibasis::lod::{Lod, eval_modified_h};
 use lightvol_hemibasis::{BasisFamily, HemiBasis};
 use lightvol_sh::lowdisc::hash2;
-use rayon::prelude::*;
 
 use super::{BasisChoice, CoefficientMap, Quantity, SurfaceGeometry, reference_surface_irradiance};
+use crate::bake::Progress;
 use crate::view::Camera;
+use crate::view::render::par_map_reporting;
 use crate::{DVec3, Scene, Tracer, Transport, TransportSettings};
 
 /// Smallest `z` of a shading normal: normal-map texels that point below the surface are
@@ -222,6 +224,10 @@ pub struct ShadedView {
     pub pixels: usize,
 }
 
+/// One pixel: whether it shows a lightmapped surface, the reference's colour, and each
+/// image's colour.
+type PixelColours = (bool, [f32; 3], Vec<[f32; 3]>);
+
 /// What a camera ray sees.
 enum PixelHit {
     /// Sky or a surface that is not lightmapped: its final colour.
@@ -232,7 +238,8 @@ enum PixelHit {
 
 /// Renders the lightmapped surfaces of `scene` (lightmap objects `geo`) from `settings`'
 /// camera with each of `sets`, and the path-traced reference (module docs). The maps'
-/// quantity is that of the first map.
+/// quantity is that of the first map. `progress`, when given, hears the pixels done from the
+/// calling thread; the images do not depend on it or on the thread count.
 #[must_use]
 pub fn render_shaded_view(
     scene: &Scene,
@@ -240,6 +247,7 @@ pub fn render_shaded_view(
     sets: &[MapSet],
     normal_map: &NormalMap,
     settings: &ShadedViewSettings,
+    progress: Option<&(dyn Fn(Progress) + Sync)>,
 ) -> ShadedView {
     let (w, h) = (settings.width, settings.height);
     let cam = &settings.camera;
@@ -254,9 +262,10 @@ pub fn render_shaded_view(
     let n_images = sets.len() + lods.len();
     let tracer = Tracer::new(scene);
     let transport = Transport::new(scene, &tracer, settings.transport);
-    let rows: Vec<(bool, [f32; 3], Vec<[f32; 3]>)> = (0..w * h)
-        .into_par_iter()
-        .map(|i| {
+    let pixel = |k: usize| -> Result<PixelColours, Infallible> {
+        // `k < w · h`, a u32.
+        let i = k as u32;
+        Ok({
             let (x, y) = (i % w, i / w);
             let d = cam.ray(x, y, w, h);
             let hit = match tracer.closest_hit(cam.eye(), d, 0.0, f64::INFINITY) {
@@ -312,7 +321,8 @@ pub fn render_shaded_view(
                 }
             }
         })
-        .collect();
+    };
+    let Ok(rows) = par_map_reporting(w as usize * h as usize, progress, pixel);
     let mut names: Vec<(String, usize)> = sets.iter().map(|s| (s.tag.tag(), s.basis.len())).collect();
     names.extend(lods.iter().map(|&(name, lod)| (name.to_owned(), lod.coefficients())));
     let mut errors = vec![RelRmse::default(); n_images];

@@ -23,7 +23,8 @@ pub const MAX_PIXELS: u64 = 64 << 20;
 /// Stream tag of the path-traced view: pixel `i` draws stream `hash2(REFERENCE_STREAM, i)`.
 pub const REFERENCE_STREAM: u64 = 0x7e2d;
 
-/// Pixels path-traced between two progress reports of [`render_reference`].
+/// Pixels path-traced between two progress reports of [`render_reference`] (and of
+/// [`par_map_reporting`]'s other callers).
 const PROGRESS_BLOCK: usize = 4096;
 
 /// What a pixel that sees a surface holds. A pixel that sees no surface holds the
@@ -199,6 +200,28 @@ pub fn render_reference(
     })
 }
 
+/// `f` over `0..n` in parallel, results in order, stopping at an error; with `progress`, in
+/// blocks of [`PROGRESS_BLOCK`] items with a report from the calling thread before the first
+/// and after each.
+pub(crate) fn par_map_reporting<T: Send, E: Send>(
+    n: usize,
+    progress: Option<&(dyn Fn(Progress) + Sync)>,
+    f: impl Fn(usize) -> Result<T, E> + Sync + Send,
+) -> Result<Vec<T>, E> {
+    let Some(report) = progress else {
+        return (0..n).into_par_iter().map(f).collect();
+    };
+    let mut out = Vec::with_capacity(n);
+    report(Progress { done: 0, total: n });
+    for start in (0..n).step_by(PROGRESS_BLOCK) {
+        let end = (start + PROGRESS_BLOCK).min(n);
+        let block: Vec<T> = (start..end).into_par_iter().map(&f).collect::<Result<_, _>>()?;
+        out.extend(block);
+        report(Progress { done: end, total: n });
+    }
+    Ok(out)
+}
+
 /// The image whose surface pixel `i` (row-major) has irradiance `irradiance(i, surface)`;
 /// in blocks of [`PROGRESS_BLOCK`] pixels with a report after each when `progress` is given,
 /// else all pixels at once.
@@ -226,19 +249,7 @@ fn render(
         let e = irradiance(i, &s)?;
         Ok((core::array::from_fn(|c| config.quantity.value(s.emission[c], s.albedo[c], e[c]) as f32), true))
     };
-    let mut out: Vec<([f32; 3], bool)> = Vec::with_capacity(n);
-    match progress {
-        None => out = (0..n).into_par_iter().map(pixel).collect::<Result<_, _>>()?,
-        Some(report) => {
-            report(Progress { done: 0, total: n });
-            for start in (0..n).step_by(PROGRESS_BLOCK) {
-                let end = (start + PROGRESS_BLOCK).min(n);
-                let block: Vec<_> = (start..end).into_par_iter().map(pixel).collect::<Result<_, _>>()?;
-                out.extend(block);
-                report(Progress { done: end, total: n });
-            }
-        }
-    }
+    let out = par_map_reporting(n, progress, pixel)?;
     Ok(ViewImage {
         width: w,
         height: h,
