@@ -297,8 +297,6 @@ pub fn sweep_plot(scene: &str, report: &SweepReport) -> Plot {
     }
 }
 
-/// Writes `memory_sweep.json`, `memory_sweep.svg` and `memory_sweep.png` of the study on
-/// the scene labelled `scene` into `dir`.
 /// The memory study's files: `memory_sweep.json` (the study's report with the scene's
 /// label) and its [`sweep_plot`] as `memory_sweep.svg` and `.png`.
 ///
