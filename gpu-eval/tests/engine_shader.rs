@@ -6,15 +6,21 @@
 //! The KTX2 layout runs on the texels exactly as the export stores them (RGBA16F slabs,
 //! decoded by `unpack2x16float` as the hardware decodes them), and is compared with the
 //! CPU lookup of the volume the KTX2 file reads back to (the same f16-rounded values).
-//! Without Vulkan the test says so in one line and passes, unless `LIGHTVOL_REQUIRE_GPU=1`.
+//!
+//! The validity-weighted and the node-reach lookups (`lightvol_irradiance_valid`,
+//! `lightvol_irradiance_reach`) run on a volume with a random validity mask and a random
+//! node reach, against the CPU lookup of the same volume with the mask or the reach.
+//!
+//! Without Vulkan the tests say so in one line and pass, unless `LIGHTVOL_REQUIRE_GPU=1`.
 
-use lightvol_gpu::engine_shader::{Layout, grid_words, selftest_spirv};
+use lightvol_gpu::engine_shader::{BINDINGS, Layout, grid_words, selftest_spirv};
 use lightvol_gpu::pipeline::groups_for;
 use lightvol_gpu::synthetic::{random_queries, smooth_random_volume};
-use lightvol_gpu::{ComputePipeline, gpu_or_skip};
+use lightvol_gpu::{ComputePipeline, GpuBuffer, GpuContext, gpu_or_skip};
+use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_volume::io::ktx2::{ktx2_from_bytes, ktx2_to_bytes};
 use lightvol_volume::slab::slab_texels;
-use lightvol_volume::{GridSpec, Placement};
+use lightvol_volume::{GridSpec, NodeReach, Placement, ValidityMask};
 
 /// Queries per configuration.
 const QUERIES: usize = 10_000;
@@ -25,6 +31,21 @@ const QUERIES: usize = 10_000;
 /// coefficients then shades), a few f32 ulps (1.2e-7) times the ~16 terms of the sum and
 /// the conditioning of the trilinear weights.
 const GPU_VS_CPU_REL: f64 = 2e-5;
+
+/// The test entry point's lookup selector: plain, validity-weighted, node reach.
+const PLAIN: u32 = 0;
+const VALID: u32 = 1;
+const REACH: u32 = 2;
+
+/// The buffers of bindings 5-7: every node valid, every node reaching a cell (the plain
+/// lookup reads neither), and the lookup selector.
+fn unused_masks(ctx: &GpuContext, nodes: usize, lookup: u32) -> [GpuBuffer; 3] {
+    [
+        ctx.upload(&vec![u32::MAX; nodes.div_ceil(32)]).unwrap(),
+        ctx.upload(&vec![1.0f32; 6 * nodes]).unwrap(),
+        ctx.upload(&[lookup]).unwrap(),
+    ]
+}
 
 fn placement() -> Placement {
     let (s, c) = 30f64.to_radians().sin_cos();
@@ -40,7 +61,7 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
             Layout::Native => "engine_native",
             Layout::Ktx2 => "engine_ktx2",
         };
-        let pipeline = ComputePipeline::new(&ctx, name, &spirv, 5).unwrap();
+        let pipeline = ComputePipeline::new(&ctx, name, &spirv, BINDINGS).unwrap();
         for (coeffs, seed) in [(4usize, 1u64), (9, 2), (16, 3)] {
             let spec = GridSpec::new([-1.0, 0.0, 2.0], [3.0, 1.5, 5.0], [9, 6, 7])
                 .unwrap()
@@ -61,8 +82,13 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
             let p = ctx.upload(points.as_flattened()).unwrap();
             let n = ctx.upload(normals.as_flattened()).unwrap();
             let out = ctx.zeroed_buffer(12 * QUERIES as u64).unwrap();
+            let [valid, reach, lookup] = unused_masks(&ctx, spec.node_count(), PLAIN);
             pipeline
-                .dispatch(&[&grid, &texels, &p, &n, &out], groups_for(QUERIES as u64, 65_535), 1)
+                .dispatch(
+                    &[&grid, &texels, &p, &n, &out, &valid, &reach, &lookup],
+                    groups_for(QUERIES as u64, 65_535),
+                    1,
+                )
                 .unwrap();
             let gpu: Vec<f32> = out.read(0, 3 * QUERIES).unwrap();
             let mut worst = 0.0f64;
@@ -89,7 +115,11 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
                 .with_placement(placement());
             let wrong = ctx.upload(&grid_words(&wrong_spec, coeffs)).unwrap();
             pipeline
-                .dispatch(&[&wrong, &texels, &p, &n, &out], groups_for(QUERIES as u64, 65_535), 1)
+                .dispatch(
+                    &[&wrong, &texels, &p, &n, &out, &valid, &reach, &lookup],
+                    groups_for(QUERIES as u64, 65_535),
+                    1,
+                )
                 .unwrap();
             let bad: Vec<f32> = out.read(0, 3 * QUERIES).unwrap();
             let bad_err =
@@ -100,5 +130,105 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
                 "{name} {coeffs}: a misaddressed grid gives only {bad_err:e}"
             );
         }
+    }
+}
+
+/// Queries whose reach test point lies within this many cells of a multiple of an eighth
+/// of a cell on some axis are left out of the node-reach comparison: the random reaches are
+/// multiples of an eighth, and there the GPU's and the CPU's f32 roundings of the test
+/// point (a few ulps of the grid coordinate, ~1e-6 cells) may fall on different sides.
+const REACH_DECISION_MARGIN: f64 = 1e-3;
+
+/// A random mask (about 70% valid) and a random reach (half the directions a full cell,
+/// the others a multiple of an eighth below it) for `nodes` nodes.
+fn random_masks(nodes: usize, seed: u64) -> (ValidityMask, NodeReach) {
+    let mut rng = SplitMix64::new(seed);
+    let valid = (0..nodes).map(|_| rng.next_f64() < 0.7).collect();
+    let reach = (0..nodes)
+        .map(|_| {
+            std::array::from_fn(
+                |_| if rng.next_f64() < 0.5 { 1.0 } else { (rng.next_u64() % 8) as f32 / 8.0 },
+            )
+        })
+        .collect();
+    (ValidityMask::new(valid), NodeReach::new(reach).unwrap())
+}
+
+#[test]
+fn validity_and_reach_lookups_match_the_cpu_on_the_device() {
+    let Some(ctx) = gpu_or_skip() else { return };
+    let spirv = selftest_spirv(Layout::Native).unwrap();
+    let pipeline = ComputePipeline::new(&ctx, "engine_masks", &spirv, BINDINGS).unwrap();
+    let spec =
+        GridSpec::new([-1.0, 0.0, 2.0], [3.0, 1.5, 5.0], [9, 6, 7]).unwrap().with_placement(placement());
+    let nodes = spec.node_count();
+    let vol = smooth_random_volume(spec.clone(), 9, 4).unwrap();
+    let (mask, node_reach) = random_masks(nodes, 5);
+    let (points, normals) = random_queries(&spec, QUERIES, 0.15, 6);
+    let words: Vec<u32> = (0..nodes.div_ceil(32))
+        .map(|w| (0..32).filter(|b| 32 * w + b < nodes && mask.is_valid(32 * w + b)).map(|b| 1u32 << b).sum())
+        .collect();
+    let reach_values: Vec<f32> = (0..nodes).flat_map(|i| node_reach.node(i)).collect();
+    let grid = ctx.upload(&grid_words(&spec, 9)).unwrap();
+    let coeffs: Vec<u32> = vol.data().iter().map(|v| v.to_bits()).collect();
+    let texels = ctx.upload(&coeffs).unwrap();
+    let p = ctx.upload(points.as_flattened()).unwrap();
+    let n = ctx.upload(normals.as_flattened()).unwrap();
+    let valid = ctx.upload(&words).unwrap();
+    let reach = ctx.upload(&reach_values).unwrap();
+    let run = |lookup: u32| -> Vec<f32> {
+        let out = ctx.zeroed_buffer(12 * QUERIES as u64).unwrap();
+        let which = ctx.upload(&[lookup]).unwrap();
+        pipeline
+            .dispatch(
+                &[&grid, &texels, &p, &n, &out, &valid, &reach, &which],
+                groups_for(QUERIES as u64, 65_535),
+                1,
+            )
+            .unwrap();
+        out.read(0, 3 * QUERIES).unwrap()
+    };
+    let plain = run(PLAIN);
+    // The reach's test point in node coordinates, in f64 (the lookup's own offset).
+    let (min, max) = spec.bounds();
+    let res = spec.res();
+    let bias = lightvol_volume::lookup::reach_bias(&spec);
+    let clear_of_decisions = |q: usize| {
+        let t: [f64; 3] = std::array::from_fn(|a| f64::from(points[q][a]) + bias * f64::from(normals[q][a]));
+        let g = spec.to_grid(t);
+        (0..3).all(|a| {
+            let u = (g[a] - min[a]) * f64::from(res[a] - 1) / (max[a] - min[a]);
+            let e = (8.0 * u).fract().abs();
+            e.min(1.0 - e) / 8.0 > REACH_DECISION_MARGIN
+        })
+    };
+    for (lookup, name, cpu_vol) in [
+        (VALID, "validity", vol.clone().with_validity(mask.clone()).unwrap()),
+        (REACH, "reach", vol.clone().with_reach(node_reach.clone()).unwrap()),
+    ] {
+        let gpu = run(lookup);
+        let (mut worst, mut scale, mut compared, mut changed) = (0.0f64, 0.0f64, 0usize, 0usize);
+        for q in (0..QUERIES).filter(|&q| lookup == VALID || clear_of_decisions(q)) {
+            compared += 1;
+            let want = cpu_vol.irradiance(points[q], normals[q]);
+            let mut differs = false;
+            for ch in 0..3 {
+                worst = worst.max((f64::from(gpu[3 * q + ch]) - f64::from(want[ch])).abs());
+                scale = scale.max(f64::from(want[ch]).abs());
+                differs |= (gpu[3 * q + ch] - plain[3 * q + ch]).abs() > 1e-3 * want[ch].abs();
+            }
+            changed += usize::from(differs);
+        }
+        let rel = worst / scale;
+        eprintln!(
+            "{name}: {compared} queries, {changed} changed by the weights, max |GPU − CPU| / max |E| = {rel:.2e}"
+        );
+        assert!(
+            compared > QUERIES * 9 / 10,
+            "{name}: only {compared} queries clear of the reach's decisions"
+        );
+        // The weights matter: a lookup that ignored them would match the plain one.
+        assert!(changed > QUERIES / 10, "{name}: only {changed} queries changed");
+        assert!(scale > 0.0 && rel < GPU_VS_CPU_REL, "{name}: {rel:e}");
     }
 }

@@ -125,7 +125,8 @@ impl LookupParams {
 /// The node reach's test-point offset along a surface normal, in world units
 /// ([`crate::reach`]): [`crate::reach::REACH_NORMAL_BIAS`] times the smallest world-space
 /// cell edge (grid-space cell size times the placement's stretch of that axis).
-pub(crate) fn reach_bias(spec: &GridSpec) -> f64 {
+#[must_use]
+pub fn reach_bias(spec: &GridSpec) -> f64 {
     let cell = spec.cell_size();
     let stretch = |a: usize| {
         spec.placement().map_or(1.0, |p| {

@@ -47,9 +47,10 @@
 //! the test point moves; the trilinear weights stay those of `x`. Radiance lookups and
 //! coefficient lookups have no normal and test `x` itself.
 //!
-//! Only the trilinear CPU lookups ([`crate::lookup`]) read the reach, like the validity
-//! mask; the gradient lookups ([`crate::gradient`]), the adaptive octree, the shaders of
-//! `lightvol shader` and the Vulkan evaluator do not, and the Bevy export drops it. It
+//! The trilinear CPU lookups ([`crate::lookup`]) read the reach, like the validity mask, and
+//! so does the engine shader code of lightvol-gpu (`lightvol_irradiance_reach`); the
+//! gradient lookups ([`crate::gradient`]), the adaptive octree and the Vulkan evaluator do
+//! not, and the Bevy export drops it. It
 //! travels with the volume through the native EXR ([`crate::io::exr`]), the KTX2/DDS
 //! sidecar ([`crate::io::sidecar`]) and shard files ([`crate::accumulator`]).
 //!
