@@ -21,13 +21,14 @@ const K: u32 = 3u * COEFFS;
 struct Params {
     // Rows of the world-to-grid affine map (the identity when the volume is not placed).
     to_grid: array<vec4<f32>, 3>,
-    // xyz: grid-space box minimum.
+    // xyz: grid-space box minimum; w: the node reach's test-point offset along the normal.
     grid_min: vec4<f32>,
-    // xyz: (n - 1) / (max - min), grid units to cell units.
+    // xyz: (n - 1) / (max - min), grid units to cell units; w: the reach's edge limit.
     scale: vec4<f32>,
     // xyz: n - 1 as f32 (the clamp limit in cell units).
     cells: vec4<f32>,
-    // xyz: n - 2, the largest cell index.
+    // xyz: n - 2, the largest cell index; w: flags, 1 validity mask, 2 node reach,
+    // 4 irradiance (the reach is tested at the point moved along the normal).
     max_cell: vec4<u32>,
     // x: nx, y: nx * ny, z: 1 if placed (apply to_grid), else 0, w: number of queries.
     dims: vec4<u32>,
@@ -48,6 +49,47 @@ struct Params {
 @group(0) @binding(3) var<storage, read> dirs: array<f32>;
 // Tightly packed RGB triples.
 @group(0) @binding(4) var<storage, read_write> result: array<f32>;
+// The validity mask: node i is bit i % 32 of word i / 32, 1 = valid (flag 1).
+@group(0) @binding(5) var<storage, read> validity: array<u32>;
+// The node reach: six f32 per node, +x, -x, +y, -y, +z, -z, in cells (flag 2).
+@group(0) @binding(6) var<storage, read> reach: array<f32>;
+
+// World to grid space: m[r][0] p0 + m[r][1] p1 + m[r][2] p2 + m[r][3], left to right,
+// only for a placed volume (like the CPU: an identity product would turn one NaN or
+// infinite coordinate into NaN on every axis, 0 * inf = NaN).
+fn to_grid_space(p: vec3<f32>) -> array<f32, 3> {
+    var g = array<f32, 3>(p.x, p.y, p.z);
+    if params.dims.z != 0u {
+        for (var r = 0u; r < 3u; r++) {
+            let m = params.to_grid[r];
+            g[r] = m.x * p.x + m.y * p.y + m.z * p.z + m.w;
+        }
+    }
+    return g;
+}
+
+// The weights w renormalised over the corners kept, as lightvol-volume's `renormalise`:
+// unchanged when every corner is kept or the kept ones have no weight, else kept w / their
+// sum (corner order) and 0 elsewhere.
+fn renormalise(w: array<f32, 8>, keep: array<bool, 8>) -> array<f32, 8> {
+    var s = 0.0;
+    var all = true;
+    for (var c = 0u; c < 8u; c++) {
+        if keep[c] {
+            s = s + w[c];
+        } else {
+            all = false;
+        }
+    }
+    if all || !(s > 0.0) {
+        return w;
+    }
+    var out: array<f32, 8>;
+    for (var c = 0u; c < 8u; c++) {
+        out[c] = select(0.0, w[c] / s, keep[c]);
+    }
+    return out;
+}
 
 struct AxisPos {
     cell: u32,
@@ -75,16 +117,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
     let p = vec3<f32>(points[3u * q], points[3u * q + 1u], points[3u * q + 2u]);
     let n = vec3<f32>(dirs[3u * q], dirs[3u * q + 1u], dirs[3u * q + 2u]);
 
-    // World to grid space: m[r][0] p0 + m[r][1] p1 + m[r][2] p2 + m[r][3], left to right,
-    // only for a placed volume (like the CPU: an identity product would turn one NaN or
-    // infinite coordinate into NaN on every axis, 0 * inf = NaN).
-    var g = array<f32, 3>(p.x, p.y, p.z);
-    if params.dims.z != 0u {
-        for (var r = 0u; r < 3u; r++) {
-            let m = params.to_grid[r];
-            g[r] = m.x * p.x + m.y * p.y + m.z * p.z + m.w;
-        }
-    }
+    let g = to_grid_space(p);
     let ax = locate_axis(g[0], params.grid_min.x, params.scale.x, params.cells.x, params.max_cell.x);
     let ay = locate_axis(g[1], params.grid_min.y, params.scale.y, params.cells.y, params.max_cell.y);
     let az = locate_axis(g[2], params.grid_min.z, params.scale.z, params.cells.z, params.max_cell.z);
@@ -104,6 +137,43 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
         gx * gy * fz, fx * gy * fz, gx * fy * fz, fx * fy * fz,
     );
     var offset = array<u32, 8>(0u, 1u, nx, nx + 1u, nxy, nxy + 1u, nxy + nx, nxy + nx + 1u);
+
+    // Unity APV's validity weights, then the node reach (lightvol-volume's `validity` and
+    // `reach`, in the CPU lookup's order and f32 arithmetic).
+    let flags = params.max_cell.w;
+    if (flags & 1u) != 0u {
+        var keep: array<bool, 8>;
+        for (var c = 0u; c < 8u; c++) {
+            let i = base + offset[c];
+            keep[c] = ((validity[i >> 5u] >> (i & 31u)) & 1u) == 1u;
+        }
+        w = renormalise(w, keep);
+    }
+    if (flags & 2u) != 0u {
+        var t = p;
+        if (flags & 4u) != 0u {
+            t = p + n * params.grid_min.w;
+        }
+        let gt = to_grid_space(t);
+        let cell = array<u32, 3>(ax.cell, ay.cell, az.cell);
+        var f: array<f32, 3>;
+        for (var a = 0u; a < 3u; a++) {
+            f[a] = (gt[a] - params.grid_min[a]) * params.scale[a] - f32(cell[a]);
+        }
+        var keep: array<bool, 8>;
+        for (var c = 0u; c < 8u; c++) {
+            var sees = true;
+            for (var a = 0u; a < 3u; a++) {
+                let d = (c >> a) & 1u;
+                let s = select(f[a], 1.0 - f[a], d == 1u);
+                let here = reach[6u * (base + offset[c]) + 2u * a + d];
+                let there = reach[6u * (base + offset[c ^ (1u << a)]) + 2u * a + 1u - d];
+                sees = sees && (s <= here || here + there > params.scale.w);
+            }
+            keep[c] = sees;
+        }
+        w = renormalise(w, keep);
+    }
 
     // Eq. 2: L_j(x) = sum_i c_ij b_i(x), corner by corner.
     var acc: array<f32, K>;

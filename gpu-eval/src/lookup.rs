@@ -11,16 +11,18 @@
 //! | 2 | query points, world space, packed `xyz` triples (no padding) | `3 n` f32 |
 //! | 3 | query normals (irradiance) or directions (radiance), unit, packed `xyz` | `3 n` f32 |
 //! | 4 | results, packed RGB triples | `3 n` f32 |
+//! | 5 | the validity mask: node `i` is bit `i % 32` of word `i / 32`, 1 valid (one word of zeros without a mask) | `⌈nodes / 32⌉` u32 |
+//! | 6 | the node reach, six f32 per node in `lightvol_volume::reach::REACH_DIRECTIONS` order (one 0 without a reach) | `6 nodes` f32 |
 //!
 //! Parameter words (each `vec4` is 4 consecutive words):
 //!
 //! | words | field |
 //! |---|---|
 //! | 0-11 | rows of the world-to-grid affine map (used only when word 30 is 1) |
-//! | 12-14 | grid-space box minimum (15: unused) |
-//! | 16-18 | `(n - 1) / (max - min)` per axis (19: unused) |
+//! | 12-14 | grid-space box minimum; 15: the node reach's test-point offset along the normal (`lightvol_volume::lookup::reach_bias`) |
+//! | 16-18 | `(n - 1) / (max - min)` per axis; 19: the reach's edge limit, `1 + REACH_EDGE_TOLERANCE` |
 //! | 20-22 | `n - 1` per axis as f32 (23: unused) |
-//! | 24-26 | `n - 2` per axis, u32 (27: unused) |
+//! | 24-26 | `n - 2` per axis, u32; 27: flags, [`FLAG_VALIDITY`], [`FLAG_REACH`], [`FLAG_IRRADIANCE`] |
 //! | 28-31 | `nx`, `nx · ny`, 1 if the volume is placed (else 0), query count (u32) |
 //! | 32-47 | per-coefficient factor `f_j`: `A_l(j)` for irradiance, 1 for radiance |
 //! | 48-63, 64-79 | SH recurrence constants `a(l, m)`, `b(l, m)` at `l (l + 1) + m` |
@@ -31,12 +33,20 @@
 //! operations in the same order, so GPU and CPU agree to f32 rounding (a driver may fuse
 //! multiply-adds; see the tests for the measured agreement).
 //!
+//! # Validity and node reach
+//! A volume with a validity mask (`point+apv`) or a node reach (`doi`) is looked up as
+//! lightvol-volume's CPU lookup does: the trilinear weights renormalised over the valid
+//! corners, then over the corners whose reach sees the query (tested at the point moved
+//! along the normal for irradiance, at the point itself for radiance), in the same order
+//! and f32 arithmetic.
+//!
 //! # Clamping and edge cases
 //! As on the CPU: points outside the box clamp to its boundary (per axis), a NaN
 //! coordinate maps to the box minimum on that axis. Normals are not normalised.
 
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::irradiance::cosine_lobe_factor;
+use lightvol_volume::reach::REACH_EDGE_TOLERANCE;
 use lightvol_volume::{GridSpec, IrradianceVolume};
 
 use crate::buffer::GpuBuffer;
@@ -47,6 +57,17 @@ use crate::shaders;
 
 /// Number of 4-byte words in the parameter buffer (binding 0).
 pub const PARAM_WORDS: usize = 84;
+
+/// Parameter word 27: the volume's validity mask weights the corners.
+pub const FLAG_VALIDITY: u32 = 1;
+/// Parameter word 27: the volume's node reach weights the corners.
+pub const FLAG_REACH: u32 = 2;
+/// Parameter word 27: an irradiance lookup (the reach is tested at the point moved along
+/// the normal).
+pub const FLAG_IRRADIANCE: u32 = 4;
+
+/// Bindings of the lookup shader (module docs).
+const BINDINGS: u32 = 7;
 
 /// What a lookup evaluates.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -147,9 +168,17 @@ pub fn factors(coeffs: usize, quantity: Quantity) -> [f32; 16] {
     })
 }
 
-/// The parameter words (binding 0) for `spec`, `quantity`, `coeffs` and `count` queries.
+/// The parameter words (binding 0) for `spec`, `quantity`, `coeffs` and `count` queries,
+/// with the flags of a volume with a validity mask (`validity`) and a node reach (`reach`).
 #[must_use]
-pub fn param_words(spec: &GridSpec, coeffs: usize, quantity: Quantity, count: u32) -> [u32; PARAM_WORDS] {
+pub fn param_words(
+    spec: &GridSpec,
+    coeffs: usize,
+    quantity: Quantity,
+    count: u32,
+    validity: bool,
+    reach: bool,
+) -> [u32; PARAM_WORDS] {
     let mut w = [0u32; PARAM_WORDS];
     let mut put_f = |i: usize, v: f32| w[i] = v.to_bits();
     let to_grid = spec
@@ -177,14 +206,26 @@ pub fn param_words(spec: &GridSpec, coeffs: usize, quantity: Quantity, count: u3
     for m in 0..4 {
         put_f(80 + m, sh.diag[m]);
     }
+    put_f(15, lightvol_volume::lookup::reach_bias(spec) as f32);
+    put_f(19, (1.0 + REACH_EDGE_TOLERANCE) as f32);
     for a in 0..3 {
         w[24 + a] = res[a] - 2;
     }
+    w[27] = if validity { FLAG_VALIDITY } else { 0 }
+        | if reach { FLAG_REACH } else { 0 }
+        | if quantity == Quantity::Irradiance { FLAG_IRRADIANCE } else { 0 };
     w[28] = res[0];
     w[29] = res[0] * res[1];
     w[30] = u32::from(spec.placement().is_some());
     w[31] = count;
     w
+}
+
+/// The validity flags `valid` (node order) packed for binding 5: node `i` is bit `i % 32` of
+/// word `i / 32`.
+#[must_use]
+pub fn validity_words(valid: &[bool]) -> Vec<u32> {
+    valid.chunks(32).map(|c| c.iter().enumerate().map(|(b, &v)| u32::from(v) << b).sum()).collect()
 }
 
 /// A volume resident on the GPU with the lookup pipeline for its coefficient count.
@@ -197,6 +238,10 @@ pub struct VolumeLookup {
     ctx: GpuContext,
     pipeline: ComputePipeline,
     coeff_buffer: GpuBuffer,
+    validity_buffer: GpuBuffer,
+    reach_buffer: GpuBuffer,
+    has_validity: bool,
+    has_reach: bool,
     spec: GridSpec,
     coeffs: usize,
 }
@@ -236,8 +281,9 @@ impl LookupBatch {
 }
 
 impl VolumeLookup {
-    /// Uploads `vol`'s coefficients and builds the pipeline for its coefficient count.
-    /// Errors if the volume exceeds the device's storage-buffer range or 32-bit indexing.
+    /// Uploads `vol`'s coefficients, validity mask and node reach and builds the pipeline
+    /// for its coefficient count. Errors if the volume exceeds the device's storage-buffer
+    /// range or 32-bit indexing.
     pub fn new(ctx: &GpuContext, vol: &IrradianceVolume) -> Result<Self, GpuError> {
         let coeffs = vol.coeffs();
         let shader = match coeffs {
@@ -253,8 +299,21 @@ impl VolumeLookup {
             )));
         }
         let coeff_buffer = ctx.upload(vol.data())?;
-        let pipeline = ComputePipeline::new(ctx, shader.name, &shader.words()?, 5)?;
-        Ok(Self { ctx: ctx.clone(), pipeline, coeff_buffer, spec: vol.spec().clone(), coeffs })
+        let words = vol.validity().map_or_else(|| vec![0u32], |m| validity_words(m.as_slice()));
+        let reach: Vec<f32> =
+            vol.reach().map_or_else(|| vec![0.0], |r| (0..r.len()).flat_map(|i| r.node(i)).collect());
+        let pipeline = ComputePipeline::new(ctx, shader.name, &shader.words()?, BINDINGS)?;
+        Ok(Self {
+            ctx: ctx.clone(),
+            pipeline,
+            coeff_buffer,
+            validity_buffer: ctx.upload(&words)?,
+            reach_buffer: ctx.upload(&reach)?,
+            has_validity: vol.validity().is_some(),
+            has_reach: vol.reach().is_some(),
+            spec: vol.spec().clone(),
+            coeffs,
+        })
     }
 
     /// SH coefficients per channel of the resident volume.
@@ -326,12 +385,27 @@ impl VolumeLookup {
         quantity: Quantity,
         repeats: u32,
     ) -> Result<DispatchStats, GpuError> {
-        let words = param_words(&self.spec, self.coeffs, quantity, batch.len as u32);
+        let words = param_words(
+            &self.spec,
+            self.coeffs,
+            quantity,
+            batch.len as u32,
+            self.has_validity,
+            self.has_reach,
+        );
         batch.params.write(0, &words)?;
         let max_x = self.ctx.shared.limits.max_compute_work_group_count[0];
         let groups = groups_for(batch.len as u64, max_x);
         self.pipeline.dispatch(
-            &[&batch.params, &self.coeff_buffer, &batch.points, &batch.dirs, &batch.out],
+            &[
+                &batch.params,
+                &self.coeff_buffer,
+                &batch.points,
+                &batch.dirs,
+                &batch.out,
+                &self.validity_buffer,
+                &self.reach_buffer,
+            ],
             groups,
             repeats,
         )
@@ -392,14 +466,18 @@ mod tests {
     #[test]
     fn param_words_layout() {
         let spec = GridSpec::new([-1.0, 0.0, 2.0], [3.0, 1.5, 5.0], [5, 4, 3]).unwrap();
-        let w = param_words(&spec, 9, Quantity::Irradiance, 77);
+        let w = param_words(&spec, 9, Quantity::Irradiance, 77, false, true);
         let f = |i: usize| f32::from_bits(w[i]);
         // Identity placement.
         assert_eq!((f(0), f(5), f(10), f(3), f(1)), (1.0, 1.0, 1.0, 0.0, 0.0));
         assert_eq!((f(12), f(13), f(14)), (-1.0, 0.0, 2.0));
         assert_eq!((f(16), f(17), f(18)), (1.0, 2.0, 2.0 / 3.0_f64 as f32));
         assert_eq!((f(20), f(21), f(22)), (4.0, 3.0, 2.0));
-        assert_eq!((w[24], w[25], w[26]), (3, 2, 1));
+        assert_eq!((w[24], w[25], w[26], w[27]), (3, 2, 1, FLAG_REACH | FLAG_IRRADIANCE));
+        // A tenth of the smallest cell edge (x 4 / 4, y 1.5 / 3, z 3 / 2: 0.5), one cell plus 1e-6.
+        assert_eq!(f(15), 0.05);
+        assert_eq!(f(19), 1.000_001);
+        assert_eq!(param_words(&spec, 9, Quantity::Radiance, 77, true, false)[27], FLAG_VALIDITY);
         assert_eq!((w[28], w[29], w[30], w[31]), (5, 20, 0, 77));
         assert_eq!(f(32), std::f32::consts::PI);
         assert_eq!(f(80), (0.25 / std::f64::consts::PI).sqrt() as f32);

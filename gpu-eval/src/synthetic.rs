@@ -8,7 +8,7 @@
 
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::lowdisc::SplitMix64;
-use lightvol_volume::{GridSpec, IrradianceVolume, VolumeError};
+use lightvol_volume::{GridSpec, IrradianceVolume, NodeReach, ValidityMask, VolumeError};
 
 /// Sinusoids per coefficient and channel.
 const WAVES: usize = 2;
@@ -83,6 +83,41 @@ pub fn random_queries(spec: &GridSpec, n: usize, margin: f64, seed: u64) -> (Vec
         dirs.push(d.map(|v| v as f32));
     }
     (points, dirs)
+}
+
+/// A random validity mask (about 70% valid) and node reach (half the directions a full
+/// cell, the others a multiple of an eighth of a cell below it) for `nodes` nodes,
+/// reproducible from `seed`: the masks the GPU-vs-CPU tests of the weighted lookups use.
+#[must_use]
+pub fn random_masks(nodes: usize, seed: u64) -> (ValidityMask, NodeReach) {
+    let mut rng = SplitMix64::new(seed);
+    let valid = (0..nodes).map(|_| rng.next_f64() < 0.7).collect();
+    let reach = (0..nodes)
+        .map(|_| {
+            std::array::from_fn(
+                |_| if rng.next_f64() < 0.5 { 1.0 } else { (rng.next_u64() % 8) as f32 / 8.0 },
+            )
+        })
+        .collect();
+    (ValidityMask::new(valid), NodeReach::new(reach).expect("reaches in [0, 1]"))
+}
+
+/// Whether the node-reach test point of a query at `p` (`p + n · bias` with a normal `n`,
+/// `p` without) lies farther than `margin` cells from every multiple of an eighth of a cell
+/// on every axis (computed in f64): there a lookup's f32 rounding of the test point cannot
+/// change its decisions against [`random_masks`]' reaches.
+#[must_use]
+pub fn clear_of_reach_decisions(spec: &GridSpec, p: [f32; 3], n: Option<[f32; 3]>, margin: f64) -> bool {
+    let bias = lightvol_volume::lookup::reach_bias(spec);
+    let t: [f64; 3] = std::array::from_fn(|a| f64::from(p[a]) + n.map_or(0.0, |n| bias * f64::from(n[a])));
+    let g = spec.to_grid(t);
+    let (min, max) = spec.bounds();
+    let res = spec.res();
+    (0..3).all(|a| {
+        let u = (g[a] - min[a]) * f64::from(res[a] - 1) / (max[a] - min[a]);
+        let e = (8.0 * u).rem_euclid(1.0);
+        e.min(1.0 - e) / 8.0 > margin
+    })
 }
 
 #[cfg(test)]

@@ -14,13 +14,13 @@
 //! Without Vulkan the tests say so in one line and pass, unless `LIGHTVOL_REQUIRE_GPU=1`.
 
 use lightvol_gpu::engine_shader::{BINDINGS, Layout, grid_words, selftest_spirv};
+use lightvol_gpu::lookup::validity_words;
 use lightvol_gpu::pipeline::groups_for;
-use lightvol_gpu::synthetic::{random_queries, smooth_random_volume};
+use lightvol_gpu::synthetic::{clear_of_reach_decisions, random_masks, random_queries, smooth_random_volume};
 use lightvol_gpu::{ComputePipeline, GpuBuffer, GpuContext, gpu_or_skip};
-use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_volume::io::ktx2::{ktx2_from_bytes, ktx2_to_bytes};
 use lightvol_volume::slab::slab_texels;
-use lightvol_volume::{GridSpec, NodeReach, Placement, ValidityMask};
+use lightvol_volume::{GridSpec, Placement};
 
 /// Queries per configuration.
 const QUERIES: usize = 10_000;
@@ -139,21 +139,6 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
 /// point (a few ulps of the grid coordinate, ~1e-6 cells) may fall on different sides.
 const REACH_DECISION_MARGIN: f64 = 1e-3;
 
-/// A random mask (about 70% valid) and a random reach (half the directions a full cell,
-/// the others a multiple of an eighth below it) for `nodes` nodes.
-fn random_masks(nodes: usize, seed: u64) -> (ValidityMask, NodeReach) {
-    let mut rng = SplitMix64::new(seed);
-    let valid = (0..nodes).map(|_| rng.next_f64() < 0.7).collect();
-    let reach = (0..nodes)
-        .map(|_| {
-            std::array::from_fn(
-                |_| if rng.next_f64() < 0.5 { 1.0 } else { (rng.next_u64() % 8) as f32 / 8.0 },
-            )
-        })
-        .collect();
-    (ValidityMask::new(valid), NodeReach::new(reach).unwrap())
-}
-
 #[test]
 fn validity_and_reach_lookups_match_the_cpu_on_the_device() {
     let Some(ctx) = gpu_or_skip() else { return };
@@ -165,9 +150,7 @@ fn validity_and_reach_lookups_match_the_cpu_on_the_device() {
     let vol = smooth_random_volume(spec.clone(), 9, 4).unwrap();
     let (mask, node_reach) = random_masks(nodes, 5);
     let (points, normals) = random_queries(&spec, QUERIES, 0.15, 6);
-    let words: Vec<u32> = (0..nodes.div_ceil(32))
-        .map(|w| (0..32).filter(|b| 32 * w + b < nodes && mask.is_valid(32 * w + b)).map(|b| 1u32 << b).sum())
-        .collect();
+    let words = validity_words(mask.as_slice());
     let reach_values: Vec<f32> = (0..nodes).flat_map(|i| node_reach.node(i)).collect();
     let grid = ctx.upload(&grid_words(&spec, 9)).unwrap();
     let coeffs: Vec<u32> = vol.data().iter().map(|v| v.to_bits()).collect();
@@ -189,26 +172,16 @@ fn validity_and_reach_lookups_match_the_cpu_on_the_device() {
         out.read(0, 3 * QUERIES).unwrap()
     };
     let plain = run(PLAIN);
-    // The reach's test point in node coordinates, in f64 (the lookup's own offset).
-    let (min, max) = spec.bounds();
-    let res = spec.res();
-    let bias = lightvol_volume::lookup::reach_bias(&spec);
-    let clear_of_decisions = |q: usize| {
-        let t: [f64; 3] = std::array::from_fn(|a| f64::from(points[q][a]) + bias * f64::from(normals[q][a]));
-        let g = spec.to_grid(t);
-        (0..3).all(|a| {
-            let u = (g[a] - min[a]) * f64::from(res[a] - 1) / (max[a] - min[a]);
-            let e = (8.0 * u).fract().abs();
-            e.min(1.0 - e) / 8.0 > REACH_DECISION_MARGIN
-        })
-    };
     for (lookup, name, cpu_vol) in [
         (VALID, "validity", vol.clone().with_validity(mask.clone()).unwrap()),
         (REACH, "reach", vol.clone().with_reach(node_reach.clone()).unwrap()),
     ] {
         let gpu = run(lookup);
         let (mut worst, mut scale, mut compared, mut changed) = (0.0f64, 0.0f64, 0usize, 0usize);
-        for q in (0..QUERIES).filter(|&q| lookup == VALID || clear_of_decisions(q)) {
+        for q in (0..QUERIES).filter(|&q| {
+            lookup == VALID
+                || clear_of_reach_decisions(&spec, points[q], Some(normals[q]), REACH_DECISION_MARGIN)
+        }) {
             compared += 1;
             let want = cpu_vol.irradiance(points[q], normals[q]);
             let mut differs = false;

@@ -15,7 +15,7 @@
 use std::sync::Mutex;
 
 use lightvol_gpu::lookup::Quantity;
-use lightvol_gpu::synthetic::{random_queries, smooth_random_volume};
+use lightvol_gpu::synthetic::{clear_of_reach_decisions, random_masks, random_queries, smooth_random_volume};
 use lightvol_gpu::{GpuError, VolumeLookup, gpu_or_skip};
 use lightvol_sampler::{BakeControl, BakeSettings, Method, TransportSettings, bake};
 use lightvol_sh::eval::eval_into;
@@ -189,6 +189,64 @@ fn compare_all(source: TestVolume) {
                     assert_eq!(a.well_conditioned, n);
                 }
             }
+        }
+    }
+}
+
+/// Queries whose node-reach test point lies within this many cells of a multiple of an
+/// eighth of a cell are left out of the reach comparison: [`random_masks`]' reaches are such
+/// multiples, and there the f32 roundings of the test point on the GPU and the CPU (~1e-6
+/// cells) may fall on different sides.
+const REACH_DECISION_MARGIN: f64 = 1e-3;
+
+/// The evaluator on a volume with a random validity mask and one with a random node reach
+/// ([`random_masks`]; placed, 9 coefficients): irradiance and radiance against the CPU
+/// lookup of the same volume, within [`GPU_VS_CPU_REL`] of the batch's largest value, and
+/// the weights change over a tenth of the results (an evaluator that ignored them would
+/// return the plain volume's).
+#[test]
+fn gpu_lookup_weights_validity_and_reach_like_the_cpu() {
+    let Some(ctx) = gpu_or_skip() else { return };
+    let plain = test_volume(TestVolume::Synthetic, 9, true, 21);
+    let spec = plain.spec().clone();
+    let (mask, reach) = random_masks(spec.node_count(), 22);
+    let plain_lookup = VolumeLookup::new(&ctx, &plain).unwrap();
+    for (name, vol) in [
+        ("validity", plain.clone().with_validity(mask).unwrap()),
+        ("reach", plain.clone().with_reach(reach).unwrap()),
+    ] {
+        let lookup = VolumeLookup::new(&ctx, &vol).unwrap();
+        for q in [Quantity::Irradiance, Quantity::Radiance] {
+            let (points, dirs) = random_queries(&spec, QUERIES, MARGIN, 23);
+            let gpu = lookup.evaluate(q, &points, &dirs).unwrap();
+            let base = plain_lookup.evaluate(q, &points, &dirs).unwrap();
+            let mut cpu = vec![[0.0f32; 3]; QUERIES];
+            match q {
+                Quantity::Irradiance => vol.irradiance_batch(&points, &dirs, &mut cpu).unwrap(),
+                Quantity::Radiance => vol.radiance_batch(&points, &dirs, &mut cpu).unwrap(),
+            }
+            let normal = |i: usize| (q == Quantity::Irradiance).then_some(dirs[i]);
+            let (mut worst, mut scale, mut compared, mut changed) = (0.0f64, 0.0f64, 0usize, 0usize);
+            for i in (0..QUERIES).filter(|&i| {
+                name == "validity"
+                    || clear_of_reach_decisions(&spec, points[i], normal(i), REACH_DECISION_MARGIN)
+            }) {
+                compared += 1;
+                let mut differs = false;
+                for ch in 0..3 {
+                    worst = worst.max((f64::from(gpu[i][ch]) - f64::from(cpu[i][ch])).abs());
+                    scale = scale.max(f64::from(cpu[i][ch]).abs());
+                    differs |= (gpu[i][ch] - base[i][ch]).abs() > 1e-3 * cpu[i][ch].abs();
+                }
+                changed += usize::from(differs);
+            }
+            let rel = worst / scale;
+            println!(
+                "{name}, {q:?}: {compared} queries, {changed} changed by the weights, max |GPU − CPU| / max = {rel:.2e}"
+            );
+            assert!(compared > QUERIES * 9 / 10, "{name} {q:?}: only {compared} queries compared");
+            assert!(changed > QUERIES / 10, "{name} {q:?}: only {changed} queries changed");
+            assert!(scale > 0.0 && rel <= GPU_VS_CPU_REL, "{name} {q:?}: {rel:e}");
         }
     }
 }

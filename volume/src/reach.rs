@@ -48,9 +48,9 @@
 //! coefficient lookups have no normal and test `x` itself.
 //!
 //! The trilinear CPU lookups ([`crate::lookup`]) read the reach, like the validity mask, and
-//! so does the engine shader code of lightvol-gpu (`lightvol_irradiance_reach`); the
-//! gradient lookups ([`crate::gradient`]), the adaptive octree and the Vulkan evaluator do
-//! not, and the Bevy export drops it. It
+//! so do lightvol-gpu's Vulkan evaluator and engine shader code (`lightvol_irradiance_reach`);
+//! the gradient lookups ([`crate::gradient`]) and the adaptive octree do not, and the Bevy
+//! export drops it. It
 //! travels with the volume through the native EXR ([`crate::io::exr`]), the KTX2/DDS
 //! sidecar ([`crate::io::sidecar`]) and shard files ([`crate::accumulator`]).
 //!

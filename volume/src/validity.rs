@@ -28,9 +28,9 @@
 //! discontinuous at invalid nodes by design (a dilated invalid node holds a blend of its
 //! valid neighbours, so the jump is small where dilation found them).
 //!
-//! The trilinear lookups ([`crate::lookup`]) read the mask, and so does the engine shader
-//! code of lightvol-gpu (`lightvol_irradiance_valid`); the gradient lookups
-//! ([`crate::gradient`]), the adaptive octree and the Vulkan evaluator do not.
+//! The trilinear lookups ([`crate::lookup`]) read the mask, and so do lightvol-gpu's Vulkan
+//! evaluator and engine shader code (`lightvol_irradiance_valid`); the gradient lookups
+//! ([`crate::gradient`]) and the adaptive octree do not.
 //!
 //! ## In files
 //!
