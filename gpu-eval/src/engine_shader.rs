@@ -208,7 +208,10 @@ fn lightvol_corner_weights(f: vec3<f32>) -> array<f32, 8> {
 // The weights w renormalised over the corners kept (Unity APV's run-time validity weights;
 // the node reach's corners that see the query): unchanged when every corner is kept or the
 // kept ones have no weight, else kept w / their sum and 0 elsewhere.
-fn lightvol_renormalise(w: array<f32, 8>, keep: array<bool, 8>) -> array<f32, 8> {
+fn lightvol_renormalise(weights: array<f32, 8>, kept: array<bool, 8>) -> array<f32, 8> {
+    // Copied into variables for dynamic indexing, as the SH constants are.
+    var w = weights;
+    var keep = kept;
     var s = 0.0;
     var all = true;
     for (var k = 0u; k < 8u; k++) {
