@@ -15,9 +15,9 @@ const C16: &str = "const COEFFS: u32 = 16u;\nconst BANDS: u32 = 4u;\n";
 
 /// `(output name, shader files concatenated in order, prepended WGSL constants)`.
 const VARIANTS: &[(&str, &[&str], &str)] = &[
-    ("lookup_4", &["sh.wgsl", "lookup.wgsl"], C4),
-    ("lookup_9", &["sh.wgsl", "lookup.wgsl"], C9),
-    ("lookup_16", &["sh.wgsl", "lookup.wgsl"], C16),
+    ("lookup_4", &["sh.wgsl", "weights.wgsl", "lookup.wgsl"], C4),
+    ("lookup_9", &["sh.wgsl", "weights.wgsl", "lookup.wgsl"], C9),
+    ("lookup_16", &["sh.wgsl", "weights.wgsl", "lookup.wgsl"], C16),
     ("accumulate_9", &["sh.wgsl", "accumulate.wgsl"], C9),
     ("accumulate_16", &["sh.wgsl", "accumulate.wgsl"], C16),
     ("exponentiate_9", &["exponentiate.wgsl"], C9),

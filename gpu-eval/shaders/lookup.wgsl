@@ -13,7 +13,8 @@
 // a*b+c into an FMA, so agreement is to f32 rounding, not bit-exact.
 //
 // COEFFS (4, 9 or 16) and BANDS (2, 3 or 4) are prepended by build.rs, one SPIR-V module
-// per value, together with shaders/sh.wgsl (`sh_basis`, `flat4`, `is_nan`). The buffer
+// per value, together with shaders/sh.wgsl (`sh_basis`, `flat4`, `is_nan`) and
+// shaders/weights.wgsl (`lightvol_renormalise`). The buffer
 // layouts are documented in src/lookup.rs and README.md.
 
 const K: u32 = 3u * COEFFS;
@@ -66,29 +67,6 @@ fn to_grid_space(p: vec3<f32>) -> array<f32, 3> {
         }
     }
     return g;
-}
-
-// The weights w renormalised over the corners kept, as lightvol-volume's `renormalise`:
-// unchanged when every corner is kept or the kept ones have no weight, else kept w / their
-// sum (corner order) and 0 elsewhere.
-fn renormalise(w: array<f32, 8>, keep: array<bool, 8>) -> array<f32, 8> {
-    var s = 0.0;
-    var all = true;
-    for (var c = 0u; c < 8u; c++) {
-        if keep[c] {
-            s = s + w[c];
-        } else {
-            all = false;
-        }
-    }
-    if all || !(s > 0.0) {
-        return w;
-    }
-    var out: array<f32, 8>;
-    for (var c = 0u; c < 8u; c++) {
-        out[c] = select(0.0, w[c] / s, keep[c]);
-    }
-    return out;
 }
 
 struct AxisPos {
@@ -147,7 +125,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
             let i = base + offset[c];
             keep[c] = ((validity[i >> 5u] >> (i & 31u)) & 1u) == 1u;
         }
-        w = renormalise(w, keep);
+        w = lightvol_renormalise(w, keep);
     }
     if (flags & 2u) != 0u {
         var t = p;
@@ -172,7 +150,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) 
             }
             keep[c] = sees;
         }
-        w = renormalise(w, keep);
+        w = lightvol_renormalise(w, keep);
     }
 
     // Eq. 2: L_j(x) = sum_i c_ij b_i(x), corner by corner.

@@ -414,10 +414,9 @@ mod tests {
         assert_eq!(NODE_REACH_BYTES, per_node as u128);
     }
 
-    #[test]
-    fn builtin_grid_is_the_recommended_one() {
-        let m = maze();
-        let g = GridChoice {
+    /// The scene's recommended grid, 9 coefficients, no memory limit, no node reach.
+    fn recommended() -> GridChoice {
+        GridChoice {
             bounds: None,
             res: None,
             spacing: None,
@@ -425,8 +424,12 @@ mod tests {
             memory_limit: u128::MAX,
             node_reach: false,
         }
-        .resolve(&m)
-        .unwrap();
+    }
+
+    #[test]
+    fn builtin_grid_is_the_recommended_one() {
+        let m = maze();
+        let g = recommended().resolve(&m).unwrap();
         assert_eq!(g.res(), m.grid.as_ref().unwrap().res());
         assert!(!m.defaulted_sky);
     }
@@ -434,14 +437,7 @@ mod tests {
     #[test]
     fn grid_choices_are_checked() {
         let m = maze();
-        let base = GridChoice {
-            bounds: None,
-            res: None,
-            spacing: None,
-            coeffs: 9,
-            memory_limit: u128::MAX,
-            node_reach: false,
-        };
+        let base = recommended();
         let bad = |c: GridChoice| c.resolve(&m).unwrap_err().to_string();
         assert!(bad(GridChoice { res: Some([1.0, 4.0, 4.0]), ..base.clone() }).contains("at least 2"));
         assert!(bad(GridChoice { res: Some([2.5, 4.0, 4.0]), ..base.clone() }).contains("whole number"));
