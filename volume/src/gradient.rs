@@ -41,7 +41,17 @@
 //!   patch and its normal derivative depend only on that face's four corners).
 //!
 //! All three agree with plain trilinear interpolation at the nodes (they return the node's
-//! value there). [`floats_per_sample`] and [`sample_bytes`] give \[Oat05\]'s memory
+//! value there).
+//!
+//! **Validity and node reach.** On a volume with a validity mask ([`crate::validity`]) or a
+//! node reach ([`crate::reach`]) the lookups leave out the corners the trilinear lookups
+//! leave out (the reach tested at the point moved along the surface normal for
+//! [`irradiance`], at the point itself for [`coeffs_at`]): `GradientTrilinear` takes the
+//! reweighted trilinear weights; `Taylor` expands about the nearest corner if it is kept,
+//! else about the kept corner of largest weight; `Hermite`, whose tensor-product weights
+//! are no partition over a subset of the corners, becomes `GradientTrilinear` with the
+//! reweighted weights in a cell where a corner is left out. Where no corner is left out
+//! every lookup is bit for bit the one without a mask or reach. [`floats_per_sample`] and [`sample_bytes`] give \[Oat05\]'s memory
 //! accounting: `3 n²` floats of SH per sample for order (bands) `n`, and `3 · 3 n²` more
 //! for the gradients.
 
@@ -246,20 +256,51 @@ pub fn coeffs_at(
     method: GradientLookup,
     p: [f64; 3],
 ) -> Result<Vec<f64>, VolumeError> {
+    coeffs_facing(vol, grad, method, p, None)
+}
+
+/// [`coeffs_at`] for a query with surface normal `n` (the node reach's test point moves
+/// along it, module docs).
+fn coeffs_facing(
+    vol: &IrradianceVolume,
+    grad: &VolumeGradients,
+    method: GradientLookup,
+    p: [f64; 3],
+    n: Option<[f64; 3]>,
+) -> Result<Vec<f64>, VolumeError> {
     grad.check(vol)?;
     let spec = vol.spec();
     let loc = locate(spec, p);
+    let plain = corner_weights(loc.frac);
+    // The trilinear lookups' weights: the plain ones without a mask or reach.
+    let b = if vol.validity().is_some() || vol.reach().is_some() {
+        let (nodes, b) = vol.reference_weights(p, n);
+        debug_assert_eq!(nodes, loc.nodes);
+        b
+    } else {
+        plain
+    };
+    let method = if method == GradientLookup::Hermite && b != plain {
+        GradientLookup::GradientTrilinear
+    } else {
+        method
+    };
     let mut out = vec![0.0; vol.coeffs() * 3];
     match method {
         GradientLookup::Taylor => {
-            // Nearest corner: per axis the far node when frac ≥ 1/2.
-            let c = (0..3).map(|a| usize::from(loc.frac[a] >= 0.5) << a).sum::<usize>();
+            // Nearest corner: per axis the far node when frac ≥ 1/2; if it is left out, the
+            // kept corner of largest weight (the first of equals).
+            let nearest = (0..3).map(|a| usize::from(loc.frac[a] >= 0.5) << a).sum::<usize>();
+            let c = if b[nearest] > 0.0 {
+                nearest
+            } else {
+                (0..8).fold(0, |best, c| if b[c] > b[best] { c } else { best })
+            };
             let x = node_world(spec, loc.nodes[c]);
             let d = [0, 1, 2].map(|a| loc.point[a] - x[a]);
             add_extrapolated(vol, grad, loc.nodes[c], d, 1.0, &mut out);
         }
         GradientLookup::GradientTrilinear => {
-            let b = corner_weights(loc.frac);
             for c in 0..8 {
                 if b[c] == 0.0 {
                     continue;
@@ -309,7 +350,7 @@ pub fn irradiance(
     p: [f64; 3],
     n: [f64; 3],
 ) -> Result<[f64; 3], VolumeError> {
-    let c = coeffs_at(vol, grad, method, p)?;
+    let c = coeffs_facing(vol, grad, method, p, Some(n))?;
     Ok(crate::field::expand(vol.coeffs(), &c, n, true))
 }
 

@@ -355,3 +355,75 @@ fn exr_gradient_parts_round_trip() {
     let (_, other) = random_field(spec(), 4, 1);
     assert!(exr_to_bytes_with_gradients(&vol, Some(&other), &ExrOptions::default()).is_err());
 }
+
+/// A random validity mask (about 70% valid) and node reach (half the directions a full
+/// cell, the others a multiple of an eighth below it) for `spec`.
+fn random_masks(spec: &GridSpec, seed: u64) -> (crate::ValidityMask, crate::NodeReach) {
+    let mut r = SplitMix64::new(seed);
+    let n = spec.node_count();
+    let valid = (0..n).map(|_| r.next_f64() < 0.7).collect();
+    let reach = (0..n)
+        .map(|_| {
+            std::array::from_fn(|_| if r.next_f64() < 0.5 { 1.0 } else { (r.next_u64() % 8) as f32 / 8.0 })
+        })
+        .collect();
+    (crate::ValidityMask::new(valid), crate::NodeReach::new(reach).unwrap())
+}
+
+/// With zero gradients, gradient-aided trilinear on a volume with a validity mask or a node
+/// reach is the trilinear lookup of that volume: the same corners left out (coefficients at
+/// the point, irradiance with the reach's test point moved along the normal); Hermite, in
+/// a cell with a corner left out, is gradient-aided trilinear; Taylor expands about a kept
+/// corner.
+#[test]
+fn masked_lookups_leave_out_the_trilinear_lookups_corners() {
+    let spec = spec().with_placement(placement());
+    let (vol, grad) = random_field(spec.clone(), 9, 5);
+    let zero = VolumeGradients::zeros(&vol);
+    let (mask, reach) = random_masks(&spec, 6);
+    let mut changed = 0;
+    for masked in [vol.clone().with_validity(mask).unwrap(), vol.clone().with_reach(reach).unwrap()] {
+        for (q, p) in points(&spec, 300, 7).into_iter().enumerate() {
+            let mut r = SplitMix64::new(q as u64);
+            let n = lightvol_sh::sampling::sample_uniform_sphere([r.next_f64(), r.next_f64()]);
+            let got = coeffs_at(&masked, &zero, GradientLookup::GradientTrilinear, p).unwrap();
+            assert!(max_diff(&got, &masked.coeffs_reference(p)) < 1e-12, "point {q}");
+            let e = irradiance(&masked, &zero, GradientLookup::GradientTrilinear, p, n).unwrap();
+            let want = masked.irradiance_reference(p, n);
+            assert!(max_diff(&e, &want) < 1e-12, "point {q}: {e:?} {want:?}");
+            let (nodes, b) = masked.reference_weights(p, None);
+            let plain = vol.reference_weights(p, None).1;
+            if b != plain {
+                changed += 1;
+                let h = coeffs_at(&masked, &grad, GradientLookup::Hermite, p).unwrap();
+                let gt = coeffs_at(&masked, &grad, GradientLookup::GradientTrilinear, p).unwrap();
+                assert_eq!(h, gt, "point {q}");
+                // Taylor with zero gradients is one kept corner's value.
+                let t = coeffs_at(&masked, &zero, GradientLookup::Taylor, p).unwrap();
+                let from = (0..8).filter(|&c| b[c] > 0.0).find(|&c| {
+                    max_diff(&t, &masked.node(nodes[c]).iter().map(|&v| f64::from(v)).collect::<Vec<_>>())
+                        == 0.0
+                });
+                assert!(from.is_some(), "point {q}: Taylor's corner is not kept");
+            }
+        }
+    }
+    assert!(changed > 100, "only {changed} points had a corner left out");
+    // An all-valid mask and a full reach change no bit.
+    let n = spec.node_count();
+    let full = vol
+        .clone()
+        .with_validity(crate::ValidityMask::new(vec![true; n]))
+        .unwrap()
+        .with_reach(crate::NodeReach::new(vec![[1.0; 6]; n]).unwrap())
+        .unwrap();
+    for p in points(&spec, 100, 8) {
+        for m in METHODS {
+            assert_eq!(
+                coeffs_at(&full, &grad, m, p).unwrap(),
+                coeffs_at(&vol, &grad, m, p).unwrap(),
+                "{m:?}"
+            );
+        }
+    }
+}

@@ -501,7 +501,7 @@ impl IrradianceVolume {
     /// The corners and f64 trilinear weights of world point `p`, reweighted by the validity
     /// mask and then the node reach (tested at `p + n · bias` for a surface normal `n`) if
     /// the volume has them (the references' weights).
-    fn reference_weights(&self, p: [f64; 3], n: Option<[f64; 3]>) -> ([usize; 8], [f64; 8]) {
+    pub(crate) fn reference_weights(&self, p: [f64; 3], n: Option<[f64; 3]>) -> ([usize; 8], [f64; 8]) {
         let (nodes, mut b) = self.spec().trilinear_world(p);
         if let Some(mask) = self.validity() {
             mask.reweight_f64(|c| nodes[c], &mut b);

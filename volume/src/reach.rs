@@ -47,10 +47,10 @@
 //! the test point moves; the trilinear weights stay those of `x`. Radiance lookups and
 //! coefficient lookups have no normal and test `x` itself.
 //!
-//! The trilinear CPU lookups ([`crate::lookup`]) read the reach, like the validity mask, and
-//! so do lightvol-gpu's Vulkan evaluator and engine shader code (`lightvol_irradiance_reach`);
-//! the gradient lookups ([`crate::gradient`]) and the adaptive octree do not, and the Bevy
-//! export drops it. It
+//! The trilinear CPU lookups ([`crate::lookup`]) and the gradient lookups
+//! ([`crate::gradient`]) read the reach, like the validity mask, and so do lightvol-gpu's
+//! Vulkan evaluator and engine shader code (`lightvol_irradiance_reach`); the adaptive
+//! octree does not (its bakes record none), and the Bevy export drops it. It
 //! travels with the volume through the native EXR ([`crate::io::exr`]), the KTX2/DDS
 //! sidecar ([`crate::io::sidecar`]) and shard files ([`crate::accumulator`]).
 //!

@@ -28,9 +28,9 @@
 //! discontinuous at invalid nodes by design (a dilated invalid node holds a blend of its
 //! valid neighbours, so the jump is small where dilation found them).
 //!
-//! The trilinear lookups ([`crate::lookup`]) read the mask, and so do lightvol-gpu's Vulkan
-//! evaluator and engine shader code (`lightvol_irradiance_valid`); the gradient lookups
-//! ([`crate::gradient`]) and the adaptive octree do not.
+//! The trilinear lookups ([`crate::lookup`]) and the gradient lookups ([`crate::gradient`])
+//! read the mask, and so do lightvol-gpu's Vulkan evaluator and engine shader code
+//! (`lightvol_irradiance_valid`); the adaptive octree does not.
 //!
 //! ## In files
 //!
