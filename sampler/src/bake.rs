@@ -672,7 +672,7 @@ pub const PROBE_MAX_OFFSET: f64 = 0.55;
 /// still outside; a node in a room that sees the back of a single-sided panel, a window
 /// frame or a blind across the room is not, and keeps its point sample (measured on the
 /// Breakfast Room at 1024 samples: relative RMSE 0.151 to 0.119, see the crate README).
-pub const PROBE_FAR_BACK_SHARE: f64 = 0.25;
+pub const PROBE_FAR_BACK_SHARE: f64 = crate::baselines::DDGI_BACKFACE_THRESHOLD;
 
 /// [`Method::Doi`]: a node outside the domain of interest spends at most this share of
 /// `samples` on its relocated point.
