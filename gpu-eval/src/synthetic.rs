@@ -102,12 +102,18 @@ pub fn random_masks(nodes: usize, seed: u64) -> (ValidityMask, NodeReach) {
     (ValidityMask::new(valid), NodeReach::new(reach).expect("reaches in [0, 1]"))
 }
 
+/// How far, in cells, [`clear_of_reach_decisions`] keeps a test point from every multiple
+/// of an eighth of a cell: the f32 roundings of the test point on a GPU and on the CPU
+/// differ by a few ulps of the grid coordinate (~1e-6 cells), far below this.
+pub const REACH_DECISION_MARGIN: f64 = 1e-3;
+
 /// Whether the node-reach test point of a query at `p` (`p + n · bias` with a normal `n`,
-/// `p` without) lies farther than `margin` cells from every multiple of an eighth of a cell
-/// on every axis (computed in f64): there a lookup's f32 rounding of the test point cannot
-/// change its decisions against [`random_masks`]' reaches.
+/// `p` without) lies farther than [`REACH_DECISION_MARGIN`] cells from every multiple of an
+/// eighth of a cell on every axis (computed in f64): there a lookup's f32 rounding of the
+/// test point cannot change its decisions against [`random_masks`]' reaches, which are
+/// such multiples.
 #[must_use]
-pub fn clear_of_reach_decisions(spec: &GridSpec, p: [f32; 3], n: Option<[f32; 3]>, margin: f64) -> bool {
+pub fn clear_of_reach_decisions(spec: &GridSpec, p: [f32; 3], n: Option<[f32; 3]>) -> bool {
     let bias = lightvol_volume::lookup::reach_bias(spec);
     let t: [f64; 3] = std::array::from_fn(|a| f64::from(p[a]) + n.map_or(0.0, |n| bias * f64::from(n[a])));
     let g = spec.to_grid(t);
@@ -116,7 +122,7 @@ pub fn clear_of_reach_decisions(spec: &GridSpec, p: [f32; 3], n: Option<[f32; 3]
     (0..3).all(|a| {
         let u = (g[a] - min[a]) * f64::from(res[a] - 1) / (max[a] - min[a]);
         let e = (8.0 * u).rem_euclid(1.0);
-        e.min(1.0 - e) / 8.0 > margin
+        e.min(1.0 - e) / 8.0 > REACH_DECISION_MARGIN
     })
 }
 

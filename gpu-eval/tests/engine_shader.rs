@@ -133,12 +133,6 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
     }
 }
 
-/// Queries whose reach test point lies within this many cells of a multiple of an eighth
-/// of a cell on some axis are left out of the node-reach comparison: the random reaches are
-/// multiples of an eighth, and there the GPU's and the CPU's f32 roundings of the test
-/// point (a few ulps of the grid coordinate, ~1e-6 cells) may fall on different sides.
-const REACH_DECISION_MARGIN: f64 = 1e-3;
-
 #[test]
 fn validity_and_reach_lookups_match_the_cpu_on_the_device() {
     let Some(ctx) = gpu_or_skip() else { return };
@@ -178,10 +172,9 @@ fn validity_and_reach_lookups_match_the_cpu_on_the_device() {
     ] {
         let gpu = run(lookup);
         let (mut worst, mut scale, mut compared, mut changed) = (0.0f64, 0.0f64, 0usize, 0usize);
-        for q in (0..QUERIES).filter(|&q| {
-            lookup == VALID
-                || clear_of_reach_decisions(&spec, points[q], Some(normals[q]), REACH_DECISION_MARGIN)
-        }) {
+        for q in (0..QUERIES)
+            .filter(|&q| lookup == VALID || clear_of_reach_decisions(&spec, points[q], Some(normals[q])))
+        {
             compared += 1;
             let want = cpu_vol.irradiance(points[q], normals[q]);
             let mut differs = false;

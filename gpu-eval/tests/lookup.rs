@@ -193,12 +193,6 @@ fn compare_all(source: TestVolume) {
     }
 }
 
-/// Queries whose node-reach test point lies within this many cells of a multiple of an
-/// eighth of a cell are left out of the reach comparison: [`random_masks`]' reaches are such
-/// multiples, and there the f32 roundings of the test point on the GPU and the CPU (~1e-6
-/// cells) may fall on different sides.
-const REACH_DECISION_MARGIN: f64 = 1e-3;
-
 /// The evaluator on a volume with a random validity mask and one with a random node reach
 /// ([`random_masks`]; placed, 9 coefficients): irradiance and radiance against the CPU
 /// lookup of the same volume, within [`GPU_VS_CPU_REL`] of the batch's largest value, and
@@ -227,10 +221,9 @@ fn gpu_lookup_weights_validity_and_reach_like_the_cpu() {
             }
             let normal = |i: usize| (q == Quantity::Irradiance).then_some(dirs[i]);
             let (mut worst, mut scale, mut compared, mut changed) = (0.0f64, 0.0f64, 0usize, 0usize);
-            for i in (0..QUERIES).filter(|&i| {
-                name == "validity"
-                    || clear_of_reach_decisions(&spec, points[i], normal(i), REACH_DECISION_MARGIN)
-            }) {
+            for i in (0..QUERIES)
+                .filter(|&i| name == "validity" || clear_of_reach_decisions(&spec, points[i], normal(i)))
+            {
                 compared += 1;
                 let mut differs = false;
                 for ch in 0..3 {
