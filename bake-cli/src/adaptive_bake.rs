@@ -8,11 +8,13 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 
+use lightvol_core::progress::{BakeControl, Progress};
+use lightvol_sampler::BakeSettings;
 use lightvol_sampler::adaptive::{
     AdaptiveSettings, AdaptiveStats, assemble_adaptive, bake_adaptive, bake_adaptive_level_shard,
 };
 use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, base_label, write_level};
-use lightvol_sampler::{BakeControl, BakeSettings, Progress, Tracer, Transport, TransportSettings};
+use lightvol_scene::{Tracer, Transport, TransportSettings};
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::adaptive::write_adaptive_exr;
 use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
@@ -21,8 +23,8 @@ use serde_json::json;
 use crate::bake_args::{BakeArgs, bake_key, request};
 use crate::progress::{progress_bar, run_bake, with_progress};
 use crate::setup::{LoadedScene, with_threads};
-use lightvol_sampler::provenance::scene_hash;
 use lightvol_sampler::request::AdaptiveRequest;
+use lightvol_scene::fingerprint::scene_hash;
 
 /// Runs `bake_adaptive` with a progress bar.
 #[allow(clippy::too_many_arguments, reason = "the bake's inputs plus its presentation")]
@@ -135,7 +137,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     path.display(),
                     shard.0,
                     shard.1,
-                    lightvol_sampler::shard::shard_range(part.units as usize, shard).len(),
+                    lightvol_core::shard::shard_range(part.units as usize, shard).len(),
                     part.units
                 );
             }
@@ -151,7 +153,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         } else {
             let inputs = load_inputs(&a.from_shards, &hash, &args.method)?;
             let base_stats = lightvol_sampler::BakeStats {
-                rays: lightvol_sampler::RayCounts { sampling: inputs.base_samples, ..Default::default() },
+                rays: lightvol_scene::RayCounts { sampling: inputs.base_samples, ..Default::default() },
                 ..Default::default()
             };
             with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {

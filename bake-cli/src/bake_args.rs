@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_sampler::adaptive::AdaptiveSettings;
-use lightvol_sampler::eval::entries::parse_bake_method;
+use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::provenance;
 use lightvol_sampler::request::{AdaptiveRequest, BakeRequest, Conflict, GradientChoice, RequestError};
 use lightvol_volume::GridSpec;
@@ -212,11 +212,10 @@ impl AdaptiveArgs {
 /// The bake request of the options (the shard resolved from `--shard`, `--shards` and the
 /// scheduler's environment), validated.
 pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> anyhow::Result<BakeRequest> {
-    let shard = lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
-        std::env::var(k).ok()
-    })?;
+    let shard =
+        lightvol_core::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| std::env::var(k).ok())?;
     let request = BakeRequest {
-        method: parse_bake_method(&args.method)?,
+        method: args.method.parse::<BakeMethod>().map_err(anyhow::Error::msg)?,
         samples: args.sampling.samples,
         coeffs: args.grid.coeffs(),
         seed: args.sampling.seed,
@@ -274,7 +273,7 @@ pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
         }
         RequestError::FitNeedsCells { fit, method } => anyhow::anyhow!(
             "--fit {fit} needs cell samples (--method prefilter or doi-paper); {} samples per node",
-            lightvol_sampler::eval::entries::method_name(method)
+            method.name()
         ),
         RequestError::FitWithGradients(fit) => anyhow::anyhow!(
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"

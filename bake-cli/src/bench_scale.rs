@@ -3,7 +3,7 @@
 //!
 //! - the vendored real scenes under `--data`;
 //! - grid layouts of the vendored occlusion room (1, 4 × 4, 8 × 8 and 32 × 32 rooms at a
-//!   10 m pitch, [`lightvol_sampler::layout`]) on one fixed grid, so that time and memory
+//!   10 m pitch, [`lightvol_scene::layout`]) on one fixed grid, so that time and memory
 //!   show what instanced triangles cost at equal unique triangles, grid and rays;
 //! - the built-in scenes.
 
@@ -75,9 +75,8 @@ pub(crate) fn run(data: &Path, samples: u32) -> anyhow::Result<Value> {
     let room = data.join("occlusion_room/room.glb");
     let mut layouts = Vec::new();
     for side in LAYOUT_SIDES {
-        let path: PathBuf =
-            lightvol_sampler::layout::write_grid_layout(&room, dir.path(), [side, side], 10.0)
-                .with_context(|| format!("writing the {side}x{side} layout"))?;
+        let path: PathBuf = lightvol_scene::layout::write_grid_layout(&room, dir.path(), [side, side], 10.0)
+            .with_context(|| format!("writing the {side}x{side} layout"))?;
         // One grid for every layout: the 32 × 32 layout's extent (file frame, +Y up).
         let r = bake(
             &exe,
@@ -91,7 +90,7 @@ pub(crate) fn run(data: &Path, samples: u32) -> anyhow::Result<Value> {
         std::fs::remove_file(&path).ok();
     }
     let mut builtins = Vec::new();
-    for name in lightvol_sampler::builtin::BUILTIN_NAMES {
+    for name in lightvol_scene::builtin::BUILTIN_NAMES {
         let r = bake(&exe, &format!("builtin:{name}"), &[], samples, &out)?;
         builtins.push(row(&format!("builtin:{name}"), &r));
     }

@@ -4,12 +4,13 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use lightvol_sampler::baselines::{Baseline, bake_baseline};
-use lightvol_sampler::eval::entries::BakeMethod;
+use lightvol_sampler::baselines::bake_baseline;
 use lightvol_sampler::gradient_estimator::GradientEstimator;
+use lightvol_sampler::method::BakeMethod;
+use lightvol_sampler::method::Baseline;
 use lightvol_sampler::provenance;
 use lightvol_sampler::request::{BakeRequest, Provenance, bake_uniform};
-use lightvol_sampler::{Tracer, Transport};
+use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::GridSpec;
 use lightvol_volume::frame::FileGrid;
 use lightvol_volume::io::accumulator::write_accumulator;
@@ -34,7 +35,7 @@ pub(crate) struct BakeReport {
     /// Seed.
     pub(crate) seed: u64,
     /// Rays by kind.
-    pub(crate) rays: lightvol_sampler::RayCounts,
+    pub(crate) rays: lightvol_scene::RayCounts,
     /// Cells where Algorithm 2 found back faces.
     pub(crate) cells_with_back_faces: u64,
     /// Candidate samples.
@@ -118,7 +119,7 @@ impl ScaleJson {
                 ) + u128::from(loaded.memory.total()),
             )
             .unwrap_or(u64::MAX),
-            peak_memory_bytes: lightvol_sampler::estimate::peak_resident_bytes(),
+            peak_memory_bytes: lightvol_scene::estimate::peak_resident_bytes(),
             total_seconds: started.elapsed().as_secs_f64(),
         }
     }

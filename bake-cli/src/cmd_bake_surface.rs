@@ -1,7 +1,7 @@
 //! `lightvol bake-surface`: coefficient maps for lightmapped, normal-mapped surfaces
 //! (\[Ish11\] §2.2): per texel, incident radiance over the tangent-space hemisphere is path
 //! traced, projected to SH, convolved with the clamped cosine and converted to a hemispherical
-//! basis (lightvol-sampler's `surface` module; the textures and their errors come from
+//! basis (lightvol-surface; the textures and their errors come from
 //! `surface::storage`).
 //!
 //! Output in `DIR` (created after the bake succeeded; nothing is written when anything
@@ -22,16 +22,15 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
+use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_hemibasis::bc::BlockFormat;
-use lightvol_sampler::surface::shard_io::{TexelSetError, TexelShardHeader, texel_set_records, write_texels};
-use lightvol_sampler::surface::storage::{
-    Container, StorageError, StorageSettings, SurfaceBakeSummary, store_maps,
-};
-use lightvol_sampler::surface::{
+use lightvol_scene::{Tracer, Transport, TransportSettings};
+use lightvol_surface::shard_io::{TexelSetError, TexelShardHeader, texel_set_records, write_texels};
+use lightvol_surface::storage::{Container, StorageError, StorageSettings, SurfaceBakeSummary, store_maps};
+use lightvol_surface::{
     BasisChoice, InvalidTexels, Quantity, SurfaceGeometry, SurfaceSettings, UvSet, assemble_surface,
     bake_surface, bake_surface_texels, write_surface_exr,
 };
-use lightvol_sampler::{BakeControl, Progress, Tracer, Transport, TransportSettings};
 
 use crate::imaging::write_atomic;
 use crate::progress::progress_bar;
@@ -44,17 +43,18 @@ fn shard_fingerprint(
     settings: &SurfaceSettings,
     ts: &TransportSettings,
 ) -> String {
-    use lightvol_sampler::provenance::{scene_hash, surface_key};
+    use lightvol_scene::fingerprint::scene_hash;
+    use lightvol_surface::key::surface_key;
     scene_hash(&loaded.scene, &surface_key(&loaded.scene, settings, ts))
 }
 
-/// The texel records of basis `tag` from `--from-shards` (lightvol-sampler's
-/// `surface::shard_io::texel_set_records`).
+/// The texel records of basis `tag` from `--from-shards` (lightvol-surface's
+/// `shard_io::texel_set_records`).
 fn shard_records(
     files: &[PathBuf],
     tag: &str,
     fingerprint: &str,
-) -> anyhow::Result<Vec<lightvol_sampler::surface::TexelRecord>> {
+) -> anyhow::Result<Vec<lightvol_surface::TexelRecord>> {
     texel_set_records(files, tag, fingerprint).map_err(|e| match e {
         TexelSetError::NoShards(tag) => {
             anyhow::anyhow!("no texel shard of basis {tag} among the --from-shards files")
@@ -233,7 +233,7 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     if args.output.exists() && !args.output.is_dir() {
         bail!("output {} exists and is not a directory", args.output.display());
     }
-    let shard = match lightvol_sampler::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
+    let shard = match lightvol_core::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
         std::env::var(k).ok()
     })? {
         (0, 1) if args.shard.is_none() => None,

@@ -9,8 +9,10 @@ use std::time::Instant;
 
 use anyhow::Context;
 use clap::Args;
-use lightvol_sampler::builtin::builtin;
-use lightvol_sampler::{BakeControl, BakeSettings, DVec3, Method, Tracer, Transport, TransportSettings};
+use lightvol_core::progress::BakeControl;
+use lightvol_sampler::{BakeSettings, Method};
+use lightvol_scene::builtin::builtin;
+use lightvol_scene::{DVec3, Tracer, Transport, TransportSettings};
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use lightvol_volume::{GridSpec, IrradianceVolume};
@@ -121,19 +123,19 @@ pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
             Some(b) => b.scene,
             None => {
                 let path = std::path::Path::new(&args.scene);
-                lightvol_sampler::load_scene(path, &lightvol_sampler::LoadOptions::default())
+                lightvol_scene::load_scene(path, &lightvol_scene::LoadOptions::default())
                     .with_context(|| format!("loading {} (not a built-in scene either)", path.display()))?
             }
         };
         let quality = match args.bvh_quality.as_str() {
-            "fast" => lightvol_sampler::BuildQuality::Fast,
-            "slow" => lightvol_sampler::BuildQuality::Slow,
-            _ => lightvol_sampler::BuildQuality::Medium,
+            "fast" => lightvol_scene::BuildQuality::Fast,
+            "slow" => lightvol_scene::BuildQuality::Slow,
+            _ => lightvol_scene::BuildQuality::Medium,
         };
         let levels = match args.levels.as_str() {
-            "one" => lightvol_sampler::Levels::One,
-            "two" => lightvol_sampler::Levels::Two,
-            _ => lightvol_sampler::Levels::Auto,
+            "one" => lightvol_scene::Levels::One,
+            "two" => lightvol_scene::Levels::Two,
+            _ => lightvol_scene::Levels::Auto,
         };
         let mut report = crate::embree_baseline::compare(&scene, args.rays, 42, quality, levels)?;
         report["scene"] = json!(args.scene);

@@ -2,7 +2,7 @@
 //!
 //! Both write job files that run `lightvol bake ... --shard auto --shards N` once per
 //! shard (the shard index comes from the scheduler's array variables, see
-//! `lightvol_sampler::shard`) and then one `lightvol merge` of the shards' exact sums, which
+//! `lightvol_core::shard`) and then one `lightvol merge` of the shards' exact sums, which
 //! equals the whole bake bit for bit.
 //!
 //! - `slurm` writes `bake.sbatch` (a job array), `merge.sbatch` and `submit.sh` into the
@@ -162,7 +162,7 @@ fn shard_count(bake: &BakeArgs) -> anyhow::Result<u32> {
     if bake.shard.is_some() {
         bail!("--shard is set by the jobs (--shard auto); give only --shards N");
     }
-    if let Some(b) = lightvol_sampler::baselines::Baseline::from_name(&bake.method) {
+    if let Some(b) = lightvol_sampler::method::Baseline::from_name(&bake.method) {
         bail!(
             "--method {} is not sharded (the engine baselines bake a whole uniform grid: use lightvol bake)",
             b.name()

@@ -1,7 +1,7 @@
 //! `lightvol compare`: bake every method at equal sample budget and evaluate each on a
 //! horizontal plate against a path-traced reference (Kontkanen & Laine 2006, Fig. 6).
 //!
-//! The comparison itself is lightvol-sampler's `eval::compare`; this verb turns the options
+//! The comparison itself is lightvol-eval's `compare`; this verb turns the options
 //! into its `CompareConfig`, draws its progress, and writes the files `eval::report` makes
 //! of what it returns: `report.json`,
 //! `plate.exr`, the panels, with `--camera` the views (`view_CAMERA_METHOD.png`,
@@ -14,14 +14,15 @@ use std::sync::{Mutex, PoisonError};
 use anyhow::Context;
 use clap::Args;
 use indicatif::ProgressBar;
-use lightvol_sampler::eval::report::{CompareReport, compare_files};
-use lightvol_sampler::eval::sweep::{MAX_SWEEP_SCALE, SweepConfig, check_scales};
-use lightvol_sampler::eval::{
+use lightvol_core::progress::Progress;
+use lightvol_eval::report::{CompareReport, compare_files};
+use lightvol_eval::sweep::{MAX_SWEEP_SCALE, SweepConfig, check_scales};
+use lightvol_eval::{
     CompareConfig, Comparison, EvalError, Metrics, NamedEntry, Observer, PlateConfig, SweepPoint, ViewCamera,
     ViewsConfig, default_plate_height,
 };
-use lightvol_sampler::view::ViewError;
-use lightvol_sampler::{GridSpec, Progress};
+use lightvol_view::ViewError;
+use lightvol_volume::GridSpec;
 
 use crate::compare_views::{ViewArgs, cameras};
 use crate::imaging::write_atomic;
@@ -255,13 +256,13 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let threads = resolve_threads(args.sampling.threads)?;
     let config = config(args, methods, grid, height, views, threads);
-    let result = lightvol_sampler::eval::compare(&loaded.scene, &config, &ProgressBars::new(args.quiet))
-        .map_err(flag_error)?;
+    let result =
+        lightvol_eval::compare(&loaded.scene, &config, &ProgressBars::new(args.quiet)).map_err(flag_error)?;
     write_outputs(&args.output, &loaded, &config, &result, &args.views.cameras)
 }
 
 /// Writes the panels, the views, the sweep's files, `plate.exr` and `report.json` of
-/// `result` into `dir` (lightvol-sampler's `eval::report::compare_files`; `specs`: the
+/// `result` into `dir` (lightvol-eval's `report::compare_files`; `specs`: the
 /// `--camera` options of the views); returns the report.
 fn write_outputs(
     dir: &Path,

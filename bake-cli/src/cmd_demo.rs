@@ -1,17 +1,17 @@
 //! `lightvol demo`: the main job on the built-in scenes. Runs `compare` on `city`,
 //! `interior` and `maze` at their recommended settings, sweeps the grid resolution on
 //! `city`, and writes an `index.html` that shows every panel, the metrics and the plot
-//! (lightvol-sampler's `eval::report::index_html`).
+//! (lightvol-eval's `report::index_html`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
-use lightvol_sampler::builtin::BUILTIN_NAMES;
-use lightvol_sampler::eval::report::index_html;
-use lightvol_sampler::eval::{NamedEntry, Plate, resolution_sweep};
-use lightvol_sampler::{Tracer, Transport};
+use lightvol_eval::report::index_html;
+use lightvol_eval::{NamedEntry, Plate, resolution_sweep};
+use lightvol_scene::builtin::BUILTIN_NAMES;
+use lightvol_scene::{Tracer, Transport};
 
 use crate::cmd_compare::{CompareArgs, ProgressBars, compare, config, flag_error};
 use crate::imaging::{Plot, write_atomic};
@@ -168,7 +168,7 @@ fn scene_compare_args(
 }
 
 /// Relative RMSE against grid resolution on `city` for every method (one plate and
-/// reference, re-used for every grid; lightvol-sampler's `eval::resolution_sweep`).
+/// reference, re-used for every grid; lightvol-eval's `resolution_sweep`).
 fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
     let ca = compare_args("city", args.output.join("city"), level, args);
     let loaded = ca.scene.load()?;

@@ -1,14 +1,14 @@
 //! `lightvol inspect SCENE [--json]`: what the loader understood of a scene file — unique
 //! and instanced triangles, objects, materials with alpha mode and sidedness, extensions and
 //! how each was treated, lights, cameras, bounds in the file's axes and in lightvol's
-//! internal +Z-up frame, and every warning (lightvol-sampler's `scene_summary`). The first
+//! internal +Z-up frame, and every warning (lightvol-scene's `scene_summary`). The first
 //! place to look when a bake looks wrong.
 
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
-use lightvol_sampler::scene_summary::{summarize, text};
+use lightvol_scene::scene_summary::{summarize, text};
 
 use crate::setup::SceneArgs;
 

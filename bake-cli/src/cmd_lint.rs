@@ -5,8 +5,8 @@
 use std::process::ExitCode;
 
 use clap::Args;
-use lightvol_sampler::diagnostics::{BackFaceSettings, back_face_report, lattice_points, winding_report};
-use lightvol_sampler::{DVec3, Tracer};
+use lightvol_scene::diagnostics::{BackFaceSettings, back_face_report, lattice_points, winding_report};
+use lightvol_scene::{DVec3, Tracer};
 use serde::Serialize;
 
 use crate::setup::{GridArgs, SceneArgs, with_threads};

@@ -3,16 +3,16 @@
 //! with `--reference`. This is the "helicopter" view of Kontkanen & Laine 2006 Fig. 1: it
 //! shows leaking where a person can see it.
 //!
-//! The view itself is lightvol-sampler's `view` module; this verb reads the volume, turns
+//! The view itself is lightvol-view; this verb reads the volume, turns
 //! the options into a camera and a `ViewConfig`, and encodes the image.
 
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use lightvol_sampler::view::{
+use lightvol_scene::{DVec3, Tracer, Transport};
+use lightvol_view::{
     Camera, Quantity, ReferenceConfig, ViewConfig, ViewError, ViewImage, render_reference, render_volume,
 };
-use lightvol_sampler::{DVec3, Tracer, Transport};
 
 use crate::imaging::auto_exposure;
 use crate::progress::with_report_bar;

@@ -1,13 +1,13 @@
 //! `lightvol render SCENE --surface DIR -o OUT`: \[Ish11\] Fig. 3.5, rendered by
-//! lightvol-sampler's `surface::shaded_view` (each basis's maps at the normal-mapped
+//! lightvol-surface's `shaded_view` (each basis's maps at the normal-mapped
 //! tangent-space normal, the modified H-basis's lower levels of detail, and a path-traced
 //! reference of the same quantity).
 //!
-//! The maps record what lit their bake (`lightvol_sampler::surface::lighting_fingerprint`:
+//! The maps record what lit their bake (`lightvol_scene::fingerprint::lighting_fingerprint`:
 //! environment, sun, punctual lights, emitters and the bounce count). The render refuses, with
 //! one line and before writing anything, maps in `DIR` that disagree with each other (a stale
 //! file) or with its own scene and lights under the maps' bounce count; the reference is
-//! traced with that bounce count (lightvol-sampler's `surface::map_dir`). `invalid_texels`
+//! traced with that bounce count (lightvol-surface's `map_dir`). `invalid_texels`
 //! is read from the EXR maps.
 //!
 //! `OUT/sheet.png` tiles the reference, the bases in file-name order, `lightmap` and
@@ -24,11 +24,11 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use lightvol_sampler::picture::sheet;
-use lightvol_sampler::surface::SurfaceGeometry;
-use lightvol_sampler::surface::map_dir::{MapDirError, check_lighting, check_objects, read_map_dir};
-use lightvol_sampler::surface::shaded_view::{MapSet, NormalMap, ShadedViewSettings, render_shaded_view};
-use lightvol_sampler::view::Camera;
+use lightvol_surface::SurfaceGeometry;
+use lightvol_surface::map_dir::{MapDirError, check_lighting, check_objects, read_map_dir};
+use lightvol_surface::shaded_view::{MapSet, NormalMap, ShadedViewSettings, render_shaded_view};
+use lightvol_view::Camera;
+use lightvol_view::picture::sheet;
 use serde::Serialize;
 
 use crate::imaging::{AUTO_EXPOSURE_MEAN, Rgb32, write_atomic, write_png_linear};

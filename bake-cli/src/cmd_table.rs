@@ -1,12 +1,12 @@
 //! `lightvol table`: the scene × method Markdown table of `compare` reports
-//! ([`lightvol_sampler::eval::table`]).
+//! ([`lightvol_eval::table`]).
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use lightvol_sampler::eval::table::{TableRow, markdown_table};
+use lightvol_eval::table::{TableRow, markdown_table};
 use serde_json::Value;
 
 /// `lightvol table`.

@@ -1,12 +1,13 @@
 //! The views of `lightvol compare` (`--camera`): the options and the cameras they name in
-//! the scene. The views themselves are lightvol-sampler's `eval::views`, their files and
+//! the scene. The views themselves are lightvol-eval's `views`, their files and
 //! report entries `eval::report::view_files`.
 
 use anyhow::Context;
 use clap::Args;
-use lightvol_sampler::eval::{ViewCamera, ViewsConfig};
-use lightvol_sampler::view::{Camera, CameraSpec};
-use lightvol_sampler::{DVec3, GridSpec};
+use lightvol_eval::{ViewCamera, ViewsConfig};
+use lightvol_scene::DVec3;
+use lightvol_view::{Camera, CameraSpec};
+use lightvol_volume::GridSpec;
 
 use crate::render_args::{camera_error, image_size};
 use crate::setup::LoadedScene;

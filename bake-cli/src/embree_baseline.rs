@@ -16,7 +16,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use lightvol_sampler::{BuildQuality, DVec3, Levels, Scene, Tracer};
+use lightvol_scene::{BuildQuality, DVec3, Levels, Scene, Tracer};
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use serde_json::{Value, json};

@@ -1,11 +1,11 @@
-//! Image and plot files for people to look at: lightvol-sampler's `picture` encodes them,
+//! Image and plot files for people to look at: lightvol-view's `picture` encodes them,
 //! these write them atomically, naming the path in errors.
 
 use std::path::Path;
 
 use anyhow::Context;
-pub(crate) use lightvol_sampler::picture::{AUTO_EXPOSURE_MEAN, Plot, Rgb32, auto_exposure};
-use lightvol_sampler::picture::{exr_linear, png_linear, png_rgb8};
+pub(crate) use lightvol_view::picture::{AUTO_EXPOSURE_MEAN, Plot, Rgb32, auto_exposure};
+use lightvol_view::picture::{exr_linear, png_linear, png_rgb8};
 
 /// Writes an 8-bit RGB PNG atomically (temporary file, then rename).
 pub(crate) fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> anyhow::Result<()> {

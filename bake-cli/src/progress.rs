@@ -2,9 +2,9 @@
 
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
-use lightvol_sampler::{
-    BakeControl, BakeOutput, BakeSettings, Progress, Tracer, Transport, TransportSettings,
-};
+use lightvol_core::progress::{BakeControl, Progress};
+use lightvol_sampler::{BakeOutput, BakeSettings};
+use lightvol_scene::{Tracer, Transport, TransportSettings};
 use lightvol_volume::GridSpec;
 
 use crate::setup::LoadedScene;

@@ -1,12 +1,12 @@
 //! The options of `lightvol render` and what they resolve to: the image size and the
-//! camera (`--camera SPEC`, lightvol-sampler's `view::CameraSpec`), shared by the volume and
+//! camera (`--camera SPEC`, lightvol-view's `CameraSpec`), shared by the volume and
 //! the surface render and by `compare`'s views.
 
 use std::path::PathBuf;
 
 use clap::Args;
-use lightvol_sampler::view::{Camera, CameraSpec, Quantity, ViewConfig, ViewError};
-use lightvol_sampler::{Scene, UpAxis};
+use lightvol_scene::{Scene, UpAxis};
+use lightvol_view::{Camera, CameraSpec, Quantity, ViewConfig, ViewError};
 
 use crate::setup::SceneArgs;
 

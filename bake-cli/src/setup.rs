@@ -5,10 +5,14 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use lightvol_sampler::TransportSettings;
+use lightvol_sampler::Method;
 pub(crate) use lightvol_sampler::scene_setup::LoadedScene;
-use lightvol_sampler::scene_setup::{self, GridChoice, GridError, LightOverrides, SceneSource, SetupError};
-use lightvol_sampler::{DVec3, LoadOptions, Method, Sun, UpAxis};
+use lightvol_sampler::{
+    scene_setup,
+    scene_setup::{GridChoice, GridError, LightOverrides, SceneSource, SetupError},
+};
+use lightvol_scene::TransportSettings;
+use lightvol_scene::{DVec3, LoadOptions, Sun, UpAxis};
 use lightvol_volume::GridSpec;
 
 /// Where the scene comes from and how to light it.
@@ -93,11 +97,11 @@ impl Default for PathArgs {
 }
 
 impl PathArgs {
-    /// The path settings (module docs of lightvol-sampler's `transport`): unbiased by
+    /// The path settings (module docs of lightvol-scene's `transport`): unbiased by
     /// default, else at most N bounces.
     #[must_use]
     pub(crate) fn transport(&self) -> TransportSettings {
-        let direct = lightvol_sampler::transport::DirectLight::parse(&self.light).unwrap_or_default();
+        let direct = lightvol_scene::transport::DirectLight::parse(&self.light).unwrap_or_default();
         match self.bounces {
             None => TransportSettings { direct, ..TransportSettings::default() },
             Some(n) => TransportSettings {
@@ -134,7 +138,7 @@ pub(crate) struct SampleArgs {
     pub(crate) threads: Option<usize>,
     /// How prefilter/doi-paper node values come from their samples: `average` (Kontkanen & Laine
     /// Eq. 6) or `lsq[:LAMBDA]` (least squares over the domain of interest, regularised
-    /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `fit` module).
+    /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `node_fit` module).
     #[arg(long, default_value = "average")]
     pub(crate) fit: lightvol_sampler::node_fit::Fit,
 }
@@ -207,7 +211,7 @@ impl SceneArgs {
     }
 
     /// [`load`](Self::load), refusing a scene whose estimated memory
-    /// (`lightvol_sampler::estimate`: geometry, ray tracer, textures) exceeds `limit` bytes
+    /// (`lightvol_scene::estimate`: geometry, ray tracer, textures) exceeds `limit` bytes
     /// before its geometry is read.
     pub(crate) fn load_within(&self, limit: u128) -> anyhow::Result<LoadedScene> {
         let loaded = self.load_quiet_within(limit)?;
@@ -313,13 +317,13 @@ impl SampleArgs {
 
 /// Parses a method name.
 pub(crate) fn parse_method(s: &str) -> anyhow::Result<Method> {
-    Ok(lightvol_sampler::eval::entries::parse_method(s)?)
+    Ok(lightvol_eval::entries::parse_method(s)?)
 }
 
 /// The worker threads to use: `threads` (`--threads`), else `SLURM_CPUS_PER_TASK` when the
 /// scheduler sets it, else `None` (the global pool, all cores).
 pub(crate) fn resolve_threads(threads: Option<usize>) -> anyhow::Result<Option<usize>> {
-    match threads.or_else(|| lightvol_sampler::shard::threads_from_env(|k| std::env::var(k).ok())) {
+    match threads.or_else(|| lightvol_core::shard::threads_from_env(|k| std::env::var(k).ok())) {
         Some(0) => bail!("--threads must be at least 1"),
         t => Ok(t),
     }

@@ -6,3 +6,5 @@ pub mod hash;
 #[cfg(feature = "ktx2")]
 pub mod ktx2;
 pub mod metric;
+pub mod progress;
+pub mod shard;

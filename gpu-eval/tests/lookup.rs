@@ -14,10 +14,12 @@
 
 use std::sync::Mutex;
 
+use lightvol_core::progress::BakeControl;
 use lightvol_gpu::lookup::Quantity;
 use lightvol_gpu::synthetic::{clear_of_reach_decisions, random_masks, random_queries, smooth_random_volume};
 use lightvol_gpu::{GpuError, VolumeLookup, gpu_or_skip};
-use lightvol_sampler::{BakeControl, BakeSettings, Method, TransportSettings, bake};
+use lightvol_sampler::{BakeSettings, Method, bake};
+use lightvol_scene::TransportSettings;
 use lightvol_sh::eval::eval_into;
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::irradiance::cosine_lobe_factor;
@@ -61,9 +63,9 @@ fn baked_city(coeffs: usize) -> IrradianceVolume {
     if let Some((_, v)) = cache.iter().find(|(c, _)| *c == coeffs) {
         return v.clone();
     }
-    let city = lightvol_sampler::builtin::city();
-    let tracer = lightvol_sampler::Tracer::new(&city.scene);
-    let transport = lightvol_sampler::Transport::new(&city.scene, &tracer, TransportSettings::default());
+    let city = lightvol_scene::builtin::city();
+    let tracer = lightvol_scene::Tracer::new(&city.scene);
+    let transport = lightvol_scene::Transport::new(&city.scene, &tracer, TransportSettings::default());
     let grid = GridSpec::new([-14.0, -14.0, -1.0], [14.0, 14.0, 11.0], [7, 7, 4]).unwrap();
     let settings =
         BakeSettings { method: Method::DoiPaper, samples: 16, coeffs, seed: 8, ..Default::default() };

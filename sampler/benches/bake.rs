@@ -2,9 +2,9 @@
 //! wall time per bake; the ray counts are printed once (ratio of rays traced).
 
 use divan::Bencher;
-use lightvol_sampler::{
-    BakeControl, BakeSettings, Method, Tracer, Transport, TransportSettings, bake, builtin,
-};
+use lightvol_core::progress::BakeControl;
+use lightvol_sampler::{BakeSettings, Method, bake};
+use lightvol_scene::{Tracer, Transport, TransportSettings, builtin};
 
 fn main() {
     let c = builtin::city();

@@ -49,12 +49,15 @@ use lightvol_volume::{
 use rayon::prelude::*;
 
 use crate::adaptive_shard::{LevelSums, plan_hash};
-use crate::bake::{BakeControl, BakeOutput, BakeSettings, Method, Progress, bake, bake_units_fixed};
-use crate::bvh::Tracer;
+use crate::bake::{BakeOutput, BakeSettings, bake, bake_units_fixed};
 use crate::error::BakeError;
-use crate::qmc::Qmc;
-use crate::stats::{BakeStats, RayCounts};
-use crate::transport::Transport;
+use crate::method::Method;
+use crate::stats::BakeStats;
+use lightvol_core::progress::{BakeControl, Progress};
+use lightvol_scene::bvh::Tracer;
+use lightvol_scene::qmc::Qmc;
+use lightvol_scene::stats::RayCounts;
+use lightvol_scene::transport::Transport;
 
 /// Settings of an adaptive bake: lightvol-volume's [`OctreeSettings`](lightvol_volume::adaptive::OctreeSettings),
 /// the one definition (every octree file records them).
@@ -511,7 +514,7 @@ fn drive(
                 }
                 None => match target {
                     Some((t, shard)) if *t == level => {
-                        let r = crate::shard::shard_range(units.len(), *shard);
+                        let r = lightvol_core::shard::shard_range(units.len(), *shard);
                         planned.fetch_add(r.len(), Ordering::Relaxed);
                         let (sums, st) = bake_units_fixed(transport, &grid, settings, &units[r], &inner)?;
                         return Err(Halt::Stop(Box::new(LevelSums {

@@ -8,7 +8,7 @@
 //! 1. level 0 is an ordinary sharded bake of the base grid (exact `.lvacc` sums);
 //! 2. for each level `l ≥ 1`, every shard merges the complete sets of the levels below,
 //!    replays the deterministic builder up to level `l` (heuristics included), and bakes its
-//!    contiguous share ([`crate::shard::shard_range`]) of the level's sorted unit list,
+//!    contiguous share ([`lightvol_core::shard::shard_range`]) of the level's sorted unit list,
 //!    writing the exact subset sums ([`crate::adaptive::bake_adaptive_level_shard`]);
 //! 3. assembly merges every level and replays the builder once more
 //!    ([`crate::adaptive::assemble_adaptive`]).
@@ -40,7 +40,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bake::FixedSubsetSums;
 use crate::error::BakeError;
-use crate::stats::RayCounts;
+use lightvol_scene::stats::RayCounts;
 
 const MAGIC: &[u8; 6] = b"LVREF\0";
 const VERSION: u16 = 1;
@@ -156,7 +156,7 @@ pub fn level_to_bytes(l: &LevelSums, shard: (u32, u32), scene_hash: &str) -> Vec
     for p in poisoned {
         out.extend_from_slice(&p.to_le_bytes());
     }
-    crate::shard::frame_shard_file(MAGIC, VERSION, &header, &out)
+    lightvol_core::shard::frame_shard_file(MAGIC, VERSION, &header, &out)
 }
 
 /// Parses one shard of a level.
@@ -166,7 +166,7 @@ pub fn level_to_bytes(l: &LevelSums, shard: (u32, u32), scene_hash: &str) -> Vec
 /// file before anything is allocated.
 pub fn level_from_bytes(bytes: &[u8]) -> Result<(LevelSums, LevelShardHeader), BakeError> {
     let (header, data): (LevelShardHeader, &[u8]) =
-        crate::shard::unframe_shard_file(bytes, MAGIC, VERSION, "level shard").map_err(err)?;
+        lightvol_core::shard::unframe_shard_file(bytes, MAGIC, VERSION, "level shard").map_err(err)?;
     if header.shard_count == 0
         || header.shard_index >= header.shard_count
         || header.level == 0

@@ -4,11 +4,11 @@
 
 use super::*;
 use crate::bake::bake_units;
-use crate::builtin::city;
 use crate::domain::classify_points;
-use crate::reference::reference_irradiance_many;
-use crate::scene::{Material, SceneBuilder};
-use crate::transport::TransportSettings;
+use lightvol_scene::builtin::city;
+use lightvol_scene::reference::reference_irradiance_many;
+use lightvol_scene::scene::{Material, SceneBuilder};
+use lightvol_scene::transport::TransportSettings;
 use lightvol_sh::lowdisc::SplitMix64;
 use std::sync::atomic::AtomicBool;
 
@@ -151,7 +151,7 @@ fn harmonic_mean_depth_above_a_plane_is_four_times_the_height() {
     // Inside a closed building of the city, every ray meets a back face.
     let c = city();
     let t = Tracer::new(&c.scene);
-    let (lo, hi) = crate::builtin::city_buildings()[0];
+    let (lo, hi) = lightvol_scene::builtin::city_buildings()[0];
     let (hm, inside) = harmonic_mean_depth(&t, (lo + hi) * 0.5, 64, 1, 2);
     assert!(inside && hm.is_finite());
     assert_eq!(harmonic_mean_depth(&t, DVec3::new(0.0, 0.0, 1e6), 16, 1, 2).0, f64::INFINITY);

@@ -22,11 +22,11 @@
 //! parallel in chunks; each unit's samples use only per-(unit, sample) random streams; the
 //! results are fed into the accumulator strictly in unit order. Any thread count therefore
 //! gives bit-identical sums. Shard `k` of `n` takes a contiguous range of units
-//! ([`crate::shard::shard_range`]); the accumulator's sums are exact fixed-point integers
+//! ([`lightvol_core::shard::shard_range`]); the accumulator's sums are exact fixed-point integers
 //! (lightvol-volume's `fixed`), so merging shards in any order gives the whole bake's bits.
 
 use std::f64::consts::PI;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -41,53 +41,11 @@ use rayon::prelude::*;
 
 use crate::domain::{Retest, classify_cell};
 use crate::error::BakeError;
-use crate::qmc::Qmc;
+use crate::method::Method;
 use crate::stats::BakeStats;
-use crate::transport::{PathRng, Transport};
-
-/// Which estimator fills the grid.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Method {
-    /// Eq. 4: directions sampled at each node.
-    Point,
-    /// Eq. 5-6 without the domain test.
-    Prefilter,
-    /// Eq. 5-6 with Algorithm 2, the paper's method (`doi-paper`): candidates uniform in each
-    /// cell, those in the domain of interest averaged over each node's trilinear support.
-    DoiPaper,
-    /// Algorithm 2's domain test on a node's own cell: candidates uniform in the box of one
-    /// cell centred on the node (half a cell each way), averaged with equal weights over
-    /// those in the domain of interest. A support half as wide as Eq. 6's trilinear one.
-    DoiNode,
-    /// The default (`doi`): a probe per node, kept in the domain of interest. Point-sampled
-    /// (Eq. 4) where the node is in the domain: it sees no back face inside its trilinear
-    /// support, and back faces beyond it in at most [`PROBE_FAR_BACK_SHARE`] of its
-    /// directions (a distance-limited test, so that the back of a single-sided panel seen
-    /// across a room does not move the node); otherwise at the point reached through its
-    /// closest back face (the relocation rule of \[Maj21\], preferring points that stay in
-    /// the grid's box, up to [`PROBE_MAX_OFFSET`] of a cell) when that point is in the
-    /// domain by the same test;
-    /// otherwise no samples of its own, so that the volume's fill gives it the mean of its
-    /// neighbours' estimates. See [`ProbeCapture`]. The bake also records every node's
-    /// reach ([`crate::reach`]), with which the volume's lookups leave out the nodes on the
-    /// far side of a wall from the query point.
-    #[default]
-    Doi,
-}
-
-impl std::str::FromStr for Method {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "point" => Ok(Self::Point),
-            "prefilter" => Ok(Self::Prefilter),
-            "doi" => Ok(Self::Doi),
-            "doi-paper" => Ok(Self::DoiPaper),
-            "doi-node" => Ok(Self::DoiNode),
-            _ => Err(format!("unknown method '{s}' (point, prefilter, doi, doi-paper, doi-node)")),
-        }
-    }
-}
+use lightvol_core::progress::{BakeControl, Progress};
+use lightvol_scene::qmc::Qmc;
+use lightvol_scene::transport::{PathRng, Transport};
 
 /// Bake settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -120,34 +78,6 @@ impl Default for BakeSettings {
             shard: (0, 1),
             chunk: 256,
         }
-    }
-}
-
-/// Progress report: units done of the shard's total.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Progress {
-    /// Units finished.
-    pub done: usize,
-    /// Units in this shard.
-    pub total: usize,
-}
-
-/// Progress callback and cancellation flag (both optional).
-#[derive(Clone, Copy, Default)]
-pub struct BakeControl<'a> {
-    /// Called after every chunk, from the calling thread.
-    pub progress: Option<&'a (dyn Fn(Progress) + Sync)>,
-    /// When it becomes true the bake stops at the next unit and returns
-    /// [`BakeError::Cancelled`].
-    pub cancel: Option<&'a AtomicBool>,
-}
-
-impl std::fmt::Debug for BakeControl<'_> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("BakeControl")
-            .field("progress", &self.progress.is_some())
-            .field("cancel", &self.cancel)
-            .finish()
     }
 }
 
@@ -233,7 +163,7 @@ pub(crate) fn bake_with_sink(
         Method::Point | Method::DoiNode | Method::Doi => grid.node_count(),
         Method::Prefilter | Method::DoiPaper => grid.cell_count(),
     };
-    let range = crate::shard::shard_range(units, (k, n));
+    let range = lightvol_core::shard::shard_range(units, (k, n));
     let lo = range.start;
     let mut relocated = vec![None; if settings.method == Method::Doi { range.len() } else { 0 }];
     let mut record = |out: &UnitOut| {
@@ -581,7 +511,7 @@ pub(crate) fn sample_terms(
     settings: &BakeSettings,
     x: DVec3,
     dir: DVec3,
-    hit: Option<crate::bvh::Hit>,
+    hit: Option<lightvol_scene::bvh::Hit>,
     rng: &mut PathRng,
     stats: &mut BakeStats,
 ) -> ([(DVec3, [f64; 3]); 2], u8) {

@@ -2,11 +2,11 @@
 //! progress and cancellation.
 
 use super::*;
-use crate::builtin::{city, city_buildings};
-use crate::bvh::Tracer;
-use crate::reference::reference_irradiance;
-use crate::transport::TransportSettings;
-use std::sync::atomic::AtomicUsize;
+use lightvol_scene::builtin::{city, city_buildings};
+use lightvol_scene::bvh::Tracer;
+use lightvol_scene::reference::reference_irradiance;
+use lightvol_scene::transport::TransportSettings;
+use std::sync::atomic::{AtomicBool, AtomicUsize};
 
 fn small_city_grid() -> GridSpec {
     GridSpec::new([-14.0, -14.0, -1.0], [14.0, 14.0, 11.0], [7, 7, 4]).unwrap()
@@ -165,7 +165,7 @@ fn cornell_box_walls_do_not_leak_with_doi() {
         env!("CARGO_MANIFEST_DIR"),
         "/../data/scenes/cornell_box/cornell_box.obj"
     ));
-    let scene = crate::load_scene(p, &crate::LoadOptions::default()).unwrap();
+    let scene = lightvol_scene::load_scene(p, &lightvol_scene::LoadOptions::default()).unwrap();
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings::default());
     // World frame: x ∈ [0, 556], y ∈ [-559.2, 0] (open side at y = 0), z ∈ [0, 548.8].
@@ -217,7 +217,7 @@ fn cornell_box_walls_do_not_leak_with_doi() {
 /// grid's blur of the sun patch, not a leak.
 #[test]
 fn interior_walls_do_not_leak_with_doi() {
-    let b = crate::builtin::interior();
+    let b = lightvol_scene::builtin::interior();
     let tracer = Tracer::new(&b.scene);
     let t = Transport::new(&b.scene, &tracer, TransportSettings::default());
     let mut probes = Vec::new();
@@ -329,7 +329,7 @@ fn doi_probe_captures_each_node_in_the_domain() {
 /// into the grid's box (x just above 0.5), not out of it (x below -0.5), on each of 8 seeds.
 #[test]
 fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
-    use crate::scene::{Material, SceneBuilder};
+    use lightvol_scene::scene::{Material, SceneBuilder};
     let mut b = SceneBuilder::new("boundary wall");
     let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();
     b.add_box(DVec3::new(-0.5, -3.0, -3.0), DVec3::new(0.5, 5.0, 5.0), m, true, false).unwrap();
@@ -365,7 +365,7 @@ fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
 /// Fibonacci directions.
 #[test]
 fn doi_back_faces_count_inside_the_support_or_in_a_quarter_of_directions() {
-    use crate::scene::{Material, SceneBuilder};
+    use lightvol_scene::scene::{Material, SceneBuilder};
     let panel = |x: f64| {
         let mut b = SceneBuilder::new("panel");
         let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();

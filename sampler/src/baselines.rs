@@ -6,7 +6,7 @@
 //! estimator, [`crate::gradient_bake::point_projection`]) and differs in where it samples, what
 //! it does with probes that see the inside of geometry, and how the result is read. A
 //! probe's **back-face fraction** is the share of [`VALIDITY_RAYS`] uniform rays from it
-//! whose first hit is a back face of a single-sided surface ([`crate::Hit::back_face`]).
+//! whose first hit is a back face of a single-sided surface ([`lightvol_scene::Hit::back_face`]).
 //!
 //! | entry | capture point | invalid when the back-face fraction exceeds | invalid nodes | lookup |
 //! | --- | --- | --- | --- | --- |
@@ -46,11 +46,12 @@ use lightvol_volume::{GridSpec, IrradianceVolume, ValidityMask};
 use rayon::prelude::*;
 
 use crate::bake::BakeSettings;
-use crate::bvh::Tracer;
 use crate::error::BakeError;
-use crate::qmc::Qmc;
-use crate::stats::RayCounts;
-use crate::transport::Transport;
+use crate::method::Baseline;
+use lightvol_scene::bvh::Tracer;
+use lightvol_scene::qmc::Qmc;
+use lightvol_scene::stats::RayCounts;
+use lightvol_scene::transport::Transport;
 
 /// Rays per probe for the back-face fraction and the offset search (Unity's and RTXGI's
 /// defaults are of this order; the fraction's standard error at 25% is 0.054).
@@ -83,50 +84,6 @@ pub const DDGI_MAX_OFFSET: f64 = 0.45;
 
 /// Stream tag of the validity rays ("vald").
 const VALIDITY_STREAM: u64 = 0x7661_6c64;
-
-/// Which engine's fix (module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Baseline {
-    /// Point sampling, invalidation, dilation; plain trilinear lookups (`point+validity`).
-    Validity,
-    /// Unity Adaptive Probe Volumes: virtual offset, validity, dilation, validity-weighted
-    /// lookups (`point+apv`).
-    Apv,
-    /// Unreal volumetric lightmaps: inside voxels replaced by the mean of valid neighbours
-    /// (`point+vlm`).
-    Vlm,
-    /// DDGI/RTXGI probe relocation (`point+ddgi`).
-    Ddgi,
-}
-
-impl Baseline {
-    /// Every baseline, in the order help texts list them.
-    pub const ALL: [Self; 4] = [Self::Validity, Self::Apv, Self::Vlm, Self::Ddgi];
-
-    /// Its name (in `compare --methods` and `bake --method`).
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Validity => "point+validity",
-            Self::Apv => "point+apv",
-            Self::Vlm => "point+vlm",
-            Self::Ddgi => "point+ddgi",
-        }
-    }
-
-    /// The baseline named `name` ([`Self::name`]), if any.
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|b| b.name() == name)
-    }
-
-    /// Whether its volume carries a validity mask, so that its lookups are
-    /// validity-weighted (only Unity APV's).
-    #[must_use]
-    pub fn weights_lookups(self) -> bool {
-        self == Self::Apv
-    }
-}
 
 /// What [`probe_rays`] saw from one point.
 #[derive(Clone, Copy, Debug, PartialEq)]

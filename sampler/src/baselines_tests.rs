@@ -3,11 +3,11 @@
 //! lookups.
 
 use super::*;
-use crate::scene::{Material, SceneBuilder};
 use glam::DVec2;
+use lightvol_scene::scene::{Material, SceneBuilder};
 
 /// A closed unit box `[-0.5, 0.5]³`, faces outward, single-sided.
-fn closed_box() -> crate::Scene {
+fn closed_box() -> lightvol_scene::Scene {
     let mut b = SceneBuilder::new("box");
     let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();
     let c = |x: f64, y: f64, z: f64| DVec3::new(x, y, z) * 0.5;
@@ -181,9 +181,9 @@ fn validity_weighted_lookups_ignore_invalid_corners() {
 #[test]
 fn baselines_treat_a_probe_inside_a_closed_box() {
     let mut scene = closed_box();
-    scene.environment = crate::Environment::UniformSky { sky: [1.0; 3], ground: Some([0.5; 3]) };
+    scene.environment = lightvol_scene::Environment::UniformSky { sky: [1.0; 3], ground: Some([0.5; 3]) };
     let tracer = Tracer::new(&scene);
-    let t = Transport::new(&scene, &tracer, crate::TransportSettings::default());
+    let t = Transport::new(&scene, &tracer, lightvol_scene::TransportSettings::default());
     // Spacing 1: the centre node (1, 1, 1) sits at the box's centre, 0.5 from every wall,
     // beyond APV's search (0.2 × spacing) and DDGI's reach (0.45 × spacing per axis): APV
     // leaves it where it is, DDGI moves it towards a wall but not out. The other 26 nodes

@@ -1,6 +1,6 @@
 //! # Cluster jobs: a sharded bake as Slurm job arrays or Kubernetes Indexed Jobs
 //!
-//! A bake split into `N` shards ([`crate::shard`]) runs as one job array whose tasks each
+//! A bake split into `N` shards ([`lightvol_core::shard`]) runs as one job array whose tasks each
 //! call `lightvol bake ... --shard auto --shards N` (the shard index comes from the
 //! scheduler's array variables), then one `lightvol merge` of the shards' exact sums, which
 //! equals the whole bake bit for bit. An adaptive bake shards level by level

@@ -9,12 +9,12 @@
 //!   (`gray.direction`), which is what we use (the test
 //!   `retest_uses_the_query_direction` shows the difference).
 
-use crate::qmc::Qmc;
 use glam::DVec3;
+use lightvol_scene::qmc::Qmc;
 use lightvol_sh::sampling::sample_uniform_sphere;
 
-use crate::bvh::{Hit, Tracer};
-use crate::stats::RayCounts;
+use lightvol_scene::bvh::{Hit, Tracer};
+use lightvol_scene::stats::RayCounts;
 
 /// Directions used by [`classify_point`] by default: with 256 directions a back face that
 /// covers more than ~1/50 of the sphere is found with certainty (the Halton directions are
@@ -172,8 +172,8 @@ pub fn classify_cell(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Material, Scene, SceneBuilder};
-    use crate::{LoadOptions, load_scene};
+    use lightvol_scene::scene::{Material, Scene, SceneBuilder};
+    use lightvol_scene::{LoadOptions, load_scene};
 
     fn solid_box(lo: DVec3, hi: DVec3, open_top: bool) -> Scene {
         let mut b = SceneBuilder::new("box");

@@ -49,11 +49,13 @@ use lightvol_volume::gradient::VolumeGradients;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
-use crate::bake::{BakeControl, BakeOutput, BakeSettings, Method, UnitOut, bake_with_sink, sample_terms};
+use crate::bake::{BakeOutput, BakeSettings, UnitOut, bake_with_sink, sample_terms};
 use crate::error::BakeError;
-use crate::qmc::Qmc;
+use crate::method::Method;
 use crate::stats::BakeStats;
-use crate::transport::{PathRng, Transport};
+use lightvol_core::progress::BakeControl;
+use lightvol_scene::qmc::Qmc;
+use lightvol_scene::transport::{PathRng, Transport};
 
 /// Central-difference offset as a fraction of the shortest world cell edge (module docs).
 pub const DEFAULT_OFFSET_FRACTION: f64 = 1.0 / 16.0;
@@ -198,7 +200,7 @@ pub fn central_difference_gradients(
 
 /// The raw gradient array `[node][coeff][rgb][xyz]` of [`central_difference_gradients`] for
 /// the nodes in `nodes` (zero elsewhere): what one shard of a sharded bake computes
-/// ([`crate::shard::shard_range`] over the nodes). Store it with [`attach_central`].
+/// ([`lightvol_core::shard::shard_range`] over the nodes). Store it with [`attach_central`].
 ///
 /// # Errors
 /// As [`central_difference_gradients`].

@@ -2,10 +2,10 @@
 //! fields and on a scene.
 
 use super::*;
-use crate::bvh::Tracer;
-use crate::lights::Environment;
-use crate::scene::{Material, SceneBuilder};
-use crate::transport::TransportSettings;
+use lightvol_scene::bvh::Tracer;
+use lightvol_scene::lights::Environment;
+use lightvol_scene::scene::{Material, SceneBuilder};
+use lightvol_scene::transport::TransportSettings;
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::quadrature::SphereQuadrature;
 use lightvol_volume::grid::Placement;

@@ -18,11 +18,13 @@ use std::time::Instant;
 use lightvol_volume::{GridSpec, VolumeGradients};
 use serde::Serialize;
 
-use crate::bake::{BakeControl, BakeOutput, BakeSettings, Method, bake};
+use crate::bake::{BakeOutput, BakeSettings, bake};
 use crate::error::BakeError;
 use crate::gradient_bake::{ShardGradients, bake_with_gradients, central_difference_data, default_offset};
-use crate::shard::shard_range;
-use crate::transport::Transport;
+use crate::method::Method;
+use lightvol_core::progress::BakeControl;
+use lightvol_core::shard::shard_range;
+use lightvol_scene::transport::Transport;
 
 /// Which estimator computes the per-node gradients.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -163,7 +165,7 @@ pub fn bake_with_estimator(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{Tracer, TransportSettings, builtin};
+    use lightvol_scene::{Tracer, TransportSettings, builtin};
 
     #[test]
     fn defaults_and_names() {

@@ -29,10 +29,12 @@ use lightvol_volume::fixed::FixedSums;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
-use crate::bake::{BakeControl, BakeOutput, BakeSettings, Method, UnitOut, bake_with_sink};
+use crate::bake::{BakeOutput, BakeSettings, UnitOut, bake_with_sink};
 use crate::error::BakeError;
+use crate::method::Method;
 use crate::stats::BakeStats;
-use crate::transport::Transport;
+use lightvol_core::progress::BakeControl;
+use lightvol_scene::transport::Transport;
 
 /// Regularisation weight λ used by default. Chosen on the built-in scenes (see the sampler
 /// README): small enough to sharpen sub-cell features, large enough that sliver nodes at

@@ -1,9 +1,9 @@
 //! Tests of the least-squares node fit.
 
 use super::*;
-use crate::builtin::city;
-use crate::bvh::Tracer;
-use crate::transport::TransportSettings;
+use lightvol_scene::builtin::city;
+use lightvol_scene::bvh::Tracer;
+use lightvol_scene::transport::TransportSettings;
 use lightvol_sh::lowdisc::Halton;
 
 /// Conjugate gradients stop at a relative residual of 1e-9 (`CG_TOLERANCE`); the recovered

@@ -21,7 +21,7 @@ use glam::DVec3;
 use lightvol_volume::GridSpec;
 use lightvol_volume::reach::REACH_DIRECTIONS;
 
-use crate::bvh::Tracer;
+use lightvol_scene::bvh::Tracer;
 
 /// Node `node`'s reach in [`REACH_DIRECTIONS`] order (module docs), and the rays traced;
 /// `relocated` is where the bake moved the node's capture point, if it did.
@@ -65,7 +65,7 @@ pub fn node_reach(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Material, SceneBuilder};
+    use lightvol_scene::scene::{Material, SceneBuilder};
 
     /// A closed slab `0.3 ≤ x ≤ 0.4` across a 3×3×3 grid over [0, 2]³ (cells of 1): the
     /// nodes at x = 0 reach 0.3 cells along +x, those at x = 1 reach 0.6 along -x, and

@@ -9,14 +9,14 @@
 use lightvol_volume::{BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, VolumeGradients};
 
 use crate::adaptive::AdaptiveSettings;
-use crate::baselines::Baseline;
-use crate::eval::entries::{BakeMethod, method_name};
 use crate::gradient_bake::ShardGradients;
 use crate::gradient_estimator::{GradientBakeError, GradientEstimator, bake_with_estimator};
+use crate::method::BakeMethod;
+use crate::method::Baseline;
 use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
-use crate::{
-    BakeControl, BakeError, BakeOutput, BakeSettings, Method, Scene, Transport, TransportSettings, UpAxis,
-};
+use crate::{BakeError, BakeOutput, BakeSettings, Method};
+use lightvol_core::progress::BakeControl;
+use lightvol_scene::{Scene, Transport, TransportSettings, UpAxis};
 
 pub use crate::node_fit::Fit;
 
@@ -97,10 +97,7 @@ impl BakeRequest {
     /// The method's name (`point`, `doi`, `point+apv`, ...).
     #[must_use]
     pub fn method_name(&self) -> &'static str {
-        match self.method {
-            BakeMethod::Grid(m) => method_name(m),
-            BakeMethod::Baseline(b) => b.name(),
-        }
+        self.method.name()
     }
 
     /// The grid method the samples are taken with (point sampling for the baselines).
@@ -283,7 +280,7 @@ pub enum RequestError {
     #[error("level {0} needs the shard files of the levels below it")]
     LevelNeedsShards(u32),
     /// A fit other than the average needs cell samples.
-    #[error("the {fit} fit needs cell samples (prefilter or doi-paper); {} samples per node", method_name(*method))]
+    #[error("the {fit} fit needs cell samples (prefilter or doi-paper); {} samples per node", method.name())]
     FitNeedsCells {
         /// The fit.
         fit: Fit,
@@ -297,7 +294,7 @@ pub enum RequestError {
     #[error("{0} has its own bake run, not the uniform one")]
     NotUniform(&'static str),
     /// The basis estimator needs cell samples.
-    #[error("basis gradients need cell samples (prefilter or doi-paper), not {}", method_name(*.0))]
+    #[error("basis gradients need cell samples (prefilter or doi-paper), not {}", .0.name())]
     BasisNeedsCells(Method),
 }
 
@@ -561,8 +558,8 @@ mod tests {
 
     #[test]
     fn the_uniform_bake_refuses_baselines_and_octrees() {
-        let maze = crate::builtin("maze").unwrap();
-        let tracer = crate::Tracer::new(&maze.scene);
+        let maze = lightvol_scene::builtin("maze").unwrap();
+        let tracer = lightvol_scene::Tracer::new(&maze.scene);
         let t = Transport::new(&maze.scene, &tracer, TransportSettings::default());
         let p = Provenance { frame: UpAxis::Z, key: "" };
         let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), 4);

@@ -1,5 +1,5 @@
 //! A scene made ready to bake: read from a file (its memory estimated and checked before
-//! any geometry is read, [`crate::estimate`]) or built in ([`crate::builtin`](mod@crate::builtin)), with its
+//! any geometry is read, [`lightvol_scene::estimate`]) or built in ([`lightvol_scene::builtin`](mod@lightvol_scene::builtin)), with its
 //! lights replaced as asked, and the grid a bake uses on it ([`GridChoice`]).
 //!
 //! This is what `lightvol bake`, `compare`, `render` and `lint` do before their own work;
@@ -9,10 +9,10 @@ use std::path::{Path, PathBuf};
 
 use lightvol_volume::GridSpec;
 
-use crate::builtin::{BUILTIN_NAMES, builtin};
-use crate::envmap::EnvMap;
-use crate::estimate::SceneMemory;
-use crate::{DVec3, Environment, LoadOptions, Scene, SceneError, Sun, UpAxis, load_scene};
+use lightvol_scene::builtin::{BUILTIN_NAMES, builtin};
+use lightvol_scene::envmap::EnvMap;
+use lightvol_scene::estimate::SceneMemory;
+use lightvol_scene::{DVec3, Environment, LoadOptions, Scene, SceneError, Sun, UpAxis, load_scene};
 
 /// Where a scene comes from.
 #[derive(Clone, Debug)]
@@ -180,7 +180,7 @@ fn load_file(path: &Path, options: &LoadOptions, limit: u128) -> Result<LoadedSc
     }
     let failed = |source| SetupError::Load { path: path.to_owned(), source };
     // Estimate first: a scene too large for memory is one error, not an abort mid-load.
-    let memory = crate::estimate::estimate_scene(path, options.flatten_instances).map_err(failed)?;
+    let memory = lightvol_scene::estimate::estimate_scene(path, options.flatten_instances).map_err(failed)?;
     if u128::from(memory.total()) > limit {
         let (what, bytes) = memory.biggest();
         return Err(SetupError::SceneTooLarge {
@@ -208,7 +208,7 @@ fn load_file(path: &Path, options: &LoadOptions, limit: u128) -> Result<LoadedSc
 pub const SUM_BYTES: u128 = 17;
 
 /// Bytes per node that a bake recording the node reach
-/// ([`crate::bake::Method::Doi`], [`crate::reach`]) needs on top of
+/// ([`crate::method::Method::Doi`], [`crate::reach`]) needs on top of
 /// [`bake_memory_bytes`]'s arrays: the accumulator's six reach sums, the relocated
 /// capture point (`Option<DVec3>`, 32 bytes), the reach rays' results before they are
 /// recorded (`([f32; 6], u64)`, 32 bytes) and the finalized volume's six f32 reaches.

@@ -4,14 +4,17 @@
 //! of either scene agrees within a stated tolerance, bit-identically across thread counts.
 
 use glam::{DAffine3, DMat3, DQuat};
-use lightvol_sampler::lights::Environment;
-use lightvol_sampler::scene::box_faces;
-use lightvol_sampler::{
-    AlphaMode, BakeControl, BakeSettings, BuildQuality, DVec2, DVec3, GridSpec, Levels, Material, Method,
-    Scene, SceneBuilder, Tracer, Transport, TransportSettings, bake,
+use lightvol_core::progress::BakeControl;
+use lightvol_sampler::{BakeSettings, Method, bake};
+use lightvol_scene::lights::Environment;
+use lightvol_scene::scene::box_faces;
+use lightvol_scene::{
+    AlphaMode, BuildQuality, DVec2, DVec3, Levels, Material, Scene, SceneBuilder, Tracer, Transport,
+    TransportSettings,
 };
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
+use lightvol_volume::GridSpec;
 use proptest::prelude::*;
 
 /// Scene extent: instances are placed within about ±20 m.
@@ -285,7 +288,7 @@ fn instanced_bake_equals_the_flattened_bake() {
 /// instance too (its placed vertices 1 and 2 are the stored 2 and 1).
 #[test]
 fn albedo_follows_the_placed_vertex_order() {
-    use lightvol_sampler::base_color::Texture;
+    use lightvol_scene::base_color::Texture;
     let mut b = SceneBuilder::new("tex");
     let tex =
         Texture::from_linear(2, 2, vec![[0.1, 0.2, 0.3], [0.9, 0.1, 0.1], [0.1, 0.8, 0.2], [0.4, 0.4, 0.9]])

@@ -18,7 +18,7 @@
 
 use std::path::Path;
 
-use lightvol_sampler::builtin::BUILTIN_NAMES;
+use lightvol_scene::builtin::BUILTIN_NAMES;
 use serde_json::Value;
 use vendored::{VENDORED_SCENES, vendored};
 

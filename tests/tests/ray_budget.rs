@@ -4,12 +4,12 @@
 //! under a uniform white sky, as the CLI lights a scene without lights). Algorithm 2's
 //! query rays are the extra cost; the classification rays' hits are reused for lighting.
 
-use lightvol_sampler::builtin::{BUILTIN_NAMES, builtin};
-use lightvol_sampler::lights::Environment;
-use lightvol_sampler::{
-    BakeControl, BakeSettings, DVec3, GridSpec, LoadOptions, Method, Scene, Tracer, Transport,
-    TransportSettings, bake, load_scene,
-};
+use lightvol_core::progress::BakeControl;
+use lightvol_sampler::{BakeSettings, Method, bake};
+use lightvol_scene::builtin::{BUILTIN_NAMES, builtin};
+use lightvol_scene::lights::Environment;
+use lightvol_scene::{DVec3, LoadOptions, Scene, Tracer, Transport, TransportSettings, load_scene};
+use lightvol_volume::GridSpec;
 use vendored::{VENDORED_SCENES, vendored};
 
 mod vendored;

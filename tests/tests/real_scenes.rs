@@ -47,8 +47,8 @@ fn every_vendored_scene_is_inspected_and_bakes() {
         // Traced through one level (all of them place under a million triangles), with the
         // instanced ones' placed triangles (128 bytes each) written out for the build.
         let copy = if m["instances"].as_u64().unwrap() > 0 { 128 } else { 0 };
-        let per = lightvol_sampler::estimate::tracer_bytes_per_triangle()
-            + lightvol_sampler::estimate::BVH_BUILD_BYTES_PER_TRIANGLE
+        let per = lightvol_scene::estimate::tracer_bytes_per_triangle()
+            + lightvol_scene::estimate::BVH_BUILD_BYTES_PER_TRIANGLE
             + copy;
         assert_eq!(m["tracer_bytes"].as_u64().unwrap(), tri * per, "{file}");
         let parts: u64 =
@@ -161,7 +161,7 @@ fn a_scene_over_the_memory_limit_is_refused_in_one_line() {
 #[test]
 fn a_1024_room_layout_bakes_within_its_instanced_estimate() {
     let dir = tempfile::tempdir().unwrap();
-    let layout = lightvol_sampler::layout::write_grid_layout(
+    let layout = lightvol_scene::layout::write_grid_layout(
         &scene("occlusion_room/room.glb"),
         dir.path(),
         [32, 32],

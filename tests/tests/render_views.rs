@@ -12,7 +12,7 @@ use std::path::Path;
 
 use common::{ok, s};
 use lightvol_core::hash::fnv1a;
-use lightvol_sampler::builtin;
+use lightvol_scene::builtin;
 use lightvol_volume::IrradianceVolume;
 use lightvol_volume::io::exr::{ExrOptions, write_exr};
 

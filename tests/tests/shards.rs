@@ -313,7 +313,7 @@ fn central_gradient_shards_merge_to_the_whole_bake() {
     let nodes = 6 * 6 * 3;
     let per_node = g.data().len() / nodes;
     for third in 0..3 {
-        let r = lightvol_sampler::shard::shard_range(nodes, (third, 3));
+        let r = lightvol_core::shard::shard_range(nodes, (third, 3));
         assert!(
             g.data()[r.start * per_node..r.end * per_node].iter().any(|&v| v != 0.0),
             "shard {third}'s gradients are all zero"

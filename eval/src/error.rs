@@ -1,0 +1,124 @@
+//! What can go wrong in an evaluation.
+
+use lightvol_volume::VolumeError;
+
+use crate::entries::ADAPTIVE_LEVELS_MAX;
+use crate::sweep::MAX_SWEEP_SCALE;
+use lightvol_sampler::error::BakeError;
+use lightvol_sampler::gradient_estimator::GradientBakeError;
+use lightvol_view::ViewError;
+
+/// An evaluation error. Invalid settings are reported by [`CompareConfig::validate`]
+/// (and [`compare`], which calls it) before any ray is traced; the other variants come
+/// from the bakes.
+///
+/// [`CompareConfig::validate`]: crate::CompareConfig::validate
+/// [`compare`]: crate::compare()
+#[derive(Debug, thiserror::Error)]
+pub enum EvalError {
+    /// An entry names no bake method (the message of [`Method`](lightvol_sampler::Method)'s parser).
+    #[error("{0}")]
+    UnknownMethod(String),
+    /// An entry names no gradient lookup.
+    #[error("unknown gradient lookup '{0}' (taylor, gtrilinear, hermite)")]
+    UnknownLookup(String),
+    /// `adaptiveL` with `L` outside `1..=ADAPTIVE_LEVELS_MAX`.
+    #[error("'{0}': adaptiveL needs a finest level L from 1 to {ADAPTIVE_LEVELS_MAX}")]
+    AdaptiveLevel(String),
+    /// `BASE+average|lsq[:λ]` with an invalid fit.
+    #[error("'{entry}': {message}")]
+    Fit {
+        /// The entry.
+        entry: String,
+        /// What the fit's parser said.
+        message: String,
+    },
+    /// No entry to compare.
+    #[error("no method to compare")]
+    NoMethods,
+    /// Zero samples per cell or per reference point.
+    #[error("the samples per cell and per reference point must be at least 1")]
+    ZeroSamples,
+    /// A memory sweep without scales.
+    #[error("the memory sweep needs at least one scale")]
+    NoSweepScales,
+    /// A memory-sweep scale outside `(0, MAX_SWEEP_SCALE]` (or NaN).
+    #[error("sweep scale {0} is not in (0, {MAX_SWEEP_SCALE}]")]
+    SweepScale(f64),
+    /// The grid has a placement transform; the plate is horizontal in the grid's frame.
+    #[error("compare needs an axis-aligned grid (no placement transform)")]
+    PlacedGrid,
+    /// The plate height is NaN or infinite.
+    #[error("plate height {0} is not finite")]
+    PlateHeightNotFinite(f64),
+    /// The plate lies outside the grid.
+    #[error("plate height {height} is outside the grid's z range [{min}, {max}]")]
+    PlateOutsideGrid {
+        /// The plate height.
+        height: f64,
+        /// The grid's lowest z.
+        min: f64,
+        /// The grid's highest z.
+        max: f64,
+    },
+    /// Fewer than 2 plate points along the longer side.
+    #[error("plate resolution {0} is below 2")]
+    PlateResolution(u32),
+    /// No plate point is inside the domain of interest: nothing to measure.
+    #[error("no plate point at height {0} sees the scene from inside the domain of interest")]
+    NoValidPoints(f64),
+    /// A gradient entry on a `point` bake with the basis estimator, which needs cell samples.
+    #[error(
+        "'{entry}': the basis gradient estimator needs cell samples (prefilter or doi); use the central estimator with point sampling"
+    )]
+    BasisNeedsCells {
+        /// The entry.
+        entry: String,
+    },
+    /// Zero worker threads.
+    #[error("worker threads must be at least 1")]
+    ZeroThreads,
+    /// The thread pool could not be built.
+    #[error("creating the thread pool")]
+    ThreadPool(#[source] rayon::ThreadPoolBuildError),
+    /// A bake failed.
+    #[error("{step}")]
+    Bake {
+        /// `baking` or `adaptive bake`.
+        step: &'static str,
+        /// Why.
+        #[source]
+        source: BakeError,
+    },
+    /// A bake with gradients failed.
+    #[error(transparent)]
+    Gradient(#[from] GradientBakeError),
+    /// A grid or a gradient lookup was rejected by lightvol-volume.
+    #[error(transparent)]
+    Volume(#[from] VolumeError),
+    /// A view's camera, image size or sample count is invalid, or its rendering failed.
+    #[error(transparent)]
+    View(#[from] ViewError),
+    /// A view without a label.
+    #[error("every view needs a label")]
+    ViewLabel,
+    /// Two views with one label.
+    #[error("two views are labelled '{0}'")]
+    DuplicateView(String),
+    /// No pixel of a view sees a surface inside the grid: there is nothing to measure in it.
+    #[error("view '{0}' sees no surface inside the grid")]
+    ViewSeesNothing(String),
+    /// The path-traced view is black over the pixels measured: a relative error is
+    /// undefined there.
+    #[error(
+        "the path-traced view '{0}' is black where it is measured (is the camera inside a closed solid?)"
+    )]
+    BlackView(String),
+}
+
+impl EvalError {
+    /// A closure wrapping a bake error with the step that failed.
+    pub(crate) fn at(step: &'static str) -> impl FnOnce(BakeError) -> Self {
+        move |source| Self::Bake { step, source }
+    }
+}
