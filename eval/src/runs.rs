@@ -22,7 +22,7 @@ use crate::observer::Observer;
 use crate::plate::Plate;
 use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_sampler::adaptive::{AdaptiveSettings, AdaptiveStats, bake_adaptive};
-use lightvol_sampler::bake::BakeSettings;
+use lightvol_sampler::settings::BakeSettings;
 use lightvol_sampler::baselines::bake_baseline;
 use lightvol_sampler::gradient_estimator::{GradientEstimator, bake_with_estimator};
 use lightvol_sampler::method::Baseline;

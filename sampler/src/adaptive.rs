@@ -49,9 +49,10 @@ use lightvol_volume::{
 use rayon::prelude::*;
 
 use crate::adaptive_shard::{LevelSums, plan_hash};
-use crate::bake::{BakeOutput, BakeSettings, bake, bake_units_fixed};
+use crate::bake::{BakeOutput, bake, bake_units_fixed};
 use crate::error::BakeError;
 use crate::method::Method;
+use crate::settings::BakeSettings;
 use crate::stats::BakeStats;
 use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_scene::bvh::Tracer;

@@ -2,6 +2,9 @@
 //! progress and cancellation.
 
 use super::*;
+use crate::probe::{PROBE_MAX_OFFSET, ProbeCapture, probe_unit};
+use crate::relocate::{relocate_through, spacing};
+use glam::DVec3;
 use lightvol_scene::builtin::{city, city_buildings};
 use lightvol_scene::bvh::Tracer;
 use lightvol_scene::reference::reference_irradiance;
@@ -278,7 +281,7 @@ fn doi_probe_captures_each_node_in_the_domain() {
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
     let s = BakeSettings { method: Method::Doi, samples: 128, seed: 5, ..Default::default() };
-    let sp = crate::baselines::spacing(&grid);
+    let sp = spacing(&grid);
     let point = BakeSettings { method: Method::Point, ..s };
     let mut counts = [0usize; 3];
     let buildings = city_buildings();
@@ -337,7 +340,7 @@ fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings::default());
     let grid = GridSpec::new([0.0; 3], [2.0; 3], [3, 3, 3]).unwrap();
-    let ddgi = crate::baselines::relocate_through(DVec3::ZERO, DVec3::X, 0.5, [1.0; 3]);
+    let ddgi = relocate_through(DVec3::ZERO, DVec3::X, 0.5, [1.0; 3]);
     assert!(ddgi.x < 0.5, "DDGI's clamp leaves the node in the wall: {ddgi}");
     for seed in 1..=8 {
         let s = BakeSettings { method: Method::Doi, samples: 64, seed, ..Default::default() };

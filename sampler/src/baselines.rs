@@ -34,7 +34,7 @@
 //!   its valid 3×3×3 neighbours ([`fill_vlm`]).
 //! - **`point+ddgi`** — DDGI / RTXGI probe relocation: a probe whose back-face fraction
 //!   exceeds [`DDGI_BACKFACE_THRESHOLD`] moves through its closest back face, by at most
-//!   [`DDGI_MAX_OFFSET`] × spacing per axis, and is point-sampled there.
+//!   [`DDGI_MAX_OFFSET`](crate::relocate::DDGI_MAX_OFFSET) × spacing per axis, and is point-sampled there.
 //!
 //! Every baseline's volume has weight 1 at valid nodes and 0 at invalid (filled) ones, as a
 //! `doi` bake marks its filled nodes; only `point+apv` attaches a validity mask.
@@ -45,9 +45,10 @@ use lightvol_sh::sampling::sample_uniform_sphere;
 use lightvol_volume::{GridSpec, IrradianceVolume, ValidityMask};
 use rayon::prelude::*;
 
-use crate::bake::BakeSettings;
 use crate::error::BakeError;
 use crate::method::Baseline;
+use crate::relocate::{DDGI_BACKFACE_THRESHOLD, relocate_through, spacing};
+use crate::settings::BakeSettings;
 use lightvol_scene::bvh::Tracer;
 use lightvol_scene::qmc::Qmc;
 use lightvol_scene::stats::RayCounts;
@@ -75,13 +76,6 @@ pub const APV_BIAS: f64 = 0.01;
 /// Unreal VLM: a voxel is inside geometry when more than this share of its rays hit back
 /// faces (Unreal Lightmass, `VolumetricLightmap.cpp`: `BackfacingHitsFraction > .3f`).
 pub const VLM_INVALID_FRACTION: f64 = 0.30;
-/// DDGI/RTXGI: a probe with a larger back-face fraction is relocated (NVIDIA RTXGI,
-/// `probeBackfaceThreshold`, default 0.25 of the fixed rays).
-pub const DDGI_BACKFACE_THRESHOLD: f64 = 0.25;
-/// DDGI/RTXGI: the largest relocation per axis, times the node spacing on that axis
-/// (NVIDIA RTXGI's probe relocation keeps offsets below 45% of the probe spacing).
-pub const DDGI_MAX_OFFSET: f64 = 0.45;
-
 /// Stream tag of the validity rays ("vald").
 const VALIDITY_STREAM: u64 = 0x7661_6c64;
 
@@ -119,13 +113,6 @@ fn min_spacing(grid: &GridSpec) -> f64 {
     spacing(grid).into_iter().fold(f64::INFINITY, f64::min)
 }
 
-/// World node spacing of `grid` along each axis.
-pub(crate) fn spacing(grid: &GridSpec) -> [f64; 3] {
-    let o = DVec3::from_array(grid.node_position_world(0, 0, 0));
-    [[1, 0, 0], [0, 1, 0], [0, 0, 1]]
-        .map(|d| (DVec3::from_array(grid.node_position_world(d[0], d[1], d[2])) - o).length())
-}
-
 /// Unity APV's virtual offset of a capture point at `x` that sees `view`: through the
 /// nearest back face within `search`, `bias` beyond it; `x` itself when no back face is that
 /// close.
@@ -140,7 +127,7 @@ pub fn apv_offset(x: DVec3, view: &ProbeView, search: f64, bias: f64) -> DVec3 {
 /// DDGI's relocation of a probe at `x` that sees `view`, on a grid of spacing `spacing`:
 /// when the back-face fraction exceeds [`DDGI_BACKFACE_THRESHOLD`], through the closest back
 /// face by 1% of the spacing beyond it, each axis of the offset clamped to
-/// [`DDGI_MAX_OFFSET`] × spacing.
+/// [`DDGI_MAX_OFFSET`](crate::relocate::DDGI_MAX_OFFSET) × spacing.
 #[must_use]
 pub fn ddgi_relocate(x: DVec3, view: &ProbeView, spacing: [f64; 3]) -> DVec3 {
     if view.back_fraction <= DDGI_BACKFACE_THRESHOLD {
@@ -148,24 +135,6 @@ pub fn ddgi_relocate(x: DVec3, view: &ProbeView, spacing: [f64; 3]) -> DVec3 {
     }
     let Some((d, t)) = view.closest_back else { return x };
     relocate_through(x, d, t, spacing)
-}
-
-/// DDGI's move of a probe at `x` through the back face it meets at distance `t` along `d`:
-/// 1% of the smallest spacing beyond it, each axis of the offset clamped to
-/// [`DDGI_MAX_OFFSET`] × `spacing`.
-#[must_use]
-pub fn relocate_through(x: DVec3, d: DVec3, t: f64, spacing: [f64; 3]) -> DVec3 {
-    relocate_within(x, d, t, spacing, DDGI_MAX_OFFSET)
-}
-
-/// [`relocate_through`] with the per-axis clamp `max_offset` × `spacing` instead of
-/// [`DDGI_MAX_OFFSET`].
-#[must_use]
-pub fn relocate_within(x: DVec3, d: DVec3, t: f64, spacing: [f64; 3], max_offset: f64) -> DVec3 {
-    let bias = 0.01 * spacing.iter().copied().fold(f64::INFINITY, f64::min);
-    let off = d * (t + bias);
-    let lim = DVec3::from_array(spacing) * max_offset;
-    x + off.clamp(-lim, lim)
 }
 
 /// A baseline's volume: the point-sampled coefficients, the per-node validity (weight 1

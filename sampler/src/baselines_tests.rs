@@ -3,6 +3,7 @@
 //! lookups.
 
 use super::*;
+use crate::relocate::DDGI_MAX_OFFSET;
 use glam::DVec2;
 use lightvol_scene::scene::{Material, SceneBuilder};
 

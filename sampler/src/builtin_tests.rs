@@ -1,7 +1,8 @@
 //! The built-in scenes bake soundly: tests that need the bake and the domain-of-interest test.
 
-use crate::bake::{BakeSettings, bake};
+use crate::bake::bake;
 use crate::domain::{classify_point, classify_points};
+use crate::settings::BakeSettings;
 use lightvol_core::progress::BakeControl;
 use lightvol_scene::DVec3;
 use lightvol_scene::builtin::{BUILTIN_NAMES, builtin, city, city_buildings, interior, maze, maze_walls};

@@ -49,10 +49,12 @@ use lightvol_volume::gradient::VolumeGradients;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
-use crate::bake::{BakeOutput, BakeSettings, UnitOut, bake_with_sink, sample_terms};
+use crate::bake::{BakeOutput, bake_with_sink};
 use crate::error::BakeError;
 use crate::method::Method;
+use crate::settings::BakeSettings;
 use crate::stats::BakeStats;
+use crate::unit::{UnitOut, sample_terms};
 use lightvol_core::progress::BakeControl;
 use lightvol_scene::qmc::Qmc;
 use lightvol_scene::transport::{PathRng, Transport};

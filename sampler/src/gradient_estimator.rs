@@ -18,10 +18,11 @@ use std::time::Instant;
 use lightvol_volume::{GridSpec, VolumeGradients};
 use serde::Serialize;
 
-use crate::bake::{BakeOutput, BakeSettings, bake};
+use crate::bake::{BakeOutput, bake};
 use crate::error::BakeError;
 use crate::gradient_bake::{ShardGradients, bake_with_gradients, central_difference_data, default_offset};
 use crate::method::Method;
+use crate::settings::BakeSettings;
 use lightvol_core::progress::BakeControl;
 use lightvol_core::shard::shard_range;
 use lightvol_scene::transport::Transport;

@@ -11,15 +11,20 @@ pub mod gradient_bake;
 pub mod gradient_estimator;
 pub mod method;
 pub mod node_fit;
+pub mod probe;
 pub mod provenance;
 pub mod reach;
+pub mod relocate;
 pub mod request;
 pub mod scene_setup;
+pub mod settings;
 pub mod stats;
+pub mod unit;
 
-pub use bake::{BakeOutput, BakeSettings, bake};
+pub use bake::{BakeOutput, bake};
 pub use error::BakeError;
 pub use method::{BakeMethod, Baseline, Method};
+pub use settings::BakeSettings;
 pub use stats::BakeStats;
 
 #[cfg(test)]

@@ -29,10 +29,12 @@ use lightvol_volume::fixed::FixedSums;
 use lightvol_volume::{Accumulator, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
-use crate::bake::{BakeOutput, BakeSettings, UnitOut, bake_with_sink};
+use crate::bake::{BakeOutput, bake_with_sink};
 use crate::error::BakeError;
 use crate::method::Method;
+use crate::settings::BakeSettings;
 use crate::stats::BakeStats;
+use crate::unit::UnitOut;
 use lightvol_core::progress::BakeControl;
 use lightvol_scene::transport::Transport;
 
