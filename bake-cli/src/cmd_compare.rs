@@ -16,7 +16,7 @@ use clap::Args;
 use indicatif::ProgressBar;
 use lightvol_core::progress::Progress;
 use lightvol_eval::report::{CompareReport, compare_files};
-use lightvol_eval::sweep::{MAX_SWEEP_SCALE, SweepConfig, check_scales};
+use lightvol_eval::sweep::{SweepConfig, check_scales};
 use lightvol_eval::{
     CompareConfig, Comparison, EvalError, Metrics, NamedEntry, Observer, PlateConfig, SweepPoint, ViewCamera,
     ViewsConfig, default_plate_height,
@@ -157,7 +157,9 @@ pub(crate) fn flag_error(e: EvalError) -> anyhow::Error {
         EvalError::NoMethods => anyhow::anyhow!("--methods needs at least one method"),
         EvalError::ZeroSamples => anyhow::anyhow!("--samples and --reference-samples must be at least 1"),
         EvalError::NoSweepScales => anyhow::anyhow!("--sweep-scales needs at least one scale"),
-        EvalError::SweepScale(s) => anyhow::anyhow!("--sweep-scales: {s} is not in (0, {MAX_SWEEP_SCALE}]"),
+        EvalError::SweepScale { scale, max } => {
+            anyhow::anyhow!("--sweep-scales: {scale} is not in (0, {max}]")
+        }
         EvalError::PlateHeightNotFinite(_) => anyhow::anyhow!("--plate-height must be finite"),
         EvalError::PlateOutsideGrid { height, min, max } => {
             anyhow::anyhow!("--plate-height {height} is outside the grid's z range [{min}, {max}]")

@@ -9,9 +9,30 @@ use std::sync::Arc;
 use lightvol_volume::gradient::{
     GradientLookup, coeffs_at as gradient_coeffs_at, irradiance as gradient_irradiance,
 };
-use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec, IrradianceVolume, VolumeError, VolumeField};
+use lightvol_volume::{
+    AdaptiveVolume, BakeMetadata, GridSpec, IrradianceVolume, VolumeError, VolumeField, VolumeGradients,
+};
 
-use crate::runs::GradientVolume;
+use lightvol_sampler::gradient_estimator::GradientEstimator;
+use lightvol_sampler::stats::BakeStats;
+
+/// A bake with gradients, shared by every lookup on the same base method.
+pub struct GradientVolume {
+    /// The Eq. 6 volume.
+    pub volume: IrradianceVolume,
+    /// Its gradients.
+    pub gradients: VolumeGradients,
+    /// The bake's statistics.
+    pub stats: BakeStats,
+    /// Estimator used.
+    pub estimator: GradientEstimator,
+    /// Singular nodes (basis estimator).
+    pub singular_nodes: usize,
+    /// Directions traced beyond the bake (central estimator).
+    pub extra_directions: u64,
+    /// Seconds beyond the bake.
+    pub gradient_seconds: f64,
+}
 
 /// A run's baked volume and its lookup (shared, cheap to clone).
 #[derive(Clone)]

@@ -100,7 +100,7 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
     if let Some(l) = s.strip_prefix("adaptive") {
         return match l.parse::<u32>() {
             Ok(l) if (1..=ADAPTIVE_LEVELS_MAX).contains(&l) => Ok(Entry::Adaptive(l)),
-            _ => Err(EvalError::AdaptiveLevel(s.to_owned())),
+            _ => Err(EvalError::AdaptiveLevel { name: s.to_owned(), max: ADAPTIVE_LEVELS_MAX }),
         };
     }
     if let Some(b) = Baseline::from_name(s) {

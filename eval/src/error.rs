@@ -2,8 +2,6 @@
 
 use lightvol_volume::VolumeError;
 
-use crate::entries::ADAPTIVE_LEVELS_MAX;
-use crate::sweep::MAX_SWEEP_SCALE;
 use lightvol_sampler::error::BakeError;
 use lightvol_sampler::gradient_estimator::GradientBakeError;
 use lightvol_view::ViewError;
@@ -22,9 +20,14 @@ pub enum EvalError {
     /// An entry names no gradient lookup.
     #[error("unknown gradient lookup '{0}' (taylor, gtrilinear, hermite)")]
     UnknownLookup(String),
-    /// `adaptiveL` with `L` outside `1..=ADAPTIVE_LEVELS_MAX`.
-    #[error("'{0}': adaptiveL needs a finest level L from 1 to {ADAPTIVE_LEVELS_MAX}")]
-    AdaptiveLevel(String),
+    /// `adaptiveL` with `L` outside `1..=max` (`entries::ADAPTIVE_LEVELS_MAX`).
+    #[error("'{name}': adaptiveL needs a finest level L from 1 to {max}")]
+    AdaptiveLevel {
+        /// The entry as given.
+        name: String,
+        /// The finest level accepted.
+        max: u32,
+    },
     /// `BASE+average|lsq[:λ]` with an invalid fit.
     #[error("'{entry}': {message}")]
     Fit {
@@ -42,9 +45,14 @@ pub enum EvalError {
     /// A memory sweep without scales.
     #[error("the memory sweep needs at least one scale")]
     NoSweepScales,
-    /// A memory-sweep scale outside `(0, MAX_SWEEP_SCALE]` (or NaN).
-    #[error("sweep scale {0} is not in (0, {MAX_SWEEP_SCALE}]")]
-    SweepScale(f64),
+    /// A memory-sweep scale outside `(0, max]` (or NaN; `sweep::MAX_SWEEP_SCALE`).
+    #[error("sweep scale {scale} is not in (0, {max}]")]
+    SweepScale {
+        /// The scale given.
+        scale: f64,
+        /// The largest scale accepted.
+        max: f64,
+    },
     /// The grid has a placement transform; the plate is horizontal in the grid's frame.
     #[error("compare needs an axis-aligned grid (no placement transform)")]
     PlacedGrid,

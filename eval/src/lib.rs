@@ -13,13 +13,13 @@ pub mod sweep;
 pub mod table;
 pub mod views;
 
-pub use baked::RunVolume;
+pub use baked::{GradientVolume, RunVolume};
 pub use compare::{CompareConfig, Comparison, compare};
 pub use entries::{Entry, NamedEntry, parse_entry, uniform_memory_bytes};
 pub use error::EvalError;
-pub use metrics::{Metrics, PlatePoint};
+pub use metrics::{Metrics, PlatePoint, SweepPoint};
 pub use observer::{Observer, Silent};
 pub use plate::{Plate, PlateConfig, default_plate_height};
-pub use runs::{BakeContext, GradientCache, GradientVolume, MethodRun, RunDetail};
-pub use sweep::{ResolutionSeries, SweepConfig, SweepPoint, SweepReport, memory_sweep, resolution_sweep};
+pub use runs::{BakeContext, GradientCache, MethodRun, RunDetail};
+pub use sweep::{ResolutionSeries, SweepConfig, SweepReport, memory_sweep, resolution_sweep};
 pub use views::{ComparedView, MethodView, ViewCamera, ViewsConfig, compare_views, view_metrics};

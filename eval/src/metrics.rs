@@ -87,6 +87,30 @@ pub fn compute(points: &[PlatePoint]) -> Metrics {
     }
 }
 
+/// One (series, resolution) point of the error-against-memory study.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct SweepPoint {
+    /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`, `adaptive`,
+    /// `adaptive1`.
+    pub series: String,
+    /// Grid nodes per axis (the octree's finest level).
+    pub res: [u32; 3],
+    /// Stored nodes.
+    pub nodes: usize,
+    /// Run-time bytes (\[Oat05\]'s accounting).
+    pub memory_bytes: usize,
+    /// Relative RMSE on the plate's valid points.
+    pub rel_rmse: f64,
+    /// Relative bias.
+    pub bias: f64,
+    /// Share of valid near-surface points with `E < 0.8 T`.
+    pub too_dark_near: f64,
+    /// Rays of the bake (and gradient step).
+    pub rays: u64,
+    /// Bake seconds (and gradient step).
+    pub seconds: f64,
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,7 +3,7 @@
 //! command line draws progress bars from it; a test or a batch job passes [`Silent`].
 
 use crate::metrics::Metrics;
-use crate::sweep::SweepPoint;
+use crate::metrics::SweepPoint;
 use lightvol_core::progress::Progress;
 
 /// Receives an evaluation's progress. Every method has an empty default; the calls come

@@ -11,10 +11,10 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
-use lightvol_volume::{AdaptiveVolume, GridSpec, IrradianceVolume, LevelStats, VolumeGradients};
+use lightvol_volume::{AdaptiveVolume, GridSpec, LevelStats};
 use rayon::prelude::*;
 
-use crate::baked::RunVolume;
+use crate::baked::{GradientVolume, RunVolume};
 use crate::entries::{ADAPTIVE_BASE_SCALE, bands_of_coeffs, uniform_memory_bytes};
 use crate::error::EvalError;
 use crate::metrics::Metrics;
@@ -22,13 +22,12 @@ use crate::observer::Observer;
 use crate::plate::Plate;
 use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_sampler::adaptive::{AdaptiveSettings, AdaptiveStats, bake_adaptive};
-use lightvol_sampler::settings::BakeSettings;
 use lightvol_sampler::baselines::bake_baseline;
 use lightvol_sampler::gradient_estimator::{GradientEstimator, bake_with_estimator};
 use lightvol_sampler::method::Baseline;
 use lightvol_sampler::method::Method;
 use lightvol_sampler::node_fit::{Fit, bake_fitted};
-use lightvol_sampler::stats::BakeStats;
+use lightvol_sampler::settings::BakeSettings;
 use lightvol_scene::stats::RayCounts;
 use lightvol_scene::transport::Transport;
 
@@ -196,24 +195,6 @@ pub fn run_uniform(
         RunDetail::Uniform,
         RunVolume::Uniform(Arc::new(vol)),
     ))
-}
-
-/// A bake with gradients, shared by every lookup on the same base method.
-pub struct GradientVolume {
-    /// The Eq. 6 volume.
-    pub volume: IrradianceVolume,
-    /// Its gradients.
-    pub gradients: VolumeGradients,
-    /// The bake's statistics.
-    pub stats: BakeStats,
-    /// Estimator used.
-    pub estimator: GradientEstimator,
-    /// Singular nodes (basis estimator).
-    pub singular_nodes: usize,
-    /// Directions traced beyond the bake (central estimator).
-    pub extra_directions: u64,
-    /// Seconds beyond the bake.
-    pub gradient_seconds: f64,
 }
 
 /// Bakes `base` with gradients on `grid` by `estimator`, or the estimator that fits the

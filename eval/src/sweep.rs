@@ -25,7 +25,7 @@ use serde::Serialize;
 
 use crate::entries::{LOOKUPS, lookup_name, uniform_memory_bytes};
 use crate::error::EvalError;
-use crate::metrics::Metrics;
+use crate::metrics::{Metrics, SweepPoint};
 use crate::plate::Plate;
 use crate::runs::{
     BakeContext, adaptive_volume, evaluate_adaptive, gradient_volume, run_uniform, scaled_grid,
@@ -69,33 +69,9 @@ pub fn check_scales(scales: &[f64]) -> Result<(), EvalError> {
         return Err(EvalError::NoSweepScales);
     }
     if let Some(s) = scales.iter().find(|s| !(**s > 0.0 && **s <= MAX_SWEEP_SCALE)) {
-        return Err(EvalError::SweepScale(*s));
+        return Err(EvalError::SweepScale { scale: *s, max: MAX_SWEEP_SCALE });
     }
     Ok(())
-}
-
-/// One (series, resolution) point of the error-against-memory study.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SweepPoint {
-    /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`, `adaptive`,
-    /// `adaptive1`.
-    pub series: String,
-    /// Grid nodes per axis (the octree's finest level).
-    pub res: [u32; 3],
-    /// Stored nodes.
-    pub nodes: usize,
-    /// Run-time bytes (\[Oat05\]'s accounting).
-    pub memory_bytes: usize,
-    /// Relative RMSE on the plate's valid points.
-    pub rel_rmse: f64,
-    /// Relative bias.
-    pub bias: f64,
-    /// Share of valid near-surface points with `E < 0.8 T`.
-    pub too_dark_near: f64,
-    /// Rays of the bake (and gradient step).
-    pub rays: u64,
-    /// Bake seconds (and gradient step).
-    pub seconds: f64,
 }
 
 /// The error-against-memory study's result.
@@ -246,7 +222,7 @@ mod tests {
         assert!(matches!(check_scales(&[]), Err(EvalError::NoSweepScales)));
         assert!(check_scales(&[0.0]).is_err());
         assert!(check_scales(&[f64::NAN]).is_err());
-        assert!(matches!(check_scales(&[5.0]), Err(EvalError::SweepScale(s)) if s == 5.0));
+        assert!(matches!(check_scales(&[5.0]), Err(EvalError::SweepScale { scale, .. }) if scale == 5.0));
         assert!(check_scales(&[MAX_SWEEP_SCALE]).is_ok());
     }
 }

@@ -5,9 +5,10 @@
 use super::*;
 use crate::bake::bake_units;
 use crate::domain::classify_points;
+use lightvol_scene::builder::SceneBuilder;
 use lightvol_scene::builtin::city;
+use lightvol_scene::material::Material;
 use lightvol_scene::reference::reference_irradiance_many;
-use lightvol_scene::scene::{Material, SceneBuilder};
 use lightvol_scene::transport::TransportSettings;
 use lightvol_sh::lowdisc::SplitMix64;
 use std::sync::atomic::AtomicBool;

@@ -332,7 +332,8 @@ fn doi_probe_captures_each_node_in_the_domain() {
 /// into the grid's box (x just above 0.5), not out of it (x below -0.5), on each of 8 seeds.
 #[test]
 fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
-    use lightvol_scene::scene::{Material, SceneBuilder};
+    use lightvol_scene::builder::SceneBuilder;
+    use lightvol_scene::material::Material;
     let mut b = SceneBuilder::new("boundary wall");
     let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();
     b.add_box(DVec3::new(-0.5, -3.0, -3.0), DVec3::new(0.5, 5.0, 5.0), m, true, false).unwrap();
@@ -368,7 +369,8 @@ fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
 /// Fibonacci directions.
 #[test]
 fn doi_back_faces_count_inside_the_support_or_in_a_quarter_of_directions() {
-    use lightvol_scene::scene::{Material, SceneBuilder};
+    use lightvol_scene::builder::SceneBuilder;
+    use lightvol_scene::material::Material;
     let panel = |x: f64| {
         let mut b = SceneBuilder::new("panel");
         let m = b.add_material(Material::diffuse("grey", [0.5; 3])).unwrap();

@@ -5,7 +5,8 @@
 use super::*;
 use crate::relocate::DDGI_MAX_OFFSET;
 use glam::DVec2;
-use lightvol_scene::scene::{Material, SceneBuilder};
+use lightvol_scene::builder::SceneBuilder;
+use lightvol_scene::material::Material;
 
 /// A closed unit box `[-0.5, 0.5]³`, faces outward, single-sided.
 fn closed_box() -> lightvol_scene::Scene {

@@ -172,7 +172,9 @@ pub fn classify_cell(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lightvol_scene::scene::{Material, Scene, SceneBuilder};
+    use lightvol_scene::builder::SceneBuilder;
+    use lightvol_scene::material::Material;
+    use lightvol_scene::scene::Scene;
     use lightvol_scene::{LoadOptions, load_scene};
 
     fn solid_box(lo: DVec3, hi: DVec3, open_top: bool) -> Scene {

@@ -2,9 +2,10 @@
 //! fields and on a scene.
 
 use super::*;
+use lightvol_scene::builder::SceneBuilder;
 use lightvol_scene::bvh::Tracer;
 use lightvol_scene::lights::Environment;
-use lightvol_scene::scene::{Material, SceneBuilder};
+use lightvol_scene::material::Material;
 use lightvol_scene::transport::TransportSettings;
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::quadrature::SphereQuadrature;

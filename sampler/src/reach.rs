@@ -65,7 +65,8 @@ pub fn node_reach(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use lightvol_scene::scene::{Material, SceneBuilder};
+    use lightvol_scene::builder::SceneBuilder;
+    use lightvol_scene::material::Material;
 
     /// A closed slab `0.3 ≤ x ≤ 0.4` across a 3×3×3 grid over [0, 2]³ (cells of 1): the
     /// nodes at x = 0 reach 0.3 cells along +x, those at x = 1 reach 0.6 along -x, and

@@ -6,8 +6,8 @@
 use glam::{DAffine3, DMat3, DQuat};
 use lightvol_core::progress::BakeControl;
 use lightvol_sampler::{BakeSettings, Method, bake};
+use lightvol_scene::builder::box_faces;
 use lightvol_scene::lights::Environment;
-use lightvol_scene::scene::box_faces;
 use lightvol_scene::{
     AlphaMode, BuildQuality, DVec2, DVec3, Levels, Material, Scene, SceneBuilder, Tracer, Transport,
     TransportSettings,

@@ -22,7 +22,9 @@
 use glam::{DVec2, DVec3};
 
 use crate::base_color::Texture;
-use crate::scene::{AlphaMode, Scene, Triangle};
+use crate::material::AlphaMode;
+use crate::scene::Scene;
+use crate::triangle::Triangle;
 
 /// `slot` value of an opaque triangle.
 const OPAQUE: u32 = u32::MAX;
@@ -220,7 +222,8 @@ mod tests {
     /// of a grid, for a textured MASK material, an untextured BLEND one and an opaque one.
     #[test]
     fn table_alpha_equals_the_scene_reference() {
-        use crate::scene::{Material, SceneBuilder};
+        use crate::builder::SceneBuilder;
+        use crate::material::Material;
         use glam::DVec2;
         let mut b = SceneBuilder::new("alpha");
         let tex = Texture::from_linear(2, 2, vec![[1.0; 3]; 4])

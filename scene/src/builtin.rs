@@ -14,8 +14,10 @@ use glam::DVec3;
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_volume::GridSpec;
 
+use crate::builder::SceneBuilder;
 use crate::lights::{Environment, Sun};
-use crate::scene::{Material, Scene, SceneBuilder};
+use crate::material::Material;
+use crate::scene::Scene;
 
 /// A built-in scene with its recommended bake setup.
 #[derive(Clone, Debug)]

@@ -40,7 +40,8 @@ use rayon::prelude::*;
 
 use crate::alpha::{AlphaTable, ray_key};
 use crate::instance::place;
-use crate::scene::{Scene, Triangle};
+use crate::scene::Scene;
+use crate::triangle::Triangle;
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -555,7 +556,8 @@ pub fn intersect_f64(v: &[DVec3; 3], o: DVec3, d: DVec3) -> Option<(f64, f64, f6
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Material, SceneBuilder};
+    use crate::builder::SceneBuilder;
+    use crate::material::Material;
     use glam::DVec2;
     use lightvol_sh::lowdisc::SplitMix64;
     use lightvol_sh::sampling::sample_uniform_sphere;

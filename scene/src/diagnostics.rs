@@ -197,7 +197,8 @@ pub fn winding_report(scene: &Scene, weld: f64) -> WindingReport {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Material, SceneBuilder};
+    use crate::builder::SceneBuilder;
+    use crate::material::Material;
 
     fn boxes(flip: Option<usize>) -> Scene {
         let mut b = SceneBuilder::new("boxes");

@@ -32,7 +32,7 @@ use serde_json::Value;
 
 use crate::error::SceneError;
 use crate::instance::Instance;
-use crate::scene::{Triangle, TriangleRef};
+use crate::triangle::{Triangle, TriangleRef};
 
 /// Bytes the BVH build of `obvhs` (medium quality) holds per triangle beyond the arrays the
 /// tracer keeps: primitive bounds, Morton codes and the PLOC clustering buffers during the
@@ -194,14 +194,14 @@ pub fn estimate_scene(path: &Path, flatten_instances: bool) -> Result<SceneMemor
         return Ok(obj_counts(&text));
     }
     let bytes = std::fs::read(path).map_err(io)?;
-    let doc = crate::load_gltf::container::parse(&bytes)
+    let doc = crate::load::gltf::container::parse(&bytes)
         .map_err(|message| SceneError::Gltf { path: path.to_owned(), message })?;
     let counts = gltf_counts(&doc.json);
     // Images stored in buffers are measured from their headers; the buffers are read only
     // when some image lives in one (the load reads them again).
     let in_buffers = arr(&doc.json, "images").iter().any(|i| i.get("bufferView").is_some());
     let buffers = if in_buffers {
-        crate::load_gltf::container::load_buffers(&doc, path.parent()).unwrap_or_default()
+        crate::load::gltf::container::load_buffers(&doc, path.parent()).unwrap_or_default()
     } else {
         Vec::new()
     };
@@ -345,7 +345,7 @@ fn gltf_texels(json: &Value, buffers: &[Vec<u8>], base: Option<&Path>) -> u64 {
                 })
             } else if let Some(uri) = img.get("uri").and_then(Value::as_str) {
                 if uri.starts_with("data:") {
-                    crate::load_gltf::container::read_uri(uri, base).ok().and_then(|d| {
+                    crate::load::gltf::container::read_uri(uri, base).ok().and_then(|d| {
                         image::ImageReader::new(std::io::Cursor::new(d))
                             .with_guessed_format()
                             .ok()?

@@ -303,9 +303,10 @@ mod tests {
         assert_eq!(scene_hash(&maze, "key"), format!("{:016x}", fnv1a(&bytes)));
         assert_ne!(scene_hash(&maze, "key"), scene_hash(&maze, "kez"));
     }
+    use crate::builder::SceneBuilder;
     use crate::envmap::EnvMap;
     use crate::lights::Sun;
-    use crate::scene::{Material, SceneBuilder};
+    use crate::material::Material;
     use glam::DVec2;
 
     /// The environment-map hash equals FNV-1a of the texels written out independently (so

@@ -15,7 +15,7 @@
 use glam::{DAffine3, DVec3};
 
 use crate::error::SceneError;
-use crate::scene::{Scene, Triangle};
+use crate::triangle::Triangle;
 
 /// A mesh stored once, in its own frame, for [`Instance`]s to place.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -83,118 +83,6 @@ pub enum Located {
         /// Index into the prototype's triangles.
         local: u32,
     },
-}
-
-impl Scene {
-    /// Number of scene triangles: those placed directly plus every instance's.
-    #[must_use]
-    pub fn triangle_count(&self) -> usize {
-        self.triangles.len()
-            + self
-                .instances
-                .iter()
-                .map(|i| self.prototypes[i.prototype as usize].triangles.len())
-                .sum::<usize>()
-    }
-
-    /// Number of triangles stored: those placed directly plus each prototype's once.
-    #[must_use]
-    pub fn unique_triangle_count(&self) -> usize {
-        self.triangles.len() + self.prototypes.iter().map(|p| p.triangles.len()).sum::<usize>()
-    }
-
-    /// True when the scene has instances (its geometry is not all in [`Scene::triangles`]).
-    #[must_use]
-    #[inline]
-    pub fn is_instanced(&self) -> bool {
-        !self.instances.is_empty()
-    }
-
-    /// Where scene triangle `tri` is stored.
-    ///
-    /// # Panics
-    /// When `tri` is not below [`triangle_count`](Self::triangle_count).
-    #[must_use]
-    #[inline]
-    pub fn locate(&self, tri: u32) -> Located {
-        let n = self.triangles.len() as u32;
-        if tri < n {
-            return Located::World(tri);
-        }
-        let k = self.instances.partition_point(|i| i.first <= tri) - 1;
-        let inst = &self.instances[k];
-        let local = tri - inst.first;
-        assert!(
-            (local as usize) < self.prototypes[inst.prototype as usize].triangles.len(),
-            "triangle {tri} out of range"
-        );
-        Located::Instanced { instance: k as u32, local }
-    }
-
-    /// Scene triangle `tri` as stored: its material and UVs are the placed triangle's, its
-    /// vertices are in its prototype's frame when it is instanced (use
-    /// [`triangle`](Self::triangle) for world positions).
-    #[must_use]
-    #[inline]
-    pub fn stored_triangle(&self, tri: u32) -> &Triangle {
-        match self.locate(tri) {
-            Located::World(i) => &self.triangles[i as usize],
-            Located::Instanced { instance, local } => {
-                let p = self.instances[instance as usize].prototype;
-                &self.prototypes[p as usize].triangles[local as usize]
-            }
-        }
-    }
-
-    /// Scene triangle `tri` in the world frame.
-    #[must_use]
-    #[inline]
-    pub fn triangle(&self, tri: u32) -> Triangle {
-        match self.locate(tri) {
-            Located::World(i) => self.triangles[i as usize],
-            Located::Instanced { instance, local } => {
-                let inst = &self.instances[instance as usize];
-                inst.place(&self.prototypes[inst.prototype as usize].triangles[local as usize])
-            }
-        }
-    }
-
-    /// Every scene triangle in the world frame, in scene order.
-    pub fn world_triangles(&self) -> impl Iterator<Item = Triangle> + '_ {
-        self.triangles.iter().copied().chain(self.instances.iter().flat_map(move |inst| {
-            self.prototypes[inst.prototype as usize].triangles.iter().map(move |t| inst.place(t))
-        }))
-    }
-
-    /// Every scene triangle as stored ([`stored_triangle`](Self::stored_triangle)) with its
-    /// scene index and its instance, in scene order: for passes that need materials or UVs
-    /// only, without transforming anything.
-    pub fn stored_triangles(&self) -> impl Iterator<Item = (u32, &Triangle, Option<&Instance>)> + '_ {
-        let n = self.triangles.len() as u32;
-        self.triangles.iter().zip(0..n).map(|(t, i)| (i, t, None)).chain(self.instances.iter().flat_map(
-            move |inst| {
-                let tris = &self.prototypes[inst.prototype as usize].triangles;
-                tris.iter().zip(inst.first..).map(move |(t, i)| (i, t, Some(inst)))
-            },
-        ))
-    }
-
-    /// The same scene with every instance written out into [`Scene::triangles`], in scene
-    /// order (so triangle indices are unchanged). Lightmap objects keep their references to
-    /// the directly placed triangles; instanced triangles have none.
-    #[must_use]
-    pub fn flattened(&self) -> Scene {
-        let mut s = self.clone();
-        let direct = s.triangles.len();
-        s.triangles = self.world_triangles().collect();
-        if !s.triangle_refs.is_empty() {
-            s.triangle_refs.resize(s.triangles.len(), None);
-        }
-        debug_assert!(s.triangles.len() >= direct);
-        s.prototypes.clear();
-        s.instances.clear();
-        s
-    }
 }
 
 /// Assigns each instance its first scene index and its world bounds, and drops instances

@@ -13,7 +13,7 @@ use std::path::{Path, PathBuf};
 use serde_json::{Map, Value, json};
 
 use crate::error::SceneError;
-use crate::load_gltf::container;
+use crate::load::gltf::container;
 
 /// Writes `<dir>/<stem>_<nx>x<ny>.gltf` (and its `.bin` when the source is a GLB): the
 /// default scene of `src` repeated on `counts[0] × counts[1]` tiles `pitch` apart. Returns
@@ -154,7 +154,7 @@ fn write_whole(path: &Path, bytes: &[u8]) -> Result<(), SceneError> {
 mod tests {
     use super::*;
     use crate::LoadOptions;
-    use crate::load_gltf::load_gltf;
+    use crate::load::gltf::load_gltf;
 
     /// A 3 × 2 layout of the vendored occlusion room places its 17 meshes 6 times each:
     /// 6 × 63,720 triangles placed, 63,720 stored, 102 instances, each tile moved by the

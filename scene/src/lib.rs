@@ -2,6 +2,7 @@
 
 pub mod alpha;
 pub mod base_color;
+pub mod builder;
 pub mod builtin;
 pub mod bvh;
 pub mod diagnostics;
@@ -13,28 +14,29 @@ pub mod instance;
 pub mod layout;
 pub mod light_sampler;
 pub mod lights;
-pub mod load_gltf;
-pub mod load_obj;
+pub mod load;
+pub mod material;
 pub mod qmc;
 pub mod reference;
 pub mod scene;
 pub mod scene_summary;
 pub mod stats;
 pub mod transport;
+pub mod triangle;
 
+pub use builder::SceneBuilder;
 pub use builtin::{BuiltinScene, builtin};
 pub use bvh::{BuildQuality, Hit, Levels, Tracer};
 pub use error::SceneError;
 pub use glam::{DVec2, DVec3};
 pub use lights::{Environment, PunctualLight, Sun};
-pub use load_obj::{LoadOptions, load_obj, load_scene};
+pub use load::{LoadOptions, load_gltf, load_obj, load_scene};
+pub use material::{AlphaMode, Material};
 pub use reference::{reference_irradiance, reference_irradiance_many};
-pub use scene::{
-    AlphaMode, ExtensionReport, LoadReport, Material, MeshAttributes, Scene, SceneBuilder, SceneCamera,
-    Triangle, TriangleRef, UpAxis,
-};
+pub use scene::{ExtensionReport, LoadReport, Scene, SceneCamera, UpAxis};
 pub use stats::RayCounts;
 pub use transport::{PathRng, Transport, TransportSettings};
+pub use triangle::{MeshAttributes, Triangle, TriangleRef};
 
 #[cfg(test)]
 mod cornell_tests {
@@ -107,7 +109,7 @@ mod vendored_scene_tests {
         );
         let z = load_scene(&data("zdm2/zdm2.glb"), &LoadOptions::default()).unwrap();
         assert_eq!(z.materials.len(), 1);
-        assert_eq!(z.materials[0].albedo, load_obj::DEFAULT_ALBEDO);
+        assert_eq!(z.materials[0].albedo, load::DEFAULT_ALBEDO);
         let l = load_scene(&data("living_room/living_room.glb"), &LoadOptions::default()).unwrap();
         assert!(l.materials.iter().all(|m| m.double_sided));
     }

@@ -275,7 +275,8 @@ pub fn power_heuristic(a: f64, b: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{Material, SceneBuilder};
+    use crate::builder::SceneBuilder;
+    use crate::material::Material;
     use lightvol_sh::lowdisc::Halton;
 
     /// Light-sampled estimate of the solid angle subtended by an emitter quad equals the

@@ -57,9 +57,11 @@ pub fn reference_irradiance_many(
 mod tests {
     //! Light transport against analytic answers.
     use super::*;
+    use crate::builder::SceneBuilder;
     use crate::bvh::Tracer;
     use crate::lights::{Environment, Sun};
-    use crate::scene::{Material, Scene, SceneBuilder};
+    use crate::material::Material;
+    use crate::scene::Scene;
     use crate::transport::TransportSettings;
     use std::f64::consts::PI;
 

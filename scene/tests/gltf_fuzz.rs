@@ -68,7 +68,7 @@ use std::time::{Duration, Instant};
 mod common;
 
 use common::{reset_peak, status_bytes};
-use lightvol_scene::load_gltf::load_gltf_slice;
+use lightvol_scene::load::gltf::load_gltf_slice;
 use lightvol_scene::{LoadOptions, PunctualLight};
 use proptest::prelude::*;
 use proptest::sample::{Index, select};
@@ -95,7 +95,7 @@ const BYTES_PER_TRIANGLE: usize = 1024;
 const HARD_MEMORY_LIMIT: usize = 1536 << 20;
 /// A case running longer than this is a hang: the process stops with the case printed.
 const CASE_TIME_LIMIT: Duration = Duration::from_secs(60);
-/// The loader's cap on one accessor's values (`load_gltf::accessor::MAX_ACCESSOR_VALUES`),
+/// The loader's cap on one accessor's values (`load::gltf::accessor::MAX_ACCESSOR_VALUES`),
 /// for counts just under and over it.
 const MAX_ACCESSOR_VALUES: u64 = 1 << 27;
 /// Stands for the (mutated) binary buffer's `data:` URI until the document is serialized.

@@ -9,8 +9,9 @@
 mod common;
 
 use common::{reset_peak, status_bytes};
+use lightvol_scene::builder::SceneBuilder;
 use lightvol_scene::estimate::{BVH_BUILD_BYTES_PER_TRIANGLE, SceneMemory, tracer_bytes_per_triangle};
-use lightvol_scene::scene::{Material, SceneBuilder};
+use lightvol_scene::material::Material;
 use lightvol_scene::{DVec2, DVec3, Tracer};
 
 const TRIANGLES: usize = 400_000;

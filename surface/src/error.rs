@@ -7,7 +7,7 @@ use super::UvSet;
 /// Everything that can go wrong while preparing, baking, writing or reading coefficient maps.
 #[derive(Debug, thiserror::Error)]
 pub enum SurfaceError {
-    /// The scene has no lightmap objects (no triangle carries a [`TriangleRef`](lightvol_scene::scene::TriangleRef);
+    /// The scene has no lightmap objects (no triangle carries a [`TriangleRef`](lightvol_scene::triangle::TriangleRef);
     /// OBJ files and the built-in scenes have none, glTF files always do).
     #[error(
         "the scene has no lightmap objects (load a glTF file, or build meshes with SceneBuilder::add_mesh)"

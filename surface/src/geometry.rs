@@ -11,7 +11,7 @@ use lightvol_scene::scene::Scene;
 /// One lightmap object: the triangles of a glTF mesh instance.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceObject {
-    /// Object name (from [`MeshAttributes::name`](lightvol_scene::scene::MeshAttributes)).
+    /// Object name (from [`MeshAttributes::name`](lightvol_scene::triangle::MeshAttributes)).
     pub name: String,
     /// Index into [`Scene::meshes`].
     pub mesh: u32,
@@ -50,7 +50,7 @@ pub struct SurfaceGeometry {
 
 /// A UV triangle whose doubled area is below this fraction of its longest edge squared has no
 /// usable texel footprint (the same relative test as
-/// [`DEGENERATE_RELATIVE_AREA`](lightvol_scene::scene::DEGENERATE_RELATIVE_AREA) for positions).
+/// [`DEGENERATE_RELATIVE_AREA`](lightvol_scene::triangle::DEGENERATE_RELATIVE_AREA) for positions).
 pub const DEGENERATE_UV_RELATIVE_AREA: f64 = 1e-9;
 
 /// Lightmap UVs may exceed `[0, 1]` by this much (f32 storage of exactly 0 or 1 after a
@@ -86,7 +86,7 @@ impl SurfaceGeometry {
             }
         }
         let geometric: Vec<DVec3> =
-            scene.triangles.iter().map(lightvol_scene::scene::Triangle::normal).collect();
+            scene.triangles.iter().map(lightvol_scene::triangle::Triangle::normal).collect();
         let mut objects = Vec::new();
         let mut tris = vec![None; nt];
         for (mesh_index, tri_ids) in per_mesh.iter().enumerate() {

@@ -11,10 +11,13 @@ use lightvol_sh::lowdisc::SplitMix64;
 
 use super::*;
 use lightvol_core::progress::BakeControl;
+use lightvol_scene::builder::SceneBuilder;
 use lightvol_scene::bvh::Tracer;
 use lightvol_scene::lights::Environment;
-use lightvol_scene::scene::{Material, MeshAttributes, Scene, SceneBuilder, TriangleRef};
+use lightvol_scene::material::Material;
+use lightvol_scene::scene::Scene;
 use lightvol_scene::transport::{Transport, TransportSettings};
+use lightvol_scene::triangle::{MeshAttributes, TriangleRef};
 
 /// Adds one lightmap object (vertex arrays with TEXCOORD_1 = `uv`, TEXCOORD_0 = `uv` too).
 fn add_object(
@@ -510,7 +513,7 @@ fn bary_of(v: &[DVec3; 3], p: DVec3) -> [f64; 2] {
 // ---------------------------------------------------------------------------------------
 // Lightmap UV errors from glTF files.
 
-use lightvol_scene::load_gltf::base64_encode as base64;
+use lightvol_scene::load::gltf::base64_encode as base64;
 
 /// A glTF file with one mesh "Floor" of two triangles over the unit square (4 vertices),
 /// `TEXCOORD_0` = positions, `TEXCOORD_1` = `uv1` if given, optional `TANGENT`s, under a node
@@ -582,7 +585,7 @@ fn gltf_file(
 }
 
 fn load(p: &std::path::Path) -> Scene {
-    lightvol_scene::load_gltf::load_gltf(
+    lightvol_scene::load::gltf::load_gltf(
         p,
         &lightvol_scene::LoadOptions { up: lightvol_scene::UpAxis::Z, ..Default::default() },
     )
@@ -980,7 +983,7 @@ fn instanced_meshes_are_separate_objects() {
         flatten_instances: true,
         ..Default::default()
     };
-    let s = lightvol_scene::load_gltf::load_gltf(&p, &opts).unwrap();
+    let s = lightvol_scene::load::gltf::load_gltf(&p, &opts).unwrap();
     let names: Vec<&str> = s.meshes.iter().map(|m| m.name.as_str()).collect();
     assert_eq!(names.len(), 2);
     assert!(names.contains(&"Floor") && names.contains(&"Floor#2"), "{names:?}");

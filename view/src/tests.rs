@@ -9,9 +9,11 @@ use lightvol_sh::index::sh_index;
 use lightvol_volume::{GridSpec, IrradianceVolume};
 
 use super::*;
+use lightvol_scene::builder::SceneBuilder;
 use lightvol_scene::bvh::Tracer;
 use lightvol_scene::lights::Environment;
-use lightvol_scene::scene::{Material, Scene, SceneBuilder, SceneCamera, UpAxis};
+use lightvol_scene::material::Material;
+use lightvol_scene::scene::{Scene, SceneCamera, UpAxis};
 use lightvol_scene::transport::{Transport, TransportSettings};
 
 /// Half the side of the ground quad (m).

@@ -33,10 +33,12 @@ use std::path::Path;
 use glam::{DAffine3, DMat3, DMat4, DQuat, DVec2, DVec3, DVec4};
 use serde_json::Value;
 
+use crate::builder::SceneBuilder;
 use crate::error::SceneError;
 use crate::lights::PunctualLight;
-use crate::load_obj::LoadOptions;
-use crate::scene::{LoadReport, MeshAttributes, Scene, SceneBuilder, SceneCamera, TriangleRef};
+use crate::load::options::LoadOptions;
+use crate::scene::{LoadReport, Scene, SceneCamera};
+use crate::triangle::{MeshAttributes, TriangleRef};
 use material::{MaterialUse, Materials};
 
 /// Loads a glTF 2.0 file. Textures that cannot be used leave their material on its factor

@@ -14,8 +14,9 @@ use serde_json::Value;
 
 use super::container::read_uri;
 use crate::base_color::{Texture, Wrap};
-use crate::load_obj::{DEFAULT_ALBEDO, LoadOptions};
-use crate::scene::{AlphaMode, Material, SceneBuilder};
+use crate::builder::SceneBuilder;
+use crate::load::options::{DEFAULT_ALBEDO, LoadOptions};
+use crate::material::{AlphaMode, Material};
 
 /// Most texels an image may have: 2^26 (8192 × 8192; 1 GiB as linear RGB and alpha
 /// floats). The decoder's own limit is on its bytes (512 MiB), which a PNG of a few hundred

@@ -6,46 +6,12 @@ use std::path::{Path, PathBuf};
 use glam::{DVec2, DVec3};
 
 use crate::base_color::Texture;
+use crate::builder::SceneBuilder;
 use crate::error::SceneError;
-use crate::scene::{Material, Scene, SceneBuilder, UpAxis};
+use crate::material::Material;
+use crate::scene::Scene;
 
-/// Options shared by the loaders.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct LoadOptions {
-    /// The file's up axis (glTF is +Y by specification; OBJ has no convention, +Y is common).
-    pub up: UpAxis,
-    /// Uniform scale applied to positions (e.g. 0.001 for millimetre files).
-    pub scale: f64,
-    /// Make every material double-sided (for files whose winding cannot be trusted; this
-    /// disables domain-of-interest classification on them, see Kontkanen & Laine 2006 §7).
-    pub force_double_sided: bool,
-    /// Write every placement of an instanced glTF mesh out as its own world-space
-    /// triangles and lightmap object, instead of storing the mesh once and placing it
-    /// ([`crate::instance`]). The surface bake needs this: each placement gets its own
-    /// lightmap. An OBJ has no instancing either way.
-    pub flatten_instances: bool,
-}
-
-impl Default for LoadOptions {
-    fn default() -> Self {
-        Self { up: UpAxis::Y, scale: 1.0, force_double_sided: false, flatten_instances: false }
-    }
-}
-
-/// Albedo used when a material gives no `Kd` (or a mesh has no material).
-pub const DEFAULT_ALBEDO: [f64; 3] = [0.8, 0.8, 0.8];
-
-/// Loads `.obj`, `.gltf` or `.glb` by extension.
-///
-/// # Errors
-/// See [`SceneError`].
-pub fn load_scene(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
-    match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("obj") => load_obj(path, opts),
-        Some("gltf" | "glb") => crate::load_gltf::load_gltf(path, opts),
-        _ => Err(SceneError::UnsupportedFormat(path.to_owned())),
-    }
-}
+use super::options::{DEFAULT_ALBEDO, LoadOptions};
 
 /// Loads an OBJ file and its MTL library. A missing MTL or texture is a warning in
 /// [`Scene::report`]; the material then uses its factor (or [`DEFAULT_ALBEDO`]).
@@ -162,6 +128,8 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::load::load_scene;
+    use crate::scene::UpAxis;
 
     fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
         let p = dir.join(name);
