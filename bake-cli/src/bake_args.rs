@@ -242,7 +242,6 @@ pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
         Conflict::Fit(fit) => format!("--fit {fit}"),
     };
     match e {
-        RequestError::ZeroSamples => anyhow::anyhow!("--samples must be at least 1"),
         RequestError::Baseline { baseline, with } => anyhow::anyhow!(
             "{} cannot be combined with --method {} (the engine baselines bake a whole uniform grid)",
             option(with),

@@ -16,6 +16,7 @@
 //!   `encode_scale` first (recorded in the JSON and in each KTX2 file's `lightvol.plane`
 //!   entry; a shader multiplies the decoded sum by `1 / encode_scale`).
 
+use lightvol_core::samples::{Samples, parse_samples, samples};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -140,8 +141,8 @@ pub(crate) struct BakeSurfaceArgs {
     #[arg(long)]
     pub(crate) no_invalid_fix: bool,
     /// In-domain path samples per texel.
-    #[arg(long, default_value_t = 256)]
-    pub(crate) samples: u32,
+    #[arg(long, value_parser = parse_samples, default_value_t = samples(256))]
+    pub(crate) samples: Samples,
     /// Path length and direct light.
     #[command(flatten)]
     pub(crate) path: crate::setup::PathArgs,
@@ -222,9 +223,6 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
         .context("--basis")?;
     if !(args.texels_per_unit.is_finite() && args.texels_per_unit > 0.0) {
         bail!("--texels-per-unit must be a positive finite number");
-    }
-    if args.samples == 0 {
-        bail!("--samples must be at least 1");
     }
     let storage = storage_settings(args)?;
     let resolution = args.resolution.as_deref().map(parse_resolution).transpose()?;

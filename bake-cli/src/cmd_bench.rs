@@ -3,6 +3,7 @@
 //! second (scalar and batched, coherent and random order), and the cost of doi against
 //! point sampling at equal samples on a built-in scene.
 
+use lightvol_core::samples::{Samples, parse_samples, samples};
 use std::hint::black_box;
 use std::process::ExitCode;
 use std::time::Instant;
@@ -31,8 +32,8 @@ pub(crate) struct BenchArgs {
     #[arg(long, default_value_t = 2_000_000)]
     pub(crate) lookups: usize,
     /// Samples per cell/node for the doi vs point bakes.
-    #[arg(long, default_value_t = 64)]
-    pub(crate) samples: u32,
+    #[arg(long, value_parser = parse_samples, default_value_t = samples(64))]
+    pub(crate) samples: Samples,
     /// Also measure the Vulkan evaluator (volume lookups and proxy frame passes; needs a
     /// Vulkan device, see `lightvol gpu-info`).
     #[arg(long)]
@@ -51,8 +52,8 @@ pub(crate) struct BenchArgs {
     #[arg(long, default_value = "data/scenes")]
     pub(crate) data: std::path::PathBuf,
     /// With --bakes: samples per cell of each doi bake.
-    #[arg(long, default_value_t = 16)]
-    pub(crate) bake_samples: u32,
+    #[arg(long, value_parser = parse_samples, default_value_t = samples(16))]
+    pub(crate) bake_samples: Samples,
     /// With --embree: how lightvol traces an instanced scene: `auto` (one level up to 2^20
     /// placed triangles), `one` (instances written out), `two` (a BVH per mesh under a
     /// top-level BVH). Embree always gets the triangles written out.
@@ -114,7 +115,7 @@ fn lookups_per_second(
 /// Runs `lightvol bench`.
 pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     if args.bakes {
-        let report = crate::bench_scale::run(&args.data, args.bake_samples)?;
+        let report = crate::bench_scale::run(&args.data, args.bake_samples.get())?;
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(ExitCode::SUCCESS);
     }

@@ -7,6 +7,7 @@
 //! `plate.exr`, the panels, with `--camera` the views (`view_CAMERA_METHOD.png`,
 //! `view_CAMERA_reference.png`) and, with `--memory-sweep`, the sweep's files.
 
+use lightvol_core::samples::{Samples, parse_samples};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::{Mutex, PoisonError};
@@ -74,8 +75,8 @@ pub(crate) struct CompareArgs {
     #[arg(long, value_delimiter = ',', default_value = "0.5,0.7,1,1.4")]
     pub(crate) sweep_scales: Vec<f64>,
     /// Path-traced samples per plate point for the reference.
-    #[arg(long, default_value_t = PlateConfig::DEFAULT_REFERENCE_SAMPLES)]
-    pub(crate) reference_samples: u32,
+    #[arg(long, value_parser = parse_samples, default_value_t = PlateConfig::DEFAULT_REFERENCE_SAMPLES)]
+    pub(crate) reference_samples: Samples,
     /// Directions traced per plate point to decide whether it sees back faces.
     #[arg(long, default_value_t = PlateConfig::DEFAULT_CLASSIFY_DIRS)]
     pub(crate) classify_dirs: u32,
@@ -155,7 +156,6 @@ impl Observer for ProgressBars {
 pub(crate) fn flag_error(e: EvalError) -> anyhow::Error {
     match e {
         EvalError::NoMethods => anyhow::anyhow!("--methods needs at least one method"),
-        EvalError::ZeroSamples => anyhow::anyhow!("--samples and --reference-samples must be at least 1"),
         EvalError::NoSweepScales => anyhow::anyhow!("--sweep-scales needs at least one scale"),
         EvalError::SweepScale { scale, max } => {
             anyhow::anyhow!("--sweep-scales: {scale} is not in (0, {max}]")
@@ -169,7 +169,6 @@ pub(crate) fn flag_error(e: EvalError) -> anyhow::Error {
             "--gradients basis needs cell samples (prefilter, doi-paper); use --gradient-estimator central with point, doi or doi-node"
         ),
         EvalError::ZeroThreads => anyhow::anyhow!("--threads must be at least 1"),
-        EvalError::View(ViewError::ZeroSamples) => anyhow::anyhow!("--view-samples must be at least 1"),
         EvalError::View(e @ ViewError::ImageSize { .. }) => {
             anyhow::Error::new(e).context("--view-width/--view-height")
         }
@@ -235,12 +234,6 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     }
     if methods.is_empty() {
         return Err(flag_error(EvalError::NoMethods));
-    }
-    if args.reference_samples == 0 || args.sampling.samples == 0 {
-        return Err(flag_error(EvalError::ZeroSamples));
-    }
-    if !args.views.cameras.is_empty() && args.views.view_samples == 0 {
-        return Err(flag_error(EvalError::View(ViewError::ZeroSamples)));
     }
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded, methods.iter().any(|m| m.entry.records_node_reach()))?;

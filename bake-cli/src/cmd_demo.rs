@@ -3,6 +3,7 @@
 //! `city`, and writes an `index.html` that shows every panel, the metrics and the plot
 //! (lightvol-eval's `report::index_html`).
 
+use lightvol_core::samples::{Samples, samples};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -36,16 +37,16 @@ pub(crate) struct DemoArgs {
 
 /// Settings of one demo level.
 struct Level {
-    samples: u32,
+    samples: Samples,
     plate_res: u32,
-    reference_samples: u32,
+    reference_samples: Samples,
     sweep: &'static [u32],
     /// Cell-count scales of the error-vs-memory study (`compare --memory-sweep`).
     memory_scales: &'static [f64],
     /// Width of each scene's overview views (`compare --camera overview`).
     view_width: u32,
     /// Path-traced samples per pixel of the reference views.
-    view_samples: u32,
+    view_samples: Samples,
 }
 
 /// Scenes of the error-vs-memory study (`city` and `interior`).
@@ -84,22 +85,22 @@ const REAL_ENTRIES: [&str; 7] =
     ["point", "doi-paper", "doi", "point+validity", "point+apv", "point+vlm", "point+ddgi"];
 
 const QUICK: Level = Level {
-    samples: 64,
+    samples: samples(64),
     plate_res: 64,
-    reference_samples: 192,
+    reference_samples: samples(192),
     sweep: &[8, 12, 16, 24],
     memory_scales: &[0.5, 0.7, 1.0],
     view_width: 160,
-    view_samples: 32,
+    view_samples: samples(32),
 };
 const FULL: Level = Level {
-    samples: 256,
+    samples: samples(256),
     plate_res: 160,
-    reference_samples: 1024,
+    reference_samples: samples(1024),
     sweep: &[8, 12, 16, 24, 32],
     memory_scales: &[0.4, 0.5, 0.7, 1.0, 1.4, 2.0],
     view_width: 384,
-    view_samples: 256,
+    view_samples: samples(256),
 };
 
 /// The camera of a scene's views: `render`'s overview of the grid for the open scenes; in

@@ -70,10 +70,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
             }
         }
     })?
-    .map_err(|e| match e {
-        ViewError::ZeroSamples => anyhow::anyhow!("--reference-samples must be at least 1"),
-        e => e.into(),
-    })?;
+    .map_err(anyhow::Error::new)?;
     let img = crate::imaging::Rgb32::from(img);
     let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&img));
     crate::imaging::write_image(&args.output, &img, exposure)?;

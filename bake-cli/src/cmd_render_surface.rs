@@ -82,9 +82,6 @@ fn surface_error(e: MapDirError) -> anyhow::Error {
 /// Runs `lightvol render --surface`.
 pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Result<ExitCode> {
     args.size(None)?;
-    if args.reference_samples == 0 {
-        bail!("--reference-samples must be at least 1");
-    }
     let nmap = NormalMap::parse(normal_map).map_err(|e| anyhow::Error::new(e).context("--normal-map"))?;
     // Default `-o` of the volume render is a file name; a surface render writes a folder.
     let out_dir = if args.output == Path::new("render.png") {
@@ -162,7 +159,7 @@ pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Re
     let report = SurfaceRenderReport {
         bases,
         invalid_texels,
-        reference: ReferenceReport { image: "reference.png".into(), samples: args.reference_samples },
+        reference: ReferenceReport { image: "reference.png".into(), samples: args.reference_samples.get() },
         pixels,
         normal_map: normal_map.to_owned(),
     };

@@ -4,6 +4,7 @@
 
 use anyhow::Context;
 use clap::Args;
+use lightvol_core::samples::{Samples, parse_samples};
 use lightvol_eval::{ViewCamera, ViewsConfig};
 use lightvol_scene::DVec3;
 use lightvol_view::{Camera, CameraSpec};
@@ -32,8 +33,8 @@ pub(crate) struct ViewArgs {
     #[arg(long)]
     pub(crate) view_height: Option<u32>,
     /// Path-traced irradiance samples per pixel of the reference views.
-    #[arg(long, default_value_t = ViewsConfig::DEFAULT_REFERENCE_SAMPLES)]
-    pub(crate) view_samples: u32,
+    #[arg(long, value_parser = parse_samples, default_value_t = ViewsConfig::DEFAULT_REFERENCE_SAMPLES)]
+    pub(crate) view_samples: Samples,
 }
 
 /// Characters kept in a file camera's name when it labels a view (the rest become `_`).

@@ -2,6 +2,7 @@
 //! camera (`--camera SPEC`, lightvol-view's `CameraSpec`), shared by the volume and
 //! the surface render and by `compare`'s views.
 
+use lightvol_core::samples::{Samples, parse_samples, samples};
 use std::path::PathBuf;
 
 use clap::Args;
@@ -36,8 +37,8 @@ pub(crate) struct RenderArgs {
     #[arg(long)]
     pub(crate) reference: bool,
     /// Path-traced irradiance samples per pixel with --reference.
-    #[arg(long, default_value_t = 64)]
-    pub(crate) reference_samples: u32,
+    #[arg(long, value_parser = parse_samples, default_value_t = samples(64))]
+    pub(crate) reference_samples: Samples,
     /// Exposure multiplier (default: maps the mean pixel to 0.35).
     #[arg(long)]
     pub(crate) exposure: Option<f32>,

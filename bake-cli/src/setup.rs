@@ -1,6 +1,7 @@
 //! Scene, light, grid and bake options shared by `bake`, `compare`, `render`, `lint` and
 //! `bench`, and their validation (every problem is one clear error before any heavy work).
 
+use lightvol_core::samples::{Samples, parse_samples, samples};
 use std::path::PathBuf;
 
 use anyhow::{Context, bail};
@@ -125,8 +126,8 @@ impl PathArgs {
 pub(crate) struct SampleArgs {
     /// Samples per cell (prefilter, doi-paper), per node (doi-node) or directions per node
     /// (point, doi).
-    #[arg(long, default_value_t = 256)]
-    pub(crate) samples: u32,
+    #[arg(long, value_parser = parse_samples, default_value_t = samples(256))]
+    pub(crate) samples: Samples,
     /// Path length and direct light.
     #[command(flatten)]
     pub(crate) path: PathArgs,

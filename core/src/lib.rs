@@ -7,4 +7,5 @@ pub mod hash;
 pub mod ktx2;
 pub mod metric;
 pub mod progress;
+pub mod samples;
 pub mod shard;

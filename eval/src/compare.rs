@@ -3,6 +3,7 @@
 //! reference, optionally followed by the views through cameras and the error-against-memory
 //! study.
 
+use lightvol_core::samples::{Samples, samples};
 use lightvol_volume::GridSpec;
 use lightvol_volume::volume::check_coeffs;
 
@@ -34,7 +35,7 @@ pub struct CompareConfig {
     pub methods: Vec<NamedEntry>,
     /// Samples per cell (prefilter, doi, every octree level) or directions per node (point
     /// and the engine baselines): the same budget for every entry.
-    pub samples: u32,
+    pub samples: Samples,
     /// Seed of every random stream (bakes, plate classification, reference); results are
     /// bit-identical for a seed, whatever the thread count.
     pub seed: u64,
@@ -71,7 +72,7 @@ impl CompareConfig {
             methods: [Method::Point, Method::Prefilter, Method::DoiPaper, Method::Doi]
                 .map(|m| NamedEntry::new(Entry::Uniform(m)))
                 .to_vec(),
-            samples: 256,
+            samples: samples(256),
             seed: 1,
             transport: TransportSettings::default(),
             fit: Fit::Average,
@@ -99,9 +100,6 @@ impl CompareConfig {
     pub fn validate(&self) -> Result<(), EvalError> {
         if self.methods.is_empty() {
             return Err(EvalError::NoMethods);
-        }
-        if self.samples == 0 || self.plate.reference_samples == 0 {
-            return Err(EvalError::ZeroSamples);
         }
         check_coeffs(self.coeffs)?;
         if let Some(sweep) = &self.memory_sweep {
@@ -225,10 +223,14 @@ pub(crate) mod tests {
     /// (also the views' tests' fixture).
     pub(crate) fn maze_config() -> (builtin::BuiltinScene, CompareConfig) {
         let maze = builtin::maze();
-        let plate =
-            PlateConfig { height: maze.plate_heights[0], res: 12, reference_samples: 16, classify_dirs: 64 };
+        let plate = PlateConfig {
+            height: maze.plate_heights[0],
+            res: 12,
+            reference_samples: samples(16),
+            classify_dirs: 64,
+        };
         let mut c = CompareConfig::new(maze.grid.clone(), plate);
-        c.samples = 8;
+        c.samples = samples(8);
         c.threads = Some(2);
         (maze, c)
     }
@@ -325,8 +327,6 @@ pub(crate) mod tests {
             c.validate().unwrap_err()
         };
         assert!(matches!(check(&|c| c.methods.clear()), EvalError::NoMethods));
-        assert!(matches!(check(&|c| c.samples = 0), EvalError::ZeroSamples));
-        assert!(matches!(check(&|c| c.plate.reference_samples = 0), EvalError::ZeroSamples));
         assert!(matches!(check(&|c| c.threads = Some(0)), EvalError::ZeroThreads));
         assert!(matches!(check(&|c| c.coeffs = 5), EvalError::Volume(_)));
         assert!(matches!(check(&|c| c.plate.height = 99.0), EvalError::PlateOutsideGrid { .. }));

@@ -39,9 +39,6 @@ pub enum EvalError {
     /// No entry to compare.
     #[error("no method to compare")]
     NoMethods,
-    /// Zero samples per cell or per reference point.
-    #[error("the samples per cell and per reference point must be at least 1")]
-    ZeroSamples,
     /// A memory sweep without scales.
     #[error("the memory sweep needs at least one scale")]
     NoSweepScales,

@@ -11,6 +11,7 @@
 //!
 //! The reference is [`reference_irradiance_many`] at every point with normal +Z.
 
+use lightvol_core::samples::{Samples, samples};
 use std::time::Instant;
 
 use glam::DVec3;
@@ -45,8 +46,8 @@ pub struct PlateConfig {
     /// Points along the plate's longer side (at least 2); the shorter side keeps the
     /// grid's aspect.
     pub res: u32,
-    /// Path-traced samples per point for the reference (at least 1).
-    pub reference_samples: u32,
+    /// Path-traced samples per point for the reference.
+    pub reference_samples: Samples,
     /// Directions traced per point to decide whether it sees back faces.
     pub classify_dirs: u32,
 }
@@ -55,7 +56,7 @@ impl PlateConfig {
     /// Default [`res`](Self::res).
     pub const DEFAULT_RES: u32 = 128;
     /// Default [`reference_samples`](Self::reference_samples).
-    pub const DEFAULT_REFERENCE_SAMPLES: u32 = 512;
+    pub const DEFAULT_REFERENCE_SAMPLES: Samples = samples(512);
     /// Default [`classify_dirs`](Self::classify_dirs).
     pub const DEFAULT_CLASSIFY_DIRS: u32 = 256;
 
@@ -289,7 +290,7 @@ mod tests {
         // The maze's recommended grid, x and y halved: 20 m by 10 m.
         let grid = GridSpec::new([-10.0, -5.0, -0.5], [10.0, 5.0, 3.5], [11, 6, 3]).unwrap();
         // 0.4 m between points: some land inside the 0.4 m thick walls on the 3 m pitch.
-        let config = PlateConfig { height: 1.0, res: 50, reference_samples: 2, classify_dirs: 64 };
+        let config = PlateConfig { height: 1.0, res: 50, reference_samples: samples(2), classify_dirs: 64 };
         let p = Plate::build(&t, &grid, &config, 1, &Silent).unwrap();
         assert_eq!(p.res, [50, 25]);
         let close = |a: DVec3, b: DVec3| (a - b).length() < 1e-12;

@@ -8,6 +8,7 @@
 //! entry) and `report.json` ([`CompareReport`]). [`index_html`] lays several reports out on
 //! one page. Nothing here touches the file system: the caller writes the returned bytes.
 
+use lightvol_core::samples::Samples;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -188,7 +189,7 @@ pub fn compare_files(
     let mut methods = Map::new();
     for r in &result.methods {
         let summary =
-            MethodSummary { samples: r.samples, rays: r.rays, seconds: r.seconds, metrics: r.metrics };
+            MethodSummary { samples: r.samples.get(), rays: r.rays, seconds: r.seconds, metrics: r.metrics };
         let mut v = serde_json::to_value(&summary).unwrap_or_default();
         if let Value::Object(m) = &mut v {
             m.extend(extra(r));
@@ -206,7 +207,7 @@ pub fn compare_files(
         },
         grid: FileGrid::of(&config.grid, frame),
         reference: ReferenceSummary {
-            samples: config.plate.reference_samples,
+            samples: config.plate.reference_samples.get(),
             mean: result.mean_truth,
             seconds: plate.reference_seconds,
         },
@@ -235,7 +236,7 @@ impl CompareReport {
 pub fn view_files(
     view: &ComparedView,
     spec: &str,
-    samples: u32,
+    samples: Samples,
 ) -> Result<(ViewReport, Vec<FileBytes>), PictureError> {
     let reference = Rgb32::from(view.reference.clone());
     let exposure = auto_exposure(&reference);
@@ -262,7 +263,11 @@ pub fn view_files(
         resolution: [view.reference.width, view.reference.height],
         surface_pixels: view.reference.surface_pixels(),
         measured_pixels: view.measured.iter().filter(|&&m| m).count(),
-        reference: ReferenceSummary { samples, mean: view.mean_reference, seconds: view.reference_seconds },
+        reference: ReferenceSummary {
+            samples: samples.get(),
+            mean: view.mean_reference,
+            seconds: view.reference_seconds,
+        },
         methods,
     };
     Ok((report, files))

@@ -6,6 +6,7 @@
 //! transport, one sample budget and one seed, so entries differ only in how they sample
 //! and read.
 
+use lightvol_core::samples::Samples;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
@@ -36,7 +37,7 @@ pub struct BakeContext<'a> {
     /// The light transport over the scene and its ray tracer.
     pub transport: Transport<'a>,
     /// Samples per cell (per node for point sampling).
-    pub samples: u32,
+    pub samples: Samples,
     /// SH coefficients per channel (4, 9 or 16).
     pub coeffs: usize,
     /// Seed of every random stream.
@@ -113,7 +114,7 @@ pub struct MethodRun {
     /// The entry's name.
     pub name: String,
     /// Samples per cell (per node for point sampling).
-    pub samples: u32,
+    pub samples: Samples,
     /// Rays traced, by kind (the bake's, the gradient step's and the validity rays
     /// included).
     pub rays: RayCounts,
@@ -138,7 +139,7 @@ impl MethodRun {
     #[allow(clippy::too_many_arguments, reason = "every field of the run but its name")]
     fn new(
         name: &str,
-        samples: u32,
+        samples: Samples,
         rays: RayCounts,
         seconds: f64,
         plate: &Plate,
@@ -250,7 +251,7 @@ pub fn run_gradient(
     gv: &Arc<GradientVolume>,
     name: &str,
     lookup: GradientLookup,
-    samples: u32,
+    samples: Samples,
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
     let estimate = gv.evaluate(lookup, plate)?;

@@ -165,7 +165,7 @@ pub fn memory_sweep(
     Ok(SweepReport {
         plate_height: plate.height,
         valid_points: plate.valid_points(),
-        samples: ctx.samples,
+        samples: ctx.samples.get(),
         base_res: base.res(),
         scales: config.scales.clone(),
         points,

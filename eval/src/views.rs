@@ -19,6 +19,7 @@
 //! the image `lightvol render --reference` makes for the same camera, seed, samples and
 //! light paths, and it does not depend on the thread count.
 
+use lightvol_core::samples::{Samples, samples};
 use std::collections::BTreeSet;
 use std::time::Instant;
 
@@ -64,7 +65,7 @@ pub struct ViewsConfig {
     /// The cameras, in the order they are rendered and reported (none: no views).
     pub cameras: Vec<ViewCamera>,
     /// Path-traced irradiance samples per pixel of the reference views.
-    pub reference_samples: u32,
+    pub reference_samples: Samples,
 }
 
 impl ViewsConfig {
@@ -73,7 +74,7 @@ impl ViewsConfig {
     /// Default height of a view (without a file camera's aspect ratio).
     pub const DEFAULT_HEIGHT: u32 = 128;
     /// Default [`reference_samples`](Self::reference_samples).
-    pub const DEFAULT_REFERENCE_SAMPLES: u32 = 64;
+    pub const DEFAULT_REFERENCE_SAMPLES: Samples = samples(64);
 
     /// Checks the cameras: non-empty unique labels, valid image sizes, and (with a camera)
     /// at least one reference sample.
@@ -90,9 +91,6 @@ impl ViewsConfig {
                 return Err(EvalError::DuplicateView(c.label.clone()));
             }
             c.view_config().validate()?;
-        }
-        if !self.cameras.is_empty() && self.reference_samples == 0 {
-            return Err(lightvol_view::ViewError::ZeroSamples.into());
         }
         Ok(())
     }
@@ -298,7 +296,7 @@ mod tests {
         let camera = Camera::overview(DVec3::from(lo), DVec3::from(hi)).unwrap();
         c.views = ViewsConfig {
             cameras: vec![ViewCamera { label: "over".into(), camera, width: 32, height: 20 }],
-            reference_samples: 4,
+            reference_samples: samples(4),
         };
         (maze, c)
     }
@@ -326,7 +324,7 @@ mod tests {
         let tracer = Tracer::new(&maze.scene);
         let transport = Transport::new(&maze.scene, &tracer, config.transport);
         let cam = &config.views.cameras[0];
-        let reference = ReferenceConfig { samples: 4, seed: config.seed };
+        let reference = ReferenceConfig { samples: samples(4), seed: config.seed };
         assert_eq!(
             render_reference(&transport, &cam.camera, &cam.view_config(), &reference, None).unwrap(),
             v.reference
@@ -370,14 +368,13 @@ mod tests {
             f(&mut c.views);
             c.validate().unwrap_err()
         };
-        assert!(matches!(check(&|v| v.reference_samples = 0), EvalError::View(ViewError::ZeroSamples)));
         assert!(matches!(check(&|v| v.cameras[0].width = 0), EvalError::View(ViewError::ImageSize { .. })));
         assert!(matches!(check(&|v| v.cameras[0].label.clear()), EvalError::ViewLabel));
         let e = check(&|v| v.cameras.push(v.cameras[0].clone()));
         assert!(matches!(e, EvalError::DuplicateView(ref l) if l == "over"));
-        // No camera: zero reference samples do not matter.
+        // No camera: nothing to check.
         let mut none = config.clone();
-        none.views = ViewsConfig { cameras: Vec::new(), reference_samples: 0 };
+        none.views = ViewsConfig { cameras: Vec::new(), reference_samples: samples(1) };
         assert!(none.validate().is_ok());
         let mut sky = config.clone();
         let up = Camera::look_at(DVec3::new(0.0, 0.0, 50.0), DVec3::new(0.0, 1.0, 100.0), 30.0).unwrap();

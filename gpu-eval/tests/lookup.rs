@@ -12,6 +12,8 @@
 //! well-conditioned everywhere. `gpu_lookup_matches_cpu_on_synthetic_volume` always runs on
 //! the synthetic one too.
 
+use lightvol_core::samples::samples;
+
 use std::sync::Mutex;
 
 use lightvol_core::progress::BakeControl;
@@ -67,8 +69,13 @@ fn baked_city(coeffs: usize) -> IrradianceVolume {
     let tracer = lightvol_scene::Tracer::new(&city.scene);
     let transport = lightvol_scene::Transport::new(&city.scene, &tracer, TransportSettings::default());
     let grid = GridSpec::new([-14.0, -14.0, -1.0], [14.0, 14.0, 11.0], [7, 7, 4]).unwrap();
-    let settings =
-        BakeSettings { method: Method::DoiPaper, samples: 16, coeffs, seed: 8, ..Default::default() };
+    let settings = BakeSettings {
+        method: Method::DoiPaper,
+        samples: samples(16),
+        coeffs,
+        seed: 8,
+        ..Default::default()
+    };
     let (vol, _) = bake(&transport, &grid, &settings, &BakeControl::default()).unwrap().finish();
     cache.push((coeffs, vol.clone()));
     vol

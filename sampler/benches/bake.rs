@@ -1,6 +1,8 @@
 //! `doi` against `point` at equal samples on the built-in city (its recommended grid):
 //! wall time per bake; the ray counts are printed once (ratio of rays traced).
 
+use lightvol_core::samples::samples;
+
 use divan::Bencher;
 use lightvol_core::progress::BakeControl;
 use lightvol_sampler::{BakeSettings, Method, bake};
@@ -12,7 +14,7 @@ fn main() {
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let mut rays = Vec::new();
     for m in [Method::Point, Method::Prefilter, Method::DoiPaper] {
-        let s = BakeSettings { method: m, samples: SAMPLES, ..Default::default() };
+        let s = BakeSettings { method: m, samples: samples(SAMPLES), ..Default::default() };
         let out = bake(&t, &c.grid, &s, &BakeControl::default()).unwrap();
         eprintln!("{m:?}: {}", out.stats);
         rays.push(out.stats.rays.total() as f64);
@@ -29,6 +31,6 @@ fn city(bencher: Bencher<'_, '_>, method: &str) {
     let c = builtin::city();
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
-    let s = BakeSettings { method: method.parse().unwrap(), samples: SAMPLES, ..Default::default() };
+    let s = BakeSettings { method: method.parse().unwrap(), samples: samples(SAMPLES), ..Default::default() };
     bencher.bench(|| bake(&t, &c.grid, &s, &BakeControl::default()).unwrap().stats.rays.total());
 }

@@ -2,6 +2,8 @@
 //! triangle-box test against clipping, the harmonic-mean depth against its closed form,
 //! determinism across thread counts, the geometry heuristic, the budget, cancellation.
 
+use lightvol_core::samples::samples;
+
 use super::*;
 use crate::bake::bake_units;
 use crate::domain::classify_points;
@@ -30,7 +32,7 @@ fn unit_subset_bake_is_bit_identical_to_the_full_bake() {
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
     for method in [Method::DoiPaper, Method::Point, Method::Doi] {
-        let s = BakeSettings { method, samples: 12, seed: 3, chunk: 5, ..Default::default() };
+        let s = BakeSettings { method, samples: samples(12), seed: 3, chunk: 5, ..Default::default() };
         let full = bake(&t, &grid, &s, &BakeControl::default()).unwrap().accumulator;
         let per_node = matches!(method, Method::Point | Method::Doi);
         let count = if per_node { grid.node_count() } else { grid.cell_count() };
@@ -160,7 +162,7 @@ fn harmonic_mean_depth_above_a_plane_is_four_times_the_height() {
 
 fn tiny_settings() -> (BakeSettings, AdaptiveSettings) {
     (
-        BakeSettings { samples: 8, seed: 21, chunk: 64, ..Default::default() },
+        BakeSettings { samples: samples(8), seed: 21, chunk: 64, ..Default::default() },
         AdaptiveSettings { max_level: 2, depth_rays: 8, ..AdaptiveSettings::default() },
     )
 }
@@ -336,7 +338,7 @@ struct Plate {
     truth: Vec<f64>,
 }
 
-fn city_plate(t: &Transport<'_>, tracer: &Tracer, grid: &GridSpec, z: f64, res: u32, samples: u32) -> Plate {
+fn city_plate(t: &Transport<'_>, tracer: &Tracer, grid: &GridSpec, z: f64, res: u32, paths: u32) -> Plate {
     let (lo, hi) = grid.bounds();
     let mut pts = Vec::new();
     for j in 0..res {
@@ -349,7 +351,7 @@ fn city_plate(t: &Transport<'_>, tracer: &Tracer, grid: &GridSpec, z: f64, res: 
     let valid = classify_points(tracer, &pts, 64, 77);
     let pts: Vec<DVec3> = pts.into_iter().zip(valid).filter(|(_, v)| *v).map(|(p, _)| p).collect();
     let q: Vec<(DVec3, DVec3)> = pts.iter().map(|&p| (p, DVec3::Z)).collect();
-    let truth = reference_irradiance_many(t, &q, samples, 99).into_iter().map(luminance).collect();
+    let truth = reference_irradiance_many(t, &q, samples(paths), 99).into_iter().map(luminance).collect();
     Plate { pts, truth }
 }
 
@@ -378,7 +380,7 @@ fn adaptive_beats_uniform_at_equal_memory_on_city() {
     let (lo, hi) = c.grid.bounds();
     let plates: Vec<Plate> =
         c.plate_heights.iter().map(|&z| city_plate(&t, &tracer, &c.grid, z, 40, 512)).collect();
-    let s = BakeSettings { samples: 64, seed: 5, ..Default::default() };
+    let s = BakeSettings { samples: samples(64), seed: 5, ..Default::default() };
     let (u, _) = bake(&t, &c.grid, &s, &BakeControl::default()).unwrap().finish();
     let budget = u.memory_bytes();
     let base = GridSpec::new(lo, hi, [11, 11, 5]).unwrap();

@@ -94,9 +94,6 @@ pub(crate) fn bake_with_sink(
     if n == 0 || k >= n {
         return Err(BakeError::Settings(format!("shard {k} of {n}")));
     }
-    if settings.samples == 0 {
-        return Err(BakeError::Settings("samples must be positive".into()));
-    }
     let mut acc =
         Accumulator::new(grid.clone(), settings.coeffs).map_err(|e| BakeError::Volume(e.to_string()))?;
     let units = match settings.method {
@@ -316,9 +313,6 @@ pub fn bake_units_fixed(
 ) -> Result<(FixedSubsetSums, BakeStats), BakeError> {
     if settings.shard != (0, 1) {
         return Err(BakeError::Settings("a unit-subset bake cannot be sharded".into()));
-    }
-    if settings.samples == 0 {
-        return Err(BakeError::Settings("samples must be positive".into()));
     }
     lightvol_volume::volume::check_coeffs(settings.coeffs).map_err(|e| BakeError::Settings(e.to_string()))?;
     let count = match settings.method {

@@ -1,6 +1,8 @@
 //! Tests of the bake: determinism across threads and shards, the city leak test,
 //! progress and cancellation.
 
+use lightvol_core::samples::samples;
+
 use super::*;
 use crate::probe::{PROBE_MAX_OFFSET, ProbeCapture, probe_unit};
 use crate::relocate::{relocate_through, spacing};
@@ -28,7 +30,7 @@ fn deterministic_across_threads_and_shards() {
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
     for method in [Method::Point, Method::Prefilter, Method::DoiPaper, Method::DoiNode, Method::Doi] {
-        let s = BakeSettings { method, samples: 24, seed: 11, chunk: 7, ..Default::default() };
+        let s = BakeSettings { method, samples: samples(24), seed: 11, chunk: 7, ..Default::default() };
         let one = run(1, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
         let two = run(2, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
         assert_eq!(one.accumulator.numerator(), two.accumulator.numerator(), "{method:?}");
@@ -57,7 +59,7 @@ fn progress_and_cancellation() {
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
-    let s = BakeSettings { method: Method::DoiPaper, samples: 4, chunk: 10, ..Default::default() };
+    let s = BakeSettings { method: Method::DoiPaper, samples: samples(4), chunk: 10, ..Default::default() };
     let calls = AtomicUsize::new(0);
     let last = AtomicUsize::new(0);
     let cb = |p: Progress| {
@@ -114,7 +116,7 @@ fn city_doi_has_no_dark_leaks_point_does() {
     let reference: Vec<f64> = probes
         .iter()
         .enumerate()
-        .map(|(i, &(p, n))| reference_irradiance(&t, p, n, 512, 5, i as u64).0[1])
+        .map(|(i, &(p, n))| reference_irradiance(&t, p, n, samples(512), 5, i as u64).0[1])
         .collect();
     let ratios = |m: Method| -> Vec<f64> {
         let s = BakeSettings { method: m, ..Default::default() };
@@ -186,10 +188,10 @@ fn cornell_box_walls_do_not_leak_with_doi() {
     let reference: Vec<f64> = probes
         .iter()
         .enumerate()
-        .map(|(i, &(x, n))| reference_irradiance(&t, x, n, 1024, 8, i as u64).0[0])
+        .map(|(i, &(x, n))| reference_irradiance(&t, x, n, samples(1024), 8, i as u64).0[0])
         .collect();
     let ratios = |m: Method| -> Vec<f64> {
-        let s = BakeSettings { method: m, samples: 128, ..Default::default() };
+        let s = BakeSettings { method: m, samples: samples(128), ..Default::default() };
         let (v, _) = bake(&t, &grid, &s, &BakeControl::default()).unwrap().finish();
         probes
             .iter()
@@ -237,10 +239,10 @@ fn interior_walls_do_not_leak_with_doi() {
     let reference: Vec<f64> = probes
         .iter()
         .enumerate()
-        .map(|(i, &(x, n))| reference_irradiance(&t, x, n, 2048, 3, i as u64).0[1])
+        .map(|(i, &(x, n))| reference_irradiance(&t, x, n, samples(2048), 3, i as u64).0[1])
         .collect();
     let ratios = |m: Method| -> Vec<f64> {
-        let s = BakeSettings { method: m, samples: 128, ..Default::default() };
+        let s = BakeSettings { method: m, samples: samples(128), ..Default::default() };
         let (v, _) = bake(&t, &b.grid, &s, &BakeControl::default()).unwrap().finish();
         probes
             .iter()
@@ -280,7 +282,7 @@ fn doi_probe_captures_each_node_in_the_domain() {
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
-    let s = BakeSettings { method: Method::Doi, samples: 128, seed: 5, ..Default::default() };
+    let s = BakeSettings { method: Method::Doi, samples: samples(128), seed: 5, ..Default::default() };
     let sp = spacing(&grid);
     let point = BakeSettings { method: Method::Point, ..s };
     let mut counts = [0usize; 3];
@@ -344,7 +346,7 @@ fn doi_moves_a_node_in_a_boundary_wall_into_the_grid() {
     let ddgi = relocate_through(DVec3::ZERO, DVec3::X, 0.5, [1.0; 3]);
     assert!(ddgi.x < 0.5, "DDGI's clamp leaves the node in the wall: {ddgi}");
     for seed in 1..=8 {
-        let s = BakeSettings { method: Method::Doi, samples: 64, seed, ..Default::default() };
+        let s = BakeSettings { method: Method::Doi, samples: samples(64), seed, ..Default::default() };
         let node = grid.node_index(0, 1, 1);
         let (out, capture) = probe_unit(&t, &grid, &s, node);
         let ProbeCapture::Relocated(y) = capture else { panic!("seed {seed}: {capture:?}") };
@@ -381,7 +383,7 @@ fn doi_back_faces_count_inside_the_support_or_in_a_quarter_of_directions() {
     };
     let grid = GridSpec::new([-2.0; 3], [2.0; 3], [5, 5, 5]).unwrap();
     let node = grid.node_index(2, 2, 2);
-    let s = BakeSettings { method: Method::Doi, samples: 64, seed: 3, ..Default::default() };
+    let s = BakeSettings { method: Method::Doi, samples: samples(64), seed: 3, ..Default::default() };
     let point = BakeSettings { method: Method::Point, ..s };
 
     let far = panel(2.5);

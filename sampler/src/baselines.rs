@@ -188,9 +188,6 @@ pub fn bake_baseline(
     settings: &BakeSettings,
     baseline: Baseline,
 ) -> Result<BaselineBake, BakeError> {
-    if settings.samples == 0 {
-        return Err(BakeError::Settings("samples must be positive".into()));
-    }
     let tracer = t.tracer();
     let sp = spacing(grid);
     let min_sp = min_spacing(grid);

@@ -2,6 +2,8 @@
 //! functions, then the four bakes), the fills against their definitions, validity-weighted
 //! lookups.
 
+use lightvol_core::samples::samples;
+
 use super::*;
 use crate::relocate::DDGI_MAX_OFFSET;
 use glam::DVec2;
@@ -192,7 +194,8 @@ fn baselines_treat_a_probe_inside_a_closed_box() {
     // are outside the box.
     let grid = GridSpec::new([-1.0; 3], [1.0; 3], [3, 3, 3]).unwrap();
     let centre = grid.node_index(1, 1, 1);
-    let settings = BakeSettings { method: crate::Method::Point, samples: 16, ..BakeSettings::default() };
+    let settings =
+        BakeSettings { method: crate::Method::Point, samples: samples(16), ..BakeSettings::default() };
     let spacing = 1.0;
     for b in Baseline::ALL {
         let bake = bake_baseline(&t, &grid, &settings, b).unwrap();

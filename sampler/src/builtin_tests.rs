@@ -1,5 +1,7 @@
 //! The built-in scenes bake soundly: tests that need the bake and the domain-of-interest test.
 
+use lightvol_core::samples::samples;
+
 use crate::bake::bake;
 use crate::domain::{classify_point, classify_points};
 use crate::settings::BakeSettings;
@@ -20,7 +22,7 @@ fn builtins_are_sound() {
         assert_eq!(winding_report(&b.scene, 1e-6).inconsistent_edges, 0, "{name}");
         let tracer = Tracer::new(&b.scene);
         let t = Transport::new(&b.scene, &tracer, TransportSettings::default());
-        let s = BakeSettings { samples: 8, ..Default::default() };
+        let s = BakeSettings { samples: samples(8), ..Default::default() };
         let (_, stats) = bake(&t, &b.grid, &s, &BakeControl::default()).unwrap().finish();
         assert!(stats.cells_with_back_faces > 0 && stats.samples_kept > 0, "{name}: {stats}");
         let plate = b.plate(b.plate_heights[0], [24, 24]);

@@ -2,6 +2,7 @@
 //! fields and on a scene.
 
 use super::*;
+use lightvol_core::samples::samples;
 use lightvol_scene::builder::SceneBuilder;
 use lightvol_scene::bvh::Tracer;
 use lightvol_scene::lights::Environment;
@@ -291,10 +292,10 @@ fn scene_estimators_converge_and_are_deterministic() {
     let scale =
         (exact.iter().map(|e| e.iter().map(|v| v * v).sum::<f64>()).sum::<f64>() / plane.len() as f64).sqrt();
     let (mut basis_err, mut cd_err) = (Vec::new(), Vec::new());
-    for samples in [1024u32, 8192] {
+    for count in [1024u32, 8192] {
         let s = BakeSettings {
             method: Method::DoiPaper,
-            samples,
+            samples: samples(count),
             seed: 1,
             light_sampling: false,
             ..Default::default()
@@ -307,14 +308,14 @@ fn scene_estimators_converge_and_are_deterministic() {
         let (eb, ec) = (rms(&basis), rms(&cd));
         let centre = grid.node_index(4, 4, 1);
         eprintln!(
-            "plate, {samples:>4} samples: rms DC-gradient error basis {eb:.3e}, central {ec:.3e} (rms exact {scale:.3e}); centre node exact {:.4?} basis {:.4?} central {:.4?}",
+            "plate, {count:>4} samples: rms DC-gradient error basis {eb:.3e}, central {ec:.3e} (rms exact {scale:.3e}); centre node exact {:.4?} basis {:.4?} central {:.4?}",
             exact[plane.iter().position(|&n| n == centre).unwrap()],
             basis.gradient(centre, 0, 1),
             cd.gradient(centre, 0, 1)
         );
         basis_err.push(eb / scale);
         cd_err.push(ec / scale);
-        if samples == 1024 {
+        if count == 1024 {
             let run = |threads| {
                 rayon::ThreadPoolBuilder::new()
                     .num_threads(threads)

@@ -155,7 +155,7 @@ pub fn bake_with_estimator(
                 gradients,
                 estimator,
                 singular_nodes: 0,
-                extra_directions: 6 * u64::from(settings.samples) * count,
+                extra_directions: 6 * u64::from(settings.samples.get()) * count,
                 seconds: t0.elapsed().as_secs_f64(),
                 sums: ShardGradients::Central(data),
             }
@@ -166,6 +166,7 @@ pub fn bake_with_estimator(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lightvol_core::samples::samples;
     use lightvol_scene::{Tracer, TransportSettings, builtin};
 
     #[test]
@@ -187,7 +188,8 @@ mod tests {
         let tracer = Tracer::new(&maze.scene);
         let t = Transport::new(&maze.scene, &tracer, TransportSettings::truncated(1));
         let grid = GridSpec::new([-4.0, -4.0, 0.2], [4.0, 4.0, 2.8], [4, 4, 3]).unwrap();
-        let settings = BakeSettings { method: Method::DoiPaper, samples: 4, ..BakeSettings::default() };
+        let settings =
+            BakeSettings { method: Method::DoiPaper, samples: samples(4), ..BakeSettings::default() };
         let plain = bake(&t, &grid, &settings, &BakeControl::default()).unwrap();
         let (plain_vol, _) = plain.accumulator.finalize();
         for est in [GradientEstimator::Basis, GradientEstimator::Central] {

@@ -1,5 +1,7 @@
 //! Tests of the least-squares node fit.
 
+use lightvol_core::samples::samples;
+
 use super::*;
 use lightvol_scene::builtin::city;
 use lightvol_scene::bvh::Tracer;
@@ -153,7 +155,13 @@ fn fitted_bake_is_deterministic() {
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = GridSpec::new([-14.0, -14.0, -1.0], [14.0, 14.0, 11.0], [7, 7, 4]).unwrap();
-    let s = BakeSettings { method: Method::DoiPaper, samples: 24, seed: 5, chunk: 7, ..Default::default() };
+    let s = BakeSettings {
+        method: Method::DoiPaper,
+        samples: samples(24),
+        seed: 5,
+        chunk: 7,
+        ..Default::default()
+    };
     let run = |threads: usize, fit: Fit| {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)

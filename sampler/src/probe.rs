@@ -152,7 +152,7 @@ pub(crate) fn probe_unit(
     // `point`'s stream and directions, so that a node in the domain is `point`'s bit for bit.
     let stream = hash2(node as u64, 0x0070_6f69_6e74);
     let h = Qmc::<2>::new(settings.seed, stream);
-    let n = u64::from(settings.samples);
+    let n = u64::from(settings.samples.get());
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     out.stats.units = 1;
     out.stats.candidates = n;

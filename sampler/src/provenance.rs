@@ -3,6 +3,7 @@
 //! bake recognise each other and files of another bake are refused, and the
 //! [`BakeMetadata`] every volume file carries.
 
+use lightvol_core::samples::Samples;
 use lightvol_volume::{BakeMetadata, GridSpec};
 
 use crate::adaptive::AdaptiveSettings;
@@ -17,7 +18,7 @@ pub fn bake_key(
     scene: &Scene,
     grid: &GridSpec,
     label: &str,
-    samples: u32,
+    samples: Samples,
     coeffs: usize,
     transport: &TransportSettings,
     adaptive: Option<&AdaptiveSettings>,

@@ -6,6 +6,7 @@
 //! `lightvol bake` builds a [`BakeRequest`] from its options and calls these; the octree
 //! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
 
+use lightvol_core::samples::Samples;
 use lightvol_volume::{BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, VolumeGradients};
 
 use crate::adaptive::AdaptiveSettings;
@@ -48,7 +49,7 @@ pub struct BakeRequest {
     pub method: BakeMethod,
     /// Samples per cell (prefilter, doi-paper), per node (doi-node) or directions per node
     /// (point, doi, the baselines).
-    pub samples: u32,
+    pub samples: Samples,
     /// SH coefficients per channel (4, 9 or 16).
     pub coeffs: usize,
     /// Seed of every random stream.
@@ -71,7 +72,7 @@ impl BakeRequest {
     /// A whole uniform bake of `method` with `samples`, 9 coefficients, seed 1, unbiased
     /// paths, the average fit, no gradients.
     #[must_use]
-    pub fn new(method: BakeMethod, samples: u32) -> Self {
+    pub fn new(method: BakeMethod, samples: Samples) -> Self {
         Self {
             method,
             samples,
@@ -140,7 +141,7 @@ impl BakeRequest {
     pub fn record(&self) -> BakeRecord {
         BakeRecord {
             method: self.method_name().to_owned(),
-            samples_per_unit: self.samples,
+            samples_per_unit: self.samples.get(),
             coeffs: self.coeffs,
             fit: match self.effective_fit() {
                 Fit::Average => FitRecord::Average,
@@ -189,9 +190,6 @@ impl BakeRequest {
             if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
                 return Err(RequestError::Baseline { baseline, with });
             }
-        }
-        if self.samples == 0 {
-            return Err(RequestError::ZeroSamples);
         }
         if let Some(a) = &self.adaptive {
             if self.keep_accumulator {
@@ -256,9 +254,6 @@ impl std::fmt::Display for Conflict {
 /// Settings that do not go together.
 #[derive(Clone, Copy, Debug, PartialEq, thiserror::Error)]
 pub enum RequestError {
-    /// No samples.
-    #[error("the samples must be at least 1")]
-    ZeroSamples,
     /// An engine baseline bakes a whole uniform grid.
     #[error("{with} cannot be combined with {} (the engine baselines bake a whole uniform grid)", baseline.name())]
     Baseline {
@@ -513,9 +508,10 @@ pub fn finish_merged(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lightvol_core::samples::samples;
 
     fn grid(m: Method) -> BakeRequest {
-        BakeRequest::new(BakeMethod::Grid(m), 16)
+        BakeRequest::new(BakeMethod::Grid(m), samples(16))
     }
 
     const LSQ: Fit = Fit::LeastSquares { lambda: 0.1 };
@@ -552,7 +548,7 @@ mod tests {
         assert_eq!((rec.gradients, rec.octree), (None, None));
         let g = BakeRequest { gradients: Some(GradientChoice::MethodDefault), ..grid(Method::Doi) }.record();
         assert_eq!((g.gradients.as_deref(), g.fit), (Some("central"), FitRecord::Average));
-        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), 16).record();
+        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), samples(16)).record();
         assert_eq!(apv.method, "point+apv");
     }
 
@@ -562,7 +558,7 @@ mod tests {
         let tracer = lightvol_scene::Tracer::new(&maze.scene);
         let t = Transport::new(&maze.scene, &tracer, TransportSettings::default());
         let p = Provenance { frame: UpAxis::Z, key: "" };
-        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), 4);
+        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), samples(4));
         let e = bake_uniform(&t, &maze.scene, &maze.grid, &apv, p, &BakeControl::default()).err().unwrap();
         assert!(matches!(e, UniformBakeError::Request(RequestError::NotUniform("point+apv"))), "{e}");
         let settings = AdaptiveSettings::default();
@@ -577,7 +573,6 @@ mod tests {
     #[test]
     fn incompatible_requests_are_refused() {
         let err = |r: BakeRequest| r.validate().unwrap_err();
-        assert_eq!(err(BakeRequest { samples: 0, ..grid(Method::Doi) }), RequestError::ZeroSamples);
         assert!(matches!(
             err(BakeRequest { fit: LSQ, ..grid(Method::Doi) }),
             RequestError::FitNeedsCells { .. }
@@ -595,7 +590,7 @@ mod tests {
             err(BakeRequest { gradients: basis, ..grid(Method::Doi) }),
             RequestError::BasisNeedsCells(Method::Doi)
         );
-        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), 16);
+        let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), samples(16));
         assert_eq!(
             err(BakeRequest { shard: Some((0, 2)), ..apv }),
             RequestError::Baseline { baseline: Baseline::Apv, with: Conflict::Shard }

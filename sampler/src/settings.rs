@@ -1,6 +1,8 @@
 //! The settings of a bake: its method, samples, SH order, seed, light sampling, shard and
 //! chunk size.
 
+use lightvol_core::samples::{Samples, samples};
+
 use crate::method::Method;
 
 /// Bake settings.
@@ -10,7 +12,7 @@ pub struct BakeSettings {
     pub method: Method,
     /// Candidates per cell (prefilter, doi-paper), per node (doi-node, and doi's support),
     /// or directions per node (point, doi).
-    pub samples: u32,
+    pub samples: Samples,
     /// SH coefficients per channel (4, 9 or 16).
     pub coeffs: usize,
     /// Seed of every random stream.
@@ -27,7 +29,7 @@ impl Default for BakeSettings {
     fn default() -> Self {
         Self {
             method: Method::Doi,
-            samples: 256,
+            samples: samples(256),
             coeffs: 9,
             seed: 0,
             light_sampling: true,

@@ -78,7 +78,7 @@ pub(crate) fn point_unit(
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     let mut weights = [0.0; 8];
     weights[0] = 1.0;
-    for s in 0..u64::from(settings.samples) {
+    for s in 0..u64::from(settings.samples.get()) {
         let p = h.point(s);
         let dir = DVec3::from_array(sample_uniform_sphere(p));
         let mut rng = PathRng::new(settings.seed, hash2(node as u64, 0x0070_6f69_6e74), s);
@@ -88,8 +88,8 @@ pub(crate) fn point_unit(
         out.samples.push(SampleOut { weights, terms, n_terms });
     }
     out.stats.units = 1;
-    out.stats.candidates = u64::from(settings.samples);
-    out.stats.samples_kept = u64::from(settings.samples);
+    out.stats.candidates = u64::from(settings.samples.get());
+    out.stats.samples_kept = u64::from(settings.samples.get());
     out
 }
 
@@ -112,7 +112,7 @@ pub(crate) fn node_box_unit(
     let stream = hash2(node as u64, 0x6e6f_6465);
     let h = Qmc::<5>::new(settings.seed, stream);
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
-    let n = u64::from(settings.samples);
+    let n = u64::from(settings.samples.get());
     let points: Vec<(DVec3, DVec3)> = (0..n)
         .map(|s| {
             let p = h.point(s);
@@ -171,7 +171,7 @@ pub(crate) fn cell_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSetti
     let (lo, hi) = (DVec3::from_array(lo), DVec3::from_array(hi));
     let h = Qmc::<5>::new(settings.seed, cell as u64);
     let mut out = UnitOut { nodes: grid.cell_corners(cell), ..Default::default() };
-    let n = u64::from(settings.samples);
+    let n = u64::from(settings.samples.get());
     // Grid-space origin (for the weights) and world-space ray, computed once per candidate.
     let points: Vec<(DVec3, DVec3, DVec3)> = (0..n)
         .map(|i| {

@@ -3,6 +3,8 @@
 //! with distances equal to f32 rounding; the f64 reference is the same exactly; and a bake
 //! of either scene agrees within a stated tolerance, bit-identically across thread counts.
 
+use lightvol_core::samples::samples;
+
 use glam::{DAffine3, DMat3, DQuat};
 use lightvol_core::progress::BakeControl;
 use lightvol_sampler::{BakeSettings, Method, bake};
@@ -250,7 +252,7 @@ fn baked(scene: &Scene, threads: usize) -> Vec<f32> {
 fn baked_with(scene: &Scene, threads: usize, levels: Levels) -> Vec<f32> {
     let tracer = Tracer::build(scene, BuildQuality::Medium, levels);
     let t = Transport::new(scene, &tracer, TransportSettings::default());
-    let s = BakeSettings { method: Method::DoiPaper, samples: 16, seed: 5, ..Default::default() };
+    let s = BakeSettings { method: Method::DoiPaper, samples: samples(16), seed: 5, ..Default::default() };
     let out = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()

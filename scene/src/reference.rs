@@ -3,6 +3,7 @@
 
 use crate::qmc::Qmc;
 use glam::DVec3;
+use lightvol_core::samples::Samples;
 use rayon::prelude::*;
 
 use crate::stats::RayCounts;
@@ -17,7 +18,7 @@ pub fn reference_irradiance(
     t: &Transport<'_>,
     x: DVec3,
     n: DVec3,
-    samples: u32,
+    samples: Samples,
     seed: u64,
     stream: u64,
 ) -> ([f64; 3], RayCounts) {
@@ -25,7 +26,7 @@ pub fn reference_irradiance(
     let x = x + n * t.epsilon();
     let mut rays = RayCounts::default();
     let mut sum = [0.0; 3];
-    for i in 0..u64::from(samples) {
+    for i in 0..u64::from(samples.get()) {
         let p = h.point(i);
         let mut rng = PathRng::new(seed, stream, i);
         let e = t.irradiance_sample(x, n, [p[0], p[1]], [p[2], p[3], p[4]], &mut rng, &mut rays);
@@ -33,7 +34,7 @@ pub fn reference_irradiance(
             sum[c] += e[c];
         }
     }
-    let k = 1.0 / f64::from(samples.max(1));
+    let k = 1.0 / f64::from(samples.get());
     (sum.map(|s| s * k), rays)
 }
 
@@ -43,7 +44,7 @@ pub fn reference_irradiance(
 pub fn reference_irradiance_many(
     t: &Transport<'_>,
     points: &[(DVec3, DVec3)],
-    samples: u32,
+    samples: Samples,
     seed: u64,
 ) -> Vec<[f64; 3]> {
     points
@@ -63,6 +64,7 @@ mod tests {
     use crate::material::Material;
     use crate::scene::Scene;
     use crate::transport::TransportSettings;
+    use lightvol_core::samples::samples;
     use std::f64::consts::PI;
 
     fn plane(albedo: f64, half: f64) -> SceneBuilder {
@@ -94,12 +96,12 @@ mod tests {
         let tr = Tracer::new(&s);
         let t = Transport::new(&s, &tr, TransportSettings::default());
         let x = DVec3::new(0.3, -0.2, 0.0);
-        let (e, _) = reference_irradiance(&t, x, DVec3::Z, 256, 1, 0);
+        let (e, _) = reference_irradiance(&t, x, DVec3::Z, samples(256), 1, 0);
         // Every sample is πL up to the f64 rounding of the sum.
         assert!((e[0] - PI * l).abs() < 1e-12, "{e:?}");
         let th = 1.0f64;
         let n = DVec3::new(th.sin(), 0.0, th.cos());
-        let (e, _) = reference_irradiance(&t, DVec3::new(0.0, 0.0, 1.0), n, 8192, 2, 0);
+        let (e, _) = reference_irradiance(&t, DVec3::new(0.0, 0.0, 1.0), n, samples(8192), 2, 0);
         let exact = PI * l * (1.0 + th.cos()) / 2.0 + PI * 0.5 * l * (1.0 - th.cos()) / 2.0;
         // QMC over a two-valued integrand (sky or ground) with edge discontinuity: ~1e-3.
         assert!((e[0] - exact).abs() < 3e-3 * exact, "{} {exact}", e[0]);
@@ -119,7 +121,8 @@ mod tests {
             let t = Transport::new(&s, &tr, TransportSettings::default());
             let exact = PI / (1.0 - a);
             for (i, n) in [DVec3::Z, DVec3::new(0.6, 0.0, -0.8)].into_iter().enumerate() {
-                let (e, rays) = reference_irradiance(&t, DVec3::new(0.2, 0.1, -0.3), n, 16384, 3, i as u64);
+                let (e, rays) =
+                    reference_irradiance(&t, DVec3::new(0.2, 0.1, -0.3), n, samples(16384), 3, i as u64);
                 // Russian roulette keeps the series unbiased; the tolerance is ~4 standard
                 // errors of the 16384-sample mean (per-sample relative sd ≈ 0.33 at a = 0.5,
                 // measured with 3M samples: mean 2.00005 ± 0.0002 of the exact 2).
@@ -151,7 +154,7 @@ mod tests {
             let s = b.build().unwrap();
             let tr = Tracer::new(&s);
             let t = Transport::new(&s, &tr, TransportSettings::default());
-            let (e, _) = reference_irradiance(&t, DVec3::new(5.0, 5.0, 3.0), DVec3::Z, 1024, 7, 0);
+            let (e, _) = reference_irradiance(&t, DVec3::new(5.0, 5.0, 3.0), DVec3::Z, samples(1024), 7, 0);
             let exact = 2.0 * 50f64.to_radians().sin();
             // Cone: light samples dominate and vary only with cos over a 0.01 rad disk.
             assert!((e[0] - exact).abs() < 1e-3 * exact, "r={radius}: {} vs {exact}", e[0]);
@@ -170,7 +173,7 @@ mod tests {
         let tr = Tracer::new(&s);
         let t = Transport::new(&s, &tr, TransportSettings::default());
         for n in [DVec3::Z, DVec3::new(0.6, 0.0, -0.8)] {
-            let (e, rays) = reference_irradiance(&t, DVec3::new(5.0, 0.0, 3.0), n, 1024, 4, 0);
+            let (e, rays) = reference_irradiance(&t, DVec3::new(5.0, 0.0, 3.0), n, samples(1024), 4, 0);
             // Unbiased MIS of two low-variance techniques; 1024 QMC samples: ~1e-3.
             assert!((e[2] - 2.0 * PI).abs() < 3e-3 * 2.0 * PI, "{e:?}");
             assert!(rays.shadow > 0);
@@ -183,7 +186,8 @@ mod tests {
         let s = b.build().unwrap();
         let tr = Tracer::new(&s);
         let t = Transport::new(&s, &tr, TransportSettings::default());
-        let (e, _) = reference_irradiance(&t, DVec3::ZERO + DVec3::new(0.0, 0.0, 0.5), DVec3::Z, 16, 4, 0);
+        let (e, _) =
+            reference_irradiance(&t, DVec3::ZERO + DVec3::new(0.0, 0.0, 0.5), DVec3::Z, samples(16), 4, 0);
         let d = DVec3::new(3.0, 4.0, 11.5);
         let exact = 100.0 * (11.5 / d.length()) / d.length_squared();
         // The reference moves x off the plane by the scene epsilon: relative 1e-5 effect.
@@ -219,7 +223,7 @@ mod tests {
         let tracer = Tracer::new(&scene);
         let x = DVec3::new(0.1, -0.2, 0.05);
         let n = DVec3::new(0.0, 0.6, 0.8);
-        let samples = 32_768;
+        let count = samples(32_768);
         let cases = [
             (TransportSettings::truncated(0), 1.0 + rho),
             (TransportSettings::truncated(1), 1.0 + rho + rho * rho),
@@ -228,7 +232,7 @@ mod tests {
         ];
         for (ts, sum) in cases {
             let t = Transport::new(&scene, &tracer, ts);
-            let (e, _) = reference_irradiance(&t, x, n, samples, 3, 11);
+            let (e, _) = reference_irradiance(&t, x, n, count, 3, 11);
             let want = PI * le * sum;
             // Emission is exact along every path; the next-event estimates of the walls'
             // light (and the roulette) carry the noise: at 8192 samples it measured 0.01% to
@@ -260,8 +264,8 @@ mod tests {
             [(DirectLight::All, lit), (DirectLight::SkyAndIndirect, PI * l), (DirectLight::Indirect, 0.0)]
         {
             let t = Transport::new(&s, &tr, TransportSettings { direct, ..TransportSettings::default() });
-            let (e_up, _) = reference_irradiance(&t, x, DVec3::Z, 4096, 5, 1);
-            let (e_down, _) = reference_irradiance(&t, x, -DVec3::Z, 4096, 5, 2);
+            let (e_up, _) = reference_irradiance(&t, x, DVec3::Z, samples(4096), 5, 1);
+            let (e_down, _) = reference_irradiance(&t, x, -DVec3::Z, samples(4096), 5, 2);
             // Upward: the sky part is exact per sample, the delta sun's light sample is
             // exact too: f64 rounding only.
             assert!((e_up[0] - up).abs() < 1e-9 * lit, "{direct:?} up: {} vs {up}", e_up[0]);

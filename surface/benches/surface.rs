@@ -2,6 +2,8 @@
 //! with the domain-of-interest treatment on (`fix`) against off (`keep`) at equal samples per
 //! texel: wall time per bake; the reports (rays by kind, invalid texels) are printed once.
 
+use lightvol_core::samples::samples;
+
 use divan::Bencher;
 use lightvol_core::progress::BakeControl;
 use lightvol_scene::{
@@ -27,7 +29,7 @@ const SAMPLES: u32 = 64;
 fn settings(mode: &str) -> SurfaceSettings {
     SurfaceSettings {
         basis: BasisChoice::parse("hbasis_mod6").unwrap(),
-        samples: SAMPLES,
+        samples: samples(SAMPLES),
         texels_per_unit: 16.0,
         invalid: if mode == "fix" { InvalidTexels::Fix } else { InvalidTexels::Keep },
         ..SurfaceSettings::default()

@@ -4,6 +4,7 @@
 //! texels are integrated in parallel in chunks and their results stored by index, and the
 //! dilation passes run in index order, so any thread count gives bit-identical maps.
 
+use lightvol_core::samples::{Samples, samples};
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
@@ -33,7 +34,7 @@ pub struct SurfaceSettings {
     /// Overrides the atlas size of every object.
     pub resolution: Option<[u32; 2]>,
     /// In-domain samples (paths) per texel.
-    pub samples: u32,
+    pub samples: Samples,
     /// At most `max_candidates_factor × samples` candidate points are drawn per texel while
     /// looking for valid ones.
     pub max_candidates_factor: u32,
@@ -60,7 +61,7 @@ impl Default for SurfaceSettings {
             uv_set: UvSet::Lightmap,
             texels_per_unit: 32.0,
             resolution: None,
-            samples: 256,
+            samples: samples(256),
             max_candidates_factor: 4,
             sh_bands: 3,
             quantity: Quantity::Irradiance,
@@ -178,8 +179,8 @@ struct Prepared {
 }
 
 fn prepare(geo: &SurfaceGeometry, settings: &SurfaceSettings) -> Result<Prepared, SurfaceError> {
-    if settings.samples == 0 || settings.max_candidates_factor == 0 {
-        return Err(SurfaceError::Settings("samples and max_candidates_factor must be positive".into()));
+    if settings.max_candidates_factor == 0 {
+        return Err(SurfaceError::Settings("max_candidates_factor must be positive".into()));
     }
     if !(1..=MAX_SH_BANDS).contains(&settings.sh_bands) {
         return Err(SurfaceError::Settings(format!("sh_bands must be 1..={MAX_SH_BANDS}")));
@@ -199,8 +200,8 @@ fn prepare(geo: &SurfaceGeometry, settings: &SurfaceSettings) -> Result<Prepared
         .map(|j| cosine_lobe_factor(j.isqrt() as u32) * settings.quantity.scale())
         .collect();
     let max_candidates = match settings.invalid {
-        InvalidTexels::Fix => settings.samples.saturating_mul(settings.max_candidates_factor),
-        InvalidTexels::Keep => settings.samples,
+        InvalidTexels::Fix => settings.samples.get().saturating_mul(settings.max_candidates_factor),
+        InvalidTexels::Keep => settings.samples.get(),
     };
     // Atlases first (all UV errors before any tracing).
     let mut atlases = Vec::new();

@@ -1,6 +1,7 @@
 //! Path-traced reference for the maps: irradiance at a surface point for an arbitrary
 //! (normal-mapped) normal.
 
+use lightvol_core::samples::Samples;
 use std::f64::consts::PI;
 
 use glam::DVec3;
@@ -33,7 +34,7 @@ pub fn reference_surface_irradiance(
     bary: [f64; 2],
     n_tangent: [f64; 3],
     quantity: Quantity,
-    samples: u32,
+    samples: Samples,
     seed: u64,
     stream: u64,
 ) -> ([f64; 3], RayCounts) {
@@ -47,7 +48,7 @@ pub fn reference_surface_irradiance(
     let basis = Frame::from_normal(n.to_array());
     let h = Qmc::<5>::new(seed, stream);
     let mut sum = [0.0; 3];
-    for i in 0..u64::from(samples) {
+    for i in 0..u64::from(samples.get()) {
         let p = h.point(i);
         let mut rng = PathRng::new(seed, stream, i);
         let local = sample_cosine_hemisphere([p[0], p[1]]);
@@ -78,6 +79,6 @@ pub fn reference_surface_irradiance(
             }
         }
     }
-    let k = quantity.scale() / f64::from(samples.max(1));
+    let k = quantity.scale() / f64::from(samples.get());
     (sum.map(|v| v * k), rays)
 }

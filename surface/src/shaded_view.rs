@@ -20,6 +20,7 @@
 //! tangent-space normal map (`n = 2 c - 1`, +Y up as in glTF), sampled bilinearly with
 //! wrapping at the same coordinates.
 
+use lightvol_core::samples::Samples;
 use std::convert::Infallible;
 use std::path::{Path, PathBuf};
 
@@ -193,7 +194,7 @@ pub struct ShadedViewSettings {
     /// Image height in pixels.
     pub height: u32,
     /// Path-traced samples per pixel of the reference.
-    pub reference_samples: u32,
+    pub reference_samples: Samples,
     /// Seed of the reference's random streams.
     pub seed: u64,
     /// The path settings of the reference (the maps' own).

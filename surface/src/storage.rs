@@ -420,7 +420,7 @@ impl SurfaceBakeSummary {
             coefficients: choice.coeffs(),
             uv_set: maps.first().map_or_else(|| "TEXCOORD_1".to_owned(), |m| m.uv_set.attribute().to_owned()),
             texels_per_unit: settings.texels_per_unit,
-            samples: settings.samples,
+            samples: settings.samples.get(),
             seed: settings.seed,
             quantity: maps.first().map_or("irradiance", |m| m.quantity.name()).to_owned(),
             lighting: maps.first().map(|m| m.lighting.clone()).unwrap_or_default(),

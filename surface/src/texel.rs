@@ -20,6 +20,7 @@
 //! `max_candidates_factor × samples` were tried: the samples move to the valid part of the
 //! footprint.
 
+use lightvol_core::samples::Samples;
 use std::f64::consts::PI;
 
 use glam::{DVec2, DVec3};
@@ -47,7 +48,7 @@ pub(crate) struct TexelJob<'a> {
     pub size: [u32; 2],
     pub object: u32,
     pub seed: u64,
-    pub samples: u32,
+    pub samples: Samples,
     pub max_candidates: u32,
     pub light_sampling: bool,
     pub invalid: InvalidTexels,
@@ -107,7 +108,7 @@ impl TexelJob<'_> {
         let tracer = self.transport.tracer();
         let mut out = TexelOut::default();
         let kept: Vec<Candidate> = match self.invalid {
-            InvalidTexels::Keep => (0..u64::from(self.samples))
+            InvalidTexels::Keep => (0..u64::from(self.samples.get()))
                 .map(|i| {
                     let mut c = self.candidate(fp, h.point(i), i);
                     out.rays.sampling += 1;
@@ -129,7 +130,7 @@ impl TexelJob<'_> {
                     tracer.closest_hit(o, q / len, 0.0, f64::INFINITY).is_some_and(|h| h.back_face)
                 };
                 for i in 0..u64::from(self.max_candidates) {
-                    if kept.len() >= self.samples as usize {
+                    if kept.len() >= self.samples.get() as usize {
                         break;
                     }
                     let mut c = self.candidate(fp, h.point(i), i);

@@ -4,6 +4,8 @@
 //! under a uniform white sky, as the CLI lights a scene without lights). Algorithm 2's
 //! query rays are the extra cost; the classification rays' hits are reused for lighting.
 
+use lightvol_core::samples::samples;
+
 use lightvol_core::progress::BakeControl;
 use lightvol_sampler::{BakeSettings, Method, bake};
 use lightvol_scene::builtin::{BUILTIN_NAMES, builtin};
@@ -23,7 +25,7 @@ const SAMPLES: u32 = 16;
 fn rays(scene: &Scene, grid: &GridSpec, method: Method) -> u64 {
     let tracer = Tracer::new(scene);
     let t = Transport::new(scene, &tracer, TransportSettings::default());
-    let s = BakeSettings { method, samples: SAMPLES, seed: 3, ..BakeSettings::default() };
+    let s = BakeSettings { method, samples: samples(SAMPLES), seed: 3, ..BakeSettings::default() };
     bake(&t, grid, &s, &BakeControl::default()).unwrap().stats.rays.total()
 }
 

@@ -55,9 +55,6 @@ pub enum ViewError {
         /// Height in pixels.
         height: u32,
     },
-    /// A path-traced view with zero samples per pixel.
-    #[error("the path-traced view needs at least 1 sample per pixel")]
-    ZeroSamples,
     /// A pixel quantity other than `shaded`, `radiosity`, `irradiance`.
     #[error("unknown quantity '{0}' (shaded, radiosity, irradiance)")]
     UnknownQuantity(String),

@@ -2,6 +2,7 @@
 //! (Kontkanen & Laine 2006 Eq. 3 at the hit point and normal) or from path-traced
 //! irradiance at the same point, turned into the pixel [`Quantity`].
 
+use lightvol_core::samples::Samples;
 use std::str::FromStr;
 
 use glam::DVec3;
@@ -151,7 +152,7 @@ pub fn visible_surface(scene: &Scene, tracer: &Tracer, eye: DVec3, dir: DVec3) -
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ReferenceConfig {
     /// Irradiance samples per pixel ([`reference_irradiance`]).
-    pub samples: u32,
+    pub samples: Samples,
     /// Seed of the pixels' streams.
     pub seed: u64,
 }
@@ -191,9 +192,6 @@ pub fn render_reference(
     progress: Option<&(dyn Fn(Progress) + Sync)>,
 ) -> Result<ViewImage, ViewError> {
     config.validate()?;
-    if reference.samples == 0 {
-        return Err(ViewError::ZeroSamples);
-    }
     render(transport.scene(), transport.tracer(), camera, config, progress, |i, s| {
         let stream = hash2(REFERENCE_STREAM, i as u64);
         Ok(reference_irradiance(transport, s.position, s.normal, reference.samples, reference.seed, stream).0)

@@ -1,5 +1,7 @@
 //! Intersecting boxes: the domain of interest of texels buried in other geometry.
 
+use lightvol_core::samples::samples;
+
 use super::*;
 
 /// Box A `[-1, 1]² × [0, 1.5]` and box B `[0.3, 1.8] × [-0.5, 0.5] × [0, 1]`, which pierces
@@ -77,7 +79,7 @@ fn intersecting_boxes_do_not_leak_dark_with_domain_of_interest() {
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings { bounces: 1, ..TransportSettings::default() });
     let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
-    let base = SurfaceSettings { samples: 64, texels_per_unit: 8.0, ..settings("sh9") };
+    let base = SurfaceSettings { samples: samples(64), texels_per_unit: 8.0, ..settings("sh9") };
     let fixed = bake_surface(&t, &base, &BakeControl::default()).unwrap();
     let kept = bake_surface(
         &t,
@@ -174,7 +176,7 @@ fn intersecting_boxes_do_not_leak_dark_with_domain_of_interest() {
                 bary,
                 [0.0, 0.0, 1.0],
                 Quantity::Irradiance,
-                256,
+                samples(256),
                 5,
                 texel as u64,
             )

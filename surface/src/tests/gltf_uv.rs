@@ -1,5 +1,7 @@
 //! Lightmap UVs, tangents and objects from glTF files, and the bake's files.
 
+use lightvol_core::samples::samples;
+
 use super::*;
 
 use lightvol_scene::load::gltf::base64_encode as base64;
@@ -157,7 +159,7 @@ fn uv_overlap_is_checked_by_area() {
     let t = Transport::new(&scene, &tracer, TransportSettings::default());
     // 8 texels per unit on a unit floor: an 8 × 8 atlas; the decal lies inside texel (2, 2)
     // (texel space 2.56..2.96) and covers no centre.
-    let s = SurfaceSettings { samples: 4, texels_per_unit: 8.0, ..settings("sh4") };
+    let s = SurfaceSettings { samples: samples(4), texels_per_unit: 8.0, ..settings("sh4") };
     let e = bake_surface(&t, &s, &BakeControl::default()).unwrap_err();
     assert!(
         matches!(&e, SurfaceError::UvOverlap { mesh, a: 0 | 1, b: 2, texel: [2, 2] } if mesh == "Floor"),
@@ -294,7 +296,7 @@ fn gutter_dilation_does_not_cross_charts() {
         assert_eq!(fp.chart, if x < 3 { 0 } else { 2 }, "texel {}", fp.texel);
     }
     assert_eq!(atlas.footprints.len(), 7 * 8);
-    let s = SurfaceSettings { samples: 32, resolution: Some([8, 8]), gutter: 1, ..settings("sh4") };
+    let s = SurfaceSettings { samples: samples(32), resolution: Some([8, 8]), gutter: 1, ..settings("sh4") };
     let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
     let map = &bake.maps[0];
     let dc = |x: u32, y: u32| f64::from(map.texel(x, y)[0][0]);
@@ -382,7 +384,7 @@ fn bake_writes_and_reads_exr() {
     let scene = plane(0.5, [1.0; 3]);
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings::default());
-    let s = SurfaceSettings { samples: 16, texels_per_unit: 6.0, ..settings("hl2") };
+    let s = SurfaceSettings { samples: samples(16), texels_per_unit: 6.0, ..settings("hl2") };
     let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
     // Plane of side 1 with UVs over [0, 1]: 6 texels per unit → 6 × 6.
     assert_eq!((bake.maps[0].width, bake.maps[0].height), (6, 6));
@@ -417,7 +419,7 @@ fn conservative_rasterization_covers_centreless_texels() {
     assert!((a.footprints[0].area - 0.19 * 0.19 / 2.0 * 16.0).abs() < 1e-12);
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings::default());
-    let s = SurfaceSettings { samples: 16, resolution: Some([4, 4]), gutter: 0, ..settings("sh4") };
+    let s = SurfaceSettings { samples: samples(16), resolution: Some([4, 4]), gutter: 0, ..settings("sh4") };
     let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
     assert_eq!(bake.report.texels_covered, 1);
     assert_eq!(bake.maps[0].valid_at(0, 0), map::VALID_BAKED);
@@ -530,12 +532,23 @@ fn basis_ranking_under_a_grazing_sun() {
         .iter()
         .enumerate()
         .map(|(k, &n)| {
-            reference_surface_irradiance(&t, &geo, tri, bary, n, Quantity::Irradiance, 4096, 1, k as u64).0[1]
+            reference_surface_irradiance(
+                &t,
+                &geo,
+                tri,
+                bary,
+                n,
+                Quantity::Irradiance,
+                samples(4096),
+                1,
+                k as u64,
+            )
+            .0[1]
         })
         .collect();
     let mut rmse = std::collections::HashMap::new();
     for name in ["sh9", "hbasis6", "hbasis_mod6", "hl2"] {
-        let s = SurfaceSettings { samples: 1024, resolution: Some([2, 2]), ..settings(name) };
+        let s = SurfaceSettings { samples: samples(1024), resolution: Some([2, 2]), ..settings(name) };
         let map = &bake_surface(&t, &s, &BakeControl::default()).unwrap().maps[0];
         let basis = map.basis().unwrap();
         let (mut num, mut den) = (0.0, 0.0);
@@ -563,7 +576,7 @@ fn sharded_texels_assemble_to_the_whole_bake() {
     let scene = boxes_scene();
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings::default());
-    let s = SurfaceSettings { samples: 8, texels_per_unit: 6.0, ..settings("hbasis6") };
+    let s = SurfaceSettings { samples: samples(8), texels_per_unit: 6.0, ..settings("hbasis6") };
     let whole = bake_surface(&t, &s, &BakeControl::default()).unwrap();
     let geo = SurfaceGeometry::new(&scene, s.uv_set).unwrap();
     let dir = tempfile::tempdir().unwrap();

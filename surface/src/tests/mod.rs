@@ -2,6 +2,8 @@
 //! leaks with and without the domain-of-interest treatment), lightmap UV errors, plus
 //! determinism across thread counts and the reference.
 
+use lightvol_core::samples::samples;
+
 use lightvol_scene::fingerprint::lighting_fingerprint;
 use std::f64::consts::PI;
 
@@ -112,7 +114,7 @@ fn uniform_sky_plane_matches_the_least_squares_fits() {
     let pole = [0.0, 0.0, 1.0];
     for choice in basis_choices() {
         let name = &choice.tag();
-        let s = SurfaceSettings { samples: K, resolution: Some([4, 4]), ..settings(name) };
+        let s = SurfaceSettings { samples: samples(K), resolution: Some([4, 4]), ..settings(name) };
         let bake = bake_surface(&t, &s, &BakeControl::default()).unwrap();
         assert_eq!(bake.report.texels_covered, 16);
         assert_eq!(bake.report.invalid_texels, 0);
@@ -180,7 +182,7 @@ fn sh9_dc_is_exact_under_a_uniform_sky() {
     let scene = plane(1.0, [l; 3]);
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings::default());
-    let s = SurfaceSettings { samples: 64, resolution: Some([2, 2]), ..settings("sh9") };
+    let s = SurfaceSettings { samples: samples(64), resolution: Some([2, 2]), ..settings("sh9") };
     let map = &bake_surface(&t, &s, &BakeControl::default()).unwrap().maps[0];
     let q = lightvol_sh::quadrature::SphereQuadrature::hemisphere(8, 8);
     let s00 = q.integrate(|d| l * lightvol_sh::reference::sh_reference(0, 0, d));
@@ -209,7 +211,7 @@ fn reference_and_shading_at_perturbed_normals() {
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings::default());
     let geo = SurfaceGeometry::new(&scene, UvSet::Lightmap).unwrap();
-    let s = SurfaceSettings { samples: 1024, resolution: Some([4, 4]), ..settings("sh9") };
+    let s = SurfaceSettings { samples: samples(1024), resolution: Some([4, 4]), ..settings("sh9") };
     let map = &bake_surface(&t, &s, &BakeControl::default()).unwrap().maps[0];
     let basis = map.basis().unwrap();
     for (k, n) in [[0.0, 0.0, 1.0], [0.6, 0.0, 0.8], [-0.3, 0.4, (0.75f64).sqrt()], [0.0, -0.96, 0.28]]
@@ -217,8 +219,17 @@ fn reference_and_shading_at_perturbed_normals() {
         .enumerate()
     {
         let exact = masked_sky_irradiance(l, n);
-        let (r, _) =
-            reference_surface_irradiance(&t, &geo, 0, [0.3, 0.2], n, Quantity::Irradiance, 4096, 9, k as u64);
+        let (r, _) = reference_surface_irradiance(
+            &t,
+            &geo,
+            0,
+            [0.3, 0.2],
+            n,
+            Quantity::Irradiance,
+            samples(4096),
+            9,
+            k as u64,
+        );
         assert!((r[0] - exact).abs() < REF_TOL * l, "reference {n:?}: {} vs {exact}", r[0]);
         let uv = geo.lightmap_uv(0, [0.3, 0.2]).unwrap();
         let e = map.shade(basis.as_ref(), uv, n);
@@ -232,7 +243,7 @@ fn reference_and_shading_at_perturbed_normals() {
         [0.3, 0.2],
         [0.0, 0.0, 1.0],
         Quantity::Radiosity,
-        256,
+        samples(256),
         9,
         0,
     );
@@ -245,7 +256,7 @@ fn deterministic_across_thread_counts() {
     let scene = boxes_scene();
     let tracer = Tracer::new(&scene);
     let t = Transport::new(&scene, &tracer, TransportSettings { bounces: 1, ..TransportSettings::default() });
-    let s = SurfaceSettings { samples: 8, texels_per_unit: 3.0, ..settings("hbasis_mod6") };
+    let s = SurfaceSettings { samples: samples(8), texels_per_unit: 3.0, ..settings("hbasis_mod6") };
     let run = |threads: usize, chunk: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         pool.install(|| {
