@@ -79,9 +79,10 @@ use crate::io::sidecar::{
     format_version,
 };
 use crate::io::util::{guard, read_bounded, write_atomic};
+use crate::metadata::BakeMetadata;
 use crate::reach::NodeReach;
 use crate::validity::ValidityMask;
-use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
+use crate::volume::{IrradianceVolume, check_coeffs};
 
 const F: FileFormat = FileFormat::Exr;
 
@@ -629,10 +630,10 @@ fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeErr
         scene_hash: a.text("lightvol.bake.scene_hash")?,
         units: a.text("lightvol.units")?,
         frame: match a.opt("lightvol.frame") {
-            None => crate::frame::UpAxis::INTERNAL,
+            None => crate::up_axis::UpAxis::INTERNAL,
             Some(_) => {
                 let f = a.text("lightvol.frame")?;
-                crate::frame::UpAxis::parse(&f)
+                crate::up_axis::UpAxis::parse(&f)
                     .ok_or_else(|| VolumeError::malformed(F, format!("lightvol.frame {f:?}")))?
             }
         },
