@@ -40,7 +40,9 @@ use crate::error::VolumeError;
 use crate::fill::{FillReport, fill_empty_nodes};
 use crate::fixed::FixedSums;
 use crate::grid::GridSpec;
-use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
+use crate::metadata::BakeMetadata;
+use crate::reach::NodeReach;
+use crate::volume::{IrradianceVolume, check_coeffs};
 
 /// Per-node exact sums of Kontkanen & Laine 2006 Eq. 6 (see the module docs).
 #[derive(Clone, PartialEq)]
@@ -121,13 +123,13 @@ impl Accumulator {
 
     /// The node reach the records give (module docs), if the accumulator carries one.
     #[must_use]
-    pub fn reach(&self) -> Option<crate::NodeReach> {
+    pub fn reach(&self) -> Option<NodeReach> {
         let raw = self.reach.as_ref()?.raw();
         let decode = |v: i128| {
             u32::try_from(v - 1).ok().map(f32::from_bits).filter(|r| (0.0..=1.0).contains(r)).unwrap_or(1.0)
         };
         let nodes = raw.chunks_exact(6).map(|c| std::array::from_fn(|d| decode(c[d]))).collect();
-        Some(crate::NodeReach::new(nodes).expect("decoded reaches are in [0, 1]"))
+        Some(NodeReach::new(nodes).expect("decoded reaches are in [0, 1]"))
     }
 
     /// Attaches auxiliary exact sums (named, e.g. `"mass"`); they are merged, saved and

@@ -79,16 +79,6 @@ pub fn to_hex(v: u64) -> String {
     format!("{v:016x}")
 }
 
-/// The value of one lowercase hex digit (the files' hex texts: checksums, validity bits,
-/// node reaches), or `None` for any other character.
-pub(crate) fn hex_digit(c: u8) -> Option<u8> {
-    match c {
-        b'0'..=b'9' => Some(c - b'0'),
-        b'a'..=b'f' => Some(c - b'a' + 10),
-        _ => None,
-    }
-}
-
 /// Parses 16 hex digits.
 pub fn from_hex(s: &str) -> Option<u64> {
     (s.len() == 16 && s.bytes().all(|b| b.is_ascii_hexdigit()))

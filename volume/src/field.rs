@@ -10,15 +10,14 @@
 
 use std::path::Path;
 
-use lightvol_sh::eval::eval_into;
-use lightvol_sh::index::sh_lm;
-use lightvol_sh::irradiance::cosine_lobe_factor;
-
 use crate::adaptive::AdaptiveVolume;
 use crate::error::VolumeError;
 use crate::gradient::{GradientLookup, VolumeGradients};
 use crate::grid::GridSpec;
-use crate::volume::{BakeMetadata, IrradianceVolume};
+use crate::metadata::BakeMetadata;
+use crate::volume::IrradianceVolume;
+
+pub use crate::lookup::expand;
 
 /// A baked volume that can be read anywhere in its grid (module docs).
 pub trait VolumeField: Sync {
@@ -57,26 +56,8 @@ pub trait VolumeField: Sync {
     }
 
     /// Run-time bytes of what a renderer keeps (each kind's own accounting; the uniform
-    /// count is `crate::gradient::sample_bytes`).
+    /// count is `crate::volume::sample_bytes`).
     fn memory_bytes(&self) -> usize;
-}
-
-/// Interpolated coefficients `c` (`[coeff][rgb]`, `coeffs` per channel) expanded in the
-/// direction `d`: irradiance `Σ_j A_j c_j Y_j(d)` (\[KL06\] Eq. 3, `A_j` the clamped-cosine
-/// factor of `j`'s band) or, with `irradiance` false, radiance `Σ_j c_j Y_j(d)` (Eq. 2). The
-/// f64 expansion of every coefficient lookup (the gradient lookups, the octree's reference).
-#[must_use]
-pub fn expand(coeffs: usize, c: &[f64], d: [f64; 3], irradiance: bool) -> [f64; 3] {
-    let mut y = vec![0.0; coeffs];
-    eval_into(coeffs.isqrt(), d, &mut y);
-    let mut e = [0.0; 3];
-    for j in 0..coeffs {
-        let a = if irradiance { cosine_lobe_factor(sh_lm(j).0) * y[j] } else { y[j] };
-        for ch in 0..3 {
-            e[ch] += a * c[3 * j + ch];
-        }
-    }
-    e
 }
 
 fn f32x3(v: [f64; 3]) -> [f32; 3] {

@@ -57,7 +57,10 @@
 
 use crate::error::VolumeError;
 use crate::grid::{GridSpec, corner_weights};
+use crate::lookup::expand;
 use crate::volume::IrradianceVolume;
+
+pub use crate::volume::{floats_per_sample, sample_bytes};
 
 /// Per-node world-space gradients of every SH coefficient of an [`IrradianceVolume`]
 /// (\[Oat05\], "Spherical Harmonic Irradiance Gradients"), f32, `[node][coeff][rgb][xyz]`.
@@ -183,20 +186,6 @@ pub enum GradientLookup {
     GradientTrilinear,
     /// Tensor-product cubic Hermite with the cross-derivative terms dropped.
     Hermite,
-}
-
-/// SH floats per sample in \[Oat05\]'s "Memory Requirements" accounting: `3 n²` for RGB SH of
-/// order (bands) `n`, times 4 with gradients (each coefficient adds a 3-vector).
-#[must_use]
-pub const fn floats_per_sample(bands: usize, gradients: bool) -> usize {
-    let sh = 3 * bands * bands;
-    if gradients { sh * 4 } else { sh }
-}
-
-/// Bytes for `samples` samples of f32 data ([`floats_per_sample`] · 4 each).
-#[must_use]
-pub const fn sample_bytes(samples: usize, bands: usize, gradients: bool) -> usize {
-    samples * floats_per_sample(bands, gradients) * 4
 }
 
 /// The located cell of a world point: its corner nodes, the fractional position, the world
@@ -351,7 +340,7 @@ pub fn irradiance(
     n: [f64; 3],
 ) -> Result<[f64; 3], VolumeError> {
     let c = coeffs_facing(vol, grad, method, p, Some(n))?;
-    Ok(crate::field::expand(vol.coeffs(), &c, n, true))
+    Ok(expand(vol.coeffs(), &c, n, true))
 }
 
 #[cfg(test)]

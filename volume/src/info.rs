@@ -10,10 +10,14 @@ use std::path::Path;
 use serde::Serialize;
 use serde_json::{Value, json};
 
+use crate::adaptive::AdaptiveVolume;
 use crate::encode::Encoding;
-use crate::gradient::{floats_per_sample, sample_bytes};
+use crate::error::VolumeError;
+use crate::field::{AnyVolume, open};
 use crate::io::sidecar::Sidecar;
-use crate::{AdaptiveVolume, AnyVolume, ValidityMask, VolumeError};
+use crate::reach::NodeReach;
+use crate::validity::ValidityMask;
+use crate::volume::{floats_per_sample, sample_bytes};
 
 /// The SH convention every description states.
 pub const SH_CONVENTION: &str = "real orthonormal, index l(l+1)+m, no Condon-Shortley phase, +z polar";
@@ -95,7 +99,7 @@ pub fn describe(vol: &AnyVolume, path: &Path) -> Result<Value, VolumeError> {
     let mask_bytes = vol.validity().map_or(0, ValidityMask::memory_bytes);
     let validity =
         vol.validity().map(|m| json!({ "invalid_nodes": m.invalid_count(), "memory_bytes": mask_bytes }));
-    let reach_bytes = vol.reach().map_or(0, crate::NodeReach::memory_bytes);
+    let reach_bytes = vol.reach().map_or(0, NodeReach::memory_bytes);
     let reach =
         vol.reach().map(|r| json!({ "limited_nodes": r.limited_count(), "memory_bytes": reach_bytes }));
     Ok(json!({
@@ -125,7 +129,7 @@ pub fn describe(vol: &AnyVolume, path: &Path) -> Result<Value, VolumeError> {
 /// # Errors
 /// [`VolumeError`]: the file cannot be read, or its grid not expressed in its frame.
 pub fn describe_file(path: &Path) -> Result<Value, VolumeError> {
-    describe(&crate::open(path)?, path)
+    describe(&open(path)?, path)
 }
 
 fn describe_adaptive(vol: &AdaptiveVolume, path: &Path) -> Result<Value, VolumeError> {

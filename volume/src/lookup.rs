@@ -8,7 +8,8 @@
 //! Three implementations, tested against each other:
 //!
 //! - [`IrradianceVolume::irradiance_reference`]: Algorithm 1 verbatim in f64 (corner by
-//!   corner, coefficient by coefficient) with [`GridSpec::trilinear_world`]; slow, obvious.
+//!   corner, coefficient by coefficient) with
+//!   [`GridSpec::trilinear_world`](crate::grid::GridSpec::trilinear_world); slow, obvious.
 //! - [`IrradianceVolume::irradiance`] / [`IrradianceVolume::radiance`]: the f32 scalar path:
 //!   interpolate the `3·coeffs` floats of the 8 corners (one contiguous run per corner),
 //!   then dot with `A_j Y_j(n)`.
@@ -38,6 +39,12 @@
 //! Points are world-space (the volume's placement, if any, maps them to grid space);
 //! normals and directions are world-space unit vectors. Points outside the box are clamped
 //! to it (see [`crate::grid`]); a NaN coordinate is treated as the box's min on that axis.
+//!
+//! [`expand`] is the f64 expansion `Σ_j A_j c_j Y_j(n)` of already interpolated
+//! coefficients, shared by the lookups that interpolate in f64 elsewhere (the gradient
+//! lookups, the octree's reference, [`crate::field`]). The f32 constants the fast paths
+//! read (the world-to-cell map, the corner offsets, the factors `A_j`) are computed once per
+//! volume, with it, below it (`lookup_params`).
 
 use rayon::prelude::*;
 
@@ -47,125 +54,32 @@ use lightvol_sh::index::sh_lm;
 use lightvol_sh::irradiance::cosine_lobe_factor;
 
 use crate::error::VolumeError;
-use crate::grid::GridSpec;
+use crate::lookup_params::{LookupParams, weights8};
 use crate::volume::IrradianceVolume;
+
+pub use crate::reach::reach_bias;
 
 /// Queries per structure-of-arrays block in the batched path.
 pub const LANES: usize = 8;
 /// Queries per rayon task in the parallel batched path.
 pub const PAR_CHUNK: usize = 2048;
 
-/// The f32 constants of the fast lookup, derived once from a [`GridSpec`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct LookupParams {
-    /// World-to-grid affine map (row-major 3×4), if the grid is placed.
-    to_grid: Option<[[f32; 4]; 3]>,
-    min: [f32; 3],
-    /// `(n - 1) / (max - min)`: grid-space units to cell units.
-    scale: [f32; 3],
-    /// `n - 1` as f32 (clamp limit in cell units).
-    cells: [f32; 3],
-    /// `n - 2`: the largest cell index.
-    max_cell: [u32; 3],
-    /// Node index offsets of the 8 corners, `c = dx + 2 dy + 4 dz`.
-    offsets: [usize; 8],
-    /// `A_l(j)` per coefficient (irradiance), and all ones (radiance).
-    factors: [[f32; 16]; 2],
-    /// The node reach's normal offset of the test point, world units
-    /// ([`crate::reach::REACH_NORMAL_BIAS`] times the smallest world-space cell edge).
-    reach_bias: f32,
-}
-
-impl LookupParams {
-    pub(crate) fn new(spec: &GridSpec, coeffs: usize) -> Self {
-        let (min, max) = spec.bounds();
-        let res = spec.res();
-        let (nx, nxy) = (res[0] as usize, res[0] as usize * res[1] as usize);
-        Self {
-            to_grid: spec.placement().map(|p| p.to_grid_matrix().map(|row| row.map(|v| v as f32))),
-            min: min.map(|v| v as f32),
-            scale: std::array::from_fn(|a| (f64::from(res[a] - 1) / (max[a] - min[a])) as f32),
-            cells: std::array::from_fn(|a| (res[a] - 1) as f32),
-            max_cell: std::array::from_fn(|a| res[a] - 2),
-            offsets: [0, 1, nx, nx + 1, nxy, nxy + 1, nxy + nx, nxy + nx + 1],
-            factors: [factors(coeffs, true), factors(coeffs, false)],
-            reach_bias: reach_bias(spec) as f32,
-        }
-    }
-
-    /// Grid-space point of a world-space point.
-    #[inline(always)]
-    fn grid_point(&self, p: [f32; 3]) -> [f32; 3] {
-        match &self.to_grid {
-            None => p,
-            Some(m) => std::array::from_fn(|r| m[r][0] * p[0] + m[r][1] * p[1] + m[r][2] * p[2] + m[r][3]),
-        }
-    }
-
-    /// Cell coordinate and fraction along axis `a` of grid-space coordinate `x`.
-    #[inline(always)]
-    fn axis(&self, a: usize, x: f32) -> (u32, f32) {
-        // max/min (not clamp) so that NaN maps to 0.
-        let u = ((x - self.min[a]) * self.scale[a]).max(0.0).min(self.cells[a]);
-        let i = (u as u32).min(self.max_cell[a]);
-        (i, u - i as f32)
-    }
-
-    /// Base node index and trilinear corner weights of a world-space point.
-    #[inline(always)]
-    fn locate(&self, nx: usize, nxy: usize, p: [f32; 3]) -> (usize, [f32; 8]) {
-        let g = self.grid_point(p);
-        let (i, fx) = self.axis(0, g[0]);
-        let (j, fy) = self.axis(1, g[1]);
-        let (k, fz) = self.axis(2, g[2]);
-        (i as usize + nx * j as usize + nxy * k as usize, weights8(fx, fy, fz))
-    }
-}
-
-/// The node reach's test-point offset along a surface normal, in world units
-/// ([`crate::reach`]): [`crate::reach::REACH_NORMAL_BIAS`] times the smallest world-space
-/// cell edge (grid-space cell size times the placement's stretch of that axis).
+/// Interpolated coefficients `c` (`[coeff][rgb]`, `coeffs` per channel) expanded in the
+/// direction `d`: irradiance `Σ_j A_j c_j Y_j(d)` (\[KL06\] Eq. 3, `A_j` the clamped-cosine
+/// factor of `j`'s band) or, with `irradiance` false, radiance `Σ_j c_j Y_j(d)` (Eq. 2). The
+/// f64 expansion of every coefficient lookup (the gradient lookups, the octree's reference).
 #[must_use]
-pub fn reach_bias(spec: &GridSpec) -> f64 {
-    let cell = spec.cell_size();
-    let stretch = |a: usize| {
-        spec.placement().map_or(1.0, |p| {
-            let m = p.to_world_matrix();
-            (m[0][a] * m[0][a] + m[1][a] * m[1][a] + m[2][a] * m[2][a]).sqrt()
-        })
-    };
-    let h = (0..3).map(|a| cell[a] * stretch(a)).fold(f64::INFINITY, f64::min);
-    crate::reach::REACH_NORMAL_BIAS * h
-}
-
-/// Corner weights `Π (1-f | f)` in corner order `c = dx + 2dy + 4dz`, each product formed
-/// as `(wx · wy) · wz`.
-#[inline(always)]
-pub(crate) fn weights8(fx: f32, fy: f32, fz: f32) -> [f32; 8] {
-    let (gx, gy, gz) = (1.0 - fx, 1.0 - fy, 1.0 - fz);
-    [
-        gx * gy * gz,
-        fx * gy * gz,
-        gx * fy * gz,
-        fx * fy * gz,
-        gx * gy * fz,
-        fx * gy * fz,
-        gx * fy * fz,
-        fx * fy * fz,
-    ]
-}
-
-/// Per-coefficient factors: `A_l(j)` for irradiance, 1 for radiance.
-pub(crate) fn factors(coeffs: usize, irradiance: bool) -> [f32; 16] {
-    std::array::from_fn(|j| {
-        if j >= coeffs {
-            0.0
-        } else if irradiance {
-            cosine_lobe_factor(sh_lm(j).0) as f32
-        } else {
-            1.0
+pub fn expand(coeffs: usize, c: &[f64], d: [f64; 3], irradiance: bool) -> [f64; 3] {
+    let mut y = vec![0.0; coeffs];
+    eval_into(coeffs.isqrt(), d, &mut y);
+    let mut e = [0.0; 3];
+    for j in 0..coeffs {
+        let a = if irradiance { cosine_lobe_factor(sh_lm(j).0) * y[j] } else { y[j] };
+        for ch in 0..3 {
+            e[ch] += a * c[3 * j + ch];
         }
-    })
+    }
+    e
 }
 
 /// `Σ_c w_c · node_c[q]` for the `K` floats of the 8 corners, corner by corner.

@@ -60,6 +60,8 @@
 //! one cell is looked up bit for bit like the same volume without a reach.
 
 use crate::error::VolumeError;
+use crate::grid::GridSpec;
+use crate::validity::{hex_digit, renormalise};
 
 /// The test point's offset along the surface normal, in units of the smallest world-space
 /// cell edge (module docs). A tenth of a cell: large enough to separate the two sides of a
@@ -77,6 +79,22 @@ pub const REACH_EDGE_TOLERANCE: f64 = 1e-6;
 /// Direction order of a node's six reaches: `+x, -x, +y, -y, +z, -z` (grid axes).
 pub const REACH_DIRECTIONS: [[i8; 3]; 6] =
     [[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]];
+
+/// The node reach's test-point offset along a surface normal, in world units
+/// (module docs): [`REACH_NORMAL_BIAS`] times the smallest world-space
+/// cell edge (grid-space cell size times the placement's stretch of that axis).
+#[must_use]
+pub fn reach_bias(spec: &GridSpec) -> f64 {
+    let cell = spec.cell_size();
+    let stretch = |a: usize| {
+        spec.placement().map_or(1.0, |p| {
+            let m = p.to_world_matrix();
+            (m[0][a] * m[0][a] + m[1][a] * m[1][a] + m[2][a] * m[2][a]).sqrt()
+        })
+    };
+    let h = (0..3).map(|a| cell[a] * stretch(a)).fold(f64::INFINITY, f64::min);
+    REACH_NORMAL_BIAS * h
+}
 
 /// How far each node sees along its grid axes, in cells, capped at 1 (module docs).
 #[derive(Clone, PartialEq)]
@@ -162,7 +180,7 @@ impl NodeReach {
             )));
         }
         let digit = |c: u8| {
-            crate::checksum::hex_digit(c).ok_or_else(|| {
+            hex_digit(c).ok_or_else(|| {
                 VolumeError::Mismatch(format!("{:?} is not a lowercase hex digit", char::from(c)))
             })
         };
@@ -200,13 +218,13 @@ impl NodeReach {
     /// Renormalises the f32 weights `w` over the corners that see `f` (module docs).
     #[inline]
     pub fn reweight_f32(&self, nodes: impl Fn(usize) -> usize, f: [f64; 3], w: &mut [f32; 8]) {
-        crate::validity::renormalise(self.sees(nodes, f), w);
+        renormalise(self.sees(nodes, f), w);
     }
 
     /// [`Self::reweight_f32`] in f64 (the reference lookups).
     #[inline]
     pub fn reweight_f64(&self, nodes: impl Fn(usize) -> usize, f: [f64; 3], w: &mut [f64; 8]) {
-        crate::validity::renormalise(self.sees(nodes, f), w);
+        renormalise(self.sees(nodes, f), w);
     }
 }
 
@@ -252,7 +270,7 @@ mod tests {
     /// One cell over [0, 1]³, 4 coefficients, corner `c`'s DC coefficient `1 + c` (others
     /// 0), with the wall of [`a_wall_splits_the_cell_between_its_sides`] at x = 0.4.
     fn walled_cell() -> (IrradianceVolume, IrradianceVolume) {
-        let grid = crate::GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+        let grid = GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
         let mut data = vec![0.0f32; 8 * 12];
         for c in 0..8 {
             for ch in 0..3 {

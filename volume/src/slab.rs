@@ -7,7 +7,6 @@
 //! `n = nx·ny·nz`, because `((j nz + z) ny + y) nx + x = j n + node`.
 
 use crate::error::{FileFormat, VolumeError};
-use crate::io::util::f16_bytes;
 use crate::volume::IrradianceVolume;
 
 /// Bytes per RGBA16F texel.
@@ -16,6 +15,16 @@ pub const TEXEL_BYTES: usize = 8;
 /// The layout in words (the format modules prefix their container name).
 pub const SLAB_LAYOUT: &str = "width nx, height ny, depth coeffs*nz; texel (x, y, j*nz + z) = RGB of SH \
                                coefficient j at node (x, y, z), A = node weight; little-endian f16";
+
+/// Little-endian f16 bytes of an f32, erroring if it exceeds the f16 range.
+pub(crate) fn f16_bytes(v: f32, what: &str) -> Result<[u8; 2], VolumeError> {
+    let h = half::f16::from_f32(v);
+    if h.is_finite() {
+        Ok(h.to_le_bytes())
+    } else {
+        Err(VolumeError::InvalidData(format!("{what} value {v} exceeds the f16 range (65504)")))
+    }
+}
 
 /// The f16 texel bytes of `vol`; errors if a value exceeds the f16 range.
 pub fn slab_texels(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {

@@ -124,8 +124,7 @@ impl ValidityMask {
             return Err(bad(format!("{} hex digits, {nodes} nodes need {want}", text.len())));
         }
         let digit = |c: u8| -> Result<u8, VolumeError> {
-            crate::checksum::hex_digit(c)
-                .ok_or_else(|| bad(format!("{:?} is not a lowercase hex digit", char::from(c))))
+            hex_digit(c).ok_or_else(|| bad(format!("{:?} is not a lowercase hex digit", char::from(c))))
         };
         let mut valid = Vec::with_capacity(nodes);
         for (i, pair) in text.as_bytes().chunks_exact(2).enumerate() {
@@ -189,6 +188,16 @@ where
         for c in 0..8 {
             w[c] = if v[c] { w[c] / s } else { zero };
         }
+    }
+}
+
+/// The value of one lowercase hex digit (the hex texts of the validity bits and the node
+/// reach, [`crate::reach`]), or `None` for any other character.
+pub(crate) fn hex_digit(c: u8) -> Option<u8> {
+    match c {
+        b'0'..=b'9' => Some(c - b'0'),
+        b'a'..=b'f' => Some(c - b'a' + 10),
+        _ => None,
     }
 }
 

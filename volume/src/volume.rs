@@ -9,16 +9,22 @@
 //!
 //! A volume may also carry a per-node validity mask ([`crate::validity`]): then its
 //! trilinear lookups leave invalid corners out (Unity APV's run-time weighting).
-
-use serde::{Deserialize, Serialize};
+//!
+//! This module holds the data and its plain accessors, below everything that reads it: the
+//! lookups (`irradiance`, `radiance`, `coeffs_at`, the batched and reference paths) are
+//! methods of [`IrradianceVolume`] implemented in [`crate::lookup`], the frame conversion
+//! in [`crate::frame`], checksums, encodings and files above those. The bake metadata it
+//! carries is [`crate::metadata`]'s.
 
 use lightvol_sh::coeffs::{Sh, ShRgb};
 
 use crate::error::{VolumeError, check_finite};
 use crate::grid::GridSpec;
-use crate::lookup::LookupParams;
+use crate::lookup_params::LookupParams;
 use crate::reach::NodeReach;
 use crate::validity::ValidityMask;
+
+pub use crate::metadata::{BakeMetadata, BakeRecord, FitRecord};
 
 /// The default SH coefficient count per colour channel: 3 bands, the nine coefficients that
 /// capture irradiance to a few percent (Ramamoorthi & Hanrahan 2001; \[KL06\] §3).
@@ -32,94 +38,18 @@ pub fn check_coeffs(coeffs: usize) -> Result<(), VolumeError> {
     if SUPPORTED_COEFFS.contains(&coeffs) { Ok(()) } else { Err(VolumeError::UnsupportedCoeffs(coeffs)) }
 }
 
-/// The bake method and every setting that shaped a volume, as a typed record: what the
-/// free-text [`BakeMetadata::method`] label says, field by field, for programs that read
-/// files (a merge finds the least-squares weight here, an engine tool the bounce count).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BakeRecord {
-    /// The method: `point`, `prefilter`, `doi`, `doi-paper`, `doi-node` (Kontkanen & Laine
-    /// 2006 Eq. 4-6, Algorithm 2) or an engine baseline (`point+apv`, ...).
-    pub method: String,
-    /// Samples per cell (prefilter, doi-paper), per node (doi-node) or directions per node
-    /// (point, doi, the baselines).
-    pub samples_per_unit: u32,
-    /// SH coefficients per channel.
-    pub coeffs: usize,
-    /// The node fit.
-    pub fit: FitRecord,
-    /// The gradient estimator (`central`, `basis`), when gradients were baked (\[Oat05\]).
-    pub gradients: Option<String>,
-    /// Diffuse bounces traced unconditionally.
-    pub bounces: u32,
-    /// Whether paths continued under Russian roulette after `bounces` (unbiased).
-    pub russian_roulette: bool,
-    /// Which light counted when it reached a probe directly (`all`, `sky+indirect`,
-    /// `indirect`).
-    pub direct_light: String,
-    /// The octree settings of an adaptive bake (\[Oat05\], "Subdivision Heuristics").
-    pub octree: Option<crate::adaptive::OctreeSettings>,
+/// SH floats per sample in \[Oat05\]'s "Memory Requirements" accounting: `3 n²` for RGB SH of
+/// order (bands) `n`, times 4 with gradients (each coefficient adds a 3-vector).
+#[must_use]
+pub const fn floats_per_sample(bands: usize, gradients: bool) -> usize {
+    let sh = 3 * bands * bands;
+    if gradients { sh * 4 } else { sh }
 }
 
-/// How node values came from their samples.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
-pub enum FitRecord {
-    /// Kontkanen & Laine Eq. 6: each node the weighted average over its support.
-    Average,
-    /// Regularised least squares over the domain of interest with weight `lambda`.
-    LeastSquares {
-        /// The regularisation weight λ.
-        lambda: f64,
-    },
-}
-
-/// How a volume was made, carried through every file format.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct BakeMetadata {
-    /// Sampling method, e.g. `"point"` (Kontkanen & Laine Eq. 4) or `"domain"` (Eq. 5-6).
-    pub method: String,
-    /// Total number of rays / samples the bake used.
-    pub samples: u64,
-    /// Seed of the bake's random (Halton scrambling) streams.
-    pub seed: u64,
-    /// Index of this shard among `shard_count` (0 for an unsharded bake).
-    pub shard_index: u32,
-    /// Number of shards the bake was split into (1 for an unsharded bake).
-    pub shard_count: u32,
-    /// A hash identifying the scene and bake settings (free-form hex string).
-    pub scene_hash: String,
-    /// The radiometric unit of the coefficients, e.g. `"W sr^-1 m^-2"` or
-    /// `"relative"` (default).
-    pub units: String,
-    /// The frame of the scene file the volume was baked from ([`crate::frame`]). The grid
-    /// and coefficients stay in lightvol's internal +Z-up frame; coordinates shown to users
-    /// and engine exports are converted to this frame. Absent in older files: internal.
-    #[serde(default = "internal_frame")]
-    pub frame: crate::frame::UpAxis,
-    /// The method and settings as a typed record. Absent in files written before it
-    /// existed, and in volumes made by hand.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub settings: Option<BakeRecord>,
-}
-
-fn internal_frame() -> crate::frame::UpAxis {
-    crate::frame::UpAxis::INTERNAL
-}
-
-impl Default for BakeMetadata {
-    fn default() -> Self {
-        Self {
-            method: "unknown".into(),
-            samples: 0,
-            seed: 0,
-            shard_index: 0,
-            shard_count: 1,
-            scene_hash: String::new(),
-            units: "relative".into(),
-            frame: crate::frame::UpAxis::INTERNAL,
-            settings: None,
-        }
-    }
+/// Bytes for `samples` samples of f32 data ([`floats_per_sample`] · 4 each).
+#[must_use]
+pub const fn sample_bytes(samples: usize, bands: usize, gradients: bool) -> usize {
+    samples * floats_per_sample(bands, gradients) * 4
 }
 
 /// An irradiance volume: a [`GridSpec`], `coeffs` (4, 9 or 16) RGB SH radiance coefficients
@@ -388,13 +318,13 @@ impl IrradianceVolume {
     }
 
     /// Bytes of coefficient and weight storage at f32: \[Oat05\]'s run-time figure
-    /// ([`crate::gradient::sample_bytes`]: 9 RGB coefficients are 108 bytes per node) plus 4
+    /// ([`sample_bytes`]: 9 RGB coefficients are 108 bytes per node) plus 4
     /// bytes of bake weight per node (112 per node at 9 coefficients), plus the validity
     /// mask's ([`ValidityMask::memory_bytes`]) and the node reach's
     /// ([`NodeReach::memory_bytes`]) when there are.
     #[must_use]
     pub fn memory_bytes(&self) -> usize {
-        crate::gradient::sample_bytes(self.spec.node_count(), self.bands(), false)
+        sample_bytes(self.spec.node_count(), self.bands(), false)
             + self.weights.len() * size_of::<f32>()
             + self.validity.as_ref().map_or(0, ValidityMask::memory_bytes)
             + self.reach.as_ref().map_or(0, NodeReach::memory_bytes)

@@ -8,7 +8,8 @@ use rayon::prelude::*;
 use crate::adaptive::{AdaptiveVolume, TO_UNIFORM_MAX_NODES, pack_key};
 use crate::error::VolumeError;
 use crate::grid::{GridSpec, corner_weights};
-use crate::lookup::{PAR_CHUNK, factors, shade_dyn, weights8};
+use crate::lookup::{PAR_CHUNK, expand, shade_dyn};
+use crate::lookup_params::{factors, weights8};
 use crate::volume::IrradianceVolume;
 
 impl AdaptiveVolume {
@@ -81,7 +82,7 @@ impl AdaptiveVolume {
     /// [`Self::coeffs_at_reference`], in f64.
     #[must_use]
     pub fn irradiance_reference(&self, p: [f64; 3], n: [f64; 3]) -> [f64; 3] {
-        crate::field::expand(self.coeffs(), &self.coeffs_at_reference(p), n, true)
+        expand(self.coeffs(), &self.coeffs_at_reference(p), n, true)
     }
 
     /// The interpolated coefficients at world point `p` into `out[..3·coeffs]`

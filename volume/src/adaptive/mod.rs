@@ -59,7 +59,10 @@ use lightvol_sh::index::sh_lm;
 
 use crate::error::VolumeError;
 use crate::grid::GridSpec;
-use crate::volume::{BakeMetadata, IrradianceVolume};
+use crate::metadata::BakeMetadata;
+use crate::volume::{IrradianceVolume, sample_bytes};
+
+pub use crate::metadata::OctreeSettings;
 
 /// The finest level accepted: node coordinates of every level must fit the 21 bits per
 /// axis of a packed key, and `(n - 1)·2^8` keeps that for any base grid of up to 8192
@@ -93,44 +96,8 @@ pub fn unpack_key(key: u64) -> [u32; 3] {
     ]
 }
 
-/// Settings of an adaptive bake (\[Oat05\], "Adaptive Subdivision": "Specify a Min and Max
-/// level of subdivision", "Allow thresholds to be specified for each subdivision heuristic").
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct OctreeSettings {
-    /// Every cell of the levels below is split.
-    pub min_level: u32,
-    /// The finest level.
-    pub max_level: u32,
-    /// Split when the relative change across a cell is at least this (`None`: off).
-    pub gradient_threshold: Option<f64>,
-    /// Split cells that contain scene geometry.
-    pub geometry: bool,
-    /// Split when a cell edge exceeds this multiple of a corner's harmonic-mean depth
-    /// (`None`: off).
-    pub depth_ratio_threshold: Option<f64>,
-    /// Rays per node for the harmonic mean.
-    pub depth_rays: u32,
-    /// Cull nodes whose surplus is within this fraction of the value scale.
-    pub cull_tolerance: f64,
-    /// Cap on the volume's `memory_bytes` (bytes).
-    pub memory_budget: Option<usize>,
-}
-
-impl Default for OctreeSettings {
-    fn default() -> Self {
-        Self {
-            min_level: 0,
-            max_level: 2,
-            gradient_threshold: Some(0.25),
-            geometry: true,
-            depth_ratio_threshold: Some(1.0),
-            depth_rays: 32,
-            cull_tolerance: 0.01,
-            memory_budget: None,
-        }
-    }
-}
-
+/// The octree's reading of the settings record ([`OctreeSettings`] is plain data in
+/// [`crate::metadata`], below the volume whose bake record holds it).
 impl OctreeSettings {
     /// Errors on non-finite or non-positive thresholds, zero depth rays with the depth
     /// heuristic on, or bad levels.
@@ -494,7 +461,7 @@ pub fn memory_model(
     fine_nodes: usize,
     split_below: usize,
 ) -> usize {
-    let node_bytes = crate::gradient::sample_bytes(1, coeffs.isqrt(), false);
+    let node_bytes = sample_bytes(1, coeffs.isqrt(), false);
     let base_bytes = base.node_count() * (node_bytes + 4);
     let bitmaps = if max_level > 0 { base.cell_count().div_ceil(8) + split_below } else { 0 };
     base_bytes + fine_nodes * (node_bytes + 8) + bitmaps

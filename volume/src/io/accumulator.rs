@@ -29,7 +29,8 @@ use crate::error::{FileFormat, VolumeError};
 use crate::grid::{GridSpec, Placement};
 use crate::io::sidecar::GridJson;
 use crate::io::util::{read_bounded, write_atomic};
-use crate::volume::{BakeMetadata, check_coeffs};
+use crate::metadata::BakeMetadata;
+use crate::volume::check_coeffs;
 
 /// First six bytes of a shard file.
 pub const ACC_MAGIC: &[u8; 6] = b"LVACC\0";

@@ -331,7 +331,7 @@ mod tests {
     use super::*;
     use crate::adaptive::build::build_adaptive;
     use crate::adaptive::tests::{base_from, base_spec, point_bake, step_field, step_volume};
-    use crate::volume::BakeMetadata;
+    use crate::metadata::BakeMetadata;
 
     fn meta() -> BakeMetadata {
         BakeMetadata {

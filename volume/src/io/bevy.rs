@@ -51,7 +51,8 @@ use crate::checksum::{fnv1a, from_hex, to_hex};
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::GridSpec;
 use crate::io::ktx2::{KTX2_WRITER, parse_ktx2};
-use crate::io::util::{f16_bytes, guard, read_bounded, write_atomic};
+use crate::io::util::{guard, read_bounded, write_atomic};
+use crate::slab::f16_bytes;
 use crate::volume::IrradianceVolume;
 
 const F: FileFormat = FileFormat::Bevy;
@@ -214,7 +215,7 @@ pub struct BevyInfo {
     /// The texel format.
     pub format: BevyFormat,
     /// The frame of positions and face directions: the scene file's (`y-up` or `z-up`).
-    pub frame: crate::frame::UpAxis,
+    pub frame: crate::up_axis::UpAxis,
     /// The stored quantity.
     pub quantity: String,
     /// The unit of the texels.

@@ -9,7 +9,11 @@ use std::path::Path;
 use super::bevy::BevyFormat;
 use super::sidecar::{Sidecar, write_sidecar};
 use crate::encode::Encoding;
-use crate::{AnyVolume, GradientField, IrradianceVolume, VolumeError};
+use crate::error::VolumeError;
+use crate::field::{AnyVolume, GradientField};
+use crate::reach::NodeReach;
+use crate::validity::ValidityMask;
+use crate::volume::IrradianceVolume;
 
 /// An engine format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -106,8 +110,8 @@ fn write_uniform(
         ExportFormat::Dds => super::dds::write_dds(out, vol)?,
         ExportFormat::Bevy(f) => {
             super::bevy::write_bevy(out, vol, f)?;
-            report.dropped_mask_nodes = vol.validity().map(crate::ValidityMask::invalid_count);
-            report.dropped_reach_nodes = vol.reach().map(crate::NodeReach::limited_count);
+            report.dropped_mask_nodes = vol.validity().map(ValidityMask::invalid_count);
+            report.dropped_reach_nodes = vol.reach().map(NodeReach::limited_count);
         }
         ExportFormat::Json => {
             let file = crate::info::described_file_name(source);

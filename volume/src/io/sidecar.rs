@@ -46,9 +46,10 @@ use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::{GridSpec, Placement};
 use crate::io::util::{read_bounded, write_atomic};
+use crate::metadata::{BakeMetadata, BakeRecord};
 use crate::reach::NodeReach;
 use crate::validity::ValidityMask;
-use crate::volume::{BakeMetadata, IrradianceVolume, check_coeffs};
+use crate::volume::{IrradianceVolume, check_coeffs};
 
 /// Value of the `format` field.
 pub const FORMAT_NAME: &str = "lightvol-volume";
@@ -157,7 +158,7 @@ pub struct BakeJson {
     pub scene_hash: String,
     /// The method and settings as a typed record, when the bake wrote one.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub settings: Option<crate::BakeRecord>,
+    pub settings: Option<BakeRecord>,
 }
 
 /// The validity section: the mask of [`crate::validity`], packed.
@@ -291,10 +292,10 @@ pub struct Sidecar {
     /// (`grid.to_world`) and SH directions are in it. Engine exports are in the scene
     /// file's frame; the native EXR is in lightvol's internal `z-up` frame.
     #[serde(default = "internal_frame")]
-    pub frame: crate::frame::UpAxis,
+    pub frame: crate::up_axis::UpAxis,
     /// The frame of the scene file the volume was baked from.
     #[serde(default = "internal_frame")]
-    pub source_frame: crate::frame::UpAxis,
+    pub source_frame: crate::up_axis::UpAxis,
     /// FNV-1a checksum (16 hex digits) of the volume as the described file decodes to
     /// ([`crate::checksum::volume_checksum`]); written by the KTX2 and DDS exports and
     /// required by their readers.
@@ -306,7 +307,7 @@ impl Sidecar {
     /// The same description with the data in `frame` (an export converted by
     /// [`crate::frame::to_file_frame`]).
     #[must_use]
-    pub fn in_frame(mut self, frame: crate::frame::UpAxis) -> Self {
+    pub fn in_frame(mut self, frame: crate::up_axis::UpAxis) -> Self {
         self.frame = frame;
         self
     }
@@ -347,7 +348,7 @@ impl Sidecar {
                 scene_hash: m.scene_hash.clone(),
                 settings: m.settings.clone(),
             },
-            frame: crate::frame::UpAxis::INTERNAL,
+            frame: crate::up_axis::UpAxis::INTERNAL,
             source_frame: m.frame,
             checksum: None,
         }
@@ -470,8 +471,8 @@ impl Sidecar {
     }
 }
 
-fn internal_frame() -> crate::frame::UpAxis {
-    crate::frame::UpAxis::INTERNAL
+fn internal_frame() -> crate::up_axis::UpAxis {
+    crate::up_axis::UpAxis::INTERNAL
 }
 
 /// Writes a sidecar atomically (temporary file and rename).

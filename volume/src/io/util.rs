@@ -1,6 +1,6 @@
 //! The format modules' file edges: lightvol-core's atomic writes and bounded reads
 //! (`lightvol_core::fs`, whose docs say what "atomic" guarantees) with the path in the
-//! error, a panic guard for third-party parsers, and f16 conversion.
+//! error, and a panic guard for third-party parsers.
 
 use std::path::Path;
 
@@ -32,16 +32,6 @@ pub(crate) fn guard<T>(
         Err(_) => {
             Err(VolumeError::malformed(format, "the decoder rejected the data (internal panic caught)"))
         }
-    }
-}
-
-/// Little-endian f16 bytes of an f32, erroring if it exceeds the f16 range.
-pub(crate) fn f16_bytes(v: f32, what: &str) -> Result<[u8; 2], VolumeError> {
-    let h = half::f16::from_f32(v);
-    if h.is_finite() {
-        Ok(h.to_le_bytes())
-    } else {
-        Err(VolumeError::InvalidData(format!("{what} value {v} exceeds the f16 range (65504)")))
     }
 }
 

@@ -1,0 +1,138 @@
+//! How a volume was made: the bake metadata every file format carries ([`BakeMetadata`]), the
+//! typed record of the bake's settings ([`BakeRecord`], [`FitRecord`]) and the octree
+//! settings of an adaptive bake ([`OctreeSettings`], \[Oat05\] "Adaptive Subdivision").
+//!
+//! Plain data below the volume ([`crate::volume`]) that holds it: the octree settings'
+//! checks against the octree's limits live with the octree ([`crate::adaptive`]).
+
+use serde::{Deserialize, Serialize};
+
+use crate::up_axis::UpAxis;
+
+/// The bake method and every setting that shaped a volume, as a typed record: what the
+/// free-text [`BakeMetadata::method`] label says, field by field, for programs that read
+/// files (a merge finds the least-squares weight here, an engine tool the bounce count).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BakeRecord {
+    /// The method: `point`, `prefilter`, `doi`, `doi-paper`, `doi-node` (Kontkanen & Laine
+    /// 2006 Eq. 4-6, Algorithm 2) or an engine baseline (`point+apv`, ...).
+    pub method: String,
+    /// Samples per cell (prefilter, doi-paper), per node (doi-node) or directions per node
+    /// (point, doi, the baselines).
+    pub samples_per_unit: u32,
+    /// SH coefficients per channel.
+    pub coeffs: usize,
+    /// The node fit.
+    pub fit: FitRecord,
+    /// The gradient estimator (`central`, `basis`), when gradients were baked (\[Oat05\]).
+    pub gradients: Option<String>,
+    /// Diffuse bounces traced unconditionally.
+    pub bounces: u32,
+    /// Whether paths continued under Russian roulette after `bounces` (unbiased).
+    pub russian_roulette: bool,
+    /// Which light counted when it reached a probe directly (`all`, `sky+indirect`,
+    /// `indirect`).
+    pub direct_light: String,
+    /// The octree settings of an adaptive bake (\[Oat05\], "Subdivision Heuristics").
+    pub octree: Option<OctreeSettings>,
+}
+
+/// How node values came from their samples.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum FitRecord {
+    /// Kontkanen & Laine Eq. 6: each node the weighted average over its support.
+    Average,
+    /// Regularised least squares over the domain of interest with weight `lambda`.
+    LeastSquares {
+        /// The regularisation weight λ.
+        lambda: f64,
+    },
+}
+
+/// How a volume was made, carried through every file format.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BakeMetadata {
+    /// Sampling method, e.g. `"point"` (Kontkanen & Laine Eq. 4) or `"domain"` (Eq. 5-6).
+    pub method: String,
+    /// Total number of rays / samples the bake used.
+    pub samples: u64,
+    /// Seed of the bake's random (Halton scrambling) streams.
+    pub seed: u64,
+    /// Index of this shard among `shard_count` (0 for an unsharded bake).
+    pub shard_index: u32,
+    /// Number of shards the bake was split into (1 for an unsharded bake).
+    pub shard_count: u32,
+    /// A hash identifying the scene and bake settings (free-form hex string).
+    pub scene_hash: String,
+    /// The radiometric unit of the coefficients, e.g. `"W sr^-1 m^-2"` or
+    /// `"relative"` (default).
+    pub units: String,
+    /// The frame of the scene file the volume was baked from ([`crate::up_axis`], [`crate::frame`]). The grid
+    /// and coefficients stay in lightvol's internal +Z-up frame; coordinates shown to users
+    /// and engine exports are converted to this frame. Absent in older files: internal.
+    #[serde(default = "internal_frame")]
+    pub frame: UpAxis,
+    /// The method and settings as a typed record. Absent in files written before it
+    /// existed, and in volumes made by hand.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub settings: Option<BakeRecord>,
+}
+
+fn internal_frame() -> UpAxis {
+    UpAxis::INTERNAL
+}
+
+impl Default for BakeMetadata {
+    fn default() -> Self {
+        Self {
+            method: "unknown".into(),
+            samples: 0,
+            seed: 0,
+            shard_index: 0,
+            shard_count: 1,
+            scene_hash: String::new(),
+            units: "relative".into(),
+            frame: UpAxis::INTERNAL,
+            settings: None,
+        }
+    }
+}
+
+/// Settings of an adaptive bake (\[Oat05\], "Adaptive Subdivision": "Specify a Min and Max
+/// level of subdivision", "Allow thresholds to be specified for each subdivision heuristic").
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OctreeSettings {
+    /// Every cell of the levels below is split.
+    pub min_level: u32,
+    /// The finest level.
+    pub max_level: u32,
+    /// Split when the relative change across a cell is at least this (`None`: off).
+    pub gradient_threshold: Option<f64>,
+    /// Split cells that contain scene geometry.
+    pub geometry: bool,
+    /// Split when a cell edge exceeds this multiple of a corner's harmonic-mean depth
+    /// (`None`: off).
+    pub depth_ratio_threshold: Option<f64>,
+    /// Rays per node for the harmonic mean.
+    pub depth_rays: u32,
+    /// Cull nodes whose surplus is within this fraction of the value scale.
+    pub cull_tolerance: f64,
+    /// Cap on the volume's `memory_bytes` (bytes).
+    pub memory_budget: Option<usize>,
+}
+
+impl Default for OctreeSettings {
+    fn default() -> Self {
+        Self {
+            min_level: 0,
+            max_level: 2,
+            gradient_threshold: Some(0.25),
+            geometry: true,
+            depth_ratio_threshold: Some(1.0),
+            depth_rays: 32,
+            cull_tolerance: 0.01,
+            memory_budget: None,
+        }
+    }
+}
