@@ -139,7 +139,7 @@ pub(crate) struct SampleArgs {
     pub(crate) threads: Option<usize>,
     /// How prefilter/doi-paper node values come from their samples: `average` (Kontkanen & Laine
     /// Eq. 6) or `lsq[:LAMBDA]` (least squares over the domain of interest, regularised
-    /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `node_fit` module).
+    /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `fit` module).
     #[arg(long, default_value = "average")]
     pub(crate) fit: lightvol_sampler::node_fit::Fit,
 }
