@@ -1,12 +1,12 @@
-//! `lightvol export`: engine formats (lightvol-volume's `io::export`; JSON describes an
+//! `lightvol export`: engine formats (lightvol-volume's `export`; JSON describes an
 //! octree, KTX2, DDS and Bevy resample it to a uniform grid).
 
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use lightvol_volume::AnyVolume;
+use lightvol_volume::export::{ExportError, ExportFormat, export};
 use lightvol_volume::io::bevy::BevyFormat;
-use lightvol_volume::io::export::{ExportError, ExportFormat, export};
 use lightvol_volume::io::sidecar::sidecar_path;
 
 use crate::cli::{BevyFormatArg, ExportArgs, ExportFormat as CliFormat};

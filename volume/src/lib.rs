@@ -5,6 +5,7 @@ pub mod adaptive;
 pub mod checksum;
 pub mod encode;
 pub mod error;
+pub mod export;
 pub mod field;
 pub mod fill;
 pub mod fixed;

@@ -7,7 +7,6 @@ pub mod accumulator;
 pub mod adaptive;
 pub mod bevy;
 pub mod dds;
-pub mod export;
 pub mod exr;
 pub mod ktx2;
 pub mod sidecar;

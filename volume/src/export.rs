@@ -6,11 +6,11 @@
 
 use std::path::Path;
 
-use super::bevy::BevyFormat;
-use super::sidecar::{Sidecar, write_sidecar};
 use crate::encode::Encoding;
 use crate::error::VolumeError;
 use crate::field::{AnyVolume, GradientField};
+use crate::io::bevy::BevyFormat;
+use crate::io::sidecar::{Sidecar, write_sidecar};
 use crate::reach::NodeReach;
 use crate::validity::ValidityMask;
 use crate::volume::IrradianceVolume;
@@ -18,11 +18,11 @@ use crate::volume::IrradianceVolume;
 /// An engine format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ExportFormat {
-    /// KTX2 3D textures ([`super::ktx2`]).
+    /// KTX2 3D textures ([`crate::io::ktx2`]).
     Ktx2,
-    /// DDS 3D textures ([`super::dds`]).
+    /// DDS 3D textures ([`crate::io::dds`]).
     Dds,
-    /// Bevy's irradiance volume ([`super::bevy`]).
+    /// Bevy's irradiance volume ([`crate::io::bevy`]).
     Bevy(BevyFormat),
     /// The JSON sidecar describing the native file (and an octree's levels).
     Json,
@@ -85,7 +85,7 @@ pub fn export(
             let json = crate::info::adaptive_export_json(v, source)?;
             let text =
                 serde_json::to_string_pretty(&json).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
-            super::util::write_atomic(out, text.as_bytes())?;
+            crate::io::util::write_atomic(out, text.as_bytes())?;
             Ok(ExportReport::default())
         }
         AnyVolume::Adaptive(v) => {
@@ -106,10 +106,10 @@ fn write_uniform(
 ) -> Result<ExportReport, VolumeError> {
     let mut report = ExportReport::default();
     match format {
-        ExportFormat::Ktx2 => super::ktx2::write_ktx2(out, vol)?,
-        ExportFormat::Dds => super::dds::write_dds(out, vol)?,
+        ExportFormat::Ktx2 => crate::io::ktx2::write_ktx2(out, vol)?,
+        ExportFormat::Dds => crate::io::dds::write_dds(out, vol)?,
         ExportFormat::Bevy(f) => {
-            super::bevy::write_bevy(out, vol, f)?;
+            crate::io::bevy::write_bevy(out, vol, f)?;
             report.dropped_mask_nodes = vol.validity().map(ValidityMask::invalid_count);
             report.dropped_reach_nodes = vol.reach().map(NodeReach::limited_count);
         }
