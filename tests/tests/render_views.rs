@@ -1,5 +1,5 @@
 //! `lightvol render` writes the bytes it wrote before its view moved into
-//! lightvol-sampler's `view` module: the hashes below were recorded with the renderer of
+//! lightvol-view's renderer: the hashes below were recorded with the renderer of
 //! `cmd_render.rs` as it was before the move, on a volume written here from a closed-form
 //! field (so that no bake enters the hashes), for the volume-shaded and the path-traced
 //! view, PNG and EXR, every pixel quantity. They were recorded on x86-64 Linux: the camera's
