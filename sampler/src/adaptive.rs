@@ -371,10 +371,8 @@ fn drive(
         Method::Prefilter | Method::DoiPaper => base_grid.cell_count(),
     });
     let offset_progress = |p: Progress| {
-        if let Some(cb) = control.progress {
-            let d = done.load(Ordering::Relaxed);
-            cb(Progress { done: d + p.done, total: planned.load(Ordering::Relaxed) });
-        }
+        let d = done.load(Ordering::Relaxed);
+        control.report(Progress { done: d + p.done, total: planned.load(Ordering::Relaxed) });
     };
     let inner = BakeControl { progress: Some(&offset_progress), cancel: control.cancel };
     let (base, base_stats) = match source {
@@ -475,7 +473,7 @@ fn drive(
             }
             None => vec![false; cells.len()],
         };
-        if control.cancel.is_some_and(|f| f.load(Ordering::Relaxed)) {
+        if control.cancelled() {
             return Err(BakeError::Cancelled.into());
         }
         Ok((0..cells.len())

@@ -25,7 +25,6 @@
 //! ([`lightvol_core::shard::shard_range`]); the accumulator's sums are exact fixed-point integers
 //! (lightvol-volume's `fixed`), so merging shards in any order gives the whole bake's bits.
 
-use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use lightvol_sh::eval::eval_into;
@@ -69,7 +68,7 @@ impl BakeOutput {
 /// Runs a bake (or one shard of it).
 ///
 /// # Errors
-/// [`BakeError::Settings`] for zero samples, a bad shard or coefficient count,
+/// [`BakeError::Settings`] for a bad shard or coefficient count,
 /// [`BakeError::Volume`] if the accumulator rejects the grid, [`BakeError::Cancelled`].
 pub fn bake(
     transport: &Transport<'_>,
@@ -378,7 +377,7 @@ fn run_units(
             .into_par_iter()
             .map(|i| {
                 let u = unit_of(i);
-                if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                if control.cancelled() {
                     return None;
                 }
                 Some(match settings.method {
@@ -389,7 +388,7 @@ fn run_units(
                 })
             })
             .collect();
-        if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) || outs.iter().any(Option::is_none) {
+        if control.cancelled() || outs.iter().any(Option::is_none) {
             return Err(BakeError::Cancelled);
         }
         for out in outs.into_iter().flatten() {
@@ -398,9 +397,7 @@ fn run_units(
             stats.add_counts(&out.stats);
         }
         done += c1 - c0;
-        if let Some(p) = control.progress {
-            p(Progress { done, total: count });
-        }
+        control.report(Progress { done, total: count });
     }
     stats.wall_time = start.elapsed();
     Ok(stats)

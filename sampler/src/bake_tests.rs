@@ -11,7 +11,7 @@ use lightvol_scene::builtin::{city, city_buildings};
 use lightvol_scene::bvh::Tracer;
 use lightvol_scene::reference::reference_irradiance;
 use lightvol_scene::transport::TransportSettings;
-use std::sync::atomic::{AtomicBool, AtomicUsize};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 fn small_city_grid() -> GridSpec {
     GridSpec::new([-14.0, -14.0, -1.0], [14.0, 14.0, 11.0], [7, 7, 4]).unwrap()

@@ -181,7 +181,7 @@ impl BaselineBake {
 /// baseline's fill. Deterministic for any thread count.
 ///
 /// # Errors
-/// [`BakeError::Settings`] for zero samples or an unsupported coefficient count.
+/// [`BakeError::Settings`] for an unsupported coefficient count.
 pub fn bake_baseline(
     t: &Transport<'_>,
     grid: &GridSpec,

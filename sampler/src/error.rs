@@ -6,7 +6,7 @@ pub enum BakeError {
     /// The caller's cancel flag was raised; nothing is returned.
     #[error("bake cancelled")]
     Cancelled,
-    /// Invalid settings (zero samples, shard index out of range, ...).
+    /// Invalid settings (a shard index out of range, an unsupported coefficient count, ...).
     #[error("invalid bake settings: {0}")]
     Settings(String),
     /// The volume crate rejected the grid or the accumulation.

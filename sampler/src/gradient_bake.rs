@@ -184,7 +184,7 @@ pub fn point_projection_counted(
 /// counting the node's own.
 ///
 /// # Errors
-/// [`BakeError::Settings`] for zero samples, a non-positive `h` or an unsupported
+/// [`BakeError::Settings`] for a non-positive `h` or an unsupported
 /// coefficient count, [`BakeError::Volume`] if `volume` is not on `grid`.
 pub fn central_difference_gradients(
     t: &Transport<'_>,

@@ -5,7 +5,6 @@
 //! dilation passes run in index order, so any thread count gives bit-identical maps.
 
 use lightvol_core::samples::{Samples, samples};
-use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
 
 use lightvol_hemibasis::convert::sh_to_basis_matrix;
@@ -263,15 +262,13 @@ pub fn bake_surface_texels(
                 let outs: Vec<Option<TexelOut>> = part
                     .par_iter()
                     .map(|fp| {
-                        if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed)) {
+                        if control.cancelled() {
                             return None;
                         }
                         Some(job.run(fp))
                     })
                     .collect();
-                if control.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
-                    || outs.iter().any(Option::is_none)
-                {
+                if control.cancelled() || outs.iter().any(Option::is_none) {
                     return Err(SurfaceError::Cancelled);
                 }
                 for (j, out) in outs.into_iter().flatten().enumerate() {
@@ -283,9 +280,7 @@ pub fn bake_surface_texels(
                     });
                 }
                 done += part.len();
-                if let Some(p) = control.progress {
-                    p(Progress { done, total: (hi - lo) as usize });
-                }
+                control.report(Progress { done, total: (hi - lo) as usize });
             }
         }
         first += count;

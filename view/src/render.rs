@@ -183,7 +183,7 @@ pub fn render_volume<F: VolumeField + ?Sized>(
 /// from the calling thread.
 ///
 /// # Errors
-/// An invalid `config` or zero samples, before any ray.
+/// An invalid `config`, before any ray.
 pub fn render_reference(
     transport: &Transport<'_>,
     camera: &Camera,
