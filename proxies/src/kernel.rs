@@ -15,6 +15,7 @@ use lightvol_sh::shexp::{HYB_NORM_THRESHOLD, OlTable};
 use lightvol_sh::zonal::zh_scale;
 
 use crate::accumulate::shared_ol_table;
+use crate::lanes::BasisRecurrence;
 use crate::light::LightField;
 use crate::operators::d_paper_fit;
 use crate::proxy::SphereProxy;
@@ -107,7 +108,7 @@ pub struct Kernel<const N: usize> {
     pub(crate) square_ij: Vec<[u8; 2]>,
     pub(crate) square_v: Vec<f32>,
     pub(crate) prod9: Vec<(u16, u16, u16, f32)>,
-    pub(crate) basis: crate::batch::BasisRecurrence,
+    pub(crate) basis: BasisRecurrence,
 }
 
 /// Which `D` the kernel uses for the averaged indirect light (Eq. 15).
@@ -144,7 +145,7 @@ impl<const N: usize> Kernel<N> {
             square_ij: Vec::new(),
             square_v: Vec::new(),
             prod9: Vec::new(),
-            basis: crate::batch::BasisRecurrence::new(),
+            basis: BasisRecurrence::new(),
         };
         for i in 0..TABLE_ENTRIES {
             let a = table_alpha(i);

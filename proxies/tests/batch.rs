@@ -89,7 +89,7 @@ fn batched_passes_equal_one_receiver_kernels_shadows_only() {
 /// operation: equal bits at seeded directions (and at the poles and axes).
 #[test]
 fn lane_basis_equals_generated_code() {
-    use lightvol_proxies::batch::{BasisRecurrence, LANES, eval_basis_lanes};
+    use lightvol_proxies::lanes::{BasisRecurrence, LANES, eval_basis_lanes};
     use lightvol_sh::eval::eval_basis;
     use lightvol_sh::sampling::sample_uniform_sphere;
     let k = BasisRecurrence::new();
