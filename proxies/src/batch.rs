@@ -15,7 +15,7 @@
 //! broadcast once per batch instead of once per receiver; and the squaring schedule of HYB
 //! is read once per batch. Table lookups and the SH basis stay per lane (gathers).
 
-use lightvol_sh::shexp::HYB_NORM_THRESHOLD;
+use lightvol_sh::shexp::{HYB_NORM_THRESHOLD, hyb_start};
 
 use crate::kernel::{Accum, Incident, Kernel, LightMatrix, PreparedProxy, Rgb9, band};
 use crate::lanes::{LANES, Lanes, eval_basis_lanes};
@@ -344,8 +344,9 @@ impl<const N: usize> Kernel<N> {
     /// The exponentiation pass on a batch's accumulators (the body of
     /// [`Kernel::finish_with`], per lane).
     fn finish_soa(&self, acc: &AccumLanes<N>, light: &LightMatrix<N>) -> IncidentLanes {
-        // Per lane: DC factor, number of squarings and the OL start `g` (scalar, as in
-        // `Kernel::exp_hyb`); lanes without proxies take no squarings.
+        // Per lane: HYB's start (`lightvol_sh::shexp::hyb_start`, as in `Kernel::exp_hyb`):
+        // the OL value `g`, the number of squarings and the DC factor; lanes without proxies
+        // take no squarings.
         let mut g = [[0.0f32; LANES]; N];
         let mut squarings = [0u32; LANES];
         let mut dc = [0.0f32; LANES];
@@ -354,22 +355,15 @@ impl<const N: usize> Kernel<N> {
                 continue;
             }
             let f: [f32; N] = core::array::from_fn(|j| acc.log_vis[j][l]);
-            let mut hat = f;
-            hat[0] = 0.0;
-            let norm = hat.iter().map(|v| v * v).sum::<f32>().sqrt();
-            let mut k = 0u32;
-            while f64::from(norm) / f64::from(1u32 << k) > HYB_NORM_THRESHOLD && k < 30 {
-                k += 1;
+            let start = hyb_start(self.ol, &f, HYB_NORM_THRESHOLD);
+            for j in 0..N {
+                g[j][l] = start.ol[j];
             }
-            let s = 1.0 / (1u32 << k) as f32;
-            let (a, b) = self.ol.coefficients(f64::from(norm * s));
-            for j in 1..N {
-                g[j][l] = hat[j] * s * b as f32;
-            }
-            g[0][l] = (a * SQRT_4PI) as f32;
-            squarings[l] = k;
-            dc[l] = (f[0] / SQRT_4PI as f32).exp();
+            squarings[l] = start.squarings;
+            dc[l] = start.dc;
         }
+        // `Kernel::square` per lane, in lockstep: a lane past its own number of squarings
+        // keeps its value.
         let most = squarings.iter().copied().max().unwrap_or(0);
         for round in 0..most {
             let keep: Mask = core::array::from_fn(|l| round >= squarings[l]);
