@@ -240,7 +240,8 @@ impl<const N: usize> Kernel<N> {
         if near.iter().fold(0, |a, b| a | b) == 0 {
             return;
         }
-        // `view_f32` per lane: the replacement sphere where it crosses the tangent plane.
+        // `crate::proxy::view_f32` per lane: the replacement sphere where it crosses the
+        // tangent plane, with the same guards (positive radius, above the plane, d > 0).
         let mut dir = [[0.0f32; LANES]; 3];
         let mut alpha = [0.0f32; LANES];
         let mut shadow = [0.0f32; LANES];
@@ -254,7 +255,7 @@ impl<const N: usize> Kernel<N> {
             let c = if whole { [cx, cy, cz] } else { [cx + s * nx[l], cy + s * ny[l], cz + s * nz[l]] };
             let v = [c[0] - px[l], c[1] - py[l], c[2] - pz[l]];
             let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let ok = (near[l] != 0) & !(h <= -r) & (d > 0.0);
+            let ok = (near[l] != 0) & (r > 0.0) & !(h <= -r) & (d > 0.0);
             // Lanes the proxy does not touch get a harmless finite direction and α = 0, so
             // that every product below is finite and masking by multiplying with a 0/1
             // weight adds exactly ±0 (an accumulator is never -0: it starts at +0 and

@@ -18,7 +18,7 @@ use crate::accumulate::shared_ol_table;
 use crate::lanes::BasisRecurrence;
 use crate::light::LightField;
 use crate::operators::d_paper_fit;
-use crate::proxy::SphereProxy;
+use crate::proxy::{SphereProxy, view_f32};
 use crate::tables::{MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, TABLE_ENTRIES, Table, table_alpha};
 
 /// A ZH table entry in f32 (up to 4 bands).
@@ -336,28 +336,6 @@ pub(crate) const fn band(j: usize) -> usize {
         4..=8 => 2,
         _ => 3,
     }
-}
-
-/// [`crate::proxy::view_from`] in f32: direction and `α` of the (replaced) sphere.
-#[inline]
-pub fn view_f32(c: [f32; 3], r: f32, p: [f32; 3], n: [f32; 3]) -> Option<([f32; 3], f32)> {
-    let h = (c[0] - p[0]) * n[0] + (c[1] - p[1]) * n[1] + (c[2] - p[2]) * n[2];
-    if h <= -r {
-        return None;
-    }
-    let (c, r) = if h >= r {
-        (c, r)
-    } else {
-        let r2 = 0.5 * (h + r);
-        let s = r2 - h;
-        ([c[0] + s * n[0], c[1] + s * n[1], c[2] + s * n[2]], r2)
-    };
-    let v = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
-    let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    if !(d > 0.0) {
-        return None;
-    }
-    Some(([v[0] / d, v[1] / d, v[2] / d], (r / d).min(1.0)))
 }
 
 /// The light at `p` as f32 arrays.
