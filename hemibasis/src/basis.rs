@@ -6,9 +6,9 @@
 //! this trait.
 
 use crate::convert;
+use crate::program::Program;
 use crate::project::{self, Matrix};
 use crate::quad::HemiRule;
-use crate::shader::Program;
 
 /// A set of basis functions on the upper hemisphere.
 ///

@@ -26,7 +26,7 @@ use std::f64::consts::PI;
 use lightvol_sh::Real;
 
 use crate::basis::{HemiBasis, forward_eval};
-use crate::shader::{Expr, Program};
+use crate::program::{Expr, Program};
 
 /// Constants `(1/sqrt(2π), sqrt(3/(2π)), sqrt(15/(2π)))`.
 fn consts() -> (f64, f64, f64) {

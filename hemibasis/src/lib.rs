@@ -5,6 +5,7 @@ pub mod convert;
 pub mod encode;
 pub mod imse;
 pub mod map;
+pub mod program;
 pub mod project;
 pub mod quad;
 pub mod render;
