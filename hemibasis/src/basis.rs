@@ -3,12 +3,11 @@
 //! A basis is a finite set of real functions `B_i` on the upper hemisphere `z >= 0` of
 //! tangent space (`z` = surface normal). Everything else in the crate (projection, SH
 //! conversion, encoding, shader generation, the IMSE comparison) is written once against
-//! this trait.
+//! this trait. The fitting methods of `dyn HemiBasis` live beside their algorithms, so this
+//! module depends on none of them: `gram`, `project` and `project_rgb` in [`crate::project`],
+//! `sh_irradiance_matrix` and `convert_sh_irradiance(_rgb)` in [`crate::convert`].
 
-use crate::convert;
 use crate::program::Program;
-use crate::project::{self, Matrix};
-use crate::quad::HemiRule;
 
 /// A set of basis functions on the upper hemisphere.
 ///
@@ -104,52 +103,9 @@ pub trait HemiBasis: Send + Sync {
         out
     }
 
-    /// The Gram matrix `G_ij = ∫_H B_i B_j dω`, by a quadrature exact for the basis (see
-    /// [`HemiRule::for_orders`]).
-    fn gram(&self) -> Matrix {
-        project::gram(self.as_dyn(), &HemiRule::for_orders(self.order(), 0))
-    }
-
-    /// Least-squares projection of an arbitrary function `f` on the upper hemisphere:
-    /// `c = G⁻¹ b`, `b_i = ∫_H f B_i dω`, by [`HemiRule::for_functions`] (a fine product rule;
-    /// use [`project::Projector`] to choose the rule or to project many functions).
-    fn project(&self, f: &dyn Fn([f64; 3]) -> f64) -> Vec<f64> {
-        project::Projector::new(self.as_dyn(), HemiRule::for_functions()).project(f)
-    }
-
-    /// [`project`](Self::project) per colour channel.
-    fn project_rgb(&self, f: &dyn Fn([f64; 3]) -> [f64; 3]) -> Vec<[f64; 3]> {
-        project::Projector::new(self.as_dyn(), HemiRule::for_functions()).project_rgb(f)
-    }
-
-    /// The `K × bands²` matrix that maps SH irradiance coefficients (lightvol-sh order and
-    /// normalisation) to this basis: the least-squares fit over the upper hemisphere,
-    /// `M = G⁻¹ C`, `C_ij = ∫_H B_i y_j dω`, derived by quadrature (never typed in).
-    fn sh_irradiance_matrix(&self, bands: usize) -> Matrix {
-        convert::sh_to_basis_matrix(self.as_dyn(), bands)
-    }
-
-    /// Converts SH irradiance coefficients (length must be a square) to this basis.
-    ///
-    /// # Panics
-    /// If `sh.len()` is not a square number.
-    fn convert_sh_irradiance(&self, sh: &[f64]) -> Vec<f64> {
-        let bands = sh.len().isqrt();
-        assert_eq!(bands * bands, sh.len(), "SH coefficient count must be a square");
-        self.sh_irradiance_matrix(bands).mul_vec(sh)
-    }
-
-    /// Converts RGB SH irradiance coefficients (coefficient-major) to this basis.
-    ///
-    /// # Panics
-    /// If `sh.len()` is not a square number.
-    fn convert_sh_irradiance_rgb(&self, sh: &[[f64; 3]]) -> Vec<[f64; 3]> {
-        let bands = sh.len().isqrt();
-        assert_eq!(bands * bands, sh.len(), "SH coefficient count must be a square");
-        self.sh_irradiance_matrix(bands).mul_rgb(sh)
-    }
-
-    /// Upcast helper for the provided methods.
+    /// This basis as a trait object, whose fitting methods live with the algorithms: the
+    /// Gram matrix and least-squares projection in [`crate::project`], the SH-irradiance
+    /// conversion in [`crate::convert`] (`basis.as_dyn().gram()` for a concrete basis).
     fn as_dyn(&self) -> &dyn HemiBasis;
 }
 

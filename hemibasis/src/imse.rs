@@ -7,7 +7,7 @@
 //! 2. convolve with the normalised clamped cosine (factors 1, 2/3, 1/4) to get the irradiance
 //!    `E` (lightvol-sh `normalized_cosine_lobe_factor`);
 //! 3. fit every basis, SH included, by least squares over the upper hemisphere
-//!    ([`HemiBasis::sh_irradiance_matrix`]);
+//!    (`sh_irradiance_matrix`, [`crate::convert::sh_to_basis_matrix`]);
 //! 4. `IMSE = ∫_H (fit - E)² dω` (not divided by the solid angle), by the exact rule
 //!    [`HemiRule`] (24 × 8 nodes: the integrand's polynomial part has degree ≤ 8 in `z` and
 //!    azimuthal order ≤ 4; the `sqrt` factors converge geometrically, see [`crate::quad`]);
