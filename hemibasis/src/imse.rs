@@ -28,7 +28,8 @@ use core::fmt::Write as _;
 use lightvol_sh::irradiance::normalized_cosine_lobe_factor;
 use lightvol_sh::lowdisc::{SplitMix64, hash2};
 
-use crate::basis::{HemiBasis, by_name};
+use crate::basis::HemiBasis;
+use crate::family::by_name;
 use crate::project::{Matrix, basis_table, cross_gram, gram};
 use crate::quad::HemiRule;
 use crate::sh_basis::ShBasis;

@@ -3,6 +3,7 @@
 pub mod basis;
 pub mod convert;
 pub mod encode;
+pub mod family;
 pub mod imse;
 pub mod map;
 pub mod program;
@@ -34,7 +35,8 @@ pub mod zernike;
 #[cfg(test)]
 mod test_util;
 
-pub use basis::{BasisFamily, HemiBasis, LIGHTMAP_BASES, by_family, by_name};
+pub use basis::HemiBasis;
+pub use family::{BasisFamily, LIGHTMAP_BASES, by_family, by_name};
 #[cfg(feature = "hbasis")]
 pub use hbasis::HBasis;
 #[cfg(feature = "hl2")]
