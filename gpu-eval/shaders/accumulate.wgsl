@@ -3,8 +3,8 @@
 // the proxies binned into the receiver's screen tile.
 //
 // Mirrors `lightvol_proxies::kernel::Kernel::accumulate` operation by operation: the
-// sphere replacement of `view_f32`, table interpolation linear in alpha^2, smooth-clamped
-// tables pre-scaled by sqrt(4 pi / (2l + 1)) (built on the host from
+// sphere replacement of `lightvol_proxies::proxy::view_f32`, table interpolation linear in
+// alpha^2, smooth-clamped tables pre-scaled by sqrt(4 pi / (2l + 1)) (built on the host from
 // `lightvol_proxies::tables`), and the same summation order (proxies in tile-list order,
 // coefficients ascending). The buffer layout is documented in src/proxy.rs.
 
@@ -40,12 +40,13 @@ struct View {
     alpha: f32,
 }
 
-// `view_f32`: direction to and alpha = r / d of the proxy, replaced by the sphere inside
-// the receiver's upper half-space when it straddles the tangent plane.
+// `lightvol_proxies::proxy::view_f32`: direction to and alpha = r / d of the proxy, replaced
+// by the sphere inside the receiver's upper half-space when it straddles the tangent plane;
+// nothing for a radius that is not positive (or NaN, tested explicitly as for d below).
 fn view(c0: vec3<f32>, r0: f32, p: vec3<f32>, n: vec3<f32>) -> View {
     var out = View(false, vec3<f32>(0.0, 0.0, 0.0), 0.0);
     let h = (c0.x - p.x) * n.x + (c0.y - p.y) * n.y + (c0.z - p.z) * n.z;
-    if h <= -r0 {
+    if !(r0 > 0.0) || is_nan(r0) || h <= -r0 {
         return out;
     }
     var c = c0;

@@ -218,6 +218,15 @@ impl Drop for RawInstance {
     }
 }
 
+/// Lists every physical device the Vulkan loader offers (for `lightvol gpu-info`).
+///
+/// Errors with [`GpuError::NoLoader`] when there is no loader or no driver. An empty list
+/// means the loader works but reports no device.
+pub fn gpu_info() -> Result<Vec<DeviceInfo>, GpuError> {
+    let inst = RawInstance::new(false)?;
+    inst.devices()
+}
+
 /// State shared by the context and every buffer and pipeline made from it.
 pub(crate) struct DeviceShared {
     // Drop order: `Drop for DeviceShared` destroys the device objects, then the fields drop

@@ -1,4 +1,6 @@
-//! Device enumeration (`lightvol gpu-info`) and device selection (`LIGHTVOL_VK_DEVICE`).
+//! Device descriptions and device selection (`LIGHTVOL_VK_DEVICE`). The listing itself,
+//! [`crate::context::gpu_info`] (`lightvol gpu-info`), opens an instance and lives with the
+//! context.
 
 use std::ffi::CStr;
 use std::fmt;
@@ -8,7 +10,7 @@ use ash::vk;
 use crate::error::{GpuError, VkContext};
 
 /// Environment variable picking the device: a decimal index into the list that
-/// [`gpu_info`] prints, or a case-insensitive substring of the device name.
+/// [`crate::context::gpu_info`] prints, or a case-insensitive substring of the device name.
 pub const DEVICE_ENV: &str = "LIGHTVOL_VK_DEVICE";
 
 /// The kind of a physical device, in the order the default selection prefers them.
@@ -159,15 +161,6 @@ pub(crate) fn describe(
             0.0
         },
     }
-}
-
-/// Lists every physical device the Vulkan loader offers (for `lightvol gpu-info`).
-///
-/// Errors with [`GpuError::NoLoader`] when there is no loader or no driver. An empty list
-/// means the loader works but reports no device.
-pub fn gpu_info() -> Result<Vec<DeviceInfo>, GpuError> {
-    let inst = crate::context::RawInstance::new(false)?;
-    inst.devices()
 }
 
 /// Picks a device from `devices` by `selector` (the value of [`DEVICE_ENV`], if set): a

@@ -17,9 +17,9 @@ pub mod synthetic;
 pub mod testing;
 
 pub use buffer::GpuBuffer;
-pub use context::{ContextOptions, GpuContext, VALIDATION_ENV};
+pub use context::{ContextOptions, GpuContext, VALIDATION_ENV, gpu_info};
 pub use error::GpuError;
-pub use info::{DEVICE_ENV, DeviceInfo, DeviceKind, gpu_info, select_device};
+pub use info::{DEVICE_ENV, DeviceInfo, DeviceKind, select_device};
 pub use lookup::{LookupBatch, Quantity, VolumeLookup};
 pub use pipeline::{ComputePipeline, DispatchStats};
 pub use proxy::{ProxyFrame, ProxyShading, UpsampleTarget};

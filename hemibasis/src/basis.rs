@@ -3,12 +3,12 @@
 //! A basis is a finite set of real functions `B_i` on the upper hemisphere `z >= 0` of
 //! tangent space (`z` = surface normal). Everything else in the crate (projection, SH
 //! conversion, encoding, shader generation, the IMSE comparison) is written once against
-//! this trait.
+//! this trait. The fitting methods of `dyn HemiBasis` live beside their algorithms, so this
+//! module depends on none of them: `gram`, `project` and `project_rgb` in [`crate::project`],
+//! `sh_irradiance_matrix` and `convert_sh_irradiance(_rgb)` in [`crate::convert`]; the bases
+//! by name in [`crate::family`].
 
-use crate::convert;
-use crate::project::{self, Matrix};
-use crate::quad::HemiRule;
-use crate::shader::Program;
+use crate::program::Program;
 
 /// A set of basis functions on the upper hemisphere.
 ///
@@ -104,52 +104,9 @@ pub trait HemiBasis: Send + Sync {
         out
     }
 
-    /// The Gram matrix `G_ij = ∫_H B_i B_j dω`, by a quadrature exact for the basis (see
-    /// [`HemiRule::for_orders`]).
-    fn gram(&self) -> Matrix {
-        project::gram(self.as_dyn(), &HemiRule::for_orders(self.order(), 0))
-    }
-
-    /// Least-squares projection of an arbitrary function `f` on the upper hemisphere:
-    /// `c = G⁻¹ b`, `b_i = ∫_H f B_i dω`, by [`HemiRule::for_functions`] (a fine product rule;
-    /// use [`project::Projector`] to choose the rule or to project many functions).
-    fn project(&self, f: &dyn Fn([f64; 3]) -> f64) -> Vec<f64> {
-        project::Projector::new(self.as_dyn(), HemiRule::for_functions()).project(f)
-    }
-
-    /// [`project`](Self::project) per colour channel.
-    fn project_rgb(&self, f: &dyn Fn([f64; 3]) -> [f64; 3]) -> Vec<[f64; 3]> {
-        project::Projector::new(self.as_dyn(), HemiRule::for_functions()).project_rgb(f)
-    }
-
-    /// The `K × bands²` matrix that maps SH irradiance coefficients (lightvol-sh order and
-    /// normalisation) to this basis: the least-squares fit over the upper hemisphere,
-    /// `M = G⁻¹ C`, `C_ij = ∫_H B_i y_j dω`, derived by quadrature (never typed in).
-    fn sh_irradiance_matrix(&self, bands: usize) -> Matrix {
-        convert::sh_to_basis_matrix(self.as_dyn(), bands)
-    }
-
-    /// Converts SH irradiance coefficients (length must be a square) to this basis.
-    ///
-    /// # Panics
-    /// If `sh.len()` is not a square number.
-    fn convert_sh_irradiance(&self, sh: &[f64]) -> Vec<f64> {
-        let bands = sh.len().isqrt();
-        assert_eq!(bands * bands, sh.len(), "SH coefficient count must be a square");
-        self.sh_irradiance_matrix(bands).mul_vec(sh)
-    }
-
-    /// Converts RGB SH irradiance coefficients (coefficient-major) to this basis.
-    ///
-    /// # Panics
-    /// If `sh.len()` is not a square number.
-    fn convert_sh_irradiance_rgb(&self, sh: &[[f64; 3]]) -> Vec<[f64; 3]> {
-        let bands = sh.len().isqrt();
-        assert_eq!(bands * bands, sh.len(), "SH coefficient count must be a square");
-        self.sh_irradiance_matrix(bands).mul_rgb(sh)
-    }
-
-    /// Upcast helper for the provided methods.
+    /// This basis as a trait object, whose fitting methods live with the algorithms: the
+    /// Gram matrix and least-squares projection in [`crate::project`], the SH-irradiance
+    /// conversion in [`crate::convert`] (`basis.as_dyn().gram()` for a concrete basis).
     fn as_dyn(&self) -> &dyn HemiBasis;
 }
 
@@ -169,109 +126,3 @@ macro_rules! forward_eval {
     };
 }
 pub(crate) use forward_eval;
-
-/// The basis called `name` (as in [`HemiBasis::name`]) with `count` coefficients, if that
-/// basis is compiled in and has such a size: `sh` (squares), `hl2` (3), `hsh` and
-/// `makhotkin` (squares), `zernike` (triangular numbers), `hbasis`/`hbasis_mod` (4, 6).
-#[must_use]
-pub fn by_name(name: &str, count: usize) -> Option<Box<dyn HemiBasis>> {
-    name.parse::<BasisFamily>().ok().and_then(|f| by_family(f, count))
-}
-
-/// A family of bases, by the name [`by_name`] takes (`sh`, `hl2`, `hsh`, `makhotkin`,
-/// `zernike`, `hbasis`, `hbasis_mod`); every family exists whichever cargo features are on,
-/// [`by_family`] builds only the enabled ones.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum BasisFamily {
-    /// Real spherical harmonics (\[Ish11\] §1.8.1).
-    Sh,
-    /// Half-Life 2's three-vector basis (§1.8.2).
-    Hl2,
-    /// Hemispherical harmonics (§1.8.3).
-    Hsh,
-    /// Makhotkin's hemispherical basis (§1.8.4).
-    Makhotkin,
-    /// Hemispherical Zernike polynomials (§1.8.5).
-    Zernike,
-    /// The H-basis (§1.8.6).
-    HBasis,
-    /// The modified H-basis (§1.8.7).
-    HBasisMod,
-}
-
-impl BasisFamily {
-    /// Every family, in the order above.
-    pub const ALL: [Self; 7] =
-        [Self::Sh, Self::Hl2, Self::Hsh, Self::Makhotkin, Self::Zernike, Self::HBasis, Self::HBasisMod];
-
-    /// The name [`by_name`] takes.
-    #[must_use]
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Sh => "sh",
-            Self::Hl2 => "hl2",
-            Self::Hsh => "hsh",
-            Self::Makhotkin => "makhotkin",
-            Self::Zernike => "zernike",
-            Self::HBasis => "hbasis",
-            Self::HBasisMod => "hbasis_mod",
-        }
-    }
-}
-
-impl std::fmt::Display for BasisFamily {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl std::str::FromStr for BasisFamily {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL.into_iter().find(|f| f.name() == s).ok_or_else(|| format!("unknown basis family {s:?}"))
-    }
-}
-
-/// The lightmap bases lightvol bakes and compares, as `(family, coefficients)`: each
-/// family at the sizes of \[Ish11\] Table 3.1 (about 4 and about 9 coefficients; the
-/// H-bases at 4 and 6, Zernike at 3 and 6, Half-Life 2 at its 3). [`by_family`] builds them
-/// all when every cargo feature is on.
-pub const LIGHTMAP_BASES: [(BasisFamily, usize); 13] = [
-    (BasisFamily::Sh, 4),
-    (BasisFamily::Sh, 9),
-    (BasisFamily::Hl2, 3),
-    (BasisFamily::Hsh, 4),
-    (BasisFamily::Hsh, 9),
-    (BasisFamily::Makhotkin, 4),
-    (BasisFamily::Makhotkin, 9),
-    (BasisFamily::Zernike, 3),
-    (BasisFamily::Zernike, 6),
-    (BasisFamily::HBasis, 4),
-    (BasisFamily::HBasis, 6),
-    (BasisFamily::HBasisMod, 4),
-    (BasisFamily::HBasisMod, 6),
-];
-
-/// The basis of `family` with `count` coefficients, `None` for a size the family does not
-/// have or a family whose cargo feature is off.
-#[must_use]
-pub fn by_family(family: BasisFamily, count: usize) -> Option<Box<dyn HemiBasis>> {
-    let bands = count.isqrt();
-    let square = bands * bands == count && bands > 0;
-    match family {
-        BasisFamily::Sh if square && bands <= 16 => Some(Box::new(crate::ShBasis::new(bands))),
-        #[cfg(feature = "hl2")]
-        BasisFamily::Hl2 if count == 3 => Some(Box::new(crate::Hl2)),
-        #[cfg(feature = "hsh")]
-        BasisFamily::Hsh if square && bands <= 12 => Some(Box::new(crate::Hsh::new(bands))),
-        #[cfg(feature = "makhotkin")]
-        BasisFamily::Makhotkin if square && bands <= 10 => Some(Box::new(crate::Makhotkin::new(bands))),
-        #[cfg(feature = "zernike")]
-        BasisFamily::Zernike => crate::Zernike::with_count(count).map(|z| Box::new(z) as Box<dyn HemiBasis>),
-        #[cfg(feature = "hbasis")]
-        BasisFamily::HBasis => crate::HBasis::new(count).map(|b| Box::new(b) as Box<dyn HemiBasis>),
-        #[cfg(feature = "hbasis")]
-        BasisFamily::HBasisMod => crate::HBasis::modified(count).map(|b| Box::new(b) as Box<dyn HemiBasis>),
-        _ => None,
-    }
-}

@@ -21,6 +21,47 @@ pub fn sh_to_basis_matrix(basis: &dyn HemiBasis, bands: usize) -> Matrix {
     gram_inverse(basis).mul(&c)
 }
 
+/// The SH-irradiance conversion of every basis, here beside [`sh_to_basis_matrix`]. Call it on
+/// a `dyn HemiBasis` (`Box<dyn HemiBasis>` or [`HemiBasis::as_dyn`]).
+impl dyn HemiBasis + '_ {
+    /// The `K × bands²` matrix that maps SH irradiance coefficients (lightvol-sh order and
+    /// normalisation) to this basis: the least-squares fit over the upper hemisphere,
+    /// `M = G⁻¹ C`, `C_ij = ∫_H B_i y_j dω`, derived by quadrature (never typed in); that is
+    /// [`sh_to_basis_matrix`].
+    #[must_use]
+    pub fn sh_irradiance_matrix(&self, bands: usize) -> Matrix {
+        sh_to_basis_matrix(self, bands)
+    }
+
+    /// Converts SH irradiance coefficients (length must be a square) to this basis.
+    ///
+    /// # Panics
+    /// If `sh.len()` is not a square number.
+    #[must_use]
+    pub fn convert_sh_irradiance(&self, sh: &[f64]) -> Vec<f64> {
+        self.sh_irradiance_matrix(square_bands(sh.len())).mul_vec(sh)
+    }
+
+    /// Converts RGB SH irradiance coefficients (coefficient-major) to this basis.
+    ///
+    /// # Panics
+    /// If `sh.len()` is not a square number.
+    #[must_use]
+    pub fn convert_sh_irradiance_rgb(&self, sh: &[[f64; 3]]) -> Vec<[f64; 3]> {
+        self.sh_irradiance_matrix(square_bands(sh.len())).mul_rgb(sh)
+    }
+}
+
+/// The band count of `count` SH coefficients.
+///
+/// # Panics
+/// If `count` is not a square number.
+fn square_bands(count: usize) -> usize {
+    let bands = count.isqrt();
+    assert_eq!(bands * bands, count, "SH coefficient count must be a square");
+    bands
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -26,7 +26,7 @@ use std::f64::consts::PI;
 use lightvol_sh::Real;
 
 use crate::basis::{HemiBasis, forward_eval};
-use crate::shader::{Expr, Program};
+use crate::program::{Expr, Program};
 
 /// Constants `(1/sqrt(2π), sqrt(3/(2π)), sqrt(15/(2π)))`.
 fn consts() -> (f64, f64, f64) {
@@ -196,7 +196,7 @@ mod tests {
 
     #[test]
     fn sh_to_modified_h_matrix_matches_listing_2_1() {
-        let m = HBasis::modified(6).unwrap().sh_irradiance_matrix(3);
+        let m = HBasis::modified(6).unwrap().as_dyn().sh_irradiance_matrix(3);
         // Exact values: 1/sqrt2; <y10, ·> gives sqrt(3/2) and -1/sqrt2; <y20, H3> = sqrt15/(4 sqrt2)
         // gives sqrt3 · that and -2 · that; <y2±1, H2|H4> = 3 sqrt5 / (8 sqrt2).
         let r2 = 2f64.sqrt();

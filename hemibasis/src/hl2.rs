@@ -14,7 +14,7 @@
 use lightvol_sh::Real;
 
 use crate::basis::{HemiBasis, forward_eval};
-use crate::shader::{Expr, Program};
+use crate::program::{Expr, Program};
 
 /// The three Half-Life 2 basis directions `h_i` (\[Ish11\] Eq. 1.18-1.20).
 #[must_use]

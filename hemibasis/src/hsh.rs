@@ -26,8 +26,8 @@
 use std::f64::consts::PI;
 
 use crate::basis::{HemiBasis, forward_eval};
+use crate::program::Program;
 use crate::sep::{PolyEval, Radial, SepFn, Separable, Var, factorial, legendre_poly};
-use crate::shader::Program;
 
 /// Hemispherical Harmonics with `bands` bands (`bands²` functions; 4 = 2 bands, 9 = 3 bands).
 #[derive(Clone, Debug)]

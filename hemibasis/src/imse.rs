@@ -7,7 +7,7 @@
 //! 2. convolve with the normalised clamped cosine (factors 1, 2/3, 1/4) to get the irradiance
 //!    `E` (lightvol-sh `normalized_cosine_lobe_factor`);
 //! 3. fit every basis, SH included, by least squares over the upper hemisphere
-//!    ([`HemiBasis::sh_irradiance_matrix`]);
+//!    (`sh_irradiance_matrix`, [`crate::convert::sh_to_basis_matrix`]);
 //! 4. `IMSE = ∫_H (fit - E)² dω` (not divided by the solid angle), by the exact rule
 //!    [`HemiRule`] (24 × 8 nodes: the integrand's polynomial part has degree ≤ 8 in `z` and
 //!    azimuthal order ≤ 4; the `sqrt` factors converge geometrically, see [`crate::quad`]);
@@ -28,7 +28,8 @@ use core::fmt::Write as _;
 use lightvol_sh::irradiance::normalized_cosine_lobe_factor;
 use lightvol_sh::lowdisc::{SplitMix64, hash2};
 
-use crate::basis::{HemiBasis, by_name};
+use crate::basis::HemiBasis;
+use crate::family::by_name;
 use crate::project::{Matrix, basis_table, cross_gram, gram};
 use crate::quad::HemiRule;
 use crate::sh_basis::ShBasis;

@@ -3,8 +3,10 @@
 pub mod basis;
 pub mod convert;
 pub mod encode;
+pub mod family;
 pub mod imse;
 pub mod map;
+pub mod program;
 pub mod project;
 pub mod quad;
 pub mod render;
@@ -33,7 +35,8 @@ pub mod zernike;
 #[cfg(test)]
 mod test_util;
 
-pub use basis::{BasisFamily, HemiBasis, LIGHTMAP_BASES, by_family, by_name};
+pub use basis::HemiBasis;
+pub use family::{BasisFamily, LIGHTMAP_BASES, by_family, by_name};
 #[cfg(feature = "hbasis")]
 pub use hbasis::HBasis;
 #[cfg(feature = "hl2")]

@@ -137,8 +137,8 @@ mod tests {
     #[test]
     fn four_coefficient_fit_is_the_truncated_six_coefficient_fit() {
         let e = Sky::grazing_sun().irradiance_sh(3);
-        let c6 = HBasis::modified(6).unwrap().convert_sh_irradiance_rgb(&e);
-        let c4 = HBasis::modified(4).unwrap().convert_sh_irradiance_rgb(&e);
+        let c6 = HBasis::modified(6).unwrap().as_dyn().convert_sh_irradiance_rgb(&e);
+        let c4 = HBasis::modified(4).unwrap().as_dyn().convert_sh_irradiance_rgb(&e);
         let scale = e[0][0].abs();
         for j in 0..4 {
             for ch in 0..3 {
@@ -175,7 +175,7 @@ mod tests {
             .enumerate()
             .map(|(j, r)| r.map(|v| v * normalized_cosine_lobe_factor(j.isqrt() as u32)))
             .collect();
-        let c = HBasis::modified(6).unwrap().convert_sh_irradiance_rgb(&e);
+        let c = HBasis::modified(6).unwrap().as_dyn().convert_sh_irradiance_rgb(&e);
         let (y00, y10_pole) = (0.5 / PI.sqrt(), (3.0 / (4.0 * PI)).sqrt());
         for &n in TEST_DIRS {
             let lm = eval_modified_h(&c, n, Lod::Lightmap);
@@ -186,7 +186,7 @@ mod tests {
         }
         // Uniform sky L: irradiance (normalised) is L at every normal; level 1 gives L.
         let uniform = [[2.0 * PI.sqrt(), 2.0 * PI.sqrt(), 2.0 * PI.sqrt()]; 1]; // L = 1
-        let c = HBasis::modified(6).unwrap().convert_sh_irradiance_rgb(&uniform);
+        let c = HBasis::modified(6).unwrap().as_dyn().convert_sh_irradiance_rgb(&uniform);
         let lm = eval_modified_h(&c, [0.6, 0.0, 0.8], Lod::Lightmap);
         assert!(lm.iter().all(|v| (v - 1.0).abs() < SUM_TOL), "{lm:?}");
     }
@@ -199,7 +199,7 @@ mod tests {
     #[test]
     fn lightmap_level_of_sh9_pipeline_has_closed_form_offset() {
         let e = Sky::grazing_sun().irradiance_sh(3);
-        let c = HBasis::modified(6).unwrap().convert_sh_irradiance_rgb(&e);
+        let c = HBasis::modified(6).unwrap().as_dyn().convert_sh_irradiance_rgb(&e);
         let lm = eval_modified_h(&c, [0.0, 0.0, 1.0], Lod::Lightmap);
         let pole = ShBasis::new(3).reconstruct_rgb_f64(&e, [0.0, 0.0, 1.0]);
         let k = -(5f64.sqrt()) / (8.0 * PI.sqrt());

@@ -26,8 +26,8 @@
 use std::f64::consts::PI;
 
 use crate::basis::{HemiBasis, forward_eval};
+use crate::program::Program;
 use crate::sep::{Poly, PolyEval, Radial, SepFn, Separable, Var, factorial};
-use crate::shader::Program;
 
 /// Makhotkin's basis with `bands` bands (`bands²` functions; 4 = 2 bands, 9 = 3 bands).
 #[derive(Clone, Debug)]

@@ -205,6 +205,32 @@ pub fn gram_inverse(basis: &dyn HemiBasis) -> Matrix {
     }
 }
 
+/// The fitting methods of every basis (\[Ish11\] §2.2.1): its Gram matrix and least-squares
+/// projection, here beside [`Projector`] and [`gram`]. Call them on a `dyn HemiBasis`
+/// (`Box<dyn HemiBasis>` or [`HemiBasis::as_dyn`]).
+impl dyn HemiBasis + '_ {
+    /// The Gram matrix `G_ij = ∫_H B_i B_j dω`, by a quadrature exact for the basis (see
+    /// [`HemiRule::for_orders`]).
+    #[must_use]
+    pub fn gram(&self) -> Matrix {
+        gram(self, &HemiRule::for_orders(self.order(), 0))
+    }
+
+    /// Least-squares projection of an arbitrary function `f` on the upper hemisphere:
+    /// `c = G⁻¹ b`, `b_i = ∫_H f B_i dω`, by [`HemiRule::for_functions`] (a fine product rule;
+    /// use [`Projector`] to choose the rule or to project many functions).
+    #[must_use]
+    pub fn project(&self, f: &dyn Fn([f64; 3]) -> f64) -> Vec<f64> {
+        Projector::new(self, HemiRule::for_functions()).project(f)
+    }
+
+    /// The least-squares projection (`project`) per colour channel.
+    #[must_use]
+    pub fn project_rgb(&self, f: &dyn Fn([f64; 3]) -> [f64; 3]) -> Vec<[f64; 3]> {
+        Projector::new(self, HemiRule::for_functions()).project_rgb(f)
+    }
+}
+
 /// Least-squares projector for one basis and one quadrature rule: caches the basis table and
 /// the inverse Gram matrix, so projecting many functions costs one pass over the nodes each.
 #[derive(Clone, Debug)]

@@ -22,7 +22,7 @@
 
 use lightvol_sh::Real;
 
-use crate::shader::{Expr, Program};
+use crate::program::{Expr, Program};
 
 /// A polynomial with ascending coefficients `c_0 + c_1 v + …`.
 #[derive(Clone, Debug, PartialEq)]

@@ -9,8 +9,8 @@ use std::f64::consts::PI;
 use lightvol_sh::eval::eval_into;
 
 use crate::basis::{HemiBasis, forward_eval};
+use crate::program::Program;
 use crate::sep::{PolyEval, Radial, SepFn, Separable, Var, factorial, legendre_poly};
-use crate::shader::Program;
 
 /// The first `bands` bands of real SH (`bands²` functions) on the upper hemisphere.
 #[derive(Clone, Debug)]

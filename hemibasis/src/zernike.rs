@@ -22,8 +22,8 @@
 use std::f64::consts::PI;
 
 use crate::basis::{HemiBasis, forward_eval};
+use crate::program::Program;
 use crate::sep::{Poly, PolyEval, Radial, SepFn, Separable, Var, factorial};
-use crate::shader::Program;
 
 /// Hemispherical Zernike basis up to radial order `order` (`(order+1)(order+2)/2`
 /// functions; 3 = order 1, 6 = order 2).

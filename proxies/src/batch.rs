@@ -15,17 +15,11 @@
 //! broadcast once per batch instead of once per receiver; and the squaring schedule of HYB
 //! is read once per batch. Table lookups and the SH basis stay per lane (gathers).
 
-use lightvol_sh::shexp::HYB_NORM_THRESHOLD;
+use lightvol_sh::shexp::{HYB_NORM_THRESHOLD, hyb_start};
 
 use crate::kernel::{Accum, Incident, Kernel, LightMatrix, PreparedProxy, Rgb9, band};
+use crate::lanes::{LANES, Lanes, eval_basis_lanes};
 use crate::tables::{MAX_BANDS, SQRT_4PI, TABLE_ENTRIES};
-
-/// Receivers per batch: two SSE registers of f32 per value, enough independent work to hide
-/// latencies, small enough that a batch's accumulators (`(N + 29) × 8` f32) stay in L1.
-pub const LANES: usize = 8;
-
-/// One f32 per lane.
-pub type Lanes = [f32; LANES];
 
 type Mask = [bool; LANES];
 
@@ -144,91 +138,6 @@ fn lerp_rows(tab: &[[f32; MAX_BANDS]], idx: &[usize; LANES], t: &Lanes) -> [Lane
     out
 }
 
-/// Recurrence constants of the real SH basis up to [`MAX_BANDS`] bands, as f32: lightvol-sh's
-/// closed forms (`lightvol_sh::recurrence`) rounded once, as its generated straight-line code
-/// rounds them, so that [`eval_basis_lanes`] equals [`lightvol_sh::eval::eval_basis`] bit for
-/// bit (tested).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BasisRecurrence {
-    /// `Q_m^m`, indexed by `m`.
-    diag: [f32; MAX_BANDS],
-    /// `a_lm`, indexed `[l][m]`.
-    a: [[f32; MAX_BANDS]; MAX_BANDS],
-    /// `b_lm`, indexed `[l][m]`.
-    b: [[f32; MAX_BANDS]; MAX_BANDS],
-}
-
-impl BasisRecurrence {
-    /// Computes the constants (`lightvol_sh::recurrence`: `Q_m^m`, `a_lm`, `b_lm`).
-    #[must_use]
-    pub fn new() -> Self {
-        let mut k = Self {
-            diag: [0.0; MAX_BANDS],
-            a: [[0.0; MAX_BANDS]; MAX_BANDS],
-            b: [[0.0; MAX_BANDS]; MAX_BANDS],
-        };
-        use lightvol_sh::recurrence::{a_coef, b_coef, q_diag};
-        for m in 0..MAX_BANDS as u64 {
-            k.diag[m as usize] = q_diag(m) as f32;
-            for l in m + 1..MAX_BANDS as u64 {
-                k.a[l as usize][m as usize] = a_coef(l, m) as f32;
-                if l >= m + 2 {
-                    k.b[l as usize][m as usize] = b_coef(l, m) as f32;
-                }
-            }
-        }
-        k
-    }
-}
-
-impl Default for BasisRecurrence {
-    fn default() -> Self {
-        Self::new()
-    }
-}
-
-/// The real SH basis (`N` = 1, 4, 9 or 16 coefficients) at unit directions `(x, y, z)`, per
-/// lane: the recurrence of lightvol-sh's generated code, operation for operation.
-#[must_use]
-#[inline(always)]
-pub fn eval_basis_lanes<const N: usize>(k: &BasisRecurrence, x: &Lanes, y: &Lanes, z: &Lanes) -> [Lanes; N] {
-    const { assert!(N == 1 || N == 4 || N == 9 || N == 16, "up to 4 bands") };
-    let bands = N.isqrt();
-    let mut out = [[0.0f32; LANES]; N];
-    let (mut c, mut s) = ([1.0f32; LANES], [0.0f32; LANES]);
-    for m in 0..bands {
-        if m == 1 {
-            (c, s) = (*x, *y);
-        } else if m >= 2 {
-            let (cp, sp) = (c, s);
-            c = core::array::from_fn(|l| x[l] * cp[l] - y[l] * sp[l]);
-            s = core::array::from_fn(|l| x[l] * sp[l] + y[l] * cp[l]);
-        }
-        let (mut q1, mut q2) = ([k.diag[m]; LANES], [0.0f32; LANES]);
-        for l in m..bands {
-            let (a, b) = (k.a[l][m], k.b[l][m]);
-            let q: Lanes = if l == m {
-                q1
-            } else if l == m + 1 {
-                core::array::from_fn(|i| a * z[i] * q1[i])
-            } else {
-                core::array::from_fn(|i| a * z[i] * q1[i] + b * q2[i])
-            };
-            if l > m {
-                (q2, q1) = (q1, q);
-            }
-            let centre = l * (l + 1);
-            if m == 0 {
-                out[centre] = q;
-            } else {
-                out[centre + m] = core::array::from_fn(|i| q[i] * c[i]);
-                out[centre - m] = core::array::from_fn(|i| q[i] * s[i]);
-            }
-        }
-    }
-    out
-}
-
 impl<const N: usize> Kernel<N> {
     /// [`Kernel::accumulate`] for a batch of receivers that share the proxy list `list`;
     /// writes the first `out.len()` (at most [`LANES`]) lanes' accumulators to `out`
@@ -331,7 +240,8 @@ impl<const N: usize> Kernel<N> {
         if near.iter().fold(0, |a, b| a | b) == 0 {
             return;
         }
-        // `view_f32` per lane: the replacement sphere where it crosses the tangent plane.
+        // `crate::proxy::view_f32` per lane: the replacement sphere where it crosses the
+        // tangent plane, with the same guards (positive radius, above the plane, d > 0).
         let mut dir = [[0.0f32; LANES]; 3];
         let mut alpha = [0.0f32; LANES];
         let mut shadow = [0.0f32; LANES];
@@ -345,7 +255,7 @@ impl<const N: usize> Kernel<N> {
             let c = if whole { [cx, cy, cz] } else { [cx + s * nx[l], cy + s * ny[l], cz + s * nz[l]] };
             let v = [c[0] - px[l], c[1] - py[l], c[2] - pz[l]];
             let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            let ok = (near[l] != 0) & !(h <= -r) & (d > 0.0);
+            let ok = (near[l] != 0) & (r > 0.0) & !(h <= -r) & (d > 0.0);
             // Lanes the proxy does not touch get a harmless finite direction and α = 0, so
             // that every product below is finite and masking by multiplying with a 0/1
             // weight adds exactly ±0 (an accumulator is never -0: it starts at +0 and
@@ -435,8 +345,9 @@ impl<const N: usize> Kernel<N> {
     /// The exponentiation pass on a batch's accumulators (the body of
     /// [`Kernel::finish_with`], per lane).
     fn finish_soa(&self, acc: &AccumLanes<N>, light: &LightMatrix<N>) -> IncidentLanes {
-        // Per lane: DC factor, number of squarings and the OL start `g` (scalar, as in
-        // `Kernel::exp_hyb`); lanes without proxies take no squarings.
+        // Per lane: HYB's start (`lightvol_sh::shexp::hyb_start`, as in `Kernel::exp_hyb`):
+        // the OL value `g`, the number of squarings and the DC factor; lanes without proxies
+        // take no squarings.
         let mut g = [[0.0f32; LANES]; N];
         let mut squarings = [0u32; LANES];
         let mut dc = [0.0f32; LANES];
@@ -445,22 +356,15 @@ impl<const N: usize> Kernel<N> {
                 continue;
             }
             let f: [f32; N] = core::array::from_fn(|j| acc.log_vis[j][l]);
-            let mut hat = f;
-            hat[0] = 0.0;
-            let norm = hat.iter().map(|v| v * v).sum::<f32>().sqrt();
-            let mut k = 0u32;
-            while f64::from(norm) / f64::from(1u32 << k) > HYB_NORM_THRESHOLD && k < 30 {
-                k += 1;
+            let start = hyb_start(self.ol, &f, HYB_NORM_THRESHOLD);
+            for j in 0..N {
+                g[j][l] = start.ol[j];
             }
-            let s = 1.0 / (1u32 << k) as f32;
-            let (a, b) = self.ol.coefficients(f64::from(norm * s));
-            for j in 1..N {
-                g[j][l] = hat[j] * s * b as f32;
-            }
-            g[0][l] = (a * SQRT_4PI) as f32;
-            squarings[l] = k;
-            dc[l] = (f[0] / SQRT_4PI as f32).exp();
+            squarings[l] = start.squarings;
+            dc[l] = start.dc;
         }
+        // `Kernel::square` per lane, in lockstep: a lane past its own number of squarings
+        // keeps its value.
         let most = squarings.iter().copied().max().unwrap_or(0);
         for round in 0..most {
             let keep: Mask = core::array::from_fn(|l| round >= squarings[l]);

@@ -11,13 +11,14 @@ use lightvol_sh::coeffs::ShRgb;
 use lightvol_sh::eval::eval_basis;
 use lightvol_sh::gaunt::GauntTable;
 use lightvol_sh::irradiance::radiance_to_irradiance_rgb;
-use lightvol_sh::shexp::{HYB_NORM_THRESHOLD, OlTable};
+use lightvol_sh::shexp::{HYB_NORM_THRESHOLD, OlTable, exp_hyb_with};
 use lightvol_sh::zonal::zh_scale;
 
 use crate::accumulate::shared_ol_table;
+use crate::lanes::BasisRecurrence;
 use crate::light::LightField;
 use crate::operators::d_paper_fit;
-use crate::proxy::SphereProxy;
+use crate::proxy::{SphereProxy, view_f32};
 use crate::tables::{MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, TABLE_ENTRIES, Table, table_alpha};
 
 /// A ZH table entry in f32 (up to 4 bands).
@@ -107,7 +108,7 @@ pub struct Kernel<const N: usize> {
     pub(crate) square_ij: Vec<[u8; 2]>,
     pub(crate) square_v: Vec<f32>,
     pub(crate) prod9: Vec<(u16, u16, u16, f32)>,
-    pub(crate) basis: crate::batch::BasisRecurrence,
+    pub(crate) basis: BasisRecurrence,
 }
 
 /// Which `D` the kernel uses for the averaged indirect light (Eq. 15).
@@ -144,7 +145,7 @@ impl<const N: usize> Kernel<N> {
             square_ij: Vec::new(),
             square_v: Vec::new(),
             prod9: Vec::new(),
-            basis: crate::batch::BasisRecurrence::new(),
+            basis: BasisRecurrence::new(),
         };
         for i in 0..TABLE_ENTRIES {
             let a = table_alpha(i);
@@ -299,35 +300,30 @@ impl<const N: usize> Kernel<N> {
         out
     }
 
-    /// HYB exponential in f32 (Ren et al. 2006; the algorithm of
-    /// `lightvol_sh::shexp::exp_hyb`, with the shared OL table).
+    /// HYB exponential in f32 (Ren et al. 2006, \[SGNS07\] Eq. 9): the f32 twin of the f64
+    /// reference `lightvol_sh::shexp::exp_hyb` (the same [`exp_hyb_with`], with the shared OL
+    /// table), squaring with [`Self::square`] instead of `lightvol_sh::gaunt::product`.
+    /// `tests/kernel.rs` compares the two.
     #[must_use]
     pub fn exp_hyb(&self, f: &[f32; N]) -> [f32; N] {
-        let mut hat = *f;
-        hat[0] = 0.0;
-        let norm = hat.iter().map(|v| v * v).sum::<f32>().sqrt();
-        let mut k = 0u32;
-        while f64::from(norm) / f64::from(1u32 << k) > HYB_NORM_THRESHOLD && k < 30 {
-            k += 1;
-        }
-        let s = 1.0 / (1u32 << k) as f32;
-        let (a, b) = self.ol.coefficients(f64::from(norm * s));
-        let mut g = hat.map(|v| v * s * b as f32);
-        g[0] = (a * SQRT_4PI) as f32;
-        for _ in 0..k {
-            let mut h = [0.0f32; N];
-            for (kk, hk) in h.iter_mut().enumerate() {
-                let (a, b) = (self.square_start[kk], self.square_start[kk + 1]);
-                let mut s = 0.0f32;
-                for (ij, v) in self.square_ij[a..b].iter().zip(&self.square_v[a..b]) {
-                    s += v * g[ij[0] as usize] * g[ij[1] as usize];
-                }
-                *hk = s;
+        exp_hyb_with(self.ol, f, HYB_NORM_THRESHOLD, |g| self.square(g))
+    }
+
+    /// The SH square `g * g` in f32 by the packed symmetric schedule (`G_ijk` over `i <= j`,
+    /// doubled for `i < j`): the f32 twin of `lightvol_sh::gaunt::product(g, g)`, and the
+    /// squaring that the batched pass repeats per lane.
+    #[must_use]
+    pub fn square(&self, g: &[f32; N]) -> [f32; N] {
+        let mut h = [0.0f32; N];
+        for (kk, hk) in h.iter_mut().enumerate() {
+            let (a, b) = (self.square_start[kk], self.square_start[kk + 1]);
+            let mut s = 0.0f32;
+            for (ij, v) in self.square_ij[a..b].iter().zip(&self.square_v[a..b]) {
+                s += v * g[ij[0] as usize] * g[ij[1] as usize];
             }
-            g = h;
+            *hk = s;
         }
-        let dc = (f[0] / SQRT_4PI as f32).exp();
-        g.map(|v| v * dc)
+        h
     }
 }
 
@@ -340,28 +336,6 @@ pub(crate) const fn band(j: usize) -> usize {
         4..=8 => 2,
         _ => 3,
     }
-}
-
-/// [`crate::proxy::view_from`] in f32: direction and `α` of the (replaced) sphere.
-#[inline]
-pub fn view_f32(c: [f32; 3], r: f32, p: [f32; 3], n: [f32; 3]) -> Option<([f32; 3], f32)> {
-    let h = (c[0] - p[0]) * n[0] + (c[1] - p[1]) * n[1] + (c[2] - p[2]) * n[2];
-    if h <= -r {
-        return None;
-    }
-    let (c, r) = if h >= r {
-        (c, r)
-    } else {
-        let r2 = 0.5 * (h + r);
-        let s = r2 - h;
-        ([c[0] + s * n[0], c[1] + s * n[1], c[2] + s * n[2]], r2)
-    };
-    let v = [c[0] - p[0], c[1] - p[1], c[2] - p[2]];
-    let d = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    if !(d > 0.0) {
-        return None;
-    }
-    Some(([v[0] / d, v[1] / d, v[2] / d], (r / d).min(1.0)))
 }
 
 /// The light at `p` as f32 arrays.

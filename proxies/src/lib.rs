@@ -6,6 +6,7 @@ pub mod compare;
 pub mod error;
 pub mod frame_inputs;
 pub mod kernel;
+pub mod lanes;
 pub mod light;
 pub mod operators;
 pub mod oracle;

@@ -15,8 +15,9 @@
 
 use rayon::prelude::*;
 
-use crate::batch::{LANES, ReceiverBatch};
+use crate::batch::ReceiverBatch;
 use crate::kernel::{Accum, Incident, Kernel, PreparedProxy, Rgb9, light_f32};
+use crate::lanes::LANES;
 use crate::light::LightField;
 use crate::proxy::SphereProxy;
 use crate::receiver_scene::{CameraFrame, ReceiverBuffer};

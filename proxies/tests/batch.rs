@@ -89,7 +89,7 @@ fn batched_passes_equal_one_receiver_kernels_shadows_only() {
 /// operation: equal bits at seeded directions (and at the poles and axes).
 #[test]
 fn lane_basis_equals_generated_code() {
-    use lightvol_proxies::batch::{BasisRecurrence, LANES, eval_basis_lanes};
+    use lightvol_proxies::lanes::{BasisRecurrence, LANES, eval_basis_lanes};
     use lightvol_sh::eval::eval_basis;
     use lightvol_sh::sampling::sample_uniform_sphere;
     let k = BasisRecurrence::new();
@@ -114,4 +114,47 @@ fn lane_basis_equals_generated_code() {
             }
         }
     }
+}
+
+/// Proxies with a radius that is not positive (zero, negative, NaN) are skipped by the
+/// one-receiver kernel (`proxy::view_f32`'s guard) and by the batched kernel alike: adding
+/// them to every list changes no accumulator bit.
+#[test]
+fn degenerate_radii_add_nothing() {
+    use lightvol_proxies::batch::ReceiverBatch;
+    use lightvol_proxies::lanes::LANES;
+    let scene = Scene::default_scene();
+    let light = DistantLight(scene.light.sh::<16>());
+    let kernel = Kernel::<16>::new(24.0, 11.0, KernelIndirect::Averaged);
+    let mut prepared: Vec<PreparedProxy<16>> = prepare(&scene.proxies, &light);
+    let clean: Vec<u32> = (0..prepared.len() as u32).collect();
+    // Copies of the character's spheres, where they do touch receivers, with bad radii.
+    for (k, r) in [0.0, -0.0, -0.3, f32::NAN].into_iter().enumerate() {
+        let mut p = prepared[k * 3];
+        p.radius = r;
+        prepared.push(p);
+    }
+    let dirty: Vec<u32> = (0..prepared.len() as u32).collect();
+    let buf = ReceiverBuffer::render(&scene, 48, 36);
+    let (mut one, mut lanes) = (vec![Accum::<16>::default(); LANES], vec![Accum::<16>::default(); LANES]);
+    let mut touched = 0;
+    for start in (0..buf.position.len()).step_by(LANES) {
+        let end = (start + LANES).min(buf.position.len());
+        let batch = ReceiverBatch::gather(&buf.position[start..end], &buf.normal[start..end], |k| {
+            buf.valid(start + k)
+        });
+        kernel.accumulate_batch(&batch, &prepared, &clean, &mut one);
+        kernel.accumulate_batch(&batch, &prepared, &dirty, &mut lanes);
+        assert!(one == lanes, "receivers {start}..{end}: batched accumulation changed");
+        for (k, i) in (start..end).enumerate() {
+            let (mut a, mut b) = (Accum::<16>::default(), Accum::<16>::default());
+            if buf.valid(i) {
+                kernel.accumulate(buf.position[i], buf.normal[i], &prepared, &clean, &mut a);
+                kernel.accumulate(buf.position[i], buf.normal[i], &prepared, &dirty, &mut b);
+            }
+            assert!(a == b && a == lanes[k], "receiver {i}: accumulation changed");
+            touched += usize::from(a.count > 0);
+        }
+    }
+    assert!(touched > 100, "{touched}");
 }

@@ -93,3 +93,50 @@ fn exposed_tables() {
         (0..TABLE_ENTRIES).filter(|&i| table_alpha(i) < 0.1).all(|i| vis[i] == [0.0; 4] && omega[i] == 0.0)
     );
 }
+
+/// The kernel's f32 HYB (`Kernel::exp_hyb`, squaring by its packed schedule) against the f64
+/// reference `lightvol_sh::shexp::exp_hyb` (squaring by `gaunt::product`), relative to the
+/// reference's norm, on log visibilities of one to eight accumulated table entries
+/// (what the accumulation pass produces). The f32 inputs are exact in f64, so the difference
+/// is f32 rounding (about 6e-8 per operation) amplified by HYB's squarings (each doubles a
+/// relative error; these take up to 8). Measured worst: 3.5e-5 at both orders, about `2^8`
+/// times f32's 6e-8, twice over; 1e-4 leaves a factor of about 3.
+const F32_HYB_VS_F64: f64 = 1e-4;
+
+fn kernel_hyb_error<const N: usize>() -> f64 {
+    use lightvol_proxies::accumulate::shared_ol_table;
+    use lightvol_proxies::tables::{ProxyTables, TABLE_ENTRIES, Table};
+    use lightvol_sh::coeffs::Sh;
+    use lightvol_sh::eval::eval_basis;
+    use lightvol_sh::sampling::sample_uniform_sphere;
+    use lightvol_sh::shexp::{HYB_NORM_THRESHOLD, exp_hyb, hyb_start};
+    use lightvol_sh::zonal::zh_scale;
+    let kernel = Kernel::<N>::new(28.0, 13.0, KernelIndirect::Averaged);
+    let t = ProxyTables::shared::<N>();
+    let mut rng = SplitMix64::new(11);
+    let (mut worst, mut squarings) = (0.0f64, 0u32);
+    for _ in 0..2000 {
+        let mut f = [0.0f32; N];
+        for _ in 0..1 + (rng.next_f64() * 8.0) as usize {
+            let i = (rng.next_f64() * (TABLE_ENTRIES - 1) as f64) as usize;
+            let z = t.entry(Table::LogVisibility, i);
+            let y = eval_basis::<f64, N>(sample_uniform_sphere([rng.next_f64(), rng.next_f64()]));
+            for (j, fj) in f.iter_mut().enumerate() {
+                let l = j.isqrt();
+                *fj += (z[l] * zh_scale(l as u32) * y[j]) as f32;
+            }
+        }
+        let reference = exp_hyb(shared_ol_table::<N>(), &Sh(f.map(f64::from)), HYB_NORM_THRESHOLD);
+        let fast = Sh(kernel.exp_hyb(&f).map(f64::from));
+        worst = worst.max((fast - reference).norm() / reference.norm());
+        squarings = squarings.max(hyb_start(shared_ol_table::<N>(), &f, HYB_NORM_THRESHOLD).squarings);
+    }
+    println!("order {}: kernel f32 HYB vs f64 HYB {worst:.2e} ({squarings} squarings at most)", N.isqrt());
+    worst
+}
+
+#[test]
+fn kernel_hyb_matches_f64_reference() {
+    assert!(kernel_hyb_error::<9>() < F32_HYB_VS_F64);
+    assert!(kernel_hyb_error::<16>() < F32_HYB_VS_F64);
+}

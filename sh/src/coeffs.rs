@@ -15,6 +15,14 @@ use crate::real::Real;
 #[repr(transparent)]
 pub struct Sh<T, const N: usize>(pub [T; N]);
 
+/// The `N = bands²` basis values at the unit vector `dir` as an [`Sh`] vector: the array of
+/// [`eval_basis`] wrapped (the generated straight-line evaluation, Sloan 2013).
+#[must_use]
+#[inline]
+pub fn eval_sh<T: Real, const N: usize>(dir: [T; 3]) -> Sh<T, N> {
+    Sh(eval_basis(dir))
+}
+
 /// 1 coefficient (l = 0, a constant).
 pub type Sh1<T = f32> = Sh<T, 1>;
 /// 4 coefficients (l <= 1).

@@ -8,7 +8,6 @@
 //! Directions must be unit vectors; the functions are polynomials in `(x, y, z)` and give
 //! scaled, meaningless values otherwise.
 
-use crate::coeffs::Sh;
 use crate::index::{bands_of, num_coeffs};
 use crate::real::Real;
 
@@ -54,13 +53,6 @@ pub fn eval_basis<T: Real, const N: usize>(dir: [T; 3]) -> [T; N] {
     let mut out = [T::ZERO; N];
     T::eval_sh_fast(N.isqrt(), dir[0], dir[1], dir[2], &mut out);
     out
-}
-
-/// The basis as an [`Sh`] vector (same as [`eval_basis`]).
-#[must_use]
-#[inline]
-pub fn eval_sh<T: Real, const N: usize>(dir: [T; 3]) -> Sh<T, N> {
-    Sh(eval_basis(dir))
 }
 
 /// Evaluates `bands` bands with the normalised three-term recurrence as a loop, for any

@@ -44,6 +44,10 @@ pub trait Real:
     /// Absolute value.
     #[must_use]
     fn abs(self) -> Self;
+    /// `e^self`, in the type's own precision (the DC factor of the SH exponential,
+    /// [`crate::shexp`]).
+    #[must_use]
+    fn exp(self) -> Self;
 
     /// Evaluates the first `bands` bands (`bands * bands` values) of the real SH basis at the
     /// unit vector `(x, y, z)` into `out[..bands * bands]`, with the generated straight-line
@@ -80,6 +84,10 @@ macro_rules! impl_real {
             #[inline(always)]
             fn abs(self) -> Self {
                 <$t>::abs(self)
+            }
+            #[inline(always)]
+            fn exp(self) -> Self {
+                <$t>::exp(self)
             }
             #[inline(always)]
             fn eval_sh_fast(bands: usize, x: Self, y: Self, z: Self, out: &mut [Self]) {

@@ -16,7 +16,8 @@
 //!   `a` and `b` tabulated against `‖f̂‖` by least-squares fits to the reference over the log
 //!   visibility of sphere blockers (single caps and pairs);
 //! - [`exp_hyb`]: Ren's HYB, scaling and squaring: halve `f̂` until its norm is small, apply
-//!   OL, then square back with SH products.
+//!   OL, then square back with SH products; [`hyb_start`] and [`exp_hyb_with`] are its two
+//!   halves, for callers with their own squaring (the f32 kernels of lightvol-proxies).
 
 use std::f64::consts::PI;
 
@@ -24,6 +25,7 @@ use crate::coeffs::Sh;
 use crate::gaunt::{product, product_matrix};
 use crate::linalg::{cholesky_solve, symmetric_eigen};
 use crate::lowdisc::SplitMix64;
+use crate::real::Real;
 use crate::sampling::sample_uniform_sphere;
 use crate::zonal::Zh;
 
@@ -267,23 +269,67 @@ pub fn sphere_visibility<const N: usize>(alpha: f64, axis: [f64; 3]) -> Sh<f64, 
 /// (`tests/shexp.rs` prints the table).
 pub const HYB_NORM_THRESHOLD: f64 = 0.1;
 
-/// Ren's HYB exponential: DC isolation, then `exp(f̂) = exp(f̂ / 2^k)^(2^k)` with OL for the
-/// small exponential and `k` SH squarings, `k` chosen so that `‖f̂‖ / 2^k <= threshold`.
+/// HYB up to its squarings, for one vector `f` (Ren et al. 2006 §5, as in \[SGNS07\] Eq. 4):
+/// DC isolation `f = f_0 / sqrt(4π) · 1 + f̂`, the number `k` of squarings, and OL of the
+/// scaled-down `f̂ / 2^k`. Then `exp(f) = dc · ol^(2^k)` with `k` SH squarings of `ol`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HybStart<T, const N: usize> {
+    /// `a 1 + b f̂ / 2^k`, OL's `exp(f̂ / 2^k)` with `(a, b)` at the norm `‖f̂‖ / 2^k`.
+    pub ol: [T; N],
+    /// `k`, the smallest number of squarings (at most 30) with `‖f̂‖ / 2^k <= threshold`.
+    pub squarings: u32,
+    /// The DC factor `exp(f_0 / sqrt(4π))`.
+    pub dc: T,
+}
+
+/// The start of Ren's HYB for `f` (see [`HybStart`]), in `T`'s precision: `‖f̂‖`, `ol` and
+/// the DC factor are computed in `T`, the norm comparisons and the OL coefficients in f64.
+/// [`exp_hyb_with`] finishes it; callers that batch many vectors square the starts in
+/// lockstep themselves.
 #[must_use]
-pub fn exp_hyb<const N: usize>(table: &OlTable<N>, f: &Sh<f64, N>, threshold: f64) -> Sh<f64, N> {
-    let (dc, hat) = split_dc(f);
-    let norm = hat.norm();
+pub fn hyb_start<T: Real, const N: usize>(table: &OlTable<N>, f: &[T; N], threshold: f64) -> HybStart<T, N> {
+    let sqrt_4pi = (4.0 * PI).sqrt();
+    let mut hat = *f;
+    hat[0] = T::ZERO;
+    let norm = Sh(hat).norm();
     let mut k = 0u32;
-    while norm / f64::from(1u32 << k) > threshold && k < 30 {
+    while norm.to_f64() / f64::from(1u32 << k) > threshold && k < 30 {
         k += 1;
     }
-    let small = hat * (1.0 / f64::from(1u32 << k));
-    let (a, b) = table.coefficients(small.norm());
-    let mut g = unit::<N>() * a + small * b;
-    for _ in 0..k {
-        g = product(&g, &g);
+    // A power of two: scaling by it is exact, so `norm * s` is the norm of `f̂ / 2^k`.
+    let s = T::from_f64(1.0 / f64::from(1u32 << k));
+    let (a, b) = table.coefficients((norm * s).to_f64());
+    let b = T::from_f64(b);
+    let mut ol = hat.map(|v| v * s * b);
+    ol[0] = T::from_f64(a * sqrt_4pi);
+    HybStart { ol, squarings: k, dc: (f[0] / T::from_f64(sqrt_4pi)).exp() }
+}
+
+/// Ren's HYB exponential with a given SH squaring `square(g) = g * g`: [`hyb_start`], then
+/// `k` squarings, then the DC factor. [`exp_hyb`] squares with [`product`]; a caller with a
+/// faster squaring of its own (lightvol-proxies' f32 kernels, a packed symmetric schedule)
+/// passes it here, so the algorithm exists once.
+#[must_use]
+pub fn exp_hyb_with<T: Real, const N: usize>(
+    table: &OlTable<N>,
+    f: &[T; N],
+    threshold: f64,
+    mut square: impl FnMut(&[T; N]) -> [T; N],
+) -> [T; N] {
+    let HybStart { ol: mut g, squarings, dc } = hyb_start(table, f, threshold);
+    for _ in 0..squarings {
+        g = square(&g);
     }
-    g * dc
+    g.map(|v| v * dc)
+}
+
+/// Ren's HYB exponential: DC isolation, then `exp(f̂) = exp(f̂ / 2^k)^(2^k)` with OL for the
+/// small exponential and `k` SH squarings ([`product`]), `k` chosen so that
+/// `‖f̂‖ / 2^k <= threshold`. The f64 instance is the reference; the f32 instance is its twin
+/// (`tests/shexp.rs` compares them).
+#[must_use]
+pub fn exp_hyb<T: Real, const N: usize>(table: &OlTable<N>, f: &Sh<T, N>, threshold: f64) -> Sh<T, N> {
+    Sh(exp_hyb_with(table, &f.0, threshold, |g| product(&Sh(*g), &Sh(*g)).0))
 }
 
 #[cfg(test)]
