@@ -46,6 +46,7 @@
 
 use lightvol_sh::index::sh_lm;
 use lightvol_sh::irradiance::cosine_lobe_factor;
+use lightvol_sh::recurrence::RecurrenceF32;
 use lightvol_volume::reach::REACH_EDGE_TOLERANCE;
 use lightvol_volume::{GridSpec, IrradianceVolume};
 
@@ -78,9 +79,9 @@ pub enum Quantity {
     Radiance,
 }
 
-/// The SH recurrence constants the shader uses, for up to 4 bands: lightvol-sh's closed forms
-/// (`lightvol_sh::recurrence`), computed in f64 and rounded once to f32 (as lightvol-sh's
-/// generated straight-line code rounds them).
+/// The SH recurrence constants the shader uses, for up to 4 bands: lightvol-sh's f32 table of
+/// its closed forms ([`RecurrenceF32`]), laid out at flat indices `l (l + 1) + m` as the
+/// shader reads them.
 ///
 /// `Q_l^m = a(l,m) z Q_{l-1}^m + b(l,m) Q_{l-2}^m`, `Q_m^m = diag[m]`;
 /// `Y_{l,±m} = Q_l^m · (Re | Im)(x + i y)^m` (no Condon-Shortley phase).
@@ -99,16 +100,12 @@ impl ShRecurrence {
     #[must_use]
     pub fn new() -> Self {
         const BANDS: usize = 4;
-        let mut r = Self { diag: [0.0; 4], a: [0.0; 16], b: [0.0; 16] };
-        use lightvol_sh::recurrence::{a_coef, b_coef, q_diag};
-        for m in 0..BANDS {
-            r.diag[m] = q_diag(m as u64) as f32;
-            for l in m + 1..BANDS {
-                let idx = l * (l + 1) + m;
-                r.a[idx] = a_coef(l as u64, m as u64) as f32;
-                if l >= m + 2 {
-                    r.b[idx] = b_coef(l as u64, m as u64) as f32;
-                }
+        let t = RecurrenceF32::<BANDS>::new();
+        let mut r = Self { diag: t.diag, a: [0.0; 16], b: [0.0; 16] };
+        for l in 0..BANDS {
+            for m in 0..=l {
+                r.a[l * (l + 1) + m] = t.a[l][m];
+                r.b[l * (l + 1) + m] = t.b[l][m];
             }
         }
         r

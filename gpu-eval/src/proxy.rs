@@ -47,18 +47,14 @@
 //! smooth-clamp weight of its `α` ([`SmoothClamp`]).
 
 use lightvol_proxies::accumulate::shared_ol_table;
-use lightvol_proxies::kernel::{Accum, Incident, KernelIndirect, PreparedProxy, Rgb9, light_f32};
+use lightvol_proxies::kernel::{Accum, Incident, Kernel, KernelIndirect, PreparedProxy, Rgb9, light_f32};
 use lightvol_proxies::light::LightField;
-use lightvol_proxies::operators::d_paper_fit;
 use lightvol_proxies::pipeline::TileBins;
 use lightvol_proxies::receiver_scene::ReceiverBuffer;
-use lightvol_proxies::tables::{
-    MAX_BANDS, ProxyTables, SQRT_4PI, SmoothClamp, TABLE_ENTRIES, Table, table_alpha,
-};
+use lightvol_proxies::tables::{SQRT_4PI, TABLE_ENTRIES};
 use lightvol_proxies::upsample::{DEPTH_EPS_REL, WEIGHT_FLOOR};
 use lightvol_sh::gaunt::GauntTable;
 use lightvol_sh::shexp::HYB_NORM_THRESHOLD;
-use lightvol_sh::zonal::zh_scale;
 
 use crate::buffer::GpuBuffer;
 use crate::context::GpuContext;
@@ -122,36 +118,22 @@ fn next_f32_above(t: f64) -> f32 {
     if f64::from(r) > t { r } else { f32::from_bits(r.to_bits() + 1) }
 }
 
-/// The f32 tables of the accumulation pass, in the layout of binding 3.
-// TODO(proxies): expose `Kernel`'s f32 tables so this does not repeat `Kernel::new`.
+/// The f32 tables of the accumulation pass, in the layout of binding 3: the CPU kernel's own
+/// tables ([`Kernel::tables`]), `O^log`, `V` and `D` (4 floats per entry each), then `ω`.
 #[must_use]
 pub fn kernel_tables<const N: usize>(
     eta_shadow: f64,
     eta_indirect: f64,
     indirect: KernelIndirect,
 ) -> Vec<f32> {
-    let t = ProxyTables::shared::<N>();
-    let (cs, ci) = (SmoothClamp::new(eta_shadow), SmoothClamp::new(eta_indirect));
-    let scaled = |z: [f64; MAX_BANDS], w: f64| -> [f32; MAX_BANDS] {
-        std::array::from_fn(|l| (z[l] * w * zh_scale(l as u32)) as f32)
-    };
-    let e = TABLE_ENTRIES;
-    let mut out = vec![0.0f32; 13 * e];
-    for i in 0..e {
-        let a = table_alpha(i);
-        out[4 * i..4 * i + 4].copy_from_slice(&scaled(t.entry(Table::LogVisibility, i), cs.weight(a)));
-        let v = t.entry(Table::Visibility, i);
-        out[4 * (e + i)..4 * (e + i) + 4].copy_from_slice(&scaled(v, ci.weight(a)));
-        let d = match indirect {
-            KernelIndirect::AveragedPaperFit => {
-                let f = d_paper_fit(a);
-                [f[0], f[1], f[2], 0.0]
-            }
-            _ => t.entry(Table::Averaged, i),
-        };
-        out[4 * (2 * e + i)..4 * (2 * e + i) + 4].copy_from_slice(&scaled(d, 1.0));
-        out[12 * e + i] = (v[0] * ci.weight(a) * SQRT_4PI) as f32;
+    let kernel = Kernel::<N>::new(eta_shadow, eta_indirect, indirect);
+    let (olog, vis, omega, d) = kernel.tables();
+    let mut out = Vec::with_capacity(13 * TABLE_ENTRIES);
+    for table in [olog, vis, d] {
+        out.extend(table.iter().flatten());
     }
+    out.extend_from_slice(omega);
+    debug_assert_eq!(out.len(), 13 * TABLE_ENTRIES);
     out
 }
 

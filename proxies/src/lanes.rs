@@ -4,6 +4,7 @@
 //! it equals `lightvol_sh::eval::eval_basis` bit for bit).
 
 use crate::tables::MAX_BANDS;
+use lightvol_sh::recurrence::RecurrenceF32;
 
 /// Receivers per batch: two SSE registers of f32 per value, enough independent work to hide
 /// latencies, small enough that a batch's accumulators (`(N + 29) × 8` f32) stay in L1.
@@ -13,47 +14,10 @@ pub const LANES: usize = 8;
 pub type Lanes = [f32; LANES];
 
 /// Recurrence constants of the real SH basis up to [`MAX_BANDS`] bands, as f32: lightvol-sh's
-/// closed forms (`lightvol_sh::recurrence`) rounded once, as its generated straight-line code
-/// rounds them, so that [`eval_basis_lanes`] equals [`lightvol_sh::eval::eval_basis`] bit for
-/// bit (tested).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BasisRecurrence {
-    /// `Q_m^m`, indexed by `m`.
-    diag: [f32; MAX_BANDS],
-    /// `a_lm`, indexed `[l][m]`.
-    a: [[f32; MAX_BANDS]; MAX_BANDS],
-    /// `b_lm`, indexed `[l][m]`.
-    b: [[f32; MAX_BANDS]; MAX_BANDS],
-}
-
-impl BasisRecurrence {
-    /// Computes the constants (`lightvol_sh::recurrence`: `Q_m^m`, `a_lm`, `b_lm`).
-    #[must_use]
-    pub fn new() -> Self {
-        let mut k = Self {
-            diag: [0.0; MAX_BANDS],
-            a: [[0.0; MAX_BANDS]; MAX_BANDS],
-            b: [[0.0; MAX_BANDS]; MAX_BANDS],
-        };
-        use lightvol_sh::recurrence::{a_coef, b_coef, q_diag};
-        for m in 0..MAX_BANDS as u64 {
-            k.diag[m as usize] = q_diag(m) as f32;
-            for l in m + 1..MAX_BANDS as u64 {
-                k.a[l as usize][m as usize] = a_coef(l, m) as f32;
-                if l >= m + 2 {
-                    k.b[l as usize][m as usize] = b_coef(l, m) as f32;
-                }
-            }
-        }
-        k
-    }
-}
-
-impl Default for BasisRecurrence {
-    fn default() -> Self {
-        Self::new()
-    }
-}
+/// closed forms rounded once ([`RecurrenceF32`]), as its generated straight-line code rounds
+/// them, so that [`eval_basis_lanes`] equals [`lightvol_sh::eval::eval_basis`] bit for bit
+/// (tested).
+pub type BasisRecurrence = RecurrenceF32<MAX_BANDS>;
 
 /// The real SH basis (`N` = 1, 4, 9 or 16 coefficients) at unit directions `(x, y, z)`, per
 /// lane: the recurrence of lightvol-sh's generated code, operation for operation.

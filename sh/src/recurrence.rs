@@ -50,9 +50,70 @@ pub fn b_coef(l: u64, m: u64) -> f64 {
     -(num / den).sqrt()
 }
 
+/// The constants of the first `B` bands, each computed in f64 by [`q_diag`], [`a_coef`] and
+/// [`b_coef`] and rounded once to f32, as every f32 port of the recurrence reads them (the
+/// proxies' lane evaluation, the GPU evaluator's shader tables). Indexed `[l][m]`; zero where
+/// the recurrence has no constant (`a` for `l <= m`, `b` for `l < m + 2`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RecurrenceF32<const B: usize> {
+    /// `Q_m^m`, indexed by `m`.
+    pub diag: [f32; B],
+    /// `a_lm`, indexed `[l][m]`.
+    pub a: [[f32; B]; B],
+    /// `b_lm`, indexed `[l][m]`.
+    pub b: [[f32; B]; B],
+}
+
+impl<const B: usize> RecurrenceF32<B> {
+    /// The constants.
+    ///
+    /// # Panics
+    /// If `B` exceeds [`MAX_CLOSED_FORM_M`] + 1 bands.
+    #[must_use]
+    pub fn new() -> Self {
+        let mut r = Self { diag: [0.0; B], a: [[0.0; B]; B], b: [[0.0; B]; B] };
+        for m in 0..B {
+            r.diag[m] = q_diag(m as u64) as f32;
+            for l in m + 1..B {
+                r.a[l][m] = a_coef(l as u64, m as u64) as f32;
+                if l >= m + 2 {
+                    r.b[l][m] = b_coef(l as u64, m as u64) as f32;
+                }
+            }
+        }
+        r
+    }
+}
+
+impl<const B: usize> Default for RecurrenceF32<B> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The f32 table holds the f64 closed forms rounded once, and zeros where the
+    /// recurrence has no constant. Three entries derived another way, from the polynomials
+    /// `Y_00 = 1/sqrt(4π)`, `Y_10 = sqrt(3/4π) z`, `Y_20 = sqrt(5/16π) (3z² - 1)`: `Q_0^0 =
+    /// 1/sqrt(4π)`; `a_10 = Y_10 / (z Y_00) = sqrt 3`; the constant term of `Y_20` is
+    /// `b_20 Y_00`, so `b_20 = -sqrt(5/16π) · sqrt(4π) = -sqrt 5 / 2`.
+    #[test]
+    fn f32_table_rounds_the_closed_forms_once() {
+        let r = RecurrenceF32::<4>::new();
+        assert_eq!(r.diag[0], (1.0 / (4.0 * std::f64::consts::PI).sqrt()) as f32);
+        assert_eq!(r.a[1][0], 3f64.sqrt() as f32);
+        assert_eq!(r.b[2][0], (-(5f64.sqrt()) / 2.0) as f32);
+        for l in 0..4 {
+            for m in 0..4 {
+                let a = if l > m { a_coef(l as u64, m as u64) as f32 } else { 0.0 };
+                let b = if l >= m + 2 { b_coef(l as u64, m as u64) as f32 } else { 0.0 };
+                assert_eq!((r.a[l][m], r.b[l][m]), (a, b), "l = {l}, m = {m}");
+            }
+        }
+    }
     use std::f64::consts::PI;
 
     /// Rounding of a few f64 operations on O(1) values.

@@ -6,7 +6,8 @@
 //!
 //! A module's imports are the paths it names that start at its crate (`crate::a::b`,
 //! `use crate::{a, b::c}`) or its parent (`super::x`), each resolved to the longest module
-//! prefix; a path to the crate root (a re-export) is not an import of a module. Unit-test
+//! prefix; a name the crate root re-exports (`crate::Scene`) is an import of the module that
+//! defines it, and other paths to the root are not imports of a module. Unit-test
 //! code (`#[cfg(test)] mod tests { … }` at the end of a file, test files mounted under it)
 //! is left out: tests may reach back into what they test.
 
@@ -144,8 +145,40 @@ fn named_paths(text: &str, module: &Module) -> Vec<Module> {
 fn import_graph(src: &Path) -> BTreeMap<Module, BTreeSet<Module>> {
     let files: Vec<PathBuf> = rust_files(src).into_iter().filter(|p| !is_test_file(src, p)).collect();
     let modules: BTreeSet<Module> = files.iter().map(|p| module_of(src, p)).collect();
-    let resolve = |path: &Module| -> Option<Module> {
+    let longest = |path: &Module| -> Option<Module> {
         (1..=path.len()).rev().map(|k| path[..k].to_vec()).find(|m| modules.contains(m))
+    };
+    // The crate root's re-exports (`pub use a::b::Name;`): `crate::Name` is an import of `a::b`.
+    let root_text = ["lib.rs", "main.rs"].iter().find_map(|f| std::fs::read_to_string(src.join(f)).ok());
+    let mut reexports: BTreeMap<String, Module> = BTreeMap::new();
+    for stmt in library_text(&root_text.unwrap_or_default()).split(';') {
+        let Some(rest) = stmt.trim().strip_prefix("pub use ") else { continue };
+        let rest = rest.trim_start_matches("crate::").trim_start_matches("self::");
+        let (base, items) = match rest.split_once("::{") {
+            Some((b, i)) => (b, i.trim_end_matches('}').split(',').map(str::trim).collect::<Vec<_>>()),
+            None => match rest.rsplit_once("::") {
+                Some((b, i)) => (b, vec![i.trim()]),
+                None => continue,
+            },
+        };
+        let base: Module = base.split("::").map(|x| x.trim().to_owned()).collect();
+        for item in items {
+            let (path, name) = match item.split_once(" as ") {
+                Some((p, n)) => (p.trim(), n.trim()),
+                None => (item, item.rsplit("::").next().unwrap_or(item)),
+            };
+            let mut full = base.clone();
+            full.extend(path.split("::").map(|x| x.trim().to_owned()));
+            if let Some(m) = longest(&full) {
+                reexports.insert(name.to_owned(), m);
+            }
+        }
+    }
+    let resolve = |path: &Module| -> Option<Module> {
+        match path.first().and_then(|n| reexports.get(n)) {
+            Some(m) if !modules.contains(&path[..1].to_vec()) => Some(m.clone()),
+            _ => longest(path),
+        }
     };
     let mut graph = BTreeMap::new();
     for f in &files {
@@ -213,8 +246,12 @@ fn a_planted_circle_is_found() {
     let dir = tempfile::tempdir().unwrap();
     let src = dir.path();
     std::fs::create_dir_all(src.join("io")).unwrap();
-    std::fs::write(src.join("lib.rs"), "pub mod grid;\npub mod io;\npub use grid::Grid;\n").unwrap();
-    std::fs::write(src.join("grid.rs"), "use crate::{io::exr::write, Grid};\n").unwrap();
+    std::fs::write(
+        src.join("lib.rs"),
+        "pub mod grid;\npub mod io;\npub use grid::Grid;\npub use io::exr::{write as put};\n",
+    )
+    .unwrap();
+    std::fs::write(src.join("grid.rs"), "use crate::{put, Grid};\n").unwrap();
     std::fs::write(src.join("io/mod.rs"), "pub mod exr;\n").unwrap();
     let exr = src.join("io/exr.rs");
     std::fs::write(
