@@ -103,7 +103,7 @@ mod tests {
     #[test]
     fn f32_table_rounds_the_closed_forms_once() {
         let r = RecurrenceF32::<4>::new();
-        assert_eq!(r.diag[0], (1.0 / (4.0 * std::f64::consts::PI).sqrt()) as f32);
+        assert_eq!(r.diag[0], (1.0 / (4.0 * PI).sqrt()) as f32);
         assert_eq!(r.a[1][0], 3f64.sqrt() as f32);
         assert_eq!(r.b[2][0], (-(5f64.sqrt()) / 2.0) as f32);
         for l in 0..4 {

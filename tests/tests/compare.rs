@@ -179,7 +179,10 @@ fn bad_view_options_are_refused() {
         assert!(!out.exists() || extra[0].starts_with("--camera="), "{extra:?} made {}", out.display());
         format!("{e:#}").replace('\n', " ")
     };
-    assert_eq!(err(&["--camera", "overview", "--view-samples", "0"]), "--view-samples must be at least 1");
+    assert_eq!(
+        err(&["--camera", "overview", "--view-samples", "0"]),
+        "invalid value '0' for '--view-samples <VIEW_SAMPLES>': must be at least 1"
+    );
     assert_eq!(
         err(&["--camera", "1,2,3"]),
         "--camera: expected EYE_X,EYE_Y,EYE_Z:TARGET_X,TARGET_Y,TARGET_Z[:FOV_DEG]"
