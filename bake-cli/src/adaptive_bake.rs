@@ -92,7 +92,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                 let out = run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
                 let meta = BakeMetadata {
                     method: base_label(&args.method),
-                    samples: out.stats.rays.sampling,
+                    sampling_rays: out.stats.rays.sampling,
                     seed: args.sampling.seed,
                     shard_index: shard.0,
                     shard_count: shard.1,
@@ -164,7 +164,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     })??;
     let meta = BakeMetadata {
         method: args.method.clone(),
-        samples: stats.rays.sampling,
+        sampling_rays: stats.rays.sampling,
         seed: args.sampling.seed,
         shard_index: 0,
         shard_count: 1,

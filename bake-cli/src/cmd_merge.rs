@@ -103,12 +103,12 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     // Stream the sums in: one accumulator in memory whatever the number of shards.
     let mut acc = None;
     let mut meta = first.clone();
-    meta.samples = 0;
+    meta.sampling_rays = 0;
     for (m, p) in &parts {
         let (a, _) =
             merge_accumulator_file(acc.take(), p).with_context(|| format!("merging {}", p.display()))?;
         acc = Some(a);
-        meta.samples += m.samples;
+        meta.sampling_rays += m.sampling_rays;
     }
     let acc = acc.context("no inputs")?;
     if missing.is_empty() {

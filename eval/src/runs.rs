@@ -395,7 +395,7 @@ pub fn run_adaptive(
 /// validity rays, which its ray count includes), read through its volume's lookup: Unity
 /// APV's volume carries its validity mask, so its lookups are validity-weighted, the others
 /// are plain trilinear. APV is read by the f64 reference lookup
-/// ([`IrradianceVolume::irradiance_reference`], which applies the mask like the f32 path),
+/// ([`IrradianceVolume::irradiance_reference`](lightvol_volume::IrradianceVolume::irradiance_reference), which applies the mask like the f32 path),
 /// as the comparison has always read it; the other baselines by the f32 lookup of every
 /// uniform entry ([`Plate::evaluate`]). Its memory adds the mask's bytes
 /// ([`lightvol_volume::ValidityMask::memory_bytes`]) to the uniform grid's.

@@ -42,9 +42,9 @@
 //! coarse geometry (normal xyz, eye depth per receiver), 2b's output, display geometry
 //! (same form), and the output: 27 values and a fallback flag per display pixel.
 //!
-//! The tables are built here from [`ProxyTables`] the way `Kernel::new` builds its own
-//! (`Kernel` keeps them private): each ZH entry scaled by `sqrt(4π/(2l+1))` (Eq. 8) and the
-//! smooth-clamp weight of its `α` ([`SmoothClamp`]).
+//! The tables are the CPU kernel's own ([`Kernel::tables`]): each ZH entry scaled by
+//! `sqrt(4π/(2l+1))` (Eq. 8) and the smooth-clamp weight of its `α`, so the two evaluators
+//! read the same numbers.
 
 use lightvol_proxies::accumulate::shared_ol_table;
 use lightvol_proxies::kernel::{Accum, Incident, Kernel, KernelIndirect, PreparedProxy, Rgb9, light_f32};

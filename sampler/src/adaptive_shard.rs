@@ -446,7 +446,7 @@ impl ShardSet {
             let (a, _) =
                 merge_accumulator_file(base.take(), p).map_err(|e| ShardSetError::file("merging", p, e))?;
             base = Some(a);
-            base_samples += m.samples;
+            base_samples += m.sampling_rays;
         }
         let mut levels: Vec<LevelSums> = Vec::new();
         level_files.sort_by_key(|(h, _, _)| (h.level, h.shard_index));

@@ -19,7 +19,7 @@ pub mod request;
 pub mod scene_setup;
 pub mod settings;
 pub mod stats;
-pub mod unit;
+mod unit;
 
 pub use bake::{BakeOutput, bake};
 pub use error::BakeError;

@@ -34,7 +34,7 @@ pub fn bake_key(
 }
 
 /// The metadata of a volume baked from `scene` (in the file frame `frame`) under the method
-/// name `label`, keyed by [`bake_key`] ([`scene_hash`] of it): `samples` sampling rays,
+/// name `label`, keyed by [`bake_key`] ([`scene_hash`] of it): `sampling_rays` traced,
 /// `seed`, shard `(k, n)`; callers add the typed record of its settings
 /// ([`BakeRequest::record`](crate::request::BakeRequest::record)) as `settings`.
 #[must_use]
@@ -43,13 +43,13 @@ pub fn bake_metadata(
     frame: UpAxis,
     key: &str,
     label: &str,
-    samples: u64,
+    sampling_rays: u64,
     seed: u64,
     shard: (u32, u32),
 ) -> BakeMetadata {
     BakeMetadata {
         method: label.to_owned(),
-        samples,
+        sampling_rays,
         seed,
         shard_index: shard.0,
         shard_count: shard.1,

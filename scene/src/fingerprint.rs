@@ -122,7 +122,7 @@ fn punctual(l: &PunctualLight) -> String {
 }
 
 /// The lighting fingerprint of `scene` baked with the path settings `transport` (format in the
-/// module docs). Stored in every [`CoefficientMap`](super::CoefficientMap) as `lighting` and
+/// module docs). Stored in every coefficient map of lightvol-surface as `lighting` and
 /// in the EXR part attribute `lightvol.lighting`.
 #[must_use]
 pub fn lighting_fingerprint(scene: &Scene, transport: &crate::transport::TransportSettings) -> String {

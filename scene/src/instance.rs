@@ -3,9 +3,9 @@
 //! triangles plus instances, not with the triangles the instances place.
 //!
 //! Scene triangle indices (the numbers in [`crate::Hit::triangle`], light sampling and
-//! lightmap references) run over [`Scene::triangles`] first, the triangles placed directly
+//! lightmap references) run over [`Scene::triangles`](crate::Scene::triangles) first, the triangles placed directly
 //! in the world frame, and then over every instance in order, each contributing its
-//! prototype's triangles in prototype order. [`Scene::flattened`] writes every instance out
+//! prototype's triangles in prototype order. [`Scene::flattened`](crate::Scene::flattened) writes every instance out
 //! in that order, so an instanced scene and its flattened copy number their triangles alike.
 //!
 //! A mirroring transform (negative determinant) reverses the winding of what it places, as
@@ -29,7 +29,7 @@ pub struct Prototype {
 /// One placement of a [`Prototype`] in the world frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Instance {
-    /// Index into [`Scene::prototypes`].
+    /// Index into [`Scene::prototypes`](crate::Scene::prototypes).
     pub prototype: u32,
     /// Prototype frame → world frame.
     pub to_world: DAffine3,
@@ -70,15 +70,15 @@ pub fn place(to_world: &DAffine3, t: &Triangle) -> Triangle {
     Triangle { v, uv, material: t.material }
 }
 
-/// Where a scene triangle lives: directly in [`Scene::triangles`] or in an instance.
+/// Where a scene triangle lives: directly in [`Scene::triangles`](crate::Scene::triangles) or in an instance.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Located {
-    /// Index into [`Scene::triangles`].
+    /// Index into [`Scene::triangles`](crate::Scene::triangles).
     World(u32),
-    /// An instance (index into [`Scene::instances`]) and the triangle's index in its
+    /// An instance (index into [`Scene::instances`](crate::Scene::instances)) and the triangle's index in its
     /// prototype.
     Instanced {
-        /// Index into [`Scene::instances`].
+        /// Index into [`Scene::instances`](crate::Scene::instances).
         instance: u32,
         /// Index into the prototype's triangles.
         local: u32,

@@ -39,7 +39,7 @@ pub struct Material {
     pub name: String,
     /// Diffuse albedo factor, linear RGB in [0, 1].
     pub albedo: [f64; 3],
-    /// Optional base-colour texture (index into [`Scene::textures`]), multiplied by
+    /// Optional base-colour texture (index into [`Scene::textures`](crate::Scene::textures)), multiplied by
     /// `albedo` at the hit's texture coordinates.
     pub albedo_texture: Option<u32>,
     /// Emitted radiance, linear RGB (W·sr⁻¹·m⁻² in scene units), from the front face (both

@@ -51,7 +51,7 @@ pub struct ExtensionReport {
 /// the world frame of a [`Scene`] is always +Z up.
 pub use lightvol_volume::frame::UpAxis;
 
-/// The scene: geometry, materials, textures and lights. Build one with [`SceneBuilder`],
+/// The scene: geometry, materials, textures and lights. Build one with [`SceneBuilder`](crate::builder::SceneBuilder),
 /// a loader ([`load_scene`](crate::load_scene)) or a built-in ([`builtin`](mod@crate::builtin)).
 #[derive(Clone, Debug)]
 pub struct Scene {

@@ -10,7 +10,7 @@ pub struct Triangle {
     pub v: [DVec3; 3],
     /// Texture coordinates per vertex (zero when the file has none).
     pub uv: [DVec2; 3],
-    /// Material index into [`Scene::materials`].
+    /// Material index into [`Scene::materials`](crate::Scene::materials).
     pub material: u32,
 }
 
@@ -76,11 +76,11 @@ pub struct MeshAttributes {
     pub uv1: Option<Vec<DVec2>>,
 }
 
-/// Where a scene triangle came from: its object ([`Scene::meshes`]), its face index in that
+/// Where a scene triangle came from: its object ([`Scene::meshes`](crate::Scene::meshes)), its face index in that
 /// object, and its three vertex indices (in the scene triangle's winding).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct TriangleRef {
-    /// Index into [`Scene::meshes`].
+    /// Index into [`Scene::meshes`](crate::Scene::meshes).
     pub mesh: u32,
     /// Face index within the object (all primitives of the mesh counted in order).
     pub face: u32,

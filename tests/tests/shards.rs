@@ -158,7 +158,7 @@ fn any_shard_count_order_and_thread_count_gives_the_whole_bake() {
                 (read_exr(&whole).unwrap(), read_exr(&d.join("Doi-7-2").join("Doi7-merged.exr")).unwrap());
             assert_eq!(a.data(), b.data());
             assert_eq!((b.metadata().shard_index, b.metadata().shard_count), (0, 1));
-            assert_eq!(b.metadata().samples, a.metadata().samples);
+            assert_eq!(b.metadata().sampling_rays, a.metadata().sampling_rays);
         }
     }
 }

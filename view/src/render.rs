@@ -26,7 +26,7 @@ pub const REFERENCE_STREAM: u64 = 0x7e2d;
 
 /// Pixels path-traced between two progress reports of [`render_reference`] (and of
 /// [`par_map_reporting`]'s other callers).
-const PROGRESS_BLOCK: usize = 4096;
+pub const PROGRESS_BLOCK: usize = 4096;
 
 /// What a pixel that sees a surface holds. A pixel that sees no surface holds the
 /// environment's radiance along its ray for [`Quantity::Shaded`] and zero otherwise.

@@ -43,7 +43,7 @@ pub fn volume_checksum(vol: &IrradianceVolume) -> u64 {
     for s in [&m.method, &m.scene_hash, &m.units] {
         h.write_str(s);
     }
-    for v in [m.samples, m.seed, u64::from(m.shard_index), u64::from(m.shard_count)] {
+    for v in [m.sampling_rays, m.seed, u64::from(m.shard_index), u64::from(m.shard_count)] {
         h.write(&v.to_le_bytes());
     }
     // The typed settings record, where the file has one (files without it keep the checksum

@@ -55,8 +55,9 @@ pub enum FitRecord {
 pub struct BakeMetadata {
     /// Sampling method, e.g. `"point"` (Kontkanen & Laine Eq. 4) or `"domain"` (Eq. 5-6).
     pub method: String,
-    /// Total number of rays / samples the bake used.
-    pub samples: u64,
+    /// Sampling rays the bake traced, over all its units (not per unit: that is
+    /// [`BakeRecord::samples_per_unit`]); stored as `lightvol.bake.samples`.
+    pub sampling_rays: u64,
     /// Seed of the bake's random (Halton scrambling) streams.
     pub seed: u64,
     /// Index of this shard among `shard_count` (0 for an unsharded bake).
@@ -87,7 +88,7 @@ impl Default for BakeMetadata {
     fn default() -> Self {
         Self {
             method: "unknown".into(),
-            samples: 0,
+            sampling_rays: 0,
             seed: 0,
             shard_index: 0,
             shard_count: 1,

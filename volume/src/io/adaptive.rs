@@ -336,7 +336,7 @@ mod tests {
     fn meta() -> BakeMetadata {
         BakeMetadata {
             method: "doi".into(),
-            samples: 77,
+            sampling_rays: 77,
             seed: 5,
             scene_hash: "abc".into(),
             ..Default::default()

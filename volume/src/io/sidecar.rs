@@ -341,7 +341,7 @@ impl Sidecar {
             reach: vol.reach().map(ReachJson::of),
             bake: BakeJson {
                 method: m.method.clone(),
-                samples: m.samples,
+                samples: m.sampling_rays,
                 seed: m.seed,
                 shard_index: m.shard_index,
                 shard_count: m.shard_count,
@@ -459,7 +459,7 @@ impl Sidecar {
     pub fn metadata(&self) -> BakeMetadata {
         BakeMetadata {
             method: self.bake.method.clone(),
-            samples: self.bake.samples,
+            sampling_rays: self.bake.samples,
             seed: self.bake.seed,
             shard_index: self.bake.shard_index,
             shard_count: self.bake.shard_count,

@@ -60,7 +60,7 @@ pub fn random_volume(coeffs: usize, res: [u32; 3], seed: u64) -> IrradianceVolum
     let weights = (0..n).map(|i| if i % 7 == 3 { 0.0 } else { rng.next_f64() as f32 }).collect();
     IrradianceVolume::new(spec, coeffs, data, weights).unwrap().with_metadata(BakeMetadata {
         method: "domain".into(),
-        samples: 123_456_789_012,
+        sampling_rays: 123_456_789_012,
         seed: u64::MAX - 5,
         shard_index: 2,
         shard_count: 7,

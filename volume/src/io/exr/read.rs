@@ -145,7 +145,7 @@ fn declared(attrs: &HashMap<Text, AttributeValue>) -> Result<Declared, VolumeErr
     }
     let meta = BakeMetadata {
         method: a.text("lightvol.bake.method")?,
-        samples: a.u64("lightvol.bake.samples")?,
+        sampling_rays: a.u64("lightvol.bake.samples")?,
         seed: a.u64("lightvol.bake.seed")?,
         shard_index,
         shard_count,

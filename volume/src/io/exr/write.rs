@@ -204,7 +204,7 @@ pub(crate) fn base_layers(
     put("lightvol.bake.method", AttributeValue::Text(text(&meta.method)?))?;
     put("lightvol.frame", AttributeValue::Text(text(meta.frame.name())?))?;
     put("lightvol.bake.scene_hash", AttributeValue::Text(text(&meta.scene_hash)?))?;
-    put("lightvol.bake.samples", AttributeValue::Text(text(&meta.samples.to_string())?))?;
+    put("lightvol.bake.samples", AttributeValue::Text(text(&meta.sampling_rays.to_string())?))?;
     put("lightvol.bake.seed", AttributeValue::Text(text(&meta.seed.to_string())?))?;
     if let Some(record) = &meta.settings {
         let json = serde_json::to_string(record).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
