@@ -176,7 +176,7 @@ fn import_graph(src: &Path) -> BTreeMap<Module, BTreeSet<Module>> {
     }
     let resolve = |path: &Module| -> Option<Module> {
         match path.first().and_then(|n| reexports.get(n)) {
-            Some(m) if !modules.contains(&path[..1].to_vec()) => Some(m.clone()),
+            Some(m) if !modules.contains(&path[..1]) => Some(m.clone()),
             _ => longest(path),
         }
     };
