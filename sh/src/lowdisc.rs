@@ -3,7 +3,7 @@
 //! - [`Halton`]: the Halton sequence with Owen scrambling per dimension and per stream
 //!   (pbrt-v4's `OwenScrambledRadicalInverse`). Scrambling keeps the sequence's
 //!   stratification (every elementary interval of base `b` gets its share of points) while
-//!   decorrelating streams, e.g. the grid cells of a bake (Kontkanen & Laine 2006 §4 use
+//!   decorrelating streams, e.g. the grid cells of a bake (Kontkanen & Laine 2006 §6 use
 //!   Halton points per cell).
 //! - [`SplitMix64`]: a tiny seeded generator for tests and for deriving per-item seeds.
 //! - [`mix_bits`] / [`hash2`]: integer hashing for "one seed per (cell, sample)" schemes, so
