@@ -8,11 +8,11 @@
 //! - [`Method::DoiNode`]: Algorithm 2 over the node's own cell;
 //! - [`Method::Doi`] (the default): Eq. 4 at the node where the node is in the domain of
 //!   interest, at a relocated point where it is not, and from its neighbours where neither
-//!   is ([`ProbeCapture`]).
+//!   is ([`ProbeCapture`](crate::probe::ProbeCapture)).
 //!
 //! Origins and directions come from one 5-D Owen-scrambled Halton sequence per cell
 //! (dimensions 0-2 the position in the cell, 3-4 the direction), scrambled and rotated per
-//! cell so cells are decorrelated ([`Qmc`]). Each sample's radiance is one path ([`Transport`]); when
+//! cell so cells are decorrelated ([`Qmc`](lightvol_scene::qmc::Qmc)). Each sample's radiance is one path ([`Transport`]); when
 //! `light_sampling` is on, each sample also carries one light sample at its origin,
 //! MIS-weighted against the uniform sphere density 1/4π, so suns and punctual lights reach
 //! the probes (uniform directions alone would almost never hit a small sun, and never a

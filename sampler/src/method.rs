@@ -21,14 +21,14 @@ pub enum Method {
     DoiNode,
     /// The default (`doi`): a probe per node, kept in the domain of interest. Point-sampled
     /// (Eq. 4) where the node is in the domain: it sees no back face inside its trilinear
-    /// support, and back faces beyond it in at most [`PROBE_FAR_BACK_SHARE`](crate::bake::PROBE_FAR_BACK_SHARE) of its
+    /// support, and back faces beyond it in at most [`PROBE_FAR_BACK_SHARE`](crate::probe::PROBE_FAR_BACK_SHARE) of its
     /// directions (a distance-limited test, so that the back of a single-sided panel seen
     /// across a room does not move the node); otherwise at the point reached through its
     /// closest back face (the relocation rule of \[Maj21\], preferring points that stay in
-    /// the grid's box, up to [`PROBE_MAX_OFFSET`](crate::bake::PROBE_MAX_OFFSET) of a cell) when that point is in the
+    /// the grid's box, up to [`PROBE_MAX_OFFSET`](crate::probe::PROBE_MAX_OFFSET) of a cell) when that point is in the
     /// domain by the same test;
     /// otherwise no samples of its own, so that the volume's fill gives it the mean of its
-    /// neighbours' estimates. See [`ProbeCapture`](crate::bake::ProbeCapture). The bake also records every node's
+    /// neighbours' estimates. See [`ProbeCapture`](crate::probe::ProbeCapture). The bake also records every node's
     /// reach ([`crate::reach`]), with which the volume's lookups leave out the nodes on the
     /// far side of a wall from the query point.
     #[default]
