@@ -13,14 +13,14 @@ use lightvol_sampler::BakeSettings;
 use lightvol_sampler::adaptive::{
     AdaptiveSettings, AdaptiveStats, assemble_adaptive, bake_adaptive, bake_adaptive_level_shard,
 };
-use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, base_label, write_level};
+use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, write_level};
 use lightvol_scene::{Tracer, Transport, TransportSettings};
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::adaptive::write_adaptive_exr;
-use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
+use lightvol_volume::{AdaptiveVolume, GridSpec};
 use serde_json::json;
 
-use crate::bake_args::{BakeArgs, bake_key, request};
+use crate::bake_args::{BakeArgs, request};
 use crate::progress::{progress_bar, run_bake, with_progress};
 use crate::setup::{LoadedScene, with_threads};
 use lightvol_sampler::request::AdaptiveRequest;
@@ -81,7 +81,8 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let grid = args.grid.grid(&loaded, request.records_node_reach())?;
     let settings = BakeSettings { shard: (0, 1), ..request.settings() };
     let ts = request.transport;
-    let hash = scene_hash(&loaded.scene, &bake_key(&loaded, &grid, &request, &args.method));
+    let key = request.key(&loaded.scene, &grid);
+    let hash = scene_hash(&loaded.scene, &key);
     let shard = request.shard;
     if let Some(shard) = shard {
         let level = a.level.unwrap_or(0);
@@ -90,17 +91,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             if level == 0 {
                 let s = BakeSettings { shard, ..settings };
                 let out = run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
-                let meta = BakeMetadata {
-                    method: base_label(&args.method),
-                    samples: out.stats.rays.sampling,
-                    seed: args.sampling.seed,
-                    shard_index: shard.0,
-                    shard_count: shard.1,
-                    scene_hash: hash.clone(),
-                    units: "relative".into(),
-                    frame: loaded.frame,
-                    settings: Some(request.record()),
-                };
+                let meta = request.metadata(&loaded.scene, loaded.frame, &key, out.stats.rays.sampling);
                 let path = args.output.with_extension("lvacc");
                 write_accumulator(&path, &out.accumulator, &meta)
                     .with_context(|| format!("writing {}", path.display()))?;
@@ -162,17 +153,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         };
         Ok((v, s, bvh_seconds))
     })??;
-    let meta = BakeMetadata {
-        method: args.method.clone(),
-        samples: stats.rays.sampling,
-        seed: args.sampling.seed,
-        shard_index: 0,
-        shard_count: 1,
-        scene_hash: hash,
-        units: "relative".into(),
-        frame: loaded.frame,
-        settings: Some(request.record()),
-    };
+    let meta = request.metadata(&loaded.scene, loaded.frame, &key, stats.rays.sampling);
     let vol = vol.with_metadata(meta);
     write_adaptive_exr(&args.output, &vol).with_context(|| format!("writing {}", args.output.display()))?;
     let rays = stats.rays;

@@ -7,12 +7,10 @@ use anyhow::{Context, bail};
 use clap::Args;
 use lightvol_sampler::adaptive::AdaptiveSettings;
 use lightvol_sampler::method::BakeMethod;
-use lightvol_sampler::provenance;
 use lightvol_sampler::request::{AdaptiveRequest, BakeRequest, Conflict, GradientChoice, RequestError};
-use lightvol_volume::GridSpec;
 
 use crate::gradient_args::GradientEstimatorArg;
-use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs};
+use crate::setup::{GridArgs, SampleArgs, SceneArgs};
 
 /// `lightvol bake`.
 #[derive(Debug, Args)]
@@ -282,18 +280,4 @@ pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
             "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
         ),
     }
-}
-
-/// The settings key of a bake of `request` on `grid` ([`lightvol_sampler::provenance`]).
-pub(crate) fn bake_key(loaded: &LoadedScene, grid: &GridSpec, request: &BakeRequest, label: &str) -> String {
-    let adaptive = request.adaptive.map(|a| a.settings);
-    provenance::bake_key(
-        &loaded.scene,
-        grid,
-        label,
-        request.samples,
-        request.coeffs,
-        &request.transport,
-        adaptive.as_ref(),
-    )
 }

@@ -8,7 +8,6 @@ use lightvol_sampler::baselines::bake_baseline;
 use lightvol_sampler::gradient_estimator::GradientEstimator;
 use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::method::Baseline;
-use lightvol_sampler::provenance;
 use lightvol_sampler::request::{BakeRequest, Provenance, bake_uniform};
 use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::GridSpec;
@@ -17,7 +16,7 @@ use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::exr::{ExrOptions, write_exr, write_exr_with_gradients};
 use serde::Serialize;
 
-use crate::bake_args::{BakeArgs, bake_key, request};
+use crate::bake_args::{BakeArgs, request};
 use crate::progress::with_bar;
 use crate::setup::{LoadedScene, with_threads};
 
@@ -156,7 +155,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded, request.records_node_reach())?;
     let label = request.label();
-    let key = bake_key(&loaded, &grid, &request, &label);
+    let key = request.key(&loaded.scene, &grid);
     let provenance = Provenance { frame: loaded.frame, key: &key };
     let (bake, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
@@ -238,19 +237,8 @@ fn run_baseline(args: &BakeArgs, request: &BakeRequest, baseline: Baseline) -> a
         let bake = bake_baseline(&transport, &grid, &settings, baseline).context("baking")?;
         Ok((bake, bvh_seconds, t1.elapsed().as_secs_f64()))
     })??;
-    let key = bake_key(&loaded, &grid, request, name);
-    let meta = lightvol_volume::BakeMetadata {
-        settings: Some(request.record()),
-        ..provenance::bake_metadata(
-            &loaded.scene,
-            loaded.frame,
-            &key,
-            name,
-            bake.rays.sampling,
-            request.seed,
-            (0, 1),
-        )
-    };
+    let key = request.key(&loaded.scene, &grid);
+    let meta = request.metadata(&loaded.scene, loaded.frame, &key, bake.rays.sampling);
     let vol = bake.volume.clone().with_metadata(meta);
     write_exr(&args.output, &vol, &ExrOptions::default())
         .with_context(|| format!("writing {}", args.output.display()))?;
