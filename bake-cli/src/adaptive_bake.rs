@@ -13,7 +13,7 @@ use lightvol_sampler::BakeSettings;
 use lightvol_sampler::adaptive::{
     AdaptiveSettings, AdaptiveStats, assemble_adaptive, bake_adaptive, bake_adaptive_level_shard,
 };
-use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, write_level};
+use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, level_shard_path, write_level};
 use lightvol_scene::{Tracer, Transport, TransportSettings};
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::adaptive::write_adaptive_exr;
@@ -92,7 +92,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                 let s = BakeSettings { shard, ..settings };
                 let out = run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
                 let meta = request.metadata(&loaded.scene, loaded.frame, &key, out.stats.rays.sampling);
-                let path = args.output.with_extension("lvacc");
+                let path = level_shard_path(&args.output, 0);
                 write_accumulator(&path, &out.accumulator, &meta)
                     .with_context(|| format!("writing {}", path.display()))?;
                 eprintln!("wrote {} (adaptive level 0, shard {} of {})", path.display(), shard.0, shard.1);
@@ -118,7 +118,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     c,
                 )
             })?;
-            let path = args.output.with_extension("lvref");
+            let path = level_shard_path(&args.output, level);
             write_level(&path, &part, shard, &hash).with_context(|| format!("writing {}", path.display()))?;
             if part.units == 0 {
                 eprintln!("wrote {} (level {level}: nothing to refine)", path.display());

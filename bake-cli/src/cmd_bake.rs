@@ -8,7 +8,7 @@ use lightvol_sampler::baselines::bake_baseline;
 use lightvol_sampler::gradient_estimator::GradientEstimator;
 use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::method::Baseline;
-use lightvol_sampler::request::{BakeRequest, Provenance, bake_uniform};
+use lightvol_sampler::request::{BakeRequest, Provenance, accumulator_path, bake_uniform};
 use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::GridSpec;
 use lightvol_volume::frame::FileGrid;
@@ -168,7 +168,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         Ok((bake, bvh_seconds))
     })??;
     if request.writes_accumulator() {
-        let acc_path = args.output.with_extension("lvacc");
+        let acc_path = accumulator_path(&args.output);
         write_accumulator(&acc_path, &bake.output.accumulator, bake.volume.metadata())
             .with_context(|| format!("writing {}", acc_path.display()))?;
         if !args.json {

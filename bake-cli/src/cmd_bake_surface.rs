@@ -25,8 +25,10 @@ use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
 use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_hemibasis::bc::BlockFormat;
-use lightvol_scene::{Tracer, Transport, TransportSettings};
-use lightvol_surface::shard_io::{TexelSetError, TexelShardHeader, texel_set_records, write_texels};
+use lightvol_scene::{Tracer, Transport};
+use lightvol_surface::shard_io::{
+    TexelSetError, TexelShardHeader, shard_fingerprint, texel_set_records, write_texels,
+};
 use lightvol_surface::storage::{Container, StorageError, StorageSettings, SurfaceBakeSummary, store_maps};
 use lightvol_surface::{
     BasisChoice, InvalidTexels, Quantity, SurfaceGeometry, SurfaceSettings, UvSet, assemble_surface,
@@ -36,18 +38,6 @@ use lightvol_surface::{
 use crate::imaging::write_atomic;
 use crate::progress::progress_bar;
 use crate::setup::{SceneArgs, with_threads};
-
-/// What shards of one surface bake share: the scene's geometry and lighting, every setting
-/// and the lightvol version.
-fn shard_fingerprint(
-    loaded: &crate::setup::LoadedScene,
-    settings: &SurfaceSettings,
-    ts: &TransportSettings,
-) -> String {
-    use lightvol_scene::fingerprint::scene_hash;
-    use lightvol_surface::key::surface_key;
-    scene_hash(&loaded.scene, &surface_key(&loaded.scene, settings, ts))
-}
 
 /// The texel records of basis `tag` from `--from-shards` (lightvol-surface's
 /// `shard_io::texel_set_records`).
@@ -267,24 +257,16 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
             };
             let control = BakeControl { progress: Some(&report), cancel: None };
             let t0 = Instant::now();
-            let fingerprint = shard_fingerprint(&loaded, &settings, &ts);
+            let fingerprint = shard_fingerprint(&loaded.scene, &settings, &ts);
             if let Some(shard) = shard {
                 let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
                 let part = bake_surface_texels(&transport, &geo, &settings, &control, shard)
                     .with_context(|| format!("baking {} shard {}/{}", basis.tag(), shard.0, shard.1))?;
                 pb.finish_and_clear();
-                let header = TexelShardHeader {
-                    shard_index: shard.0,
-                    shard_count: shard.1,
-                    total: part.total,
-                    coeffs: basis.coeffs(),
-                    basis: basis.tag().to_owned(),
-                    fingerprint,
-                    records: part.records.len() as u64,
-                };
+                let header = TexelShardHeader::new(&settings, fingerprint, &part, shard);
                 std::fs::create_dir_all(&args.output)
                     .with_context(|| format!("creating {}", args.output.display()))?;
-                let p = args.output.join(format!("texels-{}-{}-of-{}.lvtex", basis.tag(), shard.0, shard.1));
+                let p = args.output.join(header.file_name());
                 write_texels(&p, &part, &header).with_context(|| format!("writing {}", p.display()))?;
                 if !args.quiet {
                     eprintln!("wrote {} ({} of {} texels)", p.display(), part.records.len(), part.total);

@@ -10,9 +10,12 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use lightvol_sampler::request::finish_merged;
+use lightvol_sampler::adaptive_shard::LEVEL_EXTENSION;
+use lightvol_sampler::request::{accumulator_path, finish_merged};
 use lightvol_volume::BakeMetadata;
-use lightvol_volume::io::accumulator::{check_shard_set, merge_accumulator_file, read_accumulator_metadata};
+use lightvol_volume::io::accumulator::{
+    ACC_EXTENSION, check_shard_set, merge_accumulator_file, read_accumulator_metadata,
+};
 use lightvol_volume::io::exr::{ExrOptions, write_exr};
 
 /// `lightvol merge`.
@@ -33,11 +36,12 @@ pub(crate) struct MergeArgs {
     pub(crate) allow_partial: bool,
 }
 
-fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
-    if p.extension().is_some_and(|e| e == "lvacc") {
+/// The accumulator file of the input `p`: itself, or the one beside a volume file.
+fn input_accumulator(p: &Path) -> anyhow::Result<PathBuf> {
+    if p.extension().is_some_and(|e| e == ACC_EXTENSION) {
         return Ok(p.to_owned());
     }
-    if p.extension().is_some_and(|e| e == "lvref") {
+    if p.extension().is_some_and(|e| e == LEVEL_EXTENSION) {
         bail!(
             "{} is a refinement level of a sharded adaptive bake; assemble those with `lightvol bake SCENE --adaptive ... --from-shards FILES`",
             p.display()
@@ -49,7 +53,7 @@ fn accumulator_path(p: &Path) -> anyhow::Result<PathBuf> {
             p.display()
         );
     }
-    let sibling = p.with_extension("lvacc");
+    let sibling = accumulator_path(p);
     if sibling.is_file() {
         Ok(sibling)
     } else if p.is_file() {
@@ -74,7 +78,7 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     let mut parts: Vec<(BakeMetadata, PathBuf)> = Vec::new();
     let mut seen: Vec<PathBuf> = Vec::new();
     for p in &args.inputs {
-        let ap = accumulator_path(p)?;
+        let ap = input_accumulator(p)?;
         let canon = std::fs::canonicalize(&ap).unwrap_or_else(|_| ap.clone());
         if seen.contains(&canon) {
             bail!("{} is given twice (its samples would count twice)", ap.display());
@@ -122,7 +126,7 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     if args.keep_accumulator {
-        let ap = args.output.with_extension("lvacc");
+        let ap = accumulator_path(&args.output);
         lightvol_volume::io::accumulator::write_accumulator(&ap, &acc, &meta)
             .with_context(|| format!("writing {}", ap.display()))?;
     }

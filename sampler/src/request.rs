@@ -6,7 +6,10 @@
 //! `lightvol bake` builds a [`BakeRequest`] from its options and calls these; the octree
 //! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
 
+use std::path::{Path, PathBuf};
+
 use lightvol_core::samples::Samples;
+use lightvol_volume::io::accumulator::ACC_EXTENSION;
 use lightvol_volume::{
     BakeMetadata, BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, VolumeGradients,
 };
@@ -391,6 +394,14 @@ pub enum UniformBakeError {
     LeastSquares(#[source] BakeError),
 }
 
+/// The accumulator file beside the volume file `volume` (its path with the extension
+/// [`ACC_EXTENSION`]): where a shard or a kept accumulator is written, and where a merge
+/// finds the sums of a volume file it is given.
+#[must_use]
+pub fn accumulator_path(volume: &Path) -> PathBuf {
+    volume.with_extension(ACC_EXTENSION)
+}
+
 /// Where the baked scene's coordinates are shown, and the key of its settings
 /// ([`crate::provenance::bake_key`]); goes into the volume's metadata.
 #[derive(Clone, Copy, Debug)]
@@ -631,6 +642,13 @@ mod tests {
         let w = whole.metadata(&maze.scene, UpAxis::Z, &key, 99);
         assert_eq!((w.method.as_str(), w.samples, w.shard_index, w.shard_count), ("doi", 99, 0, 1));
         assert_eq!(w.scene_hash, m.scene_hash);
+    }
+
+    #[test]
+    fn the_accumulator_sits_beside_the_volume() {
+        assert_eq!(accumulator_path(Path::new("out/city.exr")), PathBuf::from("out/city.lvacc"));
+        assert_eq!(accumulator_path(Path::new("city")), PathBuf::from("city.lvacc"));
+        assert_eq!(accumulator_path(Path::new("s/part.1.exr")), PathBuf::from("s/part.1.lvacc"));
     }
 
     #[test]
