@@ -8,47 +8,19 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 
-use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_sampler::BakeSettings;
-use lightvol_sampler::adaptive::{
-    AdaptiveSettings, AdaptiveStats, assemble_adaptive, bake_adaptive, bake_adaptive_level_shard,
-};
+use lightvol_sampler::adaptive::{assemble_adaptive, bake_adaptive, bake_adaptive_level_shard};
 use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, level_shard_path, write_level};
-use lightvol_scene::{Tracer, Transport, TransportSettings};
+use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::adaptive::write_adaptive_exr;
-use lightvol_volume::{AdaptiveVolume, GridSpec};
 use serde_json::json;
 
 use crate::bake_args::{BakeArgs, request};
-use crate::progress::{progress_bar, run_bake, with_progress};
-use crate::setup::{LoadedScene, with_threads};
+use crate::progress::{run_bake, with_bar, with_progress};
+use crate::setup::with_threads;
 use lightvol_sampler::request::AdaptiveRequest;
 use lightvol_scene::fingerprint::scene_hash;
-
-/// Runs `bake_adaptive` with a progress bar.
-#[allow(clippy::too_many_arguments, reason = "the bake's inputs plus its presentation")]
-pub(crate) fn run_adaptive_bake(
-    loaded: &LoadedScene,
-    tracer: &Tracer,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    adaptive: &AdaptiveSettings,
-    ts: TransportSettings,
-    quiet: bool,
-    label: &str,
-) -> anyhow::Result<(AdaptiveVolume, AdaptiveStats)> {
-    let transport = Transport::new(&loaded.scene, tracer, ts);
-    let pb = progress_bar(quiet, 0, label);
-    let report = |p: Progress| {
-        pb.set_length(p.total as u64);
-        pb.set_position(p.done as u64);
-    };
-    let control = BakeControl { progress: Some(&report), cancel: None };
-    let out = bake_adaptive(&transport, grid, settings, adaptive, &control).context("adaptive bake")?;
-    pb.finish_and_clear();
-    Ok(out)
-}
 
 /// The shard set of `--from-shards`, read and checked ([`ShardSet::load`]).
 fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<ShardSet> {
@@ -140,7 +112,9 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
         let (v, s) = if a.from_shards.is_empty() {
-            run_adaptive_bake(&loaded, &tracer, &grid, &settings, &adaptive, ts, args.quiet, &args.method)?
+            let transport = Transport::new(&loaded.scene, &tracer, ts);
+            with_bar(args.quiet, &args.method, |c| bake_adaptive(&transport, &grid, &settings, &adaptive, c))
+                .context("adaptive bake")?
         } else {
             let inputs = load_inputs(&a.from_shards, &hash, &args.method)?;
             let base_stats = lightvol_sampler::BakeStats {

@@ -23,7 +23,6 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_hemibasis::bc::BlockFormat;
 use lightvol_scene::{Tracer, Transport};
 use lightvol_surface::shard_io::{
@@ -36,7 +35,7 @@ use lightvol_surface::{
 };
 
 use crate::imaging::write_atomic;
-use crate::progress::progress_bar;
+use crate::progress::with_bar;
 use crate::setup::{SceneArgs, with_threads};
 
 /// The texel records of basis `tag` from `--from-shards` (lightvol-surface's
@@ -250,19 +249,15 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                 seed: args.seed,
                 ..SurfaceSettings::default()
             };
-            let pb = progress_bar(args.quiet, 0, &basis.tag());
-            let report = |p: Progress| {
-                pb.set_length(p.total as u64);
-                pb.set_position(p.done as u64);
-            };
-            let control = BakeControl { progress: Some(&report), cancel: None };
             let t0 = Instant::now();
             let fingerprint = shard_fingerprint(&loaded.scene, &settings, &ts);
             if let Some(shard) = shard {
-                let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
-                let part = bake_surface_texels(&transport, &geo, &settings, &control, shard)
-                    .with_context(|| format!("baking {} shard {}/{}", basis.tag(), shard.0, shard.1))?;
-                pb.finish_and_clear();
+                let part = with_bar(args.quiet, &basis.tag(), |control| -> anyhow::Result<_> {
+                    let geo =
+                        SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
+                    bake_surface_texels(&transport, &geo, &settings, control, shard)
+                        .with_context(|| format!("baking {} shard {}/{}", basis.tag(), shard.0, shard.1))
+                })?;
                 let header = TexelShardHeader::new(&settings, fingerprint, &part, shard);
                 std::fs::create_dir_all(&args.output)
                     .with_context(|| format!("creating {}", args.output.display()))?;
@@ -273,16 +268,16 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                 }
                 continue;
             }
-            let out = if args.from_shards.is_empty() {
-                bake_surface(&transport, &settings, &control)
-                    .with_context(|| format!("baking {}", basis.tag()))?
-            } else {
+            let out = with_bar(args.quiet, &basis.tag(), |control| -> anyhow::Result<_> {
+                if args.from_shards.is_empty() {
+                    return bake_surface(&transport, &settings, control)
+                        .with_context(|| format!("baking {}", basis.tag()));
+                }
                 let records = shard_records(&args.from_shards, &basis.tag(), &fingerprint)?;
                 let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
                 assemble_surface(&transport, &geo, &settings, &records)
-                    .with_context(|| format!("assembling {} from its shards", basis.tag()))?
-            };
-            pb.finish_and_clear();
+                    .with_context(|| format!("assembling {} from its shards", basis.tag()))
+            })?;
             bakes.push((settings, out, t0.elapsed().as_secs_f64()));
         }
         Ok(())
