@@ -11,10 +11,10 @@ use std::path::PathBuf;
 use lightvol_sampler::BakeSettings;
 use lightvol_sampler::adaptive::{assemble_adaptive, bake_adaptive, bake_adaptive_level_shard};
 use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, level_shard_path, write_level};
+use lightvol_sampler::report::AdaptiveReport;
 use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::adaptive::write_adaptive_exr;
-use serde_json::json;
 
 use crate::bake_args::{BakeArgs, request};
 use crate::progress::{run_bake, with_bar, with_progress};
@@ -130,43 +130,34 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let meta = request.metadata(&loaded.scene, loaded.frame, &key, stats.rays.sampling);
     let vol = vol.with_metadata(meta);
     write_adaptive_exr(&args.output, &vol).with_context(|| format!("writing {}", args.output.display()))?;
-    let rays = stats.rays;
-    let report = json!({
-        "scene": loaded.label,
-        "method": args.method,
-        "adaptive": true,
-        "grid": lightvol_volume::frame::FileGrid::of(&grid, loaded.frame),
-        "samples": args.sampling.samples,
-        "seed": args.sampling.seed,
-        "rays": rays,
-        "depth_rays": stats.depth_rays,
-        "split_votes": { "gradient": stats.split_votes[0], "geometry": stats.split_votes[1], "depth": stats.split_votes[2] },
-        "octree": lightvol_volume::info::octree_json(&vol),
-        "seconds": stats.wall_time.as_secs_f64(),
-        "bvh_seconds": bvh_seconds,
-        "output": args.output.display().to_string(),
-    });
+    let report = AdaptiveReport::new(
+        &loaded,
+        &grid,
+        &request,
+        &vol,
+        &stats,
+        bvh_seconds,
+        args.output.display().to_string(),
+    );
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        println!("{}", serde_json::to_string_pretty(&report.to_json()?)?);
         return Ok(ExitCode::SUCCESS);
     }
     let [nx, ny, nz] = grid.res();
     let f = vol.finest_res();
     eprintln!(
         "baked {} ({}, adaptive) on {nx}x{ny}x{nz} base nodes, levels 0..{} (finest {}x{}x{}): {} rays in {:.2} s",
-        loaded.label,
-        args.method,
+        report.scene,
+        report.method,
         vol.max_level(),
         f[0],
         f[1],
         f[2],
-        rays.total(),
-        stats.wall_time.as_secs_f64()
+        report.rays.total(),
+        report.seconds
     );
-    eprintln!(
-        "split votes: gradient {}, geometry {}, depth {}",
-        stats.split_votes[0], stats.split_votes[1], stats.split_votes[2]
-    );
+    let votes = report.split_votes;
+    eprintln!("split votes: gradient {}, geometry {}, depth {}", votes.gradient, votes.geometry, votes.depth);
     for l in vol.level_stats() {
         eprintln!(
             "level {}: {} cells ({} leaves, {} split), {} nodes stored of {} baked",

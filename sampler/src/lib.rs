@@ -15,6 +15,7 @@ pub mod probe;
 pub mod provenance;
 pub mod reach;
 pub mod relocate;
+pub mod report;
 pub mod request;
 pub mod scene_setup;
 pub mod settings;
