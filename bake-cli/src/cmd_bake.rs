@@ -5,10 +5,11 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use lightvol_sampler::baselines::bake_baseline;
+use lightvol_sampler::merge::accumulator_path;
 use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::method::Baseline;
 use lightvol_sampler::report::{BakeReport, RunFigures};
-use lightvol_sampler::request::{BakeRequest, Provenance, accumulator_path, bake_uniform};
+use lightvol_sampler::request::{BakeRequest, Provenance, bake_uniform};
 use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::exr::{ExrOptions, write_exr, write_exr_with_gradients};

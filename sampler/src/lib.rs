@@ -9,6 +9,7 @@ pub mod domain;
 pub mod error;
 pub mod gradient_bake;
 pub mod gradient_estimator;
+pub mod merge;
 pub mod method;
 pub mod node_fit;
 pub mod probe;

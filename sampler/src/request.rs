@@ -6,10 +6,7 @@
 //! `lightvol bake` builds a [`BakeRequest`] from its options and calls these; the octree
 //! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
 
-use std::path::{Path, PathBuf};
-
 use lightvol_core::samples::Samples;
-use lightvol_volume::io::accumulator::ACC_EXTENSION;
 use lightvol_volume::{
     BakeMetadata, BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, VolumeGradients,
 };
@@ -394,14 +391,6 @@ pub enum UniformBakeError {
     LeastSquares(#[source] BakeError),
 }
 
-/// The accumulator file beside the volume file `volume` (its path with the extension
-/// [`ACC_EXTENSION`]): where a shard or a kept accumulator is written, and where a merge
-/// finds the sums of a volume file it is given.
-#[must_use]
-pub fn accumulator_path(volume: &Path) -> PathBuf {
-    volume.with_extension(ACC_EXTENSION)
-}
-
 /// Where the baked scene's coordinates are shown, and the key of its settings
 /// ([`crate::provenance::bake_key`]); goes into the volume's metadata.
 #[derive(Clone, Copy, Debug)]
@@ -492,70 +481,6 @@ pub fn bake_uniform(
     Ok(UniformBake { output, volume, fill, gradients, least_squares })
 }
 
-/// A volume finalized from merged shard sums ([`finish_merged`]).
-pub struct MergedVolume {
-    /// The volume (Eq. 6, or the least-squares fit), with `meta`.
-    pub volume: IrradianceVolume,
-    /// Zero-weight nodes filled from neighbours.
-    pub fill: FillReport,
-    /// The gradients the shards carried, solved or restored, with their report.
-    pub gradients: Option<(VolumeGradients, crate::gradient_bake::GradientReport)>,
-    /// The least-squares fit's weight λ and solve, when the shards carry a mass matrix.
-    pub least_squares: Option<(f64, FitReport)>,
-}
-
-/// Why merged sums could not be finalized.
-#[derive(Debug, thiserror::Error)]
-pub enum MergeError {
-    /// The shards carry a mass matrix but their metadata names no least-squares fit.
-    #[error("the shards carry a mass matrix but their method '{0}' names no least-squares fit")]
-    NoLambda(String),
-    /// The auxiliary gradient sums could not be read.
-    #[error("reading the shards' gradients")]
-    GradientSums(#[source] BakeError),
-    /// The least-squares node fit.
-    #[error("least-squares node fit")]
-    LeastSquares(#[source] BakeError),
-    /// The basis-gradient systems.
-    #[error("solving the basis-gradient systems")]
-    Gradients(#[source] BakeError),
-}
-
-/// Finalizes the merged sums of a whole shard set (the same bits as the unsharded bake
-/// gives, [`bake_uniform`]) under `meta`: the least-squares fit over the whole set where the
-/// shards carry its mass matrix (λ from `lambda`, the set's recorded fit), and the
-/// gradients the shards carry (the basis estimator's systems solved on the merged volume,
-/// or the central differences restored).
-///
-/// # Errors
-/// [`MergeError`].
-pub fn finish_merged(
-    acc: &lightvol_volume::Accumulator,
-    meta: BakeMetadata,
-    lambda: Option<f64>,
-) -> Result<MergedVolume, MergeError> {
-    let grad_sums = ShardGradients::from_accumulator(acc).map_err(MergeError::GradientSums)?;
-    let (volume, fill, least_squares) = match crate::node_fit::MassMatrix::from_accumulator(acc) {
-        None => {
-            let (v, fill) = acc.finalize();
-            (v, fill, None)
-        }
-        Some(mass) => {
-            let lambda = lambda.ok_or_else(|| MergeError::NoLambda(meta.method.clone()))?;
-            let (values, solve) =
-                solve_least_squares(&mass, acc, lambda).map_err(MergeError::LeastSquares)?;
-            let (v, fill) = finalize_least_squares(acc, values);
-            (v, fill, Some((lambda, solve)))
-        }
-    };
-    let volume = volume.with_metadata(meta);
-    let gradients = match grad_sums {
-        None => None,
-        Some(g) => Some(g.finish(&volume).map_err(MergeError::Gradients)?),
-    };
-    Ok(MergedVolume { volume, fill, gradients, least_squares })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -642,13 +567,6 @@ mod tests {
         let w = whole.metadata(&maze.scene, UpAxis::Z, &key, 99);
         assert_eq!((w.method.as_str(), w.samples, w.shard_index, w.shard_count), ("doi", 99, 0, 1));
         assert_eq!(w.scene_hash, m.scene_hash);
-    }
-
-    #[test]
-    fn the_accumulator_sits_beside_the_volume() {
-        assert_eq!(accumulator_path(Path::new("out/city.exr")), PathBuf::from("out/city.lvacc"));
-        assert_eq!(accumulator_path(Path::new("city")), PathBuf::from("city.lvacc"));
-        assert_eq!(accumulator_path(Path::new("s/part.1.exr")), PathBuf::from("s/part.1.lvacc"));
     }
 
     #[test]
