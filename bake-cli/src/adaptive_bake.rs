@@ -117,10 +117,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                 .context("adaptive bake")?
         } else {
             let inputs = load_inputs(&a.from_shards, &hash, &args.method)?;
-            let base_stats = lightvol_sampler::BakeStats {
-                rays: lightvol_scene::RayCounts { sampling: inputs.base_samples, ..Default::default() },
-                ..Default::default()
-            };
+            let base_stats = inputs.base_stats();
             with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
                 assemble_adaptive(t, &grid, &settings, &adaptive, &inputs.base, base_stats, &inputs.levels, c)
             })?

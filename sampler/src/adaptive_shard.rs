@@ -41,6 +41,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::bake::FixedSubsetSums;
 use crate::error::BakeError;
+use crate::stats::BakeStats;
 use lightvol_scene::stats::RayCounts;
 
 const MAGIC: &[u8; 6] = b"LVREF\0";
@@ -280,6 +281,19 @@ pub struct ShardSet {
     pub levels: Vec<LevelSums>,
 }
 
+impl ShardSet {
+    /// What the level-0 shards report to the assembly
+    /// ([`crate::adaptive::assemble_adaptive`]): their sampling rays (the shard files keep no
+    /// other counter).
+    #[must_use]
+    pub fn base_stats(&self) -> BakeStats {
+        BakeStats {
+            rays: RayCounts { sampling: self.base_samples, ..RayCounts::default() },
+            ..BakeStats::default()
+        }
+    }
+}
+
 /// Why a set of adaptive shard files was refused (nothing is baked or written before).
 #[derive(Debug, thiserror::Error)]
 pub enum ShardSetError {
@@ -512,6 +526,16 @@ mod tests {
             sums: FixedSubsetSums { nodes: vec![4, 11], numerator, denominator, outside },
             rays: RayCounts { sampling: 10, query: 2, bounce: 3, shadow: 4 },
         }
+    }
+
+    #[test]
+    fn the_base_reports_its_sampling_rays() {
+        let grid = lightvol_volume::GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+        let base = lightvol_volume::Accumulator::new(grid, 9).unwrap();
+        let set = ShardSet { base, base_samples: 1234, levels: Vec::new() };
+        let s = set.base_stats();
+        assert_eq!(s.rays, RayCounts { sampling: 1234, query: 0, bounce: 0, shadow: 0 });
+        assert_eq!((s.units, s.candidates, s.wall_time), (0, 0, std::time::Duration::ZERO));
     }
 
     #[test]
