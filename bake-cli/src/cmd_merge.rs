@@ -32,7 +32,7 @@ pub(crate) struct MergeArgs {
     /// Merge an incomplete set (missing shards leave their cells unsampled) instead of
     /// refusing it.
     #[arg(long)]
-    pub(crate) allow_partial: bool,
+    allow_partial: bool,
 }
 
 /// A refused shard set, in this verb's words.

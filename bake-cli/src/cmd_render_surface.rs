@@ -38,40 +38,40 @@ use crate::setup::with_threads;
 
 /// One basis's entry in `report.json`.
 #[derive(Debug, Serialize)]
-pub(crate) struct BasisReport {
+struct BasisReport {
     /// Relative RMSE against the path-traced reference.
-    pub(crate) rel_rmse: f64,
+    rel_rmse: f64,
     /// 8-bit storage per texel as RGB8 (PNG): 3 bytes per coefficient (RGBA8 KTX2 stores 4).
-    pub(crate) bytes_per_texel: usize,
+    bytes_per_texel: usize,
     /// Coefficients per channel.
-    pub(crate) coefficients: usize,
+    coefficients: usize,
     /// The image, relative to the output directory.
-    pub(crate) image: String,
+    image: String,
 }
 
 /// The reference's entry in `report.json`.
 #[derive(Debug, Serialize)]
-pub(crate) struct ReferenceReport {
+struct ReferenceReport {
     /// The image.
-    pub(crate) image: String,
+    image: String,
     /// Path-traced samples per pixel.
-    pub(crate) samples: u32,
+    samples: u32,
 }
 
 /// `report.json`.
 #[derive(Debug, Serialize)]
-pub(crate) struct SurfaceRenderReport {
+struct SurfaceRenderReport {
     /// Per basis (and `lightmap` / `lightmap4`, the modified H-basis's lower levels of detail).
-    pub(crate) bases: BTreeMap<String, BasisReport>,
+    bases: BTreeMap<String, BasisReport>,
     /// Invalid texels of the bakes, read from the EXR maps (sum over objects; largest over
     /// the bases, which share the geometry and sample points).
-    pub(crate) invalid_texels: u64,
+    invalid_texels: u64,
     /// The reference.
-    pub(crate) reference: ReferenceReport,
+    reference: ReferenceReport,
     /// Pixels showing lightmapped surfaces (those the RMSE runs over).
-    pub(crate) pixels: usize,
+    pixels: usize,
     /// The normal map used.
-    pub(crate) normal_map: String,
+    normal_map: String,
 }
 
 /// The map folder's errors, those about the folder as a whole named by `--surface`.
