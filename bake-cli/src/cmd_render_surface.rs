@@ -67,10 +67,7 @@ pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Re
     check_objects(&maps, &geo).map_err(surface_error)?;
     let (camera, aspect) = match &args.camera {
         Some(c) => resolve_camera(c, &loaded.scene, loaded.frame)?,
-        None => {
-            let (lo, hi) = loaded.scene.bounds();
-            (Camera::overview(lo, hi)?, None)
-        }
+        None => (Camera::framing(&loaded.scene, None)?, None),
     };
     let (width, height) = args.size(aspect)?;
     let settings = ShadedViewSettings {
