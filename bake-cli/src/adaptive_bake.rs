@@ -8,47 +8,19 @@ use std::time::Instant;
 use anyhow::{Context, bail};
 use std::path::PathBuf;
 
-use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_sampler::BakeSettings;
-use lightvol_sampler::adaptive::{
-    AdaptiveSettings, AdaptiveStats, assemble_adaptive, bake_adaptive, bake_adaptive_level_shard,
-};
-use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, base_label, write_level};
-use lightvol_scene::{Tracer, Transport, TransportSettings};
+use lightvol_sampler::adaptive::{assemble_adaptive, bake_adaptive, bake_adaptive_level_shard};
+use lightvol_sampler::adaptive_shard::{ShardSet, ShardSetError, level_shard_path, write_level};
+use lightvol_sampler::report::AdaptiveReport;
+use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::adaptive::write_adaptive_exr;
-use lightvol_volume::{AdaptiveVolume, BakeMetadata, GridSpec};
-use serde_json::json;
 
-use crate::bake_args::{BakeArgs, bake_key, request};
-use crate::progress::{progress_bar, run_bake, with_progress};
-use crate::setup::{LoadedScene, with_threads};
+use crate::bake_args::{BakeArgs, request};
+use crate::progress::{run_bake, with_bar, with_progress};
+use crate::setup::with_threads;
 use lightvol_sampler::request::AdaptiveRequest;
 use lightvol_scene::fingerprint::scene_hash;
-
-/// Runs `bake_adaptive` with a progress bar.
-#[allow(clippy::too_many_arguments, reason = "the bake's inputs plus its presentation")]
-pub(crate) fn run_adaptive_bake(
-    loaded: &LoadedScene,
-    tracer: &Tracer,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    adaptive: &AdaptiveSettings,
-    ts: TransportSettings,
-    quiet: bool,
-    label: &str,
-) -> anyhow::Result<(AdaptiveVolume, AdaptiveStats)> {
-    let transport = Transport::new(&loaded.scene, tracer, ts);
-    let pb = progress_bar(quiet, 0, label);
-    let report = |p: Progress| {
-        pb.set_length(p.total as u64);
-        pb.set_position(p.done as u64);
-    };
-    let control = BakeControl { progress: Some(&report), cancel: None };
-    let out = bake_adaptive(&transport, grid, settings, adaptive, &control).context("adaptive bake")?;
-    pb.finish_and_clear();
-    Ok(out)
-}
 
 /// The shard set of `--from-shards`, read and checked ([`ShardSet::load`]).
 fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<ShardSet> {
@@ -81,7 +53,8 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let grid = args.grid.grid(&loaded, request.records_node_reach())?;
     let settings = BakeSettings { shard: (0, 1), ..request.settings() };
     let ts = request.transport;
-    let hash = scene_hash(&loaded.scene, &bake_key(&loaded, &grid, &request, &args.method));
+    let key = request.key(&loaded.scene, &grid);
+    let hash = scene_hash(&loaded.scene, &key);
     let shard = request.shard;
     if let Some(shard) = shard {
         let level = a.level.unwrap_or(0);
@@ -90,18 +63,8 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             if level == 0 {
                 let s = BakeSettings { shard, ..settings };
                 let out = run_bake(&loaded, &tracer, &grid, &s, ts, args.quiet, &args.method)?;
-                let meta = BakeMetadata {
-                    method: base_label(&args.method),
-                    sampling_rays: out.stats.rays.sampling,
-                    seed: args.sampling.seed,
-                    shard_index: shard.0,
-                    shard_count: shard.1,
-                    scene_hash: hash.clone(),
-                    units: "relative".into(),
-                    frame: loaded.frame,
-                    settings: Some(request.record()),
-                };
-                let path = args.output.with_extension("lvacc");
+                let meta = request.metadata(&loaded.scene, loaded.frame, &key, out.stats.rays.sampling);
+                let path = level_shard_path(&args.output, 0);
                 write_accumulator(&path, &out.accumulator, &meta)
                     .with_context(|| format!("writing {}", path.display()))?;
                 eprintln!("wrote {} (adaptive level 0, shard {} of {})", path.display(), shard.0, shard.1);
@@ -127,7 +90,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                     c,
                 )
             })?;
-            let path = args.output.with_extension("lvref");
+            let path = level_shard_path(&args.output, level);
             write_level(&path, &part, shard, &hash).with_context(|| format!("writing {}", path.display()))?;
             if part.units == 0 {
                 eprintln!("wrote {} (level {level}: nothing to refine)", path.display());
@@ -149,69 +112,49 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
         let (v, s) = if a.from_shards.is_empty() {
-            run_adaptive_bake(&loaded, &tracer, &grid, &settings, &adaptive, ts, args.quiet, &args.method)?
+            let transport = Transport::new(&loaded.scene, &tracer, ts);
+            with_bar(args.quiet, &args.method, |c| bake_adaptive(&transport, &grid, &settings, &adaptive, c))
+                .context("adaptive bake")?
         } else {
             let inputs = load_inputs(&a.from_shards, &hash, &args.method)?;
-            let base_stats = lightvol_sampler::BakeStats {
-                rays: lightvol_scene::RayCounts { sampling: inputs.base_samples, ..Default::default() },
-                ..Default::default()
-            };
+            let base_stats = inputs.base_stats();
             with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
                 assemble_adaptive(t, &grid, &settings, &adaptive, &inputs.base, base_stats, &inputs.levels, c)
             })?
         };
         Ok((v, s, bvh_seconds))
     })??;
-    let meta = BakeMetadata {
-        method: args.method.clone(),
-        sampling_rays: stats.rays.sampling,
-        seed: args.sampling.seed,
-        shard_index: 0,
-        shard_count: 1,
-        scene_hash: hash,
-        units: "relative".into(),
-        frame: loaded.frame,
-        settings: Some(request.record()),
-    };
+    let meta = request.metadata(&loaded.scene, loaded.frame, &key, stats.rays.sampling);
     let vol = vol.with_metadata(meta);
     write_adaptive_exr(&args.output, &vol).with_context(|| format!("writing {}", args.output.display()))?;
-    let rays = stats.rays;
-    let report = json!({
-        "scene": loaded.label,
-        "method": args.method,
-        "adaptive": true,
-        "grid": lightvol_volume::frame::FileGrid::of(&grid, loaded.frame),
-        "samples": args.sampling.samples,
-        "seed": args.sampling.seed,
-        "rays": rays,
-        "depth_rays": stats.depth_rays,
-        "split_votes": { "gradient": stats.split_votes[0], "geometry": stats.split_votes[1], "depth": stats.split_votes[2] },
-        "octree": lightvol_volume::info::octree_json(&vol),
-        "seconds": stats.wall_time.as_secs_f64(),
-        "bvh_seconds": bvh_seconds,
-        "output": args.output.display().to_string(),
-    });
+    let report = AdaptiveReport::new(
+        &loaded,
+        &grid,
+        &request,
+        &vol,
+        &stats,
+        bvh_seconds,
+        args.output.display().to_string(),
+    );
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        println!("{}", serde_json::to_string_pretty(&report.to_json()?)?);
         return Ok(ExitCode::SUCCESS);
     }
     let [nx, ny, nz] = grid.res();
     let f = vol.finest_res();
     eprintln!(
         "baked {} ({}, adaptive) on {nx}x{ny}x{nz} base nodes, levels 0..{} (finest {}x{}x{}): {} rays in {:.2} s",
-        loaded.label,
-        args.method,
+        report.scene,
+        report.method,
         vol.max_level(),
         f[0],
         f[1],
         f[2],
-        rays.total(),
-        stats.wall_time.as_secs_f64()
+        report.rays.total(),
+        report.seconds
     );
-    eprintln!(
-        "split votes: gradient {}, geometry {}, depth {}",
-        stats.split_votes[0], stats.split_votes[1], stats.split_votes[2]
-    );
+    let votes = report.split_votes;
+    eprintln!("split votes: gradient {}, geometry {}, depth {}", votes.gradient, votes.geometry, votes.depth);
     for l in vol.level_stats() {
         eprintln!(
             "level {}: {} cells ({} leaves, {} split), {} nodes stored of {} baked",

@@ -5,14 +5,12 @@ use std::path::PathBuf;
 
 use anyhow::{Context, bail};
 use clap::Args;
-use lightvol_sampler::adaptive::AdaptiveSettings;
+use lightvol_sampler::adaptive::{AdaptiveSettings, node_budget_bytes};
 use lightvol_sampler::method::BakeMethod;
-use lightvol_sampler::provenance;
 use lightvol_sampler::request::{AdaptiveRequest, BakeRequest, Conflict, GradientChoice, RequestError};
-use lightvol_volume::GridSpec;
 
 use crate::gradient_args::GradientEstimatorArg;
-use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs};
+use crate::setup::{GridArgs, SampleArgs, SceneArgs, shard_option};
 
 /// `lightvol bake`.
 #[derive(Debug, Args)]
@@ -85,7 +83,7 @@ pub(crate) struct AdaptiveArgs {
     /// Every cell of the levels below this one is split (nodes of levels up to it are never
     /// culled). Default 0.
     #[arg(long, value_name = "L")]
-    pub(crate) min_level: Option<u32>,
+    min_level: Option<u32>,
     /// The finest level (level l has cells 2^l times smaller than the grid's); at most 8.
     /// Default 2.
     #[arg(long, value_name = "L")]
@@ -93,26 +91,26 @@ pub(crate) struct AdaptiveArgs {
     /// Split a cell when the largest coefficient change along its edges, relative to the
     /// volume's mean DC value, is at least T (`off` disables the heuristic). Default 0.25.
     #[arg(long, value_name = "T|off", allow_hyphen_values = true)]
-    pub(crate) gradient_threshold: Option<String>,
+    gradient_threshold: Option<String>,
     /// Do not split cells because scene geometry lies inside them.
     #[arg(long)]
-    pub(crate) no_geometry_split: bool,
+    no_geometry_split: bool,
     /// Split a cell when its edge exceeds R times the harmonic-mean scene depth at a corner
     /// (`off` disables the heuristic). Default 1.
     #[arg(long, value_name = "R|off", allow_hyphen_values = true)]
-    pub(crate) depth_ratio: Option<String>,
+    depth_ratio: Option<String>,
     /// Rays per node for the harmonic-mean depth. Default 32.
     #[arg(long, value_name = "N")]
-    pub(crate) depth_rays: Option<u32>,
+    depth_rays: Option<u32>,
     /// Cull a node whose difference from the coarser levels' interpolation is within this
     /// fraction of the volume's mean DC value. Default 0.01.
     #[arg(long, value_name = "TOL", allow_hyphen_values = true)]
-    pub(crate) cull_tolerance: Option<f64>,
+    cull_tolerance: Option<f64>,
     /// Memory budget, stated as the node count of a uniform grid of the same memory: the
     /// octree's bytes (coefficients, base weights, 8-byte keys, split bitmaps) stay within
     /// N × (3·coeffs + 1) × 4 bytes, the bytes of N uniform nodes with their weights.
     #[arg(long, value_name = "N")]
-    pub(crate) node_budget: Option<u64>,
+    node_budget: Option<u64>,
     /// With --shard: bake shard K/N of refinement level L (1..=--max-level) from the
     /// complete shard sets of the levels below (--from-shards), writing `<stem>.lvref`.
     /// Without --level, --shard bakes level 0 (the base grid) and writes `<stem>.lvacc`.
@@ -136,12 +134,6 @@ fn threshold(name: &str, s: Option<&str>, default: Option<f64>) -> anyhow::Resul
         bail!("{name} must be a positive finite number or 'off', got {s}");
     }
     Ok(Some(t))
-}
-
-/// Bytes of `nodes` uniform nodes with their weights (`IrradianceVolume::memory_bytes`).
-#[must_use]
-pub(crate) fn node_budget_bytes(nodes: u64, coeffs: usize) -> u128 {
-    u128::from(nodes) * (3 * coeffs as u128 + 1) * 4
 }
 
 impl AdaptiveArgs {
@@ -212,8 +204,7 @@ impl AdaptiveArgs {
 /// The bake request of the options (the shard resolved from `--shard`, `--shards` and the
 /// scheduler's environment), validated.
 pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> anyhow::Result<BakeRequest> {
-    let shard =
-        lightvol_core::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| std::env::var(k).ok())?;
+    let shard = shard_option(args.shard.as_deref(), args.shards)?;
     let request = BakeRequest {
         method: args.method.parse::<BakeMethod>().map_err(anyhow::Error::msg)?,
         samples: args.sampling.samples,
@@ -224,7 +215,7 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         gradients: args
             .gradients
             .map(|g| g.map_or(GradientChoice::MethodDefault, |e| GradientChoice::Estimator(e.into()))),
-        shard: args.shard.is_some().then_some(shard),
+        shard,
         keep_accumulator: args.keep_accumulator,
         adaptive,
     };
@@ -233,7 +224,7 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
 }
 
 /// A refused request, in the options' words.
-pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
+fn request_error(e: RequestError) -> anyhow::Error {
     let option = |c: Conflict| match c {
         Conflict::Adaptive => "--adaptive".to_owned(),
         Conflict::Shard => "--shard".to_owned(),
@@ -282,18 +273,4 @@ pub(crate) fn request_error(e: RequestError) -> anyhow::Error {
             "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
         ),
     }
-}
-
-/// The settings key of a bake of `request` on `grid` ([`lightvol_sampler::provenance`]).
-pub(crate) fn bake_key(loaded: &LoadedScene, grid: &GridSpec, request: &BakeRequest, label: &str) -> String {
-    let adaptive = request.adaptive.map(|a| a.settings);
-    provenance::bake_key(
-        &loaded.scene,
-        grid,
-        label,
-        request.samples,
-        request.coeffs,
-        &request.transport,
-        adaptive.as_ref(),
-    )
 }

@@ -23,10 +23,11 @@ use std::time::Instant;
 
 use anyhow::{Context, bail};
 use clap::{Args, ValueEnum};
-use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_hemibasis::bc::BlockFormat;
-use lightvol_scene::{Tracer, Transport, TransportSettings};
-use lightvol_surface::shard_io::{TexelSetError, TexelShardHeader, texel_set_records, write_texels};
+use lightvol_scene::{Tracer, Transport};
+use lightvol_surface::shard_io::{
+    TexelSetError, TexelShardHeader, shard_fingerprint, texel_set_records, write_texels,
+};
 use lightvol_surface::storage::{Container, StorageError, StorageSettings, SurfaceBakeSummary, store_maps};
 use lightvol_surface::{
     BasisChoice, InvalidTexels, Quantity, SurfaceGeometry, SurfaceSettings, UvSet, assemble_surface,
@@ -34,20 +35,8 @@ use lightvol_surface::{
 };
 
 use crate::imaging::write_atomic;
-use crate::progress::progress_bar;
-use crate::setup::{SceneArgs, with_threads};
-
-/// What shards of one surface bake share: the scene's geometry and lighting, every setting
-/// and the lightvol version.
-fn shard_fingerprint(
-    loaded: &crate::setup::LoadedScene,
-    settings: &SurfaceSettings,
-    ts: &TransportSettings,
-) -> String {
-    use lightvol_scene::fingerprint::scene_hash;
-    use lightvol_surface::key::surface_key;
-    scene_hash(&loaded.scene, &surface_key(&loaded.scene, settings, ts))
-}
+use crate::progress::with_bar;
+use crate::setup::{SceneArgs, shard_option, with_threads};
 
 /// The texel records of basis `tag` from `--from-shards` (lightvol-surface's
 /// `shard_io::texel_set_records`).
@@ -105,41 +94,41 @@ pub(crate) struct BakeSurfaceArgs {
     pub(crate) basis: String,
     /// Texel density D: every triangle gets at least D texels per world unit.
     #[arg(long, default_value_t = 32.0)]
-    pub(crate) texels_per_unit: f64,
+    texels_per_unit: f64,
     /// Fixed atlas size `W,H` for every object (overrides the density).
     #[arg(long, value_name = "W,H")]
     pub(crate) resolution: Option<String>,
     /// Lightmap UV set: 1 = TEXCOORD_1 (default), 0 = TEXCOORD_0.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=1))]
-    pub(crate) uv: u8,
+    uv: u8,
     /// Also write 8-bit textures (Ishmukhametov 2011 §2.2.3 encoding).
     #[arg(long, value_enum)]
-    pub(crate) encode: Option<EncodeFormat>,
+    encode: Option<EncodeFormat>,
     /// Block-compress the 8-bit textures (KTX2 containers; implies `--encode ktx2`); a
     /// comma-separated list writes and measures each.
     #[arg(long, value_enum, value_delimiter = ',')]
-    pub(crate) compress: Vec<CompressFormat>,
+    compress: Vec<CompressFormat>,
     /// Range compression of the non-DC coefficients: `[-r, r]` maps to `[0, 1]`.
     #[arg(long, default_value_t = 0.75)]
     pub(crate) range: f64,
     /// Scale applied before 8-bit encoding (default: 1 / the largest DC value, or `range`
     /// / the largest |coefficient| for bases without a DC term).
     #[arg(long)]
-    pub(crate) encode_scale: Option<f64>,
+    encode_scale: Option<f64>,
     /// What the maps hold: `irradiance` (`E`, a sky of radiance L gives π L) or `radiosity`
     /// (`E / π`, Ishmukhametov 2011 Eq. 2.3's normalised convolution).
     #[arg(long, value_parser = ["irradiance", "radiosity"], default_value = "irradiance")]
     pub(crate) quantity: String,
     /// SH bands of the intermediate hemisphere projection (Ishmukhametov 2011 §2.2.1 uses 3).
     #[arg(long, default_value_t = 3)]
-    pub(crate) sh_bands: usize,
+    sh_bands: usize,
     /// Dilation passes into empty atlas texels around the charts.
     #[arg(long, default_value_t = 2)]
-    pub(crate) gutter: u32,
+    gutter: u32,
     /// Keep invalid texels (sample points that see back faces) as they are: the ablation
     /// that shows the dark leak under intersecting geometry.
     #[arg(long)]
-    pub(crate) no_invalid_fix: bool,
+    no_invalid_fix: bool,
     /// In-domain path samples per texel.
     #[arg(long, value_parser = parse_samples, default_value_t = samples(256))]
     pub(crate) samples: Samples,
@@ -231,12 +220,7 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     if args.output.exists() && !args.output.is_dir() {
         bail!("output {} exists and is not a directory", args.output.display());
     }
-    let shard = match lightvol_core::shard::resolve_shard(args.shard.as_deref(), args.shards, |k| {
-        std::env::var(k).ok()
-    })? {
-        (0, 1) if args.shard.is_none() => None,
-        s => Some(s),
-    };
+    let shard = shard_option(args.shard.as_deref(), args.shards)?;
     let loaded = args.scene.load_flattened()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };
     let ts = args.path.transport();
@@ -260,47 +244,35 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
                 seed: args.seed,
                 ..SurfaceSettings::default()
             };
-            let pb = progress_bar(args.quiet, 0, &basis.tag());
-            let report = |p: Progress| {
-                pb.set_length(p.total as u64);
-                pb.set_position(p.done as u64);
-            };
-            let control = BakeControl { progress: Some(&report), cancel: None };
             let t0 = Instant::now();
-            let fingerprint = shard_fingerprint(&loaded, &settings, &ts);
+            let fingerprint = shard_fingerprint(&loaded.scene, &settings, &ts);
             if let Some(shard) = shard {
-                let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
-                let part = bake_surface_texels(&transport, &geo, &settings, &control, shard)
-                    .with_context(|| format!("baking {} shard {}/{}", basis.tag(), shard.0, shard.1))?;
-                pb.finish_and_clear();
-                let header = TexelShardHeader {
-                    shard_index: shard.0,
-                    shard_count: shard.1,
-                    total: part.total,
-                    coeffs: basis.coeffs(),
-                    basis: basis.tag().to_owned(),
-                    fingerprint,
-                    records: part.records.len() as u64,
-                };
+                let part = with_bar(args.quiet, &basis.tag(), |control| -> anyhow::Result<_> {
+                    let geo =
+                        SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
+                    bake_surface_texels(&transport, &geo, &settings, control, shard)
+                        .with_context(|| format!("baking {} shard {}/{}", basis.tag(), shard.0, shard.1))
+                })?;
+                let header = TexelShardHeader::new(&settings, fingerprint, &part, shard);
                 std::fs::create_dir_all(&args.output)
                     .with_context(|| format!("creating {}", args.output.display()))?;
-                let p = args.output.join(format!("texels-{}-{}-of-{}.lvtex", basis.tag(), shard.0, shard.1));
+                let p = args.output.join(header.file_name());
                 write_texels(&p, &part, &header).with_context(|| format!("writing {}", p.display()))?;
                 if !args.quiet {
                     eprintln!("wrote {} ({} of {} texels)", p.display(), part.records.len(), part.total);
                 }
                 continue;
             }
-            let out = if args.from_shards.is_empty() {
-                bake_surface(&transport, &settings, &control)
-                    .with_context(|| format!("baking {}", basis.tag()))?
-            } else {
+            let out = with_bar(args.quiet, &basis.tag(), |control| -> anyhow::Result<_> {
+                if args.from_shards.is_empty() {
+                    return bake_surface(&transport, &settings, control)
+                        .with_context(|| format!("baking {}", basis.tag()));
+                }
                 let records = shard_records(&args.from_shards, &basis.tag(), &fingerprint)?;
                 let geo = SurfaceGeometry::new(&loaded.scene, settings.uv_set).context("lightmap objects")?;
                 assemble_surface(&transport, &geo, &settings, &records)
-                    .with_context(|| format!("assembling {} from its shards", basis.tag()))?
-            };
-            pb.finish_and_clear();
+                    .with_context(|| format!("assembling {} from its shards", basis.tag()))
+            })?;
             bakes.push((settings, out, t0.elapsed().as_secs_f64()));
         }
         Ok(())

@@ -42,18 +42,18 @@ pub(crate) struct BenchArgs {
     /// hit and occlusion, 1 and 2 threads, with ray-by-ray agreement). `--scene` may then
     /// also be a glTF/OBJ file (+Y up). Needs Debian's `libembree-dev` and a C compiler.
     #[arg(long)]
-    pub(crate) embree: bool,
+    embree: bool,
     /// Instead: bake wall time and peak memory (each bake its own process) for the vendored
     /// scenes under `--data`, grid layouts of the occlusion room up to 32 x 32 rooms (65 M
     /// placed triangles, 63,720 stored) and the built-in scenes.
     #[arg(long, conflicts_with = "embree")]
-    pub(crate) bakes: bool,
+    bakes: bool,
     /// With --bakes: the folder holding the vendored scenes.
     #[arg(long, default_value = "data/scenes")]
     pub(crate) data: std::path::PathBuf,
     /// With --bakes: samples per cell of each doi bake.
     #[arg(long, value_parser = parse_samples, default_value_t = samples(16))]
-    pub(crate) bake_samples: Samples,
+    bake_samples: Samples,
     /// With --embree: how lightvol traces an instanced scene: `auto` (one level up to 2^20
     /// placed triangles), `one` (instances written out), `two` (a BVH per mesh under a
     /// top-level BVH). Embree always gets the triangles written out.
@@ -61,7 +61,7 @@ pub(crate) struct BenchArgs {
     pub(crate) levels: String,
     /// With --embree: lightvol's BVH build quality (`fast`, `medium`, `slow`: spatial splits).
     #[arg(long, default_value = "medium", value_parser = ["fast", "medium", "slow"])]
-    pub(crate) bvh_quality: String,
+    bvh_quality: String,
 }
 
 fn rays_per_second(tracer: &Tracer, origins: &[(DVec3, DVec3)], pool: &rayon::ThreadPool) -> f64 {

@@ -41,7 +41,7 @@ pub(crate) struct JobArgs {
     /// Work folder for the job files, shard outputs and logs (default: the output's path
     /// with the extension `.slurm`; for k8s, `STEM.k8s` in the current folder).
     #[arg(long)]
-    pub(crate) workdir: Option<PathBuf>,
+    workdir: Option<PathBuf>,
     /// The lightvol executable the jobs run (default: this one).
     #[arg(long)]
     pub(crate) lightvol: Option<PathBuf>,
@@ -59,22 +59,22 @@ pub(crate) struct SlurmArgs {
     pub(crate) job: JobArgs,
     /// Slurm partition (`--partition`).
     #[arg(long)]
-    pub(crate) partition: Option<String>,
+    partition: Option<String>,
     /// Time limit per shard (`--time`, e.g. `2:00:00`).
     #[arg(long)]
     pub(crate) time: Option<String>,
     /// CPUs per shard (`--cpus-per-task`; the bake uses that many threads).
     #[arg(long)]
-    pub(crate) cpus: Option<u32>,
+    cpus: Option<u32>,
     /// Memory per shard (`--mem`, e.g. `4G`).
     #[arg(long)]
-    pub(crate) mem: Option<String>,
+    mem: Option<String>,
     /// Submit the jobs with sbatch and print their ids.
     #[arg(long)]
-    pub(crate) submit: bool,
+    submit: bool,
     /// With --submit: wait for the merge and exit with its status.
     #[arg(long, requires = "submit")]
-    pub(crate) wait: bool,
+    wait: bool,
 }
 
 /// `lightvol k8s`.
@@ -91,13 +91,13 @@ pub(crate) struct K8sArgs {
     pub(crate) image: String,
     /// PersistentVolumeClaim mounted at --mount in every pod (scene, shards and output).
     #[arg(long, default_value = "lightvol-data")]
-    pub(crate) pvc: String,
+    pvc: String,
     /// Where the claim is mounted.
     #[arg(long, default_value = "/data")]
-    pub(crate) mount: String,
+    mount: String,
     /// CPU request per shard pod.
     #[arg(long, default_value_t = 1)]
-    pub(crate) cpus: u32,
+    cpus: u32,
 }
 
 /// Options of the cluster verbs that the shard jobs' `bake` must not see, with whether
@@ -122,7 +122,7 @@ const JOB_ONLY: &[(&str, bool)] = &[
 /// The bake's own arguments from the verb's command line (`argv` without the program and
 /// verb): every job-only option (`--opt V`, `--opt=V`, `-oV`) removed.
 #[must_use]
-pub(crate) fn bake_arguments(argv: &[String]) -> Vec<String> {
+fn bake_arguments(argv: &[String]) -> Vec<String> {
     let mut out = Vec::new();
     let mut i = 0;
     while i < argv.len() {

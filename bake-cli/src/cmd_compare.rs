@@ -27,7 +27,7 @@ use lightvol_volume::GridSpec;
 
 use crate::compare_views::{ViewArgs, cameras};
 use crate::imaging::write_atomic;
-use crate::progress::progress_bar;
+use crate::progress::{progress_bar, show};
 use crate::setup::{GridArgs, LoadedScene, SampleArgs, SceneArgs, resolve_threads};
 
 /// `lightvol compare`.
@@ -117,8 +117,7 @@ impl Observer for ProgressBars {
 
     fn progress(&self, p: Progress) {
         if let Some(pb) = &*self.bar() {
-            pb.set_length(p.total as u64);
-            pb.set_position(p.done as u64);
+            show(pb, p);
         }
     }
 

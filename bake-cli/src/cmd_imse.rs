@@ -15,7 +15,7 @@ use crate::imaging::{Plot, write_atomic};
 pub(crate) struct ImseArgs {
     /// Random radiance signals (9 SH coefficients each, uniform in [-1, 1]).
     #[arg(long, default_value_t = 10_000)]
-    pub(crate) signals: usize,
+    signals: usize,
     /// Seed of the signals.
     #[arg(long, default_value_t = 0)]
     pub(crate) seed: u64,

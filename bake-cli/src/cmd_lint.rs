@@ -24,20 +24,20 @@ pub(crate) struct LintArgs {
     pub(crate) grid: GridArgs,
     /// Probe points per grid cell.
     #[arg(long, default_value_t = 4)]
-    pub(crate) points_per_cell: u32,
+    points_per_cell: u32,
     /// Rays per probe point.
     #[arg(long, default_value_t = 128)]
     pub(crate) dirs: u32,
     /// Vertices closer than this are welded for the winding check (default: 1e-6 of the
     /// scene's extent).
     #[arg(long)]
-    pub(crate) weld: Option<f64>,
+    weld: Option<f64>,
     /// Report back-face suspects only with at least this many hits. A reversed polygon in
     /// open space is hit by a large share of the probe points around it (hundreds of hits);
     /// a handful means a few probe points squeezed into a sliver of space, such as the
     /// 0.8 mm gap between the Cornell box's light and its ceiling.
     #[arg(long, default_value_t = 50)]
-    pub(crate) min_score: u32,
+    min_score: u32,
     /// Print suspects as JSON.
     #[arg(long)]
     pub(crate) json: bool,
@@ -48,15 +48,15 @@ pub(crate) struct LintArgs {
 
 /// One suspect triangle in the JSON output.
 #[derive(Debug, Serialize)]
-pub(crate) struct SuspectJson {
+struct SuspectJson {
     /// Which check flagged it: `back_face` or `winding`.
-    pub(crate) check: &'static str,
+    check: &'static str,
     /// Triangle index in load order.
-    pub(crate) triangle: u32,
+    triangle: u32,
     /// Where to look.
-    pub(crate) position: [f64; 3],
+    position: [f64; 3],
     /// Back-face hits, or inconsistent edges.
-    pub(crate) score: u32,
+    score: u32,
 }
 
 /// Runs `lightvol lint`.

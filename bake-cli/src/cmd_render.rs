@@ -9,7 +9,7 @@
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
-use lightvol_scene::{DVec3, Tracer, Transport};
+use lightvol_scene::{Tracer, Transport};
 use lightvol_view::{
     Camera, Quantity, ReferenceConfig, ViewConfig, ViewError, ViewImage, render_reference, render_volume,
 };
@@ -43,14 +43,7 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         None => {
             // Frame the volume (or the built-in's recommended grid), else the scene.
             let grid = vol.as_ref().map(|v| v.field().grid().clone()).or_else(|| loaded.grid.clone());
-            let (lo, hi) = match grid {
-                Some(g) if g.placement().is_none() => {
-                    let (a, b) = g.bounds();
-                    (DVec3::from(a), DVec3::from(b))
-                }
-                _ => loaded.scene.bounds(),
-            };
-            (Camera::overview(lo, hi)?, None)
+            (Camera::framing(&loaded.scene, grid.as_ref())?, None)
         }
     };
     let (width, height) = args.size(aspect)?;

@@ -19,60 +19,22 @@
 //! §2.2.3 as RGB8 (PNG): 3 bytes per coefficient (an uncompressed RGBA8 KTX2 stores 4, BC7 1,
 //! BC1 0.5; see `bake-surface`'s summary).
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use lightvol_surface::SurfaceGeometry;
 use lightvol_surface::map_dir::{MapDirError, check_lighting, check_objects, read_map_dir};
-use lightvol_surface::shaded_view::{MapSet, NormalMap, ShadedViewSettings, render_shaded_view};
+use lightvol_surface::shaded_view::{
+    MapSet, NormalMap, ShadedViewReport, ShadedViewSettings, image_file, render_shaded_view,
+};
 use lightvol_view::Camera;
 use lightvol_view::picture::sheet;
-use serde::Serialize;
 
-use crate::imaging::{AUTO_EXPOSURE_MEAN, Rgb32, write_atomic, write_png_linear};
+use crate::imaging::{Rgb32, write_atomic, write_png_linear};
 use crate::progress::with_report_bar;
 use crate::render_args::{RenderArgs, resolve_camera};
 use crate::setup::with_threads;
-
-/// One basis's entry in `report.json`.
-#[derive(Debug, Serialize)]
-pub(crate) struct BasisReport {
-    /// Relative RMSE against the path-traced reference.
-    pub(crate) rel_rmse: f64,
-    /// 8-bit storage per texel as RGB8 (PNG): 3 bytes per coefficient (RGBA8 KTX2 stores 4).
-    pub(crate) bytes_per_texel: usize,
-    /// Coefficients per channel.
-    pub(crate) coefficients: usize,
-    /// The image, relative to the output directory.
-    pub(crate) image: String,
-}
-
-/// The reference's entry in `report.json`.
-#[derive(Debug, Serialize)]
-pub(crate) struct ReferenceReport {
-    /// The image.
-    pub(crate) image: String,
-    /// Path-traced samples per pixel.
-    pub(crate) samples: u32,
-}
-
-/// `report.json`.
-#[derive(Debug, Serialize)]
-pub(crate) struct SurfaceRenderReport {
-    /// Per basis (and `lightmap` / `lightmap4`, the modified H-basis's lower levels of detail).
-    pub(crate) bases: BTreeMap<String, BasisReport>,
-    /// Invalid texels of the bakes, read from the EXR maps (sum over objects; largest over
-    /// the bases, which share the geometry and sample points).
-    pub(crate) invalid_texels: u64,
-    /// The reference.
-    pub(crate) reference: ReferenceReport,
-    /// Pixels showing lightmapped surfaces (those the RMSE runs over).
-    pub(crate) pixels: usize,
-    /// The normal map used.
-    pub(crate) normal_map: String,
-}
 
 /// The map folder's errors, those about the folder as a whole named by `--surface`.
 fn surface_error(e: MapDirError) -> anyhow::Error {
@@ -105,10 +67,7 @@ pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Re
     check_objects(&maps, &geo).map_err(surface_error)?;
     let (camera, aspect) = match &args.camera {
         Some(c) => resolve_camera(c, &loaded.scene, loaded.frame)?,
-        None => {
-            let (lo, hi) = loaded.scene.bounds();
-            (Camera::overview(lo, hi)?, None)
-        }
+        None => (Camera::framing(&loaded.scene, None)?, None),
     };
     let (width, height) = args.size(aspect)?;
     let settings = ShadedViewSettings {
@@ -133,40 +92,12 @@ pub(crate) fn run(args: &RenderArgs, dir: &Path, normal_map: &str) -> anyhow::Re
     let image = |px: &[[f32; 3]]| Rgb32 { width: w, height: h, pixels: px.to_vec() };
     let reference = image(&view.reference);
     let images: Vec<Rgb32> = view.images.iter().map(|i| image(&i.pixels)).collect();
-    let exposure = args.exposure.unwrap_or_else(|| {
-        let mean: f64 = view
-            .reference
-            .iter()
-            .zip(&view.lightmapped)
-            .filter(|(_, lm)| **lm)
-            .map(|(r, _)| f64::from(r[0] + r[1] + r[2]) / 3.0)
-            .sum::<f64>()
-            / pixels as f64;
-        if mean > 0.0 { (AUTO_EXPOSURE_MEAN / mean) as f32 } else { 1.0 }
-    });
-    let mut bases = BTreeMap::new();
-    for i in &view.images {
-        bases.insert(
-            i.name.clone(),
-            BasisReport {
-                rel_rmse: i.rel_rmse,
-                bytes_per_texel: 3 * i.coefficients,
-                coefficients: i.coefficients,
-                image: format!("{}.png", i.name),
-            },
-        );
-    }
-    let report = SurfaceRenderReport {
-        bases,
-        invalid_texels,
-        reference: ReferenceReport { image: "reference.png".into(), samples: args.reference_samples.get() },
-        pixels,
-        normal_map: normal_map.to_owned(),
-    };
+    let exposure = args.exposure.unwrap_or_else(|| view.auto_exposure());
+    let report = ShadedViewReport::new(&view, invalid_texels, args.reference_samples, normal_map);
     std::fs::create_dir_all(&out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
-    write_png_linear(&out_dir.join("reference.png"), &reference, exposure)?;
+    write_png_linear(&out_dir.join(&report.reference.image), &reference, exposure)?;
     for (i, img) in view.images.iter().zip(&images) {
-        write_png_linear(&out_dir.join(format!("{}.png", i.name)), img, exposure)?;
+        write_png_linear(&out_dir.join(image_file(&i.name)), img, exposure)?;
     }
     let mut tiles = vec![&reference];
     tiles.extend(images.iter());

@@ -33,7 +33,7 @@ pub(crate) enum LayoutArg {
 pub(crate) struct ShaderArgs {
     /// Shading language.
     #[arg(long, value_enum, default_value = "wgsl")]
-    pub(crate) lang: LangArg,
+    lang: LangArg,
     /// Where the coefficients live.
     #[arg(long, value_enum, default_value = "ktx2")]
     pub(crate) layout: LayoutArg,

@@ -27,7 +27,7 @@ fn scene_label(scene: &str) -> String {
 }
 
 /// The rows of one `report.json`.
-pub(crate) fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
+fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
     let file = if path.is_dir() { path.join("report.json") } else { path.to_path_buf() };
     let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
     let v: Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", file.display()))?;

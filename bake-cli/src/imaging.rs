@@ -4,7 +4,7 @@
 use std::path::Path;
 
 use anyhow::Context;
-pub(crate) use lightvol_view::picture::{AUTO_EXPOSURE_MEAN, Plot, Rgb32, auto_exposure};
+pub(crate) use lightvol_view::picture::{Plot, Rgb32, auto_exposure};
 use lightvol_view::picture::{exr_linear, png_linear, png_rgb8};
 
 /// Writes an 8-bit RGB PNG atomically (temporary file, then rename).

@@ -24,6 +24,12 @@ pub(crate) fn progress_bar(quiet: bool, len: u64, what: &str) -> ProgressBar {
     pb
 }
 
+/// Shows the progress report `p` on `pb`: the units done of the total.
+pub(crate) fn show(pb: &ProgressBar, p: Progress) {
+    pb.set_length(p.total as u64);
+    pb.set_position(p.done as u64);
+}
+
 /// Runs `f` with a [`BakeControl`] whose progress drives a bar labelled `label` (hidden when
 /// `quiet`), cleared when `f` returns.
 pub(crate) fn with_bar<T>(quiet: bool, label: &str, f: impl FnOnce(&BakeControl<'_>) -> T) -> T {
@@ -38,11 +44,7 @@ pub(crate) fn with_report_bar<T>(
     f: impl FnOnce(&(dyn Fn(Progress) + Sync)) -> T,
 ) -> T {
     let pb = progress_bar(quiet, 0, label);
-    let report = |p: Progress| {
-        pb.set_length(p.total as u64);
-        pb.set_position(p.done as u64);
-    };
-    let out = f(&report);
+    let out = f(&|p| show(&pb, p));
     pb.finish_and_clear();
     out
 }

@@ -78,11 +78,11 @@ pub(crate) struct PathArgs {
     /// At most N diffuse bounces (0: the first surface's direct light only). Without it,
     /// paths are unbiased: 2 bounces, then Russian roulette.
     #[arg(long, value_name = "N")]
-    pub(crate) bounces: Option<u32>,
+    bounces: Option<u32>,
     /// With --bounces N: continue after the N bounces under Russian roulette (unbiased)
     /// instead of stopping.
     #[arg(long, requires = "bounces")]
-    pub(crate) russian_roulette: bool,
+    russian_roulette: bool,
     /// Which light counts when it reaches a probe or surface directly: `all`, `sky+indirect`
     /// (not the sun nor punctual lights, which engines often add at run time) or `indirect`
     /// (only light that bounced). Applies to the bake and to the reference alike.
@@ -167,7 +167,7 @@ fn parse_rgb(what: &str, s: &str) -> anyhow::Result<[f64; 3]> {
 }
 
 /// Parses `DX,DY,DZ:INTENSITY[:ANGLE_DEG]`.
-pub(crate) fn parse_sun(s: &str) -> anyhow::Result<Sun> {
+fn parse_sun(s: &str) -> anyhow::Result<Sun> {
     let parts: Vec<&str> = s.split(':').collect();
     if !(2..=3).contains(&parts.len()) {
         bail!("--sun: expected DX,DY,DZ:INTENSITY[:ANGLE_DEG], got '{s}'");
@@ -314,6 +314,13 @@ impl SampleArgs {
     pub(crate) fn transport(&self) -> TransportSettings {
         self.path.transport()
     }
+}
+
+/// The shard of `--shard K/N|auto` and `--shards N` (`auto`: from the scheduler's
+/// environment, `lightvol_core::shard::resolve_shard`), or `None` without `--shard`.
+pub(crate) fn shard_option(shard: Option<&str>, shards: Option<u32>) -> anyhow::Result<Option<(u32, u32)>> {
+    let resolved = lightvol_core::shard::resolve_shard(shard, shards, |k| std::env::var(k).ok())?;
+    Ok(shard.is_some().then_some(resolved))
 }
 
 /// Parses a method name.

@@ -83,6 +83,13 @@ pub struct AdaptiveStats {
     pub wall_time: Duration,
 }
 
+/// Bytes of `nodes` uniform nodes of `coeffs` RGB coefficients with their f32 weights (what
+/// a uniform volume of them stores): an octree's memory budget stated as a node count.
+#[must_use]
+pub fn node_budget_bytes(nodes: u64, coeffs: usize) -> u128 {
+    u128::from(nodes) * (3 * coeffs as u128 + 1) * 4
+}
+
 /// Harmonic mean of the hit distances of `rays` seeded uniform rays from `x` (stream
 /// `stream`), `H = N / Σ 1/d_i` with misses contributing 0 (`INFINITY` when nothing is
 /// hit), and whether more than half of the rays met back faces (`x` inside a solid).

@@ -31,15 +31,17 @@
 //! | 8 + 8·p | count `p` of poisoned sums, then their indices (numerators first, then denominators, then outside sums) |
 //! | 8 | FNV-1a 64 of every preceding byte |
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use lightvol_core::hash::fnv1a;
 use lightvol_volume::fixed::FixedSums;
+use lightvol_volume::io::accumulator::ACC_EXTENSION;
 use lightvol_volume::io::util::{read_bounded, write_atomic};
 use serde::{Deserialize, Serialize};
 
 use crate::bake::FixedSubsetSums;
 use crate::error::BakeError;
+use crate::stats::BakeStats;
 use lightvol_scene::stats::RayCounts;
 
 const MAGIC: &[u8; 6] = b"LVREF\0";
@@ -230,6 +232,17 @@ pub fn level_from_bytes(bytes: &[u8]) -> Result<(LevelSums, LevelShardHeader), B
     Ok((sums, header))
 }
 
+/// The extension of a refinement level's shard file (`.lvref`).
+pub const LEVEL_EXTENSION: &str = "lvref";
+
+/// The shard file of `level` that a shard of an octree bake to the volume file `output`
+/// writes beside it: level 0's exact sums as an accumulator (`output` with the extension
+/// [`ACC_EXTENSION`]), a refinement level's as a level file ([`LEVEL_EXTENSION`]).
+#[must_use]
+pub fn level_shard_path(output: &Path, level: u32) -> PathBuf {
+    output.with_extension(if level == 0 { ACC_EXTENSION } else { LEVEL_EXTENSION })
+}
+
 /// Writes one shard of a level atomically.
 ///
 /// # Errors
@@ -268,17 +281,30 @@ pub struct ShardSet {
     pub levels: Vec<LevelSums>,
 }
 
+impl ShardSet {
+    /// What the level-0 shards report to the assembly
+    /// ([`crate::adaptive::assemble_adaptive`]): their sampling rays (the shard files keep no
+    /// other counter).
+    #[must_use]
+    pub fn base_stats(&self) -> BakeStats {
+        BakeStats {
+            rays: RayCounts { sampling: self.base_samples, ..RayCounts::default() },
+            ..BakeStats::default()
+        }
+    }
+}
+
 /// Why a set of adaptive shard files was refused (nothing is baked or written before).
 #[derive(Debug, thiserror::Error)]
 pub enum ShardSetError {
     /// A file appears twice.
     #[error("{} is given twice (its samples would count twice)", .0.display())]
-    Twice(std::path::PathBuf),
+    Twice(PathBuf),
     /// A `.lvacc` of another bake, or not a level-0 shard.
     #[error("{} is not a level-0 shard of this adaptive bake (method '{method}', scene and settings {hash}; this bake: '{want_method}', {want_hash})", path.display())]
     NotBase {
         /// The file.
-        path: std::path::PathBuf,
+        path: PathBuf,
         /// Its method label.
         method: String,
         /// Its scene hash.
@@ -292,7 +318,7 @@ pub enum ShardSetError {
     #[error("{} belongs to another bake (scene and settings {hash}; this bake: {want})", path.display())]
     OtherBake {
         /// The file.
-        path: std::path::PathBuf,
+        path: PathBuf,
         /// Its scene hash.
         hash: String,
         /// This bake's.
@@ -300,14 +326,14 @@ pub enum ShardSetError {
     },
     /// Neither a `.lvacc` nor a `.lvref`.
     #[error("{}: the shard files of an adaptive bake are level-0 .lvacc and level .lvref files", .0.display())]
-    Extension(std::path::PathBuf),
+    Extension(PathBuf),
     /// A file could not be read or merged.
     #[error("{what} {}", path.display())]
     File {
         /// `reading` or `merging`.
         what: &'static str,
         /// The file.
-        path: std::path::PathBuf,
+        path: PathBuf,
         /// Why.
         #[source]
         source: Box<dyn std::error::Error + Send + Sync>,
@@ -319,7 +345,7 @@ pub enum ShardSetError {
     #[error("{}: {what}shard of {got} where the others are of {want}", path.display())]
     MixedCount {
         /// The file.
-        path: std::path::PathBuf,
+        path: PathBuf,
         /// `""` for level 0, `"level-L "` above.
         what: String,
         /// Its count.
@@ -371,10 +397,9 @@ impl ShardSet {
     ///
     /// # Errors
     /// [`ShardSetError`], one for the first problem found.
-    pub fn load(files: &[std::path::PathBuf], hash: &str, method: &str) -> Result<Self, ShardSetError> {
+    pub fn load(files: &[PathBuf], hash: &str, method: &str) -> Result<Self, ShardSetError> {
         use lightvol_volume::BakeMetadata;
         use lightvol_volume::io::accumulator::{merge_accumulator_file, read_accumulator_metadata};
-        use std::path::PathBuf;
         let mut seen = Vec::new();
         let mut base_files: Vec<(BakeMetadata, PathBuf)> = Vec::new();
         let mut level_files: Vec<(LevelShardHeader, LevelSums, PathBuf)> = Vec::new();
@@ -386,7 +411,7 @@ impl ShardSet {
             }
             seen.push(canon);
             match p.extension().and_then(|e| e.to_str()) {
-                Some("lvacc") => {
+                Some(ACC_EXTENSION) => {
                     let m = read_accumulator_metadata(p).map_err(|e| ShardSetError::file("reading", p, e))?;
                     if m.method != want_method || m.scene_hash != hash {
                         return Err(ShardSetError::NotBase {
@@ -399,7 +424,7 @@ impl ShardSet {
                     }
                     base_files.push((m, p.clone()));
                 }
-                Some("lvref") => {
+                Some(LEVEL_EXTENSION) => {
                     let (l, h) = read_level(p).map_err(|e| ShardSetError::file("reading", p, e))?;
                     if h.scene_hash != hash {
                         return Err(ShardSetError::OtherBake {
@@ -501,6 +526,24 @@ mod tests {
             sums: FixedSubsetSums { nodes: vec![4, 11], numerator, denominator, outside },
             rays: RayCounts { sampling: 10, query: 2, bounce: 3, shadow: 4 },
         }
+    }
+
+    #[test]
+    fn the_base_reports_its_sampling_rays() {
+        let grid = lightvol_volume::GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+        let base = lightvol_volume::Accumulator::new(grid, 9).unwrap();
+        let set = ShardSet { base, base_samples: 1234, levels: Vec::new() };
+        let s = set.base_stats();
+        assert_eq!(s.rays, RayCounts { sampling: 1234, query: 0, bounce: 0, shadow: 0 });
+        assert_eq!((s.units, s.candidates, s.wall_time), (0, 0, std::time::Duration::ZERO));
+    }
+
+    #[test]
+    fn shard_files_sit_beside_the_output() {
+        let out = Path::new("shards/level2-7.exr");
+        assert_eq!(level_shard_path(out, 0), PathBuf::from("shards/level2-7.lvacc"));
+        assert_eq!(level_shard_path(out, 2), PathBuf::from("shards/level2-7.lvref"));
+        assert_eq!(level_shard_path(Path::new("v"), 1), PathBuf::from("v.lvref"));
     }
 
     #[test]

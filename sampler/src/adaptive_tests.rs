@@ -299,6 +299,17 @@ fn geometry_heuristic_splits_exactly_the_cells_with_geometry() {
     assert!(checked > 200);
 }
 
+/// A node budget is the memory of a uniform volume of that many nodes.
+#[test]
+fn node_budgets_are_uniform_volumes() {
+    assert_eq!(node_budget_bytes(1000, 9), 1000 * 28 * 4);
+    assert_eq!(node_budget_bytes(1, 16), 49 * 4);
+    let spec = GridSpec::new([0.0; 3], [1.0; 3], [10, 10, 10]).unwrap();
+    let vol = lightvol_volume::IrradianceVolume::from_fn(spec, 9, |_| vec![[0.5, 0.25, 1.0]; 9]).unwrap();
+    assert_eq!(node_budget_bytes(1000, 9), vol.memory_bytes() as u128);
+    assert_eq!(node_budget_bytes(u64::MAX, 16), u128::from(u64::MAX) * 196);
+}
+
 #[test]
 fn memory_budget_and_cancellation() {
     let c = city();
@@ -307,7 +318,8 @@ fn memory_budget_and_cancellation() {
     let grid = small_city_grid();
     let (s, a) = tiny_settings();
     // The memory of a uniform grid with twice the resolution.
-    let uniform = level_grid(&grid, 1).unwrap().node_count() * (s.coeffs * 3 + 1) * 4;
+    let nodes = level_grid(&grid, 1).unwrap().node_count() as u64;
+    let uniform = usize::try_from(node_budget_bytes(nodes, s.coeffs)).unwrap();
     let a = AdaptiveSettings { memory_budget: Some(uniform), ..a };
     let (v, _) = bake_adaptive(&t, &grid, &s, &a, &BakeControl::default()).unwrap();
     assert!(

@@ -39,6 +39,8 @@
 //! Every baseline's volume has weight 1 at valid nodes and 0 at invalid (filled) ones, as a
 //! `doi` bake marks its filled nodes; only `point+apv` attaches a validity mask.
 
+use std::time::{Duration, Instant};
+
 use glam::DVec3;
 use lightvol_sh::lowdisc::hash2;
 use lightvol_sh::sampling::sample_uniform_sphere;
@@ -152,6 +154,8 @@ pub struct BaselineBake {
     pub filled: usize,
     /// Rays: the point samples' (all kinds) and the validity rays (as `query`).
     pub rays: RayCounts,
+    /// Wall time of the bake.
+    pub wall_time: Duration,
 }
 
 impl BaselineBake {
@@ -188,6 +192,7 @@ pub fn bake_baseline(
     settings: &BakeSettings,
     baseline: Baseline,
 ) -> Result<BaselineBake, BakeError> {
+    let started = Instant::now();
     let tracer = t.tracer();
     let sp = spacing(grid);
     let min_sp = min_spacing(grid);
@@ -253,7 +258,7 @@ pub fn bake_baseline(
             .set_validity(Some(ValidityMask::new(valid.clone())))
             .map_err(|e| BakeError::Volume(e.to_string()))?;
     }
-    Ok(BaselineBake { volume, valid, capture, filled, rays })
+    Ok(BaselineBake { volume, valid, capture, filled, rays, wall_time: started.elapsed() })
 }
 
 /// The valid neighbours of `node` within one cell (the 26 around it), with their grid

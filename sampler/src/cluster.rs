@@ -21,6 +21,10 @@
 
 use std::path::Path;
 
+use lightvol_volume::io::accumulator::ACC_EXTENSION;
+
+use crate::adaptive_shard::LEVEL_EXTENSION;
+
 /// A value that job files cannot carry.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum ClusterError {
@@ -101,15 +105,15 @@ pub fn stages(plan: &JobPlan, shards: &str, index: &str, out: &str) -> (Vec<Stag
             name: "bake".into(),
             tail: format!("--shard auto --shards {n} -o {shards}/shard-{index}.exr"),
         };
-        return (vec![st], format!("merge {shards}/*.lvacc -o {out}"));
+        return (vec![st], format!("merge {shards}/*.{ACC_EXTENSION} -o {out}"));
     };
-    let mut inputs = vec![format!("{shards}/level0-*.lvacc")];
+    let mut inputs = vec![format!("{shards}/level0-*.{ACC_EXTENSION}")];
     let mut out_stages = Vec::new();
     for level in 0..=max_level {
         let mut tail = format!("--shard auto --shards {n}");
         if level > 0 {
             tail += &format!(" --level {level} --from-shards {}", inputs.join(" "));
-            inputs.push(format!("{shards}/level{level}-*.lvref"));
+            inputs.push(format!("{shards}/level{level}-*.{LEVEL_EXTENSION}"));
         }
         tail += &format!(" -o {shards}/level{level}-{index}.exr");
         out_stages.push(Stage { name: format!("bake-level{level}"), tail });

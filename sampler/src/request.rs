@@ -7,14 +7,18 @@
 //! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
 
 use lightvol_core::samples::Samples;
-use lightvol_volume::{BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, VolumeGradients};
+use lightvol_volume::{
+    BakeMetadata, BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, VolumeGradients,
+};
 
 use crate::adaptive::AdaptiveSettings;
+use crate::adaptive_shard::base_label;
 use crate::gradient_bake::ShardGradients;
 use crate::gradient_estimator::{GradientBakeError, GradientEstimator, bake_with_estimator};
 use crate::method::BakeMethod;
 use crate::method::Baseline;
 use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
+use crate::provenance;
 use crate::{BakeError, BakeOutput, BakeSettings, Method};
 use lightvol_core::progress::BakeControl;
 use lightvol_scene::{Scene, Transport, TransportSettings, UpAxis};
@@ -152,6 +156,53 @@ impl BakeRequest {
             russian_roulette: self.transport.russian_roulette,
             direct_light: self.transport.direct.name().to_owned(),
             octree: self.adaptive.map(|a| a.settings),
+        }
+    }
+
+    /// The method label of this bake's files: [`Self::label`], except that the level-0
+    /// shards of an octree bake carry [`base_label`] of it, so that a plain merge refuses
+    /// them and the octree's assembly recognises them.
+    #[must_use]
+    pub fn file_label(&self) -> String {
+        match (self.adaptive, self.shard) {
+            (Some(AdaptiveRequest { level: None | Some(0), .. }), Some(_)) => base_label(&self.label()),
+            _ => self.label(),
+        }
+    }
+
+    /// The settings key of this bake on `grid` over `scene` ([`provenance::bake_key`] of
+    /// [`Self::label`]: every level and shard of one bake shares it).
+    #[must_use]
+    pub fn key(&self, scene: &Scene, grid: &GridSpec) -> String {
+        let adaptive = self.adaptive.map(|a| a.settings);
+        provenance::bake_key(
+            scene,
+            grid,
+            &self.label(),
+            self.samples,
+            self.coeffs,
+            &self.transport,
+            adaptive.as_ref(),
+        )
+    }
+
+    /// The metadata of a file of this bake from `scene` (in the file frame `frame`), keyed
+    /// by `key` ([`Self::key`]), whose bake traced `sampling_rays` sampling rays
+    /// ([`provenance::bake_metadata`] under [`Self::file_label`], for the request's shard or
+    /// the whole volume), with the typed record of its settings ([`Self::record`]).
+    #[must_use]
+    pub fn metadata(&self, scene: &Scene, frame: UpAxis, key: &str, sampling_rays: u64) -> BakeMetadata {
+        BakeMetadata {
+            settings: Some(self.record()),
+            ..provenance::bake_metadata(
+                scene,
+                frame,
+                key,
+                &self.file_label(),
+                sampling_rays,
+                self.seed,
+                self.shard.unwrap_or((0, 1)),
+            )
         }
     }
 
@@ -399,18 +450,7 @@ pub fn bake_uniform(
             (out, Extra::Mass(mass))
         }
     };
-    let meta = lightvol_volume::BakeMetadata {
-        settings: Some(request.record()),
-        ..crate::provenance::bake_metadata(
-            scene,
-            provenance.frame,
-            provenance.key,
-            &request.label(),
-            output.stats.rays.sampling,
-            request.seed,
-            settings.shard,
-        )
-    };
+    let meta = request.metadata(scene, provenance.frame, provenance.key, output.stats.rays.sampling);
     if request.writes_accumulator() {
         // Auxiliary sums do not change what the accumulator finalizes to.
         match &extra {
@@ -439,70 +479,6 @@ pub fn bake_uniform(
         }
     };
     Ok(UniformBake { output, volume, fill, gradients, least_squares })
-}
-
-/// A volume finalized from merged shard sums ([`finish_merged`]).
-pub struct MergedVolume {
-    /// The volume (Eq. 6, or the least-squares fit), with `meta`.
-    pub volume: IrradianceVolume,
-    /// Zero-weight nodes filled from neighbours.
-    pub fill: FillReport,
-    /// The gradients the shards carried, solved or restored, with their report.
-    pub gradients: Option<(VolumeGradients, crate::gradient_bake::GradientReport)>,
-    /// The least-squares fit's weight λ and solve, when the shards carry a mass matrix.
-    pub least_squares: Option<(f64, FitReport)>,
-}
-
-/// Why merged sums could not be finalized.
-#[derive(Debug, thiserror::Error)]
-pub enum MergeError {
-    /// The shards carry a mass matrix but their metadata names no least-squares fit.
-    #[error("the shards carry a mass matrix but their method '{0}' names no least-squares fit")]
-    NoLambda(String),
-    /// The auxiliary gradient sums could not be read.
-    #[error("reading the shards' gradients")]
-    GradientSums(#[source] BakeError),
-    /// The least-squares node fit.
-    #[error("least-squares node fit")]
-    LeastSquares(#[source] BakeError),
-    /// The basis-gradient systems.
-    #[error("solving the basis-gradient systems")]
-    Gradients(#[source] BakeError),
-}
-
-/// Finalizes the merged sums of a whole shard set (the same bits as the unsharded bake
-/// gives, [`bake_uniform`]) under `meta`: the least-squares fit over the whole set where the
-/// shards carry its mass matrix (λ from `lambda`, the set's recorded fit), and the
-/// gradients the shards carry (the basis estimator's systems solved on the merged volume,
-/// or the central differences restored).
-///
-/// # Errors
-/// [`MergeError`].
-pub fn finish_merged(
-    acc: &lightvol_volume::Accumulator,
-    meta: lightvol_volume::BakeMetadata,
-    lambda: Option<f64>,
-) -> Result<MergedVolume, MergeError> {
-    let grad_sums = ShardGradients::from_accumulator(acc).map_err(MergeError::GradientSums)?;
-    let (volume, fill, least_squares) = match crate::node_fit::MassMatrix::from_accumulator(acc) {
-        None => {
-            let (v, fill) = acc.finalize();
-            (v, fill, None)
-        }
-        Some(mass) => {
-            let lambda = lambda.ok_or_else(|| MergeError::NoLambda(meta.method.clone()))?;
-            let (values, solve) =
-                solve_least_squares(&mass, acc, lambda).map_err(MergeError::LeastSquares)?;
-            let (v, fill) = finalize_least_squares(acc, values);
-            (v, fill, Some((lambda, solve)))
-        }
-    };
-    let volume = volume.with_metadata(meta);
-    let gradients = match grad_sums {
-        None => None,
-        Some(g) => Some(g.finish(&volume).map_err(MergeError::Gradients)?),
-    };
-    Ok(MergedVolume { volume, fill, gradients, least_squares })
 }
 
 #[cfg(test)]
@@ -550,6 +526,47 @@ mod tests {
         assert_eq!((g.gradients.as_deref(), g.fit), (Some("central"), FitRecord::Average));
         let apv = BakeRequest::new(BakeMethod::Baseline(Baseline::Apv), samples(16)).record();
         assert_eq!(apv.method, "point+apv");
+    }
+
+    /// Every file of one octree bake shares the key; the level-0 shards carry the base
+    /// label, the assembled volume and the uniform bakes the plain one.
+    #[test]
+    fn files_are_labelled_and_keyed_by_the_request() {
+        let maze = lightvol_scene::builtin("maze").unwrap();
+        let octree = |shard, level| BakeRequest {
+            shard,
+            seed: 7,
+            adaptive: Some(AdaptiveRequest {
+                settings: AdaptiveSettings::default(),
+                level,
+                from_shards: false,
+            }),
+            ..grid(Method::Doi)
+        };
+        let whole = octree(None, None);
+        let base = octree(Some((1, 3)), None);
+        let level1 = octree(Some((2, 3)), Some(1));
+        assert_eq!(whole.file_label(), "doi");
+        assert_eq!(base.file_label(), "doi adaptive-level-0");
+        assert_eq!(octree(Some((0, 3)), Some(0)).file_label(), "doi adaptive-level-0");
+        assert_eq!(level1.file_label(), "doi");
+        assert_eq!(BakeRequest { fit: LSQ, ..grid(Method::DoiPaper) }.file_label(), "doi-paper fit=lsq:0.1");
+        let key = whole.key(&maze.scene, &maze.grid);
+        assert_eq!(base.key(&maze.scene, &maze.grid), key);
+        assert_eq!(level1.key(&maze.scene, &maze.grid), key);
+        assert!(key.contains(" doi 16 coeffs=9 "), "{key}");
+        assert!(key.ends_with(&format!("lightvol={}", lightvol_scene::fingerprint::VERSION)), "{key}");
+        assert_ne!(grid(Method::Doi).key(&maze.scene, &maze.grid), key, "the octree settings are keyed");
+
+        let m = base.metadata(&maze.scene, UpAxis::Y, &key, 1234);
+        assert_eq!((m.method.as_str(), m.sampling_rays, m.seed), ("doi adaptive-level-0", 1234, 7));
+        assert_eq!((m.shard_index, m.shard_count, m.frame), (1, 3, UpAxis::Y));
+        assert_eq!(m.scene_hash, lightvol_scene::fingerprint::scene_hash(&maze.scene, &key));
+        assert_eq!(m.units, "relative");
+        assert_eq!(m.settings, Some(base.record()));
+        let w = whole.metadata(&maze.scene, UpAxis::Z, &key, 99);
+        assert_eq!((w.method.as_str(), w.sampling_rays, w.shard_index, w.shard_count), ("doi", 99, 0, 1));
+        assert_eq!(w.scene_hash, m.scene_hash);
     }
 
     #[test]

@@ -71,6 +71,17 @@ pub struct LoadedScene {
     pub defaulted_sky: bool,
 }
 
+impl LoadedScene {
+    /// Bytes a bake of this scene on a grid of `res` nodes with `coeffs` coefficients per
+    /// channel needs, the node reach counted or not (`node_reach`): the scene's own
+    /// (geometry, ray tracer, textures) and the grid's ([`bake_memory_bytes`]). The memory
+    /// limit is checked against it ([`GridChoice::resolve`]).
+    #[must_use]
+    pub fn bake_memory_bytes(&self, res: [u64; 3], coeffs: usize, node_reach: bool) -> u128 {
+        bake_memory_bytes(res, coeffs, node_reach).saturating_add(u128::from(self.memory.total()))
+    }
+}
+
 /// Why a scene could not be made ready.
 #[derive(Debug, thiserror::Error)]
 pub enum SetupError {
@@ -348,7 +359,7 @@ impl GridChoice {
         let coeffs = self.coeffs;
         let grid_bytes = bake_memory_bytes(res, coeffs, self.node_reach);
         let scene_bytes = u128::from(scene.memory.total());
-        let need = grid_bytes.saturating_add(scene_bytes);
+        let need = scene.bake_memory_bytes(res, coeffs, self.node_reach);
         let limit = self.memory_limit;
         if need > limit {
             let (what, bytes) = if grid_bytes >= scene_bytes {
@@ -403,6 +414,12 @@ mod tests {
         assert_eq!(bake_memory_bytes([1, 1, 1], 9, false), 29 * 17 + 28 * 8 + 28 * 4);
         assert_eq!(bake_memory_bytes([2, 3, 4], 4, false), 24 * (14 * 17 + 13 * 12));
         assert_eq!(bake_memory_bytes([2, 3, 4], 4, true), 24 * (14 * 17 + 13 * 12 + 190));
+        // A bake adds the scene's own bytes.
+        let m = maze();
+        let scene = u128::from(m.memory.total());
+        assert!(scene > 0);
+        assert_eq!(m.bake_memory_bytes([2, 3, 4], 4, true), 24 * (14 * 17 + 13 * 12 + 190) + scene);
+        assert_eq!(m.bake_memory_bytes([1, 1, 1], 9, false), 29 * 17 + 28 * 8 + 28 * 4 + scene);
     }
 
     #[test]

@@ -31,12 +31,17 @@ pub struct BakeStats {
     pub bvh_build_time: Duration,
 }
 
+/// Million rays per second: `rays` traced in `seconds` (0 when no time passed).
+#[must_use]
+pub fn mrays_per_second(rays: &RayCounts, seconds: f64) -> f64 {
+    if seconds > 0.0 { rays.total() as f64 / seconds / 1e6 } else { 0.0 }
+}
+
 impl BakeStats {
     /// Million rays per second over the sampling wall time.
     #[must_use]
     pub fn mrays_per_second(&self) -> f64 {
-        let s = self.wall_time.as_secs_f64();
-        if s > 0.0 { self.rays.total() as f64 / s / 1e6 } else { 0.0 }
+        mrays_per_second(&self.rays, self.wall_time.as_secs_f64())
     }
 
     /// Adds the counters of another (disjoint) part of the bake; times are not added.
@@ -81,5 +86,19 @@ impl std::fmt::Display for BakeStats {
             self.bvh_build_time.as_secs_f64(),
             self.mrays_per_second()
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn throughput_is_rays_over_time() {
+        let rays = RayCounts { sampling: 1_000_000, query: 500_000, bounce: 1_000_000, shadow: 500_000 };
+        assert_eq!(mrays_per_second(&rays, 1.5), 2.0);
+        assert_eq!(mrays_per_second(&rays, 0.0), 0.0);
+        let stats = BakeStats { rays, wall_time: Duration::from_millis(750), ..BakeStats::default() };
+        assert_eq!(stats.mrays_per_second(), 4.0);
     }
 }

@@ -1,10 +1,10 @@
 //! What one unit of a bake contributes: a node's point samples (Kontkanen & Laine 2006 Eq. 4,
-//! [`point_unit`]), a node box's candidates under Algorithm 2 ([`node_box_unit`]), and a
-//! cell's candidates weighted over the nodes' trilinear supports (Eq. 5-6, [`cell_unit`],
+//! `point_unit`), a node box's candidates under Algorithm 2 (`node_box_unit`), and a
+//! cell's candidates weighted over the nodes' trilinear supports (Eq. 5-6, `cell_unit`,
 //! with Algorithm 2 for `doi-paper`). `doi`'s unit, the probe, is [`crate::probe`].
 //!
 //! Every sample is one uniform direction from its origin and one path along it
-//! ([`sample_terms`]), plus, with light sampling, one MIS-weighted light sample.
+//! (`sample_terms`), plus, with light sampling, one MIS-weighted light sample.
 
 use std::f64::consts::PI;
 

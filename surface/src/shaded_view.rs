@@ -21,6 +21,7 @@
 //! wrapping at the same coordinates.
 
 use lightvol_core::samples::Samples;
+use std::collections::BTreeMap;
 use std::convert::Infallible;
 use std::path::{Path, PathBuf};
 
@@ -33,7 +34,9 @@ use super::{BasisChoice, CoefficientMap, Quantity, SurfaceGeometry, reference_su
 use lightvol_core::progress::Progress;
 use lightvol_scene::{DVec3, Scene, Tracer, Transport, TransportSettings};
 use lightvol_view::Camera;
+use lightvol_view::picture::auto_exposure_of;
 use lightvol_view::render::par_map_reporting;
+use serde::Serialize;
 
 /// Smallest `z` of a shading normal: normal-map texels that point below the surface are
 /// pulled up to 1° above the tangent plane (the maps hold the upper hemisphere only).
@@ -225,6 +228,97 @@ pub struct ShadedView {
     pub pixels: usize,
 }
 
+impl ShadedView {
+    /// The exposure that maps the mean lightmapped pixel of the reference to
+    /// lightvol-view's `AUTO_EXPOSURE_MEAN` ([`auto_exposure_of`]): one exposure for every
+    /// image of the view, so that they compare.
+    #[must_use]
+    pub fn auto_exposure(&self) -> f32 {
+        auto_exposure_of(self.reference.iter().zip(&self.lightmapped).filter(|(_, lm)| **lm).map(|(r, _)| r))
+    }
+}
+
+/// The file name of a shaded view's image `name` (a basis tag, `lightmap`, `lightmap4`).
+#[must_use]
+pub fn image_file(name: &str) -> String {
+    format!("{name}.png")
+}
+
+/// The file name of a shaded view's reference image.
+pub const REFERENCE_IMAGE: &str = "reference.png";
+
+/// One image's entry in a [`ShadedViewReport`].
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ShadedImageReport {
+    /// Relative RMSE against the path-traced reference.
+    pub rel_rmse: f64,
+    /// 8-bit storage per texel as RGB8 (PNG): 3 bytes per coefficient (\[Ish11\] §2.2.3;
+    /// an RGBA8 KTX2 stores 4).
+    pub bytes_per_texel: usize,
+    /// Coefficients per channel.
+    pub coefficients: usize,
+    /// Its file ([`image_file`]).
+    pub image: String,
+}
+
+/// The reference's entry in a [`ShadedViewReport`].
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct ReferenceImageReport {
+    /// Its file ([`REFERENCE_IMAGE`]).
+    pub image: String,
+    /// Path-traced samples per pixel.
+    pub samples: u32,
+}
+
+/// What a shaded view reports: each image's error and storage, the reference, the pixels
+/// compared and the normal map (`lightvol render --surface` writes it as `report.json`).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ShadedViewReport {
+    /// Per basis (and `lightmap` / `lightmap4`, the modified H-basis's lower levels of
+    /// detail), by name.
+    pub bases: BTreeMap<String, ShadedImageReport>,
+    /// Invalid texels of the maps' bakes.
+    pub invalid_texels: u64,
+    /// The reference.
+    pub reference: ReferenceImageReport,
+    /// Pixels showing lightmapped surfaces (those the errors run over).
+    pub pixels: usize,
+    /// The normal map's spec ([`NormalMap::parse`]).
+    pub normal_map: String,
+}
+
+impl ShadedViewReport {
+    /// The report of `view`, whose reference traced `reference_samples` paths per pixel, of
+    /// maps whose bakes left `invalid_texels` invalid texels, under the normal map of the
+    /// spec `normal_map`.
+    #[must_use]
+    pub fn new(view: &ShadedView, invalid_texels: u64, reference_samples: Samples, normal_map: &str) -> Self {
+        let bases = view
+            .images
+            .iter()
+            .map(|i| {
+                let entry = ShadedImageReport {
+                    rel_rmse: i.rel_rmse,
+                    bytes_per_texel: 3 * i.coefficients,
+                    coefficients: i.coefficients,
+                    image: image_file(&i.name),
+                };
+                (i.name.clone(), entry)
+            })
+            .collect();
+        Self {
+            bases,
+            invalid_texels,
+            reference: ReferenceImageReport {
+                image: REFERENCE_IMAGE.to_owned(),
+                samples: reference_samples.get(),
+            },
+            pixels: view.pixels,
+            normal_map: normal_map.to_owned(),
+        }
+    }
+}
+
 /// One pixel: whether it shows a lightmapped surface, the reference's colour, and each
 /// image's colour.
 type PixelColours = (bool, [f32; 3], Vec<[f32; 3]>);
@@ -385,6 +479,40 @@ mod tests {
         assert!(
             matches!(NormalMap::parse("procedural").unwrap(), NormalMap::Procedural { frequency, slope } if frequency == 4.0 && slope == 1.0)
         );
+    }
+
+    #[test]
+    fn a_view_reports_its_images_and_exposure() {
+        let image = |name: &str, coefficients, rel_rmse| ShadedImage {
+            name: name.into(),
+            coefficients,
+            pixels: vec![[0.5; 3]; 3],
+            rel_rmse,
+        };
+        let view = ShadedView {
+            reference: vec![[0.3; 3], [0.9; 3], [10.0; 3]],
+            lightmapped: vec![true, true, false],
+            images: vec![image("lightmap", 1, 0.25), image("hbasis_mod6", 6, 0.0625)],
+            pixels: 2,
+        };
+        // The sky pixel (10) is left out: mean 0.6.
+        assert!(
+            (f64::from(view.auto_exposure()) - lightvol_view::picture::AUTO_EXPOSURE_MEAN / 0.6).abs() < 1e-6
+        );
+        let r = ShadedViewReport::new(&view, 7, lightvol_core::samples::samples(64), "procedural:4");
+        let want = serde_json::json!({
+            "bases": {
+                "hbasis_mod6": {"rel_rmse": 0.0625, "bytes_per_texel": 18, "coefficients": 6, "image": "hbasis_mod6.png"},
+                "lightmap": {"rel_rmse": 0.25, "bytes_per_texel": 3, "coefficients": 1, "image": "lightmap.png"},
+            },
+            "invalid_texels": 7,
+            "reference": {"image": "reference.png", "samples": 64},
+            "pixels": 2,
+            "normal_map": "procedural:4",
+        });
+        assert_eq!(serde_json::to_value(&r).unwrap(), want);
+        let keys: Vec<&String> = r.bases.keys().collect();
+        assert_eq!(keys, ["hbasis_mod6", "lightmap"]);
     }
 
     #[test]

@@ -19,8 +19,11 @@ use lightvol_volume::io::util::{read_bounded, write_atomic};
 use serde::{Deserialize, Serialize};
 
 use super::SurfaceError;
-use super::bake::{SurfaceTexels, TexelRecord};
+use super::bake::{SurfaceSettings, SurfaceTexels, TexelRecord};
+use super::key::surface_key;
+use lightvol_scene::fingerprint::scene_hash;
 use lightvol_scene::stats::RayCounts;
+use lightvol_scene::{Scene, TransportSettings};
 
 const MAGIC: &[u8; 6] = b"LVTEX\0";
 const VERSION: u16 = 1;
@@ -42,6 +45,47 @@ pub struct TexelShardHeader {
     pub fingerprint: String,
     /// Records in the file.
     pub records: u64,
+}
+
+impl TexelShardHeader {
+    /// The header of shard `shard` (`(k, n)`) of a surface bake with `settings`, whose
+    /// texels are `part` and whose scene, lighting and settings have the fingerprint
+    /// `fingerprint` ([`shard_fingerprint`]).
+    #[must_use]
+    pub fn new(
+        settings: &SurfaceSettings,
+        fingerprint: String,
+        part: &SurfaceTexels,
+        shard: (u32, u32),
+    ) -> Self {
+        Self {
+            shard_index: shard.0,
+            shard_count: shard.1,
+            total: part.total,
+            coeffs: settings.basis.coeffs(),
+            basis: settings.basis.tag(),
+            fingerprint,
+            records: part.records.len() as u64,
+        }
+    }
+
+    /// The shard's file name, `texels-BASIS-K-of-N.lvtex` ([`TEXEL_SHARD_EXTENSION`]): the
+    /// shards of every basis of a bake can share one folder.
+    #[must_use]
+    pub fn file_name(&self) -> String {
+        format!("texels-{}-{}-of-{}.{TEXEL_SHARD_EXTENSION}", self.basis, self.shard_index, self.shard_count)
+    }
+}
+
+/// The extension of a texel shard file (`.lvtex`).
+pub const TEXEL_SHARD_EXTENSION: &str = "lvtex";
+
+/// What the shards of one surface bake share, and the shards of another bake do not: the
+/// scene's geometry ([`scene_hash`]) with its lighting, every setting and the lightvol
+/// version ([`surface_key`]).
+#[must_use]
+pub fn shard_fingerprint(scene: &Scene, settings: &SurfaceSettings, transport: &TransportSettings) -> String {
+    scene_hash(scene, &surface_key(scene, settings, transport))
 }
 
 fn err(m: String) -> SurfaceError {
@@ -206,7 +250,7 @@ pub enum TexelSetError {
 /// The texel records of basis `tag` from the shard `files` (files of other bases are
 /// skipped): every shard of one bake exactly once, each with the fingerprint `fingerprint`
 /// of the current scene and settings
-/// ([`surface_key`](crate::key::surface_key)).
+/// ([`shard_fingerprint`]).
 ///
 /// # Errors
 /// [`TexelSetError`] for the first problem found.
@@ -251,4 +295,49 @@ pub fn texel_set_records(
         return Err(TexelSetError::Incomplete { missing: missing.join(", "), count: n, tag: tag.to_owned() });
     }
     Ok(records)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::BasisChoice;
+
+    fn settings(basis: &str, seed: u64) -> SurfaceSettings {
+        SurfaceSettings { basis: BasisChoice::parse(basis).unwrap(), seed, ..SurfaceSettings::default() }
+    }
+
+    #[test]
+    fn a_shard_header_names_its_bake_and_file() {
+        let record = |index| TexelRecord { index, coeffs: None, invalid: false, rays: RayCounts::default() };
+        let part = SurfaceTexels { total: 40, records: vec![record(3), record(4), record(5)] };
+        let h = TexelShardHeader::new(&settings("sh9", 1), "00ff".into(), &part, (1, 3));
+        let want = TexelShardHeader {
+            shard_index: 1,
+            shard_count: 3,
+            total: 40,
+            coeffs: 9,
+            basis: "sh9".into(),
+            fingerprint: "00ff".into(),
+            records: 3,
+        };
+        assert_eq!(h, want);
+        assert_eq!(h.file_name(), "texels-sh9-1-of-3.lvtex");
+        let (back, header) = texels_from_bytes(&texels_to_bytes(&part, &h)).unwrap();
+        assert_eq!((back.records.len(), header), (3, want));
+    }
+
+    #[test]
+    fn shards_of_one_bake_share_the_fingerprint() {
+        let maze = lightvol_scene::builtin("maze").unwrap().scene;
+        let t = TransportSettings::default();
+        let f = shard_fingerprint(&maze, &settings("sh9", 1), &t);
+        assert_eq!(f, scene_hash(&maze, &surface_key(&maze, &settings("sh9", 1), &t)));
+        assert_eq!(f.len(), 16, "{f}");
+        assert!(f.chars().all(|c| c.is_ascii_hexdigit()), "{f}");
+        assert_eq!(shard_fingerprint(&maze, &settings("sh9", 1), &t), f);
+        assert_ne!(shard_fingerprint(&maze, &settings("sh9", 2), &t), f);
+        assert_ne!(shard_fingerprint(&maze, &settings("sh4", 1), &t), f);
+        let two_bounces = TransportSettings { bounces: 2, russian_roulette: false, ..t };
+        assert_ne!(shard_fingerprint(&maze, &settings("sh9", 1), &two_bounces), f);
+    }
 }

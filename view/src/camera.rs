@@ -7,6 +7,7 @@ use glam::DVec3;
 
 use crate::error::ViewError;
 use lightvol_scene::scene::{Scene, SceneCamera, UpAxis};
+use lightvol_volume::GridSpec;
 
 /// Vertical field of view of a look-at specification without one, in degrees.
 pub const DEFAULT_FOV_DEG: f64 = 50.0;
@@ -61,6 +62,23 @@ impl Camera {
         let ext = hi - lo;
         let eye = DVec3::new(c.x - 0.55 * ext.x, c.y - 0.85 * ext.y, hi.z + 0.6 * ext.x.max(ext.y));
         Self::look_at(eye, DVec3::new(c.x, c.y, lo.z + 0.15 * ext.z), DEFAULT_FOV_DEG)
+    }
+
+    /// The default view of `scene`: the [`overview`](Self::overview) of `grid` where one
+    /// is given and not placed (a volume's grid, or a scene's recommended one), else of the
+    /// scene's bounds.
+    ///
+    /// # Errors
+    /// As [`Camera::look_at`] (a degenerate box).
+    pub fn framing(scene: &Scene, grid: Option<&GridSpec>) -> Result<Self, ViewError> {
+        let (lo, hi) = match grid {
+            Some(g) if g.placement().is_none() => {
+                let (a, b) = g.bounds();
+                (DVec3::from(a), DVec3::from(b))
+            }
+            _ => scene.bounds(),
+        };
+        Self::overview(lo, hi)
     }
 
     /// The camera position.

@@ -146,8 +146,22 @@ pub const AUTO_EXPOSURE_MEAN: f64 = 0.35;
 /// [`AUTO_EXPOSURE_MEAN`]; 1 for a black image.
 #[must_use]
 pub fn auto_exposure(img: &Rgb32) -> f32 {
-    let mean: f64 =
-        img.pixels.iter().map(|p| f64::from(p[0] + p[1] + p[2]) / 3.0).sum::<f64>() / img.pixels.len() as f64;
+    auto_exposure_of(&img.pixels)
+}
+
+/// The exposure that maps the mean of R, G and B over `pixels` (a view's, or those of it
+/// that matter) to [`AUTO_EXPOSURE_MEAN`]; 1 when they are black or none.
+#[must_use]
+pub fn auto_exposure_of<'a>(pixels: impl IntoIterator<Item = &'a [f32; 3]>) -> f32 {
+    let mut n = 0usize;
+    let sum: f64 = pixels
+        .into_iter()
+        .map(|p| {
+            n += 1;
+            f64::from(p[0] + p[1] + p[2]) / 3.0
+        })
+        .sum();
+    let mean = sum / n as f64;
     if mean > 0.0 { (AUTO_EXPOSURE_MEAN / mean) as f32 } else { 1.0 }
 }
 
@@ -347,6 +361,11 @@ mod tests {
         // Mean 0.4: exposure 0.35 / 0.4.
         assert!((f64::from(auto_exposure(&img)) - AUTO_EXPOSURE_MEAN / 0.4).abs() < 1e-6);
         assert_eq!(auto_exposure(&Rgb32::new(3, 3)), 1.0, "a black image keeps exposure 1");
+        // Some of the pixels: the bright one alone, mean 0.6.
+        let bright = auto_exposure_of(img.pixels.iter().filter(|p| p[0] > 0.5));
+        assert!((f64::from(bright) - AUTO_EXPOSURE_MEAN / 0.6).abs() < 1e-6);
+        assert_eq!(auto_exposure_of(&img.pixels), auto_exposure(&img));
+        assert_eq!(auto_exposure_of(&[]), 1.0, "no pixels keep exposure 1");
     }
 
     #[test]

@@ -199,7 +199,7 @@ pub fn render_reference(
 }
 
 /// `f` over `0..n` in parallel, results in order, stopping at an error; with `progress`, in
-/// blocks of [`PROGRESS_BLOCK`] items with a report from the calling thread before the first
+/// blocks of `PROGRESS_BLOCK` items with a report from the calling thread before the first
 /// and after each. Every pixel loop of a view (and of a lightmap's shaded view) runs through
 /// it, so that one block size decides how often a long render reports.
 ///

@@ -276,3 +276,25 @@ fn camera_specs_parse_and_resolve() {
     assert_eq!("radiosity".parse::<Quantity>().unwrap(), Quantity::Radiosity);
     assert!(matches!("bright".parse::<Quantity>(), Err(ViewError::UnknownQuantity(_))));
 }
+
+/// The default view frames an unplaced grid, else the scene's bounds.
+#[test]
+fn the_default_view_frames_the_grid_or_the_scene() {
+    let maze = lightvol_scene::builtin("maze").unwrap();
+    let (lo, hi) = maze.scene.bounds();
+    let of_scene = Camera::framing(&maze.scene, None).unwrap();
+    assert_eq!(of_scene.eye(), Camera::overview(lo, hi).unwrap().eye());
+    let grid = GridSpec::new([0.0, 0.0, 0.0], [4.0, 2.0, 1.0], [3, 3, 3]).unwrap();
+    let of_grid = Camera::framing(&maze.scene, Some(&grid)).unwrap();
+    // Above the (0, 0) corner side: centre (2, 1), extent (4, 2), eye at
+    // (2 - 0.55 · 4, 1 - 0.85 · 2, 1 + 0.6 · 4).
+    let eye = of_grid.eye();
+    assert!((eye - DVec3::new(-0.2, -0.7, 3.4)).length() < 1e-12, "{eye}");
+    assert_ne!(eye, of_scene.eye());
+    // A placed grid's box is not in the scene's frame: the scene is framed.
+    let placement =
+        lightvol_volume::Placement::new([[1.0, 0.0, 0.0, 5.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]])
+            .unwrap();
+    let placed = grid.with_placement(placement);
+    assert_eq!(Camera::framing(&maze.scene, Some(&placed)).unwrap().eye(), of_scene.eye());
+}

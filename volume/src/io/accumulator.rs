@@ -34,6 +34,8 @@ use crate::volume::check_coeffs;
 
 /// First six bytes of a shard file.
 pub const ACC_MAGIC: &[u8; 6] = b"LVACC\0";
+/// The extension of an accumulator file (`.lvacc`), which bakes write beside their volume.
+pub const ACC_EXTENSION: &str = "lvacc";
 /// Current shard-file version.
 pub const ACC_VERSION: u16 = 3;
 /// The version of shard files without a node reach (they are written as before it).
