@@ -3,6 +3,7 @@
 //! are real geometry. Under `--volume`, the light at each receiver is the baked volume's
 //! local radiance instead (no reference exists for that case).
 
+use lightvol_core::samples::{Samples, parse_samples, samples};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -30,8 +31,8 @@ pub(crate) struct ProxiesArgs {
     #[arg(long, num_args = 2, default_values_t = [320, 240])]
     pub(crate) size: Vec<usize>,
     /// Path-traced samples per pixel of the reference.
-    #[arg(long, default_value_t = 256)]
-    pub(crate) samples: u32,
+    #[arg(long, value_parser = parse_samples, default_value_t = samples(256))]
+    pub(crate) samples: Samples,
     /// SH order of the shadows: 3 or 4 bands.
     #[arg(long, default_value_t = 4)]
     pub(crate) order: usize,

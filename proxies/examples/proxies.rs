@@ -11,6 +11,8 @@
 //! radiance SH instead of the scene's sky/sun; there is no path-traced reference for a baked
 //! light, so `reference.png` is not written and the `rel_rmse` fields are `null`.
 
+use lightvol_core::samples::{Samples, parse_samples, samples};
+
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, bail};
@@ -23,7 +25,7 @@ struct Args {
     volume: Option<PathBuf>,
     out: PathBuf,
     size: [usize; 2],
-    samples: u32,
+    samples: Samples,
     order: usize,
 }
 
@@ -33,7 +35,7 @@ fn parse() -> anyhow::Result<Args> {
         volume: None,
         out: PathBuf::from("proxies-out"),
         size: [320, 240],
-        samples: 256,
+        samples: samples(256),
         order: 4,
     };
     let mut it = std::env::args().skip(1);
@@ -45,7 +47,7 @@ fn parse() -> anyhow::Result<Args> {
             "--size" => {
                 a.size = [next("a width")?.parse()?, next("a height")?.parse()?];
             }
-            "--samples" => a.samples = next("a number")?.parse()?,
+            "--samples" => a.samples = parse_samples(&next("a number")?).map_err(anyhow::Error::msg)?,
             "--order" => a.order = next("3 or 4")?.parse()?,
             "-h" | "--help" => {
                 println!(

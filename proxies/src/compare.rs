@@ -2,6 +2,7 @@
 //! indirect — and with the path-traced reference, and measures each variant's relative RMSE
 //! against the reference on the receivers (the `proxies` command and `tests/compare.rs`).
 
+use lightvol_core::samples::{Samples, samples};
 use rayon::prelude::*;
 
 use crate::kernel::{Kernel, KernelIndirect, Rgb9, light_f32, prepare};
@@ -28,7 +29,7 @@ pub struct CompareConfig {
     /// Expansion factor for indirect light.
     pub eta_indirect: f64,
     /// Path-traced samples per display pixel.
-    pub samples: u32,
+    pub samples: Samples,
     /// Seed of the reference.
     pub seed: u64,
     /// Screen tile edge for binning.
@@ -46,7 +47,7 @@ impl CompareConfig {
             factor: 2,
             eta_shadow: shadow_eta::<N>(tolerance).eta,
             eta_indirect: indirect_eta::<9>(tolerance).eta,
-            samples: 256,
+            samples: samples(256),
             seed: 1,
             tile: 16,
         }

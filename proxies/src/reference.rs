@@ -14,6 +14,7 @@
 //! uniform numbers for the bounces, all from a SplitMix64 stream per receiver (seeded by the
 //! receiver's index), so results do not depend on thread count or order.
 
+use lightvol_core::samples::Samples;
 use std::f64::consts::PI;
 
 use lightvol_sh::lowdisc::{SplitMix64, hash2};
@@ -58,7 +59,7 @@ pub struct PathTracer<'a> {
     /// Environment.
     pub light: &'a SkySun,
     /// Paths per receiver (rounded up to a square number).
-    pub samples: u32,
+    pub samples: Samples,
     /// Seed of the sample streams.
     pub seed: u64,
 }
@@ -70,7 +71,7 @@ impl PathTracer<'_> {
     pub fn irradiance(&self, p: [f64; 3], n: [f64; 3], stream: u64) -> [f64; 3] {
         let mut rng = SplitMix64::new(hash2(self.seed, stream));
         let frame = Frame::from_normal(n);
-        let k = (f64::from(self.samples).sqrt().ceil() as u32).max(1);
+        let k = f64::from(self.samples.get()).sqrt().ceil() as u32;
         let mut sum = [0.0; 3];
         for a in 0..k {
             for b in 0..k {
@@ -127,12 +128,13 @@ pub fn inside_any(spheres: &[SphereProxy], p: [f64; 3]) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use lightvol_core::samples::samples;
 
     /// A lone receiver under a uniform sky gets E = π L exactly (every path escapes).
     #[test]
     fn unoccluded_uniform_sky_is_exact() {
         let sky = SkySun { sun_dir: [0.0, 0.0, 1.0], sun: [0.0; 3], sky: [1.0; 3], ground: [1.0; 3] };
-        let pt = PathTracer { spheres: &[], light: &sky, samples: 16, seed: 3 };
+        let pt = PathTracer { spheres: &[], light: &sky, samples: samples(16), seed: 3 };
         let e = pt.irradiance([0.0; 3], [0.0, 0.0, 1.0], 7);
         assert!((e[0] - PI).abs() < 1e-12);
     }
@@ -143,7 +145,7 @@ mod tests {
     fn black_sphere_overhead() {
         let sky = SkySun { sun_dir: [0.0, 0.0, 1.0], sun: [0.0; 3], sky: [1.0; 3], ground: [1.0; 3] };
         let s = [SphereProxy::new([0.0, 0.0, 2.0], 1.0, [0.0; 3])];
-        let pt = PathTracer { spheres: &s, light: &sky, samples: 4096, seed: 1 };
+        let pt = PathTracer { spheres: &s, light: &sky, samples: samples(4096), seed: 1 };
         let e = pt.irradiance([0.0; 3], [0.0, 0.0, 1.0], 0)[0];
         let exact = PI * (1.0 - 0.25);
         assert!((e - exact).abs() < 5e-3 * exact, "{e} vs {exact}");

@@ -14,7 +14,7 @@ use lightvol_proxies::receiver_scene::Scene;
 fn proxies_reduce_error_against_path_tracing() {
     let scene = Scene::default_scene();
     let mut cfg = CompareConfig::derived::<16>(96, 72, 1.0 / 256.0);
-    cfg.samples = 256;
+    cfg.samples = lightvol_core::samples::samples(256);
     let c = compare::<16>(&scene, &cfg);
     let e = c.errors;
     println!(
