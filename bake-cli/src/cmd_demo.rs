@@ -1,14 +1,15 @@
-//! `lightvol demo`: the main job on the built-in scenes. Runs `compare` on `city`,
-//! `interior` and `maze` at their recommended settings, sweeps the grid resolution on
-//! `city`, and writes an `index.html` that shows every panel, the metrics and the plot
-//! (lightvol-eval's `report::index_html`).
+//! `lightvol demo`: the main job on the built-in scenes and the embedded real interior. What
+//! the demo compares (scenes, entries, cameras, the two levels, the studies) is
+//! lightvol-eval's `demo`; this verb runs `compare` on each scene at its recommended
+//! settings, sweeps the grid resolution, and writes an `index.html` that shows every panel,
+//! the metrics and the plot (lightvol-eval's `report::index_html`).
 
-use lightvol_core::samples::{Samples, samples};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::Args;
+use lightvol_eval::demo::{self, DemoLevel};
 use lightvol_eval::report::index_html;
 use lightvol_eval::{NamedEntry, Plate, resolution_sweep};
 use lightvol_scene::builtin::BUILTIN_NAMES;
@@ -35,88 +36,18 @@ pub(crate) struct DemoArgs {
     pub(crate) quiet: bool,
 }
 
-/// Settings of one demo level.
-struct Level {
-    samples: Samples,
-    plate_res: u32,
-    reference_samples: Samples,
-    sweep: &'static [u32],
-    /// Cell-count scales of the error-vs-memory study (`compare --memory-sweep`).
-    memory_scales: &'static [f64],
-    /// Width of each scene's overview views (`compare --camera overview`).
-    view_width: u32,
-    /// Path-traced samples per pixel of the reference views.
-    view_samples: Samples,
-}
-
-/// Scenes of the error-vs-memory study (`city` and `interior`).
-const MEMORY_SWEEP_SCENES: [&str; 2] = ["city", "interior"];
-
-/// Entries added to every scene's comparison besides point, prefilter, doi-paper and doi:
-/// doi-paper with the least-squares node fit, the doi-paper bake read through \[Oat05\]'s
-/// gradient lookups, \[Oat05\]'s octree at doi-paper's memory (finest level 2 and 1), the
-/// domain test on each node's own cell, and the engines' leak fixes
-/// (`lightvol_sampler::baselines`).
-const EXTRA_ENTRIES: [&str; 10] = [
-    "doi-paper+lsq",
-    "doi-paper+taylor",
-    "doi-paper+hermite",
-    "adaptive",
-    "adaptive1",
-    "doi-node",
-    "point+validity",
-    "point+apv",
-    "point+vlm",
-    "point+ddgi",
-];
-
-/// A real interior made by other people, embedded so that the demo needs no files: the
-/// occlusion-culling demo room of the Godot demo projects (MIT licence, written next to its
-/// results as `LICENSE.txt`). It has no lights: a uniform white sky through its openings,
-/// sky and bounce light only (`--light sky+indirect`), as engines bake their probes.
+/// The demo's real interior ([`demo::REAL_INTERIOR`]), embedded so that the demo needs no
+/// files (MIT licence, written next to its results as `LICENSE.txt`). It has no lights: a
+/// uniform white sky through its openings, sky and bounce light only
+/// (`--light sky+indirect`), as engines bake their probes.
 const REAL_INTERIOR: (&str, &[u8], &str) = (
-    "occlusion_room",
+    demo::REAL_INTERIOR,
     include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/occlusion_room/room.glb")),
     include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/occlusion_room/LICENSE.txt")),
 );
 
-/// The methods of the real interior: the grid methods and the engines' leak fixes.
-const REAL_ENTRIES: [&str; 7] =
-    ["point", "doi-paper", "doi", "point+validity", "point+apv", "point+vlm", "point+ddgi"];
-
-const QUICK: Level = Level {
-    samples: samples(64),
-    plate_res: 64,
-    reference_samples: samples(192),
-    sweep: &[8, 12, 16, 24],
-    memory_scales: &[0.5, 0.7, 1.0],
-    view_width: 160,
-    view_samples: samples(32),
-};
-const FULL: Level = Level {
-    samples: samples(256),
-    plate_res: 160,
-    reference_samples: samples(1024),
-    sweep: &[8, 12, 16, 24, 32],
-    memory_scales: &[0.4, 0.5, 0.7, 1.0, 1.4, 2.0],
-    view_width: 384,
-    view_samples: samples(256),
-};
-
-/// The camera of a scene's views: `render`'s overview of the grid for the open scenes; in
-/// the closed rooms, whose ceilings hide the overview, from a corner under the ceiling
-/// (the interior's toward the window and its sun patch; the real interior's, in its file's
-/// +Y-up frame, toward the far corner).
-fn demo_camera(name: &str) -> &'static str {
-    match name {
-        "interior" => "5.6,0.4,2.4:2.6,4.6,0.6:80",
-        "occlusion_room" => "4.5,3.5,4.5:-2,0.5,-2:80",
-        _ => "overview",
-    }
-}
-
 /// The comparison of built-in scene `scene`.
-fn compare_args(scene: &str, out: PathBuf, level: &Level, args: &DemoArgs) -> CompareArgs {
+fn compare_args(scene: &str, out: PathBuf, level: &DemoLevel, args: &DemoArgs) -> CompareArgs {
     scene_compare_args(scene, format!("builtin:{scene}"), "z", out, level, args)
 }
 
@@ -126,7 +57,7 @@ fn scene_compare_args(
     spec: String,
     up: &str,
     out: PathBuf,
-    level: &Level,
+    level: &DemoLevel,
     args: &DemoArgs,
 ) -> CompareArgs {
     CompareArgs {
@@ -151,14 +82,14 @@ fn scene_compare_args(
         },
         plate_height: None,
         plate_res: level.plate_res,
-        methods: vec!["point".into(), "prefilter".into(), "doi-paper".into(), "doi".into()],
+        methods: demo::BASE_ENTRIES.iter().map(|m| (*m).to_owned()).collect(),
         gradient_estimator: None,
-        memory_sweep: MEMORY_SWEEP_SCENES.contains(&name),
+        memory_sweep: demo::MEMORY_SWEEP_SCENES.contains(&name),
         sweep_scales: level.memory_scales.to_vec(),
         reference_samples: level.reference_samples,
         classify_dirs: 256,
         views: crate::compare_views::ViewArgs {
-            cameras: vec![demo_camera(name).into()],
+            cameras: vec![demo::camera(name).into()],
             view_width: level.view_width,
             view_height: None,
             view_samples: level.view_samples,
@@ -170,8 +101,8 @@ fn scene_compare_args(
 
 /// Relative RMSE against grid resolution on `city` for every method (one plate and
 /// reference, re-used for every grid; lightvol-eval's `resolution_sweep`).
-fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
-    let ca = compare_args("city", args.output.join("city"), level, args);
+fn sweep(args: &DemoArgs, level: &DemoLevel) -> anyhow::Result<Plot> {
+    let ca = compare_args(demo::SWEEP_SCENE, args.output.join(demo::SWEEP_SCENE), level, args);
     let loaded = ca.scene.load()?;
     let base = loaded.grid.clone().context("built-in city has a grid")?;
     let height = loaded.plate_heights[0];
@@ -189,20 +120,12 @@ fn sweep(args: &DemoArgs, level: &Level) -> anyhow::Result<Plot> {
         let plate = Plate::build(&ctx.transport, &c.grid, &c.plate, c.seed, &observer).map_err(flag_error)?;
         Ok(resolution_sweep(&ctx, &c.grid, &plate, &methods, c.fit, level.sweep)?)
     })??;
-    Ok(Plot {
-        title: "city: relative RMSE of irradiance on the plate vs grid resolution".into(),
-        x_label: "grid nodes along x".into(),
-        y_label: "relative RMSE".into(),
-        series: series
-            .into_iter()
-            .map(|s| (s.name, s.points.iter().map(|(nx, m)| (f64::from(*nx), m.rel_rmse)).collect()))
-            .collect(),
-    })
+    Ok(demo::sweep_plot(series))
 }
 
 /// Runs `lightvol demo`.
 pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
-    let level = if args.quick { &QUICK } else { &FULL };
+    let level = if args.quick { &DemoLevel::QUICK } else { &DemoLevel::FULL };
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let mut reports = Vec::new();
     for scene in BUILTIN_NAMES {
@@ -210,7 +133,7 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
             eprintln!("== {scene}");
         }
         let mut ca = compare_args(scene, args.output.join(scene), level, args);
-        ca.methods.extend(EXTRA_ENTRIES.iter().map(|m| (*m).to_owned()));
+        ca.methods.extend(demo::EXTRA_ENTRIES.iter().map(|m| (*m).to_owned()));
         reports.push((scene.to_owned(), compare(&ca).with_context(|| format!("comparing on {scene}"))?));
     }
     let (name, bytes, licence) = REAL_INTERIOR;
@@ -224,10 +147,10 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     write_atomic(&dir.join("LICENSE.txt"), licence.as_bytes())?;
     let mut ca = scene_compare_args(name, file.display().to_string(), "y", dir, level, args);
     ca.sampling.path.light = "sky+indirect".into();
-    ca.methods = REAL_ENTRIES.iter().map(|m| (*m).to_owned()).collect();
+    ca.methods = demo::REAL_ENTRIES.iter().map(|m| (*m).to_owned()).collect();
     reports.push((name.to_owned(), compare(&ca).with_context(|| format!("comparing on {name}"))?));
     let mut sweeps = Vec::new();
-    for scene in MEMORY_SWEEP_SCENES {
+    for scene in demo::MEMORY_SWEEP_SCENES {
         let path = args.output.join(scene).join("memory_sweep.json");
         let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
         sweeps.push((scene.to_owned(), serde_json::from_str(&text)?));
