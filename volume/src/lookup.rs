@@ -238,6 +238,49 @@ fn batch_kernel<const N: usize, const K: usize>(
     }
 }
 
+/// Checks that a batched lookup has as many `dirs` (normals or directions, named `what`) and
+/// outputs as points.
+///
+/// # Errors
+/// [`VolumeError::Mismatch`] naming the three lengths.
+pub(crate) fn check_batch(
+    points: &[[f32; 3]],
+    dirs: &[[f32; 3]],
+    out: &[[f32; 3]],
+    what: &str,
+) -> Result<(), VolumeError> {
+    if points.len() != dirs.len() || points.len() != out.len() {
+        return Err(VolumeError::Mismatch(format!(
+            "batch lookup: {} points, {} {what}, {} outputs",
+            points.len(),
+            dirs.len(),
+            out.len()
+        )));
+    }
+    Ok(())
+}
+
+/// A batched lookup over rayon's pool: [`check_batch`], then `kernel` on chunks of
+/// [`PAR_CHUNK`] queries (each query's result depends on that query alone, so any split
+/// gives the same bits).
+///
+/// # Errors
+/// [`check_batch`]'s.
+pub(crate) fn par_batch(
+    points: &[[f32; 3]],
+    dirs: &[[f32; 3]],
+    out: &mut [[f32; 3]],
+    what: &str,
+    kernel: impl Fn(&[[f32; 3]], &[[f32; 3]], &mut [[f32; 3]]) + Sync,
+) -> Result<(), VolumeError> {
+    check_batch(points, dirs, out, what)?;
+    out.par_chunks_mut(PAR_CHUNK).enumerate().for_each(|(c, o)| {
+        let s = c * PAR_CHUNK;
+        kernel(&points[s..s + o.len()], &dirs[s..s + o.len()], o);
+    });
+    Ok(())
+}
+
 impl IrradianceVolume {
     /// Irradiance `E(x, n)` (Kontkanen & Laine 2006 Eq. 3) at world point `p` for the
     /// world-space unit normal `n`: the scalar f32 path.
@@ -337,14 +380,6 @@ impl IrradianceVolume {
         irr: bool,
         parallel: bool,
     ) -> Result<(), VolumeError> {
-        if points.len() != dirs.len() || points.len() != out.len() {
-            return Err(VolumeError::Mismatch(format!(
-                "batch lookup: {} points, {} directions, {} outputs",
-                points.len(),
-                dirs.len(),
-                out.len()
-            )));
-        }
         let f = self.lookup_params().factors[usize::from(!irr)];
         let kernel: BatchKernel = match self.coeffs() {
             4 => batch_kernel::<4, 12>,
@@ -352,14 +387,12 @@ impl IrradianceVolume {
             _ => batch_kernel::<16, 48>,
         };
         if parallel {
-            out.par_chunks_mut(PAR_CHUNK).enumerate().for_each(|(c, o)| {
-                let s = c * PAR_CHUNK;
-                kernel(self, &f, &points[s..s + o.len()], &dirs[s..s + o.len()], o, irr);
-            });
+            par_batch(points, dirs, out, "directions", |p, d, o| kernel(self, &f, p, d, o, irr))
         } else {
+            check_batch(points, dirs, out, "directions")?;
             kernel(self, &f, points, dirs, out, irr);
+            Ok(())
         }
-        Ok(())
     }
 
     /// Algorithm 1 of Kontkanen & Laine 2006 in f64, verbatim: for each corner node `i` of

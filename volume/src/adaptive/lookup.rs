@@ -8,7 +8,7 @@ use rayon::prelude::*;
 use crate::adaptive::{AdaptiveVolume, TO_UNIFORM_MAX_NODES, pack_key};
 use crate::error::VolumeError;
 use crate::grid::{GridSpec, corner_weights};
-use crate::lookup::{PAR_CHUNK, expand, shade_dyn};
+use crate::lookup::{expand, par_batch, shade_dyn};
 use crate::lookup_params::{factors, weights8};
 use crate::volume::IrradianceVolume;
 
@@ -174,21 +174,11 @@ impl AdaptiveVolume {
         normals: &[[f32; 3]],
         out: &mut [[f32; 3]],
     ) -> Result<(), VolumeError> {
-        if points.len() != normals.len() || points.len() != out.len() {
-            return Err(VolumeError::Mismatch(format!(
-                "batch lookup: {} points, {} normals, {} outputs",
-                points.len(),
-                normals.len(),
-                out.len()
-            )));
-        }
-        out.par_chunks_mut(PAR_CHUNK).enumerate().for_each(|(ci, o)| {
-            for (q, e) in o.iter_mut().enumerate() {
-                let i = ci * PAR_CHUNK + q;
-                *e = self.irradiance(points[i], normals[i]);
+        par_batch(points, normals, out, "normals", |p, n, o| {
+            for ((e, p), n) in o.iter_mut().zip(p).zip(n) {
+                *e = self.irradiance(*p, *n);
             }
-        });
-        Ok(())
+        })
     }
 
     /// Resamples to a uniform volume of `res` nodes per axis (default: [`Self::finest_res`])
