@@ -56,7 +56,9 @@ pub struct BakeMetadata {
     /// Sampling method, e.g. `"point"` (Kontkanen & Laine Eq. 4) or `"domain"` (Eq. 5-6).
     pub method: String,
     /// Sampling rays the bake traced, over all its units (not per unit: that is
-    /// [`BakeRecord::samples_per_unit`]); stored as `lightvol.bake.samples`.
+    /// [`BakeRecord::samples_per_unit`]); stored under the key `samples` (the EXR attribute
+    /// `lightvol.bake.samples`, the JSON of shard files and `info`).
+    #[serde(rename = "samples")]
     pub sampling_rays: u64,
     /// Seed of the bake's random (Halton scrambling) streams.
     pub seed: u64,
@@ -135,5 +137,22 @@ impl Default for OctreeSettings {
             cull_tolerance: 0.01,
             memory_budget: None,
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The metadata's JSON (the header of shard files, `info --json`) keeps the file format's
+    /// key names: the sampling rays are `samples`, as in every file written before.
+    #[test]
+    fn json_keys_are_the_file_formats() {
+        let m = BakeMetadata { sampling_rays: 7168, ..BakeMetadata::default() };
+        let v = serde_json::to_value(&m).unwrap();
+        assert_eq!(v["samples"], 7168);
+        assert!(v.get("sampling_rays").is_none(), "{v}");
+        let back: BakeMetadata = serde_json::from_value(v).unwrap();
+        assert_eq!(back, m);
     }
 }
