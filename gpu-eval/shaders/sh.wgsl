@@ -15,7 +15,10 @@ fn flat4(a: array<vec4<f32>, 4>, j: u32) -> f32 {
 // index l (l + 1) + m: lightvol-sh's normalised recurrence
 //   Q_l^m = a(l, m) z Q_{l-1}^m + b(l, m) Q_{l-2}^m,  Q_m^m = diag[m],
 //   Y_{l,+-m} = Q_l^m (Re | Im)(x + i y)^m,
-// with a, b at flat index l (l + 1) + m (computed on the host: `ShRecurrence`).
+// with a, b at flat index l (l + 1) + m (computed on the host: `ShRecurrence`). Its twin is
+// `lightvol_sh_basis` of the generated engine code (`src/engine_shader.rs`), which carries the
+// same constants as literals because engines bind no lightvol uniforms; the device tests hold
+// both against the CPU lookups (`tests/lookup.rs`, `tests/engine_shader.rs`).
 fn sh_basis(n: vec3<f32>, sh_a: array<vec4<f32>, 4>, sh_b: array<vec4<f32>, 4>, sh_diag: vec4<f32>) -> array<f32, COEFFS> {
     var y: array<f32, COEFFS>;
     var c = 1.0;

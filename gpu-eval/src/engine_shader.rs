@@ -125,6 +125,10 @@ fn constants() -> String {
     )
 }
 
+// `lightvol_sh_basis` in CORE is the twin of the evaluator's `sh_basis` (`shaders/sh.wgsl`):
+// the same recurrence and operation order, with the constants as generated literals instead
+// of the evaluator's uniform block (an engine binds no lightvol uniforms). The device tests
+// hold both against the CPU lookups (`tests/lookup.rs`, `tests/engine_shader.rs`).
 const CORE: &str = r"
 // One volume: world-to-grid rows, grid minimum (w: the node reach's test-point offset along
 // the normal, world units), (n - 1) / (max - min), node counts and the coefficient count
