@@ -54,7 +54,9 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let settings = BakeSettings { shard: (0, 1), ..request.settings() };
     let ts = request.transport;
     let key = request.key(&loaded.scene, &grid);
-    let hash = scene_hash(&loaded.scene, &key);
+    // The shard sets' hash, only where shard files are read or written (the volume's own
+    // metadata hashes the scene itself).
+    let hash = || scene_hash(&loaded.scene, &key);
     let shard = request.shard;
     if let Some(shard) = shard {
         let level = a.level.unwrap_or(0);
@@ -70,6 +72,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
                 eprintln!("wrote {} (adaptive level 0, shard {} of {})", path.display(), shard.0, shard.1);
                 return Ok(ExitCode::SUCCESS);
             }
+            let hash = hash();
             let inputs = load_inputs(&a.from_shards, &hash, &args.method)?;
             if inputs.levels.len() != level as usize - 1 {
                 bail!(
@@ -116,7 +119,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             with_bar(args.quiet, &args.method, |c| bake_adaptive(&transport, &grid, &settings, &adaptive, c))
                 .context("adaptive bake")?
         } else {
-            let inputs = load_inputs(&a.from_shards, &hash, &args.method)?;
+            let inputs = load_inputs(&a.from_shards, &hash(), &args.method)?;
             let base_stats = inputs.base_stats();
             with_progress(&loaded, &tracer, ts, args.quiet, &args.method, |t, c| {
                 assemble_adaptive(t, &grid, &settings, &adaptive, &inputs.base, base_stats, &inputs.levels, c)

@@ -181,12 +181,13 @@ impl BakeReport {
         run: RunFigures,
     ) -> Self {
         let seconds = bake.wall_time.as_secs_f64();
+        let invalid = bake.invalid_nodes();
         Self {
-            zero_weight_nodes: bake.invalid_nodes(),
+            zero_weight_nodes: invalid,
             filled_nodes: bake.filled,
             mrays_per_second: mrays_per_second(&bake.rays, seconds),
             baseline: Some(BaselineReport {
-                invalid_nodes: bake.invalid_nodes(),
+                invalid_nodes: invalid,
                 moved_nodes: bake.moved_nodes(grid),
                 validity_mask: bake.volume.validity().is_some(),
             }),
