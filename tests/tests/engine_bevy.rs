@@ -345,8 +345,11 @@ fn bevy_client_reproduces_lightvol_in_both_frames() {
                 let axes = max_rel_error(&c, Read::AsBevy, 1.0, true);
                 assert!(axes > 20.0 * c.tol, "Y-up export read with internal axes only {axes}");
             }
-            // The Transform, applied as Bevy applies it, puts every voxel centre on its node.
-            let spec = c.native.spec();
+            // The Transform, applied as Bevy applies it, puts every voxel centre on its node;
+            // the texture runs along the file's axes (the native grid laid out in them).
+            let file = lightvol_volume::frame::to_file_frame(&c.native, frame).unwrap();
+            let spec = file.spec();
+            assert!(spec.placement().is_none());
             let res = spec.res();
             let cs = spec.cell_size();
             let spacing = cs[0].min(cs[1]).min(cs[2]);
@@ -358,7 +361,7 @@ fn bevy_client_reproduces_lightvol_in_both_frames() {
                 let w: [f64; 3] = std::array::from_fn(|r| {
                     m[r][0] * unit[0] + m[r][1] * unit[1] + m[r][2] * unit[2] + m[r][3]
                 });
-                let node_file = frame.to_file(spec.node_position_world(v[0], v[1], v[2]));
+                let node_file = spec.node_position_world(v[0], v[1], v[2]);
                 for a in 0..3 {
                     assert!(
                         (w[a] - node_file[a]).abs() <= 1e-6 * spacing,

@@ -121,7 +121,8 @@ pub fn dds_from_bytes(bytes: &[u8], sidecar: &Sidecar) -> Result<IrradianceVolum
         vol.set_validity(sidecar.validity_mask()?)?;
         vol.set_reach(sidecar.node_reach()?)?;
         verify(F, sidecar.checksum.as_deref(), &vol)?;
-        Ok(vol)
+        // Back from the file's axes to the internal frame the native file and the lookups use.
+        crate::frame::to_internal_frame(&vol, sidecar.frame)
     })
 }
 

@@ -134,9 +134,33 @@ pub fn ktx2_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
     ))
 }
 
-/// Writes `vol` as a KTX2 3D texture (temporary file and rename).
+/// Writes `vol` as a KTX2 3D texture and its JSON sidecar beside it (`PATH.json`, the same
+/// description the texture embeds), each by temporary file and rename.
 pub fn write_ktx2(path: &Path, vol: &IrradianceVolume) -> Result<(), VolumeError> {
-    write_atomic(path, &ktx2_to_bytes(vol)?)
+    let bytes = ktx2_to_bytes(vol)?;
+    let mut sidecar = embedded_sidecar(&bytes)?;
+    sidecar.storage.file = path.file_name().map(|n| n.to_string_lossy().into_owned());
+    write_atomic(path, &bytes)?;
+    crate::io::sidecar::write_sidecar(&crate::io::sidecar::sidecar_path(path), &sidecar)
+}
+
+/// The JSON sidecar a KTX2 volume embeds under [`KTX2_SIDECAR_KEY`].
+pub fn embedded_sidecar(bytes: &[u8]) -> Result<Sidecar, VolumeError> {
+    let f = FileFormat::Ktx2;
+    let (_, kvd, _) = parse_ktx2_rgba16f(bytes, f)?;
+    sidecar_of(&kvd)
+}
+
+fn sidecar_of(kvd: &[(String, Vec<u8>)]) -> Result<Sidecar, VolumeError> {
+    let f = FileFormat::Ktx2;
+    let raw = kvd
+        .iter()
+        .find(|(k, _)| k == KTX2_SIDECAR_KEY)
+        .map(|(_, v)| v.as_slice())
+        .ok_or_else(|| VolumeError::malformed(f, format!("missing key {KTX2_SIDECAR_KEY}")))?;
+    let raw = raw.strip_suffix(&[0]).unwrap_or(raw);
+    let text = std::str::from_utf8(raw).map_err(|e| VolumeError::malformed(f, e.to_string()))?;
+    Sidecar::from_json(text)
 }
 
 /// Reads a volume written by [`write_ktx2`].
@@ -144,19 +168,14 @@ pub fn read_ktx2(path: &Path) -> Result<IrradianceVolume, VolumeError> {
     ktx2_from_bytes(&read_bounded(path)?)
 }
 
-/// Parses a KTX2 volume from memory (see the module docs for what is checked).
+/// Parses a KTX2 volume from memory (see the module docs for what is checked), returned in
+/// lightvol's internal frame like the native file ([`crate::frame::to_internal_frame`] of
+/// the texture's file-frame data).
 pub fn ktx2_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
     let f = FileFormat::Ktx2;
     guard(f, || {
         let (dims, kvd, data) = parse_ktx2_rgba16f(bytes, f)?;
-        let raw = kvd
-            .iter()
-            .find(|(k, _)| k == KTX2_SIDECAR_KEY)
-            .map(|(_, v)| v.as_slice())
-            .ok_or_else(|| VolumeError::malformed(f, format!("missing key {KTX2_SIDECAR_KEY}")))?;
-        let raw = raw.strip_suffix(&[0]).unwrap_or(raw);
-        let text = std::str::from_utf8(raw).map_err(|e| VolumeError::malformed(f, e.to_string()))?;
-        let sidecar = Sidecar::from_json(text)?;
+        let sidecar = sidecar_of(&kvd)?;
         if sidecar.encoding != Encoding::F16 {
             return Err(VolumeError::malformed(f, "sidecar encoding is not f16"));
         }
@@ -177,6 +196,7 @@ pub fn ktx2_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
         vol.set_validity(sidecar.validity_mask()?)?;
         vol.set_reach(sidecar.node_reach()?)?;
         verify(f, sidecar.checksum.as_deref(), &vol)?;
-        Ok(vol)
+        // Back from the file's axes to the internal frame the native file and the lookups use.
+        crate::frame::to_internal_frame(&vol, sidecar.frame)
     })
 }

@@ -296,6 +296,12 @@ pub struct Sidecar {
     /// The frame of the scene file the volume was baked from.
     #[serde(default = "internal_frame")]
     pub source_frame: crate::up_axis::UpAxis,
+    /// The grid along the scene file's axes and in its frame, exactly as `lightvol info`
+    /// prints it (`res` and `bounds` that give the same grid back to a bake). For the
+    /// engine exports it is `grid` itself; for the native file, whose data stays in the
+    /// internal frame, it is `grid` rotated into the file's frame.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file_grid: Option<crate::frame::FileGrid>,
     /// FNV-1a checksum (16 hex digits) of the volume as the described file decodes to
     /// ([`crate::checksum::volume_checksum`]); written by the KTX2 and DDS exports and
     /// required by their readers.
@@ -309,6 +315,11 @@ impl Sidecar {
     #[must_use]
     pub fn in_frame(mut self, frame: crate::up_axis::UpAxis) -> Self {
         self.frame = frame;
+        self.file_grid = Some(crate::frame::FileGrid {
+            res: self.grid.res,
+            bounds: [self.grid.min, self.grid.max],
+            frame,
+        });
         self
     }
 
@@ -350,6 +361,7 @@ impl Sidecar {
             },
             frame: crate::up_axis::UpAxis::INTERNAL,
             source_frame: m.frame,
+            file_grid: Some(crate::frame::FileGrid::of(spec, m.frame)),
             checksum: None,
         }
     }
