@@ -83,6 +83,11 @@ pub(crate) struct CompareArgs {
     /// Views through cameras.
     #[command(flatten)]
     pub(crate) views: ViewArgs,
+    /// Read every entry's plate and views as this engine does: `lightvol` (its own
+    /// lookups), `trilinear`, `three`, `bevy` or `apv` (as for `render --lookup`; uniform-grid
+    /// entries only).
+    #[arg(long, default_value_t = lightvol_volume::EngineLookup::Lightvol)]
+    pub(crate) lookup: lightvol_volume::EngineLookup,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "compare-out")]
     pub(crate) output: PathBuf,
@@ -212,6 +217,7 @@ pub(crate) fn config(
             .memory_sweep
             .then(|| SweepConfig { scales: args.sweep_scales.clone(), gradient_estimator }),
         views: ViewsConfig { cameras: views, reference_samples: args.views.view_samples },
+        lookup: args.lookup,
         threads,
     }
 }

@@ -94,6 +94,7 @@ fn scene_compare_args(
             view_height: None,
             view_samples: level.view_samples,
         },
+        lookup: lightvol_volume::EngineLookup::Lightvol,
         output: out,
         quiet: args.quiet,
     }

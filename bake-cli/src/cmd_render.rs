@@ -14,6 +14,9 @@ use lightvol_view::{
     Camera, Quantity, ReferenceConfig, ViewConfig, ViewError, ViewImage, render_reference, render_volume,
 };
 
+use lightvol_volume::EngineLookup;
+use lightvol_volume::engine_lookup::EngineField;
+
 use crate::imaging::auto_exposure;
 use crate::progress::with_report_bar;
 use crate::render_args::{RenderArgs, resolve_camera};
@@ -38,6 +41,16 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         (None, true) => None,
         (None, false) => bail!("render needs --volume V.exr (or --reference for the path-traced view)"),
     };
+    // An engine's lookup (other than lightvol's own) reads the uniform grid.
+    let engine = match (&vol, args.lookup) {
+        (Some(v), lookup) if lookup != EngineLookup::Lightvol => match v.uniform() {
+            Some(volume) => Some(EngineField { volume, lookup }),
+            None => bail!(
+                "--lookup {lookup} reads a uniform grid and this volume is an adaptive octree; export it to one first (lightvol export --format ktx2 --res NX,NY,NZ)"
+            ),
+        },
+        _ => None,
+    };
     let (cam, aspect) = match &args.camera {
         Some(c) => resolve_camera(c, &loaded.scene, loaded.frame)?,
         None => {
@@ -53,7 +66,10 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
     let img = with_threads(args.threads, || -> Result<ViewImage, ViewError> {
         let tracer = Tracer::new(&loaded.scene);
         match shade_vol {
-            Some(v) => render_volume(&loaded.scene, &tracer, &cam, &config, v.trilinear_field()),
+            Some(v) => match engine {
+                None => render_volume(&loaded.scene, &tracer, &cam, &config, v.trilinear_field()),
+                Some(field) => render_volume(&loaded.scene, &tracer, &cam, &config, &field),
+            },
             None => {
                 let transport = Transport::new(&loaded.scene, &tracer, args.path.transport());
                 let reference = ReferenceConfig { samples: args.reference_samples, seed: args.seed };

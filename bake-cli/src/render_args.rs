@@ -69,6 +69,13 @@ pub(crate) struct RenderArgs {
     /// (Ishmukhametov 2011 Fig. 3.5).
     #[arg(long, value_name = "DIR", conflicts_with_all = ["volume", "reference"])]
     pub(crate) surface: Option<PathBuf>,
+    /// Read the volume as this engine does: `lightvol` (its own lookup, with validity and
+    /// node reach), `trilinear` (plain, Godot-style), `three` (three.js LightProbeGrid: half
+    /// a cell along the normal), `bevy` (Bevy's ambient cube) or `apv` (Unity APV: validity
+    /// weights at a point pushed along the normal and towards the eye). Engines other than
+    /// lightvol read uniform grids only.
+    #[arg(long, default_value_t = lightvol_volume::EngineLookup::Lightvol, conflicts_with = "surface")]
+    pub(crate) lookup: lightvol_volume::EngineLookup,
     /// Normal map for --surface: `procedural[:FREQ[:SLOPE]]` (default), `flat` or an RGB PNG.
     #[arg(long, requires = "surface")]
     pub(crate) normal_map: Option<String>,

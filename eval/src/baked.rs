@@ -6,11 +6,13 @@
 use std::fmt;
 use std::sync::Arc;
 
+use lightvol_volume::engine_lookup::EngineField;
 use lightvol_volume::gradient::{
     GradientLookup, coeffs_at as gradient_coeffs_at, irradiance as gradient_irradiance,
 };
 use lightvol_volume::{
-    AdaptiveVolume, BakeMetadata, GridSpec, IrradianceVolume, VolumeError, VolumeField, VolumeGradients,
+    AdaptiveVolume, BakeMetadata, EngineLookup, GridSpec, IrradianceVolume, VolumeError, VolumeField,
+    VolumeGradients,
 };
 
 use lightvol_sampler::gradient_estimator::GradientEstimator;
@@ -53,27 +55,41 @@ pub enum RunVolume {
     /// ([`IrradianceVolume::irradiance_reference`], validity-weighted through the volume's
     /// mask): Unity APV, as its run reads the plate.
     Reference(Arc<IrradianceVolume>),
+    /// A uniform grid read as an engine reads it
+    /// ([`IrradianceVolume::engine_irradiance`]): `compare --lookup`.
+    Engine(Arc<IrradianceVolume>, EngineLookup),
+}
+
+impl RunVolume {
+    /// The uniform grid of a uniform-grid run (`None` for gradient and octree runs).
+    #[must_use]
+    pub fn uniform(&self) -> Option<&Arc<IrradianceVolume>> {
+        match self {
+            Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => Some(v),
+            Self::Gradient { .. } | Self::Adaptive(_) => None,
+        }
+    }
 }
 
 /// Each kind read as its run reads the plate (the enum's docs).
 impl VolumeField for RunVolume {
     fn grid(&self) -> &GridSpec {
         match self {
-            Self::Uniform(v) | Self::Reference(v) => v.spec(),
+            Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => v.spec(),
             Self::Gradient { bake, .. } => bake.volume.spec(),
             Self::Adaptive(v) => v.base().spec(),
         }
     }
     fn coeffs(&self) -> usize {
         match self {
-            Self::Uniform(v) | Self::Reference(v) => v.coeffs(),
+            Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => v.coeffs(),
             Self::Gradient { bake, .. } => bake.volume.coeffs(),
             Self::Adaptive(v) => v.coeffs(),
         }
     }
     fn metadata(&self) -> &BakeMetadata {
         match self {
-            Self::Uniform(v) | Self::Reference(v) => v.metadata(),
+            Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => v.metadata(),
             Self::Gradient { bake, .. } => bake.volume.metadata(),
             Self::Adaptive(v) => v.metadata(),
         }
@@ -84,6 +100,7 @@ impl VolumeField for RunVolume {
             Self::Gradient { bake, lookup } => gradient_coeffs_at(&bake.volume, &bake.gradients, *lookup, p),
             Self::Adaptive(v) => VolumeField::coeffs_at(&**v, p),
             Self::Reference(v) => Ok(v.coeffs_reference(p)),
+            Self::Engine(v, lookup) => EngineField { volume: v, lookup: *lookup }.coeffs_at(p),
         }
     }
     fn irradiance(&self, p: [f64; 3], n: [f64; 3]) -> Result<[f64; 3], VolumeError> {
@@ -94,11 +111,18 @@ impl VolumeField for RunVolume {
             }
             Self::Adaptive(v) => VolumeField::irradiance(&**v, p, n),
             Self::Reference(v) => Ok(v.irradiance_reference(p, n)),
+            Self::Engine(v, lookup) => Ok(v.engine_irradiance(*lookup, p, n, n)),
+        }
+    }
+    fn irradiance_seen(&self, p: [f64; 3], n: [f64; 3], to_eye: [f64; 3]) -> Result<[f64; 3], VolumeError> {
+        match self {
+            Self::Engine(v, lookup) => Ok(v.engine_irradiance(*lookup, p, n, to_eye)),
+            _ => self.irradiance(p, n),
         }
     }
     fn memory_bytes(&self) -> usize {
         match self {
-            Self::Uniform(v) | Self::Reference(v) => v.memory_bytes(),
+            Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => v.memory_bytes(),
             Self::Gradient { bake, .. } => bake.volume.memory_bytes() + bake.gradients.memory_bytes(),
             Self::Adaptive(v) => v.memory_bytes(),
         }
@@ -116,6 +140,7 @@ impl fmt::Debug for RunVolume {
                 .finish(),
             Self::Adaptive(v) => f.debug_tuple("Adaptive").field(&v.stored_nodes()).finish(),
             Self::Reference(v) => f.debug_tuple("Reference").field(&v.spec().res()).finish(),
+            Self::Engine(v, lookup) => f.debug_tuple("Engine").field(&v.spec().res()).field(lookup).finish(),
         }
     }
 }

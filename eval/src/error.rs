@@ -53,6 +53,16 @@ pub enum EvalError {
     /// The grid has a placement transform; the plate is horizontal in the grid's frame.
     #[error("compare needs an axis-aligned grid (no placement transform)")]
     PlacedGrid,
+    /// An engine's lookup asked of an entry that is not a uniform grid.
+    #[error(
+        "--lookup {lookup} reads uniform grids; entry {entry} is not one (leave out gradient and adaptive entries)"
+    )]
+    EngineLookupNeedsGrid {
+        /// The lookup.
+        lookup: lightvol_volume::EngineLookup,
+        /// The entry's name.
+        entry: String,
+    },
     /// The plate height is NaN or infinite.
     #[error("plate height {0} is not finite")]
     PlateHeightNotFinite(f64),

@@ -33,6 +33,10 @@ pub struct CompareReport {
     pub plate: PlateSummary,
     /// The grid.
     pub grid: FileGrid,
+    /// How the methods' plate and views were read: `lightvol`'s lookups, or an engine's
+    /// (`compare --lookup`; left out for lightvol's own).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lookup: Option<String>,
     /// The reference.
     pub reference: ReferenceSummary,
     /// Per method, in the order run.
@@ -199,6 +203,8 @@ pub fn compare_files(
     let report = CompareReport {
         scene: scene.to_owned(),
         up: frame.name().to_owned(),
+        lookup: (config.lookup != lightvol_volume::EngineLookup::Lightvol)
+            .then(|| config.lookup.name().to_owned()),
         plate: PlateSummary {
             height: plate.height,
             res: [plate.res[0] as u32, plate.res[1] as u32],

@@ -132,6 +132,8 @@ pub struct VisibleSurface {
     pub albedo: [f64; 3],
     /// Emitted radiance of the material.
     pub emission: [f64; 3],
+    /// The unit direction from the hit point back to the eye.
+    pub to_eye: DVec3,
 }
 
 /// The surface seen from `eye` along the unit direction `dir`, or `None` when the ray
@@ -145,6 +147,7 @@ pub fn visible_surface(scene: &Scene, tracer: &Tracer, eye: DVec3, dir: DVec3) -
         normal: if hit.normal.dot(dir) > 0.0 { -hit.normal } else { hit.normal },
         albedo: scene.albedo(hit.triangle, hit.bary[0], hit.bary[1]),
         emission: scene.material_of(hit.triangle).emission,
+        to_eye: -dir,
     })
 }
 
@@ -158,7 +161,8 @@ pub struct ReferenceConfig {
 }
 
 /// Renders `camera`'s view of `scene` shaded by `field`: at every visible surface the
-/// field's irradiance at the hit point and facing normal, clamped at zero (a truncated SH
+/// field's irradiance at the hit point and facing normal (as seen from the eye,
+/// [`VolumeField::irradiance_seen`]), clamped at zero (a truncated SH
 /// expansion can ring below zero), enters `config.quantity`.
 ///
 /// # Errors
@@ -172,7 +176,9 @@ pub fn render_volume<F: VolumeField + ?Sized>(
 ) -> Result<ViewImage, ViewError> {
     config.validate()?;
     render(scene, tracer, camera, config, None, |_, s| {
-        Ok(field.irradiance(s.position.to_array(), s.normal.to_array())?.map(|c| c.max(0.0)))
+        Ok(field
+            .irradiance_seen(s.position.to_array(), s.normal.to_array(), s.to_eye.to_array())?
+            .map(|c| c.max(0.0)))
     })
 }
 

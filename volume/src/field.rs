@@ -46,6 +46,18 @@ pub trait VolumeField: Sync {
         Ok(expand(self.coeffs(), &c, n, true))
     }
 
+    /// Irradiance `E(p, n)` as a renderer looking at `p` from the unit direction `to_eye`
+    /// (from `p` towards the eye) reads it: the same as [`Self::irradiance`] except for
+    /// lookups that move the sample towards the viewer (Unity APV's view bias,
+    /// [`crate::engine_lookup::EngineField`]).
+    ///
+    /// # Errors
+    /// As [`Self::coeffs_at`].
+    fn irradiance_seen(&self, p: [f64; 3], n: [f64; 3], to_eye: [f64; 3]) -> Result<[f64; 3], VolumeError> {
+        let _ = to_eye;
+        self.irradiance(p, n)
+    }
+
     /// Radiance `L(p, ω) = Σ_j L_j(p) Y_j(ω)` arriving at `p` from the unit direction `dir`.
     ///
     /// # Errors
