@@ -91,6 +91,10 @@ pub(crate) enum ExportFormat {
     /// file's frame (KTX2, RGBA16F or --bevy-format rgb9e5, + JSON with the Transform and
     /// intensity to use).
     Bevy,
+    /// three.js LightProbeGrid: its probe atlas as an RGBA16F 3D KTX2 that three's
+    /// KTX2Loader reads, with the grid's resolution, position and size (+ JSON), in the scene
+    /// file's frame; read as three reads it by `render --lookup three`.
+    Three,
     /// The JSON sidecar alone (grid transform, SH convention, encoding, units).
     Json,
 }

@@ -33,6 +33,7 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
         CliFormat::Ktx2 => ExportFormat::Ktx2,
         CliFormat::Dds => ExportFormat::Dds,
         CliFormat::Json => ExportFormat::Json,
+        CliFormat::Three => ExportFormat::Three,
         CliFormat::Bevy => ExportFormat::Bevy(match args.bevy_format {
             BevyFormatArg::Rgba16f => BevyFormat::Rgba16f,
             BevyFormatArg::Rgb9e5 => BevyFormat::Rgb9e5,
@@ -46,7 +47,7 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             )
         }
         ExportError::ResolutionForJson => anyhow::anyhow!(
-            "--res applies to KTX2, DDS and Bevy exports; the JSON export describes the octree itself"
+            "--res applies to KTX2, DDS, Bevy and three.js exports; the JSON export describes the octree itself"
         ),
         e @ ExportError::Resample(_) => e.into(),
         ExportError::Volume(e) => anyhow::Error::new(e).context(format!("writing {}", out.display())),
@@ -61,14 +62,16 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             if finest { " (its finest level)" } else { "" }
         );
     }
+    let engine = if args.format == CliFormat::Three { "three.js" } else { "Bevy" };
     if let Some(n) = report.dropped_mask_nodes {
         eprintln!(
-            "note: Bevy interpolates its voxels plainly; the validity mask ({n} invalid nodes) is not in the Bevy export"
+            "note: {engine} interpolates its probes plainly; the validity mask ({n} invalid nodes) is not in the {engine} export"
         );
     }
     if let Some(n) = report.dropped_reach_nodes {
         eprintln!(
-            "note: Bevy interpolates its voxels plainly; the node reach ({n} limited nodes) is not in the Bevy export, so its lookups read nodes through thin walls"
+            "note: {engine} interpolates its probes plainly; the node reach ({n} limited nodes) is not in the {engine} export, so its lookups read nodes through thin walls (lightvol render --lookup {} shows what it draws)",
+            if args.format == CliFormat::Three { "three" } else { "bevy" }
         );
     }
     eprintln!("wrote {}", out.display());

@@ -80,9 +80,10 @@ pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
         }
     })?
     .map_err(anyhow::Error::new)?;
+    let coverage = img.surface.clone();
     let img = crate::imaging::Rgb32::from(img);
     let exposure = args.exposure.unwrap_or_else(|| auto_exposure(&img));
-    crate::imaging::write_image(&args.output, &img, exposure)?;
+    crate::imaging::write_image(&args.output, &img, Some(&coverage), exposure)?;
     eprintln!("wrote {}", args.output.display());
     Ok(ExitCode::SUCCESS)
 }

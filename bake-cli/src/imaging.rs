@@ -5,7 +5,7 @@ use std::path::Path;
 
 use anyhow::Context;
 pub(crate) use lightvol_view::picture::{Plot, Rgb32, auto_exposure};
-use lightvol_view::picture::{exr_linear, png_linear, png_rgb8};
+use lightvol_view::picture::{exr_linear_coverage, png_linear, png_rgb8};
 
 /// Writes an 8-bit RGB PNG atomically (temporary file, then rename).
 pub(crate) fn write_png_rgb8(path: &Path, width: usize, height: usize, rgb: &[u8]) -> anyhow::Result<()> {
@@ -19,11 +19,18 @@ pub(crate) fn write_png_linear(path: &Path, img: &Rgb32, exposure: f32) -> anyho
     write_atomic(path, &bytes)
 }
 
-/// Writes `img` by the output's extension: `.exr` linear HDR, else an sRGB PNG scaled by
+/// Writes `img` by the output's extension: `.exr` linear HDR (with an alpha channel from
+/// `coverage`, 1 on surfaces and 0 where rays miss, when given), else an sRGB PNG scaled by
 /// `exposure`.
-pub(crate) fn write_image(path: &Path, img: &Rgb32, exposure: f32) -> anyhow::Result<()> {
+pub(crate) fn write_image(
+    path: &Path,
+    img: &Rgb32,
+    coverage: Option<&[bool]>,
+    exposure: f32,
+) -> anyhow::Result<()> {
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
-        let bytes = exr_linear(img).with_context(|| format!("encoding {}", path.display()))?;
+        let bytes =
+            exr_linear_coverage(img, coverage).with_context(|| format!("encoding {}", path.display()))?;
         write_atomic(path, &bytes)
     } else {
         write_png_linear(path, img, exposure)

@@ -147,6 +147,20 @@ impl Scene {
         }
     }
 
+    /// The interpolated shading normal of triangle `tri` at barycentrics `(u, v)`: the
+    /// file's vertex normals (glTF `NORMAL`, in the world frame) blended with the
+    /// barycentric weights `(1 − u − v, u, v)` and normalised, as engines shade; `None`
+    /// for triangles without vertex normals (OBJ files, built-in scenes, instanced meshes)
+    /// or where the blend vanishes.
+    #[must_use]
+    pub fn shading_normal(&self, tri: u32, u: f64, v: f64) -> Option<DVec3> {
+        let Located::World(i) = self.locate(tri) else { return None };
+        let r = self.triangle_refs.get(i as usize)?.as_ref()?;
+        let normals = self.meshes.get(r.mesh as usize)?.normals.as_ref()?;
+        let [a, b, c] = r.vertices.map(|k| normals.get(k as usize).copied());
+        (a? * (1.0 - u - v) + b? * u + c? * v).try_normalize()
+    }
+
     /// Base-colour alpha of triangle `tri` at barycentrics `(u, v)`: factor × texture alpha
     /// (glTF 2.0 §3.9.4); 1 for materials whose texture has no alpha channel.
     #[must_use]

@@ -123,6 +123,26 @@ fn render_writes_linear_hdr_exr_per_quantity() {
         }
     }
     assert!(surface > 0 && sky > 0, "{surface} surface and {sky} sky pixels");
+    // The alpha channel tells a miss (0) from a surface (1), whatever the surface's value.
+    let img = exr::prelude::read_all_flat_layers_from_file(dir.path().join("irradiance-all.exr")).unwrap();
+    let alpha: Vec<f32> = img.layer_data[0]
+        .channel_data
+        .list
+        .iter()
+        .find(|c| c.name.to_string() == "A")
+        .expect("an alpha channel")
+        .sample_data
+        .values_as_f32()
+        .collect();
+    assert_eq!(alpha.len(), irradiance.len());
+    for i in 0..alpha.len() {
+        assert!(alpha[i] == 0.0 || alpha[i] == 1.0, "pixel {i}: alpha {}", alpha[i]);
+        if alpha[i] == 0.0 {
+            assert_eq!(irradiance[i], [0.0; 3], "pixel {i}: a miss has no irradiance");
+        }
+    }
+    let covered = alpha.iter().filter(|&&a| a == 1.0).count();
+    assert_eq!(covered, surface, "surfaces by alpha and by value (the city has no black surface)");
     let indirect = shot("irradiance", "indirect");
     let sum = |v: &[[f32; 3]]| v.iter().map(|p| f64::from(p[0] + p[1] + p[2])).sum::<f64>();
     assert!(sum(&indirect) < 0.8 * sum(&irradiance), "indirect light only is not darker");

@@ -120,14 +120,37 @@ pub fn png_linear(img: &Rgb32, exposure: f32) -> Result<Vec<u8>, PictureError> {
 /// # Errors
 /// [`PictureError::Exr`].
 pub fn exr_linear(img: &Rgb32) -> Result<Vec<u8>, PictureError> {
+    exr_linear_coverage(img, None)
+}
+
+/// [`exr_linear`] with an alpha channel `A` when `coverage` is given: 1 where a pixel sees
+/// a surface, 0 where its ray leaves the scene, so that a miss and a black surface can be
+/// told apart. `coverage` has one entry per pixel, row-major.
+///
+/// # Errors
+/// The encoder's (or a coverage of the wrong length).
+pub fn exr_linear_coverage(img: &Rgb32, coverage: Option<&[bool]>) -> Result<Vec<u8>, PictureError> {
     use exr::prelude::*;
     let (w, h) = (img.width, img.height);
     let channel = |c: usize| -> Vec<f32> { img.pixels.iter().map(|p| p[c]).collect() };
-    let channels = vec![
+    let mut channels = vec![
         AnyChannel::new("R", FlatSamples::F32(channel(0))),
         AnyChannel::new("G", FlatSamples::F32(channel(1))),
         AnyChannel::new("B", FlatSamples::F32(channel(2))),
     ];
+    if let Some(cov) = coverage {
+        if cov.len() != img.pixels.len() {
+            return Err(PictureError::Exr(format!(
+                "{} coverage values for {} pixels",
+                cov.len(),
+                img.pixels.len()
+            )));
+        }
+        channels.push(AnyChannel::new(
+            "A",
+            FlatSamples::F32(cov.iter().map(|&c| f32::from(u8::from(c))).collect()),
+        ));
+    }
     let layer = Layer::new(
         (w, h),
         LayerAttributes::default(),

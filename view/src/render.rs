@@ -126,7 +126,9 @@ impl ViewImage {
 pub struct VisibleSurface {
     /// The hit point.
     pub position: DVec3,
-    /// The unit geometric normal of the side the ray meets (facing the ray's origin).
+    /// The unit shading normal of the side the ray meets: the interpolated vertex normal
+    /// where the scene has one ([`Scene::shading_normal`]), else the geometric normal, turned
+    /// to the side of the face that faces the ray's origin.
     pub normal: DVec3,
     /// Albedo at the hit (material factor × texture).
     pub albedo: [f64; 3],
@@ -141,10 +143,17 @@ pub struct VisibleSurface {
 #[must_use]
 pub fn visible_surface(scene: &Scene, tracer: &Tracer, eye: DVec3, dir: DVec3) -> Option<VisibleSurface> {
     let hit = tracer.closest_hit(eye, dir, 0.0, f64::INFINITY)?;
+    // Shade the side the camera sees, with the file's vertex normals where it has them
+    // (as engines do), turned to the side of the face the camera sees.
+    let facing = if hit.normal.dot(dir) > 0.0 { -hit.normal } else { hit.normal };
+    let normal = match scene.shading_normal(hit.triangle, hit.bary[0], hit.bary[1]) {
+        Some(n) if n.dot(facing) < 0.0 => -n,
+        Some(n) => n,
+        None => facing,
+    };
     Some(VisibleSurface {
         position: eye + dir * hit.t,
-        // Shade the side the camera sees.
-        normal: if hit.normal.dot(dir) > 0.0 { -hit.normal } else { hit.normal },
+        normal,
         albedo: scene.albedo(hit.triangle, hit.bary[0], hit.bary[1]),
         emission: scene.material_of(hit.triangle).emission,
         to_eye: -dir,

@@ -50,7 +50,7 @@ pub enum EngineLookup {
     /// probes at the centres of the grid's cells, hardware trilinear filtering clamped to
     /// the outermost probes, sampled half a cell out along the normal.
     Three,
-    /// Bevy's irradiance volume (bevy_pbr 0.19, `src/light_probe/irradiance_volume.wesl`):
+    /// Bevy's irradiance volume (bevy_pbr 0.19.1, `src/light_probe/irradiance_volume.wgsl` lines 59-91):
     /// an ambient cube per voxel, each face filtered trilinearly, weighted by the squared
     /// normal components.
     Bevy,
@@ -59,6 +59,10 @@ pub enum EngineLookup {
     /// [`APV_VIEW_BIAS`]).
     Apv,
 }
+
+/// How far beyond its box, in cells, three.js still lights a fragment from a probe grid
+/// (`lightprobes_pars_fragment.glsl.js` line 22: 1% of a cell, for precision).
+pub const THREE_BOX_MARGIN: f64 = 0.01;
 
 /// Unity APV's default normal bias, metres (`ProbeVolumesOptions.normalBias`).
 pub const APV_NORMAL_BIAS: f64 = 0.05;
@@ -96,7 +100,7 @@ impl EngineLookup {
                 "any engine that filters a probe texture trilinearly (Godot's LightmapGI probes)"
             }
             Self::Three => "three.js r187 examples/jsm/lighting/LightProbeGridWebGL.js",
-            Self::Bevy => "bevy_pbr 0.19.1 src/light_probe/irradiance_volume.wesl",
+            Self::Bevy => "bevy_pbr 0.19.1 src/light_probe/irradiance_volume.wgsl",
             Self::Apv => {
                 "Unity Graphics com.unity.render-pipelines.core Runtime/Lighting/ProbeVolume/ProbeVolume.hlsl"
             }
@@ -132,14 +136,36 @@ impl IrradianceVolume {
             EngineLookup::Three => {
                 let h = self.spec().cell_size();
                 let q = std::array::from_fn(|a| p[a] + n[a] * h[a] * 0.5);
+                // lightprobes_pars_fragment.glsl.js lines 15-26: a sample point outside the
+                // box grown by 1% of a cell leaves the fragment unlit by the grid.
+                if self.outside_engine_box(q, THREE_BOX_MARGIN) {
+                    return [0.0; 3];
+                }
                 self.sh_irradiance_at(q, n, false)
             }
-            EngineLookup::Bevy => self.ambient_cube_at(p, n),
+            EngineLookup::Bevy => {
+                // light_probe.wgsl: a fragment outside the probe's unit cube (half a voxel
+                // beyond the outermost voxel centres) finds no irradiance volume.
+                if self.outside_engine_box(p, 0.0) {
+                    return [0.0; 3];
+                }
+                self.ambient_cube_at(p, n)
+            }
             EngineLookup::Apv => {
                 let q = std::array::from_fn(|a| p[a] + n[a] * APV_NORMAL_BIAS + v[a] * APV_VIEW_BIAS);
                 self.sh_irradiance_at(q, n, true)
             }
         }
+    }
+
+    /// Whether world point `q` lies outside the engines' box of this grid, half a cell
+    /// beyond the outermost nodes on every axis, grown by `margin` cells.
+    fn outside_engine_box(&self, q: [f64; 3], margin: f64) -> bool {
+        let spec = self.spec();
+        let g = spec.to_grid(q);
+        let (lo, hi) = spec.bounds();
+        let h = spec.cell_size();
+        (0..3).any(|a| g[a] < lo[a] - h[a] * (0.5 + margin) || g[a] > hi[a] + h[a] * (0.5 + margin))
     }
 
     /// SH irradiance at `q` for normal `n` from trilinear weights, renormalised over the
@@ -297,5 +323,25 @@ mod tests {
         for ch in 0..3 {
             assert!((bevy[ch] - tri[ch]).abs() < TOL, "{bevy:?} {tri:?}");
         }
+    }
+
+    /// three.js lights a fragment only while its sample point (half a cell along the normal)
+    /// stays within the box grown by 1% of a cell; Bevy only inside the probe's cube. The
+    /// box is half a cell beyond the outermost nodes.
+    #[test]
+    fn engines_light_only_inside_their_box() {
+        let vol = linear_volume();
+        let up = [0.0, 0.0, 1.0];
+        let down = [0.0, 0.0, -1.0];
+        let v = [1.0, 0.0, 0.0];
+        // Top nodes at z = 3, cell 1: three's box ends at 3.5, its margin at 3.51.
+        let lit = |p: [f64; 3], n| vol.engine_irradiance(EngineLookup::Three, p, n, v)[0] > 0.0;
+        assert!(lit([1.0, 1.0, 2.9], up), "sample at 3.4: inside");
+        assert!(lit([1.0, 1.0, 3.005], up), "sample at 3.505: inside the margin");
+        assert!(!lit([1.0, 1.0, 3.02], up), "sample at 3.52: outside");
+        assert!(lit([1.0, 1.0, 3.9], down), "sample at 3.4 from above: inside");
+        let bevy = |p: [f64; 3]| vol.engine_irradiance(EngineLookup::Bevy, p, up, v)[0] > 0.0;
+        assert!(bevy([1.0, 1.0, 3.49]) && !bevy([1.0, 1.0, 3.51]));
+        assert!(bevy([-0.49, 1.0, 1.0]) && !bevy([-0.51, 1.0, 1.0]));
     }
 }

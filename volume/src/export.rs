@@ -24,6 +24,8 @@ pub enum ExportFormat {
     Dds,
     /// Bevy's irradiance volume ([`crate::io::bevy`]).
     Bevy(BevyFormat),
+    /// three.js's `LightProbeGrid` atlas ([`crate::io::three`]).
+    Three,
     /// The JSON sidecar describing the native file (and an octree's levels).
     Json,
 }
@@ -34,9 +36,9 @@ pub struct ExportReport {
     /// An octree resampled to this uniform resolution, with whether it is the finest
     /// level's.
     pub resampled: Option<([u32; 3], bool)>,
-    /// Invalid nodes of a validity mask the format cannot carry (Bevy).
+    /// Invalid nodes of a validity mask the format cannot carry (Bevy, three.js).
     pub dropped_mask_nodes: Option<usize>,
-    /// Limited nodes of a node reach the format cannot carry (Bevy).
+    /// Limited nodes of a node reach the format cannot carry (Bevy, three.js).
     pub dropped_reach_nodes: Option<usize>,
 }
 
@@ -108,6 +110,11 @@ fn write_uniform(
     match format {
         ExportFormat::Ktx2 => crate::io::ktx2::write_ktx2(out, vol)?,
         ExportFormat::Dds => crate::io::dds::write_dds(out, vol)?,
+        ExportFormat::Three => {
+            crate::io::three::write_three(out, vol)?;
+            report.dropped_mask_nodes = vol.validity().map(ValidityMask::invalid_count);
+            report.dropped_reach_nodes = vol.reach().map(NodeReach::limited_count);
+        }
         ExportFormat::Bevy(f) => {
             crate::io::bevy::write_bevy(out, vol, f)?;
             report.dropped_mask_nodes = vol.validity().map(ValidityMask::invalid_count);

@@ -228,7 +228,8 @@ impl AnyVolume {
 }
 
 /// Reads a volume file of any kind. `.ktx2` and `.dds` files (lightvol's engine exports,
-/// `crate::io::ktx2`, `crate::io::dds`) are uniform grids; anything else is read as a native
+/// `crate::io::ktx2`, `crate::io::three`, `crate::io::dds`) are uniform grids, returned in
+/// the internal frame like the native file; anything else is read as a native
 /// EXR file: an adaptive octree (`crate::io::adaptive::is_adaptive_exr`), a uniform grid with
 /// gradients, or a plain uniform grid. A file whose header cannot be read as an octree's is
 /// read as a uniform grid, so that the uniform reader names the problem.
@@ -237,7 +238,14 @@ impl AnyVolume {
 /// The file cannot be read or is not a lightvol volume ([`VolumeError`], naming the problem).
 pub fn open(path: &Path) -> Result<AnyVolume, VolumeError> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
-        Some("ktx2") => return crate::io::ktx2::read_ktx2(path).map(AnyVolume::Uniform),
+        Some("ktx2") => {
+            let bytes = crate::io::util::read_bounded(path)?;
+            return if crate::io::three::is_three(&bytes) {
+                crate::io::three::three_from_bytes(&bytes).map(|(_, v)| AnyVolume::Uniform(v))
+            } else {
+                crate::io::ktx2::ktx2_from_bytes(&bytes).map(AnyVolume::Uniform)
+            };
+        }
         Some("dds") => return crate::io::dds::read_dds(path).map(AnyVolume::Uniform),
         _ => {}
     }

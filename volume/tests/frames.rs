@@ -12,7 +12,7 @@ use lightvol_volume::frame::FileGrid;
 use lightvol_volume::io::bevy::{BevyFormat, read_bevy};
 use lightvol_volume::io::sidecar::{read_sidecar, sidecar_path};
 use lightvol_volume::up_axis::UpAxis;
-use lightvol_volume::{AnyVolume, BakeMetadata, IrradianceVolume, open};
+use lightvol_volume::{AnyVolume, BakeMetadata, EngineLookup, IrradianceVolume, open};
 
 /// f16 texels: 2^-11 relative rounding per coefficient; an irradiance sums nine of them
 /// with factors up to π against values that stay above a tenth of their size
@@ -104,6 +104,7 @@ fn every_texture_has_a_sidecar_that_agrees_with_info() {
             let sidecar =
                 read_sidecar(&side).unwrap_or_else(|e| panic!("{ext} sidecar {}: {e}", side.display()));
             assert_eq!(file_grid_tuple(sidecar.file_grid.as_ref().unwrap()), want, "{ext} {}", up.name());
+            assert_eq!(sidecar.lookup, EngineLookup::Lightvol.name(), "{ext} names lightvol's lookup");
             if format != ExportFormat::Json {
                 assert_eq!(sidecar.grid.to_world, None, "{ext}: a file-axis texture needs no transform");
                 assert_eq!(sidecar.grid.res.to_vec(), want.0);
@@ -122,6 +123,79 @@ fn every_texture_has_a_sidecar_that_agrees_with_info() {
         let info = read_bevy(&bevy).unwrap().info;
         assert_eq!(info.res.to_vec(), want.0, "the Bevy texture runs along the file's axes");
         assert_eq!(info.transform.rotation, [0.0, 0.0, 0.0, 1.0]);
+        assert_eq!(info.lookup, EngineLookup::Bevy.name());
         assert!(sidecar_path(&bevy).exists());
     }
+}
+
+/// three.js's atlas of a Y-up and of a Z-up volume reads back through `open` to the
+/// native lookups (f16), its placement puts three's cell-centre probes on lightvol's nodes,
+/// and its sidecar and key/value entry give the grid `info` prints, in the file's axes.
+#[test]
+fn three_atlas_reads_back_and_places_probes_on_the_nodes() {
+    use lightvol_volume::io::three::{atlas_depth, read_three};
+    let dir = tempfile::tempdir().unwrap();
+    for up in [UpAxis::Y, UpAxis::Z] {
+        let vol = volume(up);
+        let native = dir.path().join(format!("v-{}.exr", up.name()));
+        lightvol_volume::io::exr::write_exr(&native, &vol, &Default::default()).unwrap();
+        let want = info_grid(&native);
+        let path = dir.path().join(format!("t-{}.ktx2", up.name()));
+        export(&AnyVolume::Uniform(vol.clone()), &native, ExportFormat::Three, None, &path).unwrap();
+        let AnyVolume::Uniform(back) = open(&path).unwrap() else { panic!("a uniform grid") };
+        assert_eq!(back.spec(), vol.spec(), "{}", up.name());
+        assert_eq!(back.metadata().frame, up);
+        for (p, n) in queries(&vol, 400) {
+            let a = vol.irradiance_reference(p, n);
+            let b = back.irradiance_reference(p, n);
+            let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            for ch in 0..3 {
+                assert!((a[ch] - b[ch]).abs() <= F16_REL * scale, "three {}: {a:?} vs {b:?}", up.name());
+            }
+        }
+        let (info, _) = read_three(&path).unwrap();
+        assert_eq!(info.resolution.to_vec(), want.0, "three's resolution is the file grid");
+        assert_eq!(info.lookup, "three");
+        // Probe i of three's box sits at min + (i + 1/2) · size / res: the file grid's node i.
+        for a in 0..3 {
+            let (lo, hi) = (want.1[0][a], want.1[1][a]);
+            let n = f64::from(want.0[a]);
+            let first = info.bounds[0][a] + 0.5 * info.size[a] / n;
+            let last = info.bounds[0][a] + (n - 0.5) * info.size[a] / n;
+            let tol = 1e-12 * (hi - lo).abs().max(1.0);
+            assert!(
+                (first - lo).abs() <= tol && (last - hi).abs() <= tol,
+                "axis {a}: {first}..{last} vs {lo}..{hi}"
+            );
+            assert!((info.position[a] - (lo + hi) / 2.0).abs() <= tol);
+        }
+        assert_eq!(atlas_depth(want.0[2]), 7 * (want.0[2] + 2));
+        let sidecar = read_sidecar(&sidecar_path(&path)).expect("three's sidecar");
+        assert_eq!(file_grid_tuple(sidecar.file_grid.as_ref().unwrap()), want);
+        assert_eq!(sidecar.lookup, EngineLookup::Three.name());
+        assert_eq!(sidecar.grid.to_world, None, "three's atlas runs along the file's axes");
+        assert_eq!(info_grid(&path), want, "info of the three export");
+    }
+}
+
+/// three.js cannot rotate a probe grid: a placed volume is refused in one line, and no
+/// file is left behind.
+#[test]
+fn three_refuses_a_placed_grid_in_one_line() {
+    use lightvol_volume::grid::{GridSpec, Placement};
+    let dir = tempfile::tempdir().unwrap();
+    let vol = volume(UpAxis::Z);
+    let (c, s) = (0.6f64, 0.8f64);
+    let spec = GridSpec::new([0.0; 3], [1.0; 3], vol.spec().res())
+        .unwrap()
+        .with_placement(Placement::new([[c, -s, 0.0, 1.0], [s, c, 0.0, 2.0], [0.0, 0.0, 1.0, 0.0]]).unwrap());
+    let placed =
+        IrradianceVolume::new(spec, vol.coeffs(), vol.data().to_vec(), vec![1.0; vol.spec().node_count()])
+            .unwrap();
+    let path = dir.path().join("placed.ktx2");
+    let err = export(&AnyVolume::Uniform(placed), Path::new("v.exr"), ExportFormat::Three, None, &path)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("three.js") && !err.contains('\n'), "{err}");
+    assert!(!path.exists() && !sidecar_path(&path).exists(), "nothing written");
 }

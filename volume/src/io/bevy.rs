@@ -222,6 +222,14 @@ pub struct BevyInfo {
     pub units: String,
     /// FNV-1a checksum (16 hex digits) of the level data.
     pub texel_checksum: String,
+    /// The engine lookup the file is meant for: `bevy` (Bevy's ambient cube).
+    #[serde(default = "bevy_lookup")]
+    pub lookup: String,
+}
+
+/// The lookup a Bevy export is meant for ([`crate::engine_lookup::EngineLookup::Bevy`]).
+fn bevy_lookup() -> String {
+    "bevy".into()
 }
 
 /// What the texels hold (see [`bevy_to_bytes`]).
@@ -332,6 +340,7 @@ pub fn bevy_to_bytes(vol: &IrradianceVolume, format: BevyFormat) -> Result<Vec<u
         quantity: BEVY_QUANTITY.into(),
         units: format!("({}) (radiance of a white Lambertian surface)", vol.metadata().units),
         texel_checksum: to_hex(fnv1a(&texels)),
+        lookup: bevy_lookup(),
     };
     let json = serde_json::to_string(&info).expect("plain data");
     Ok(crate::io::ktx2::ktx2_bytes(vk, dims, &texels, &[("KTXwriter", KTX2_WRITER), (BEVY_INFO_KEY, &json)]))

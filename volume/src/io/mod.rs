@@ -1,5 +1,5 @@
 //! Every file format of a volume: the native EXR ([`exr`]), the adaptive octree's EXR
-//! ([`adaptive`]), the engine exports ([`ktx2`], [`dds`], [`bevy`] and their JSON
+//! ([`adaptive`]), the engine exports ([`ktx2`], [`dds`], [`bevy`], [`three`] and their JSON
 //! [`sidecar`]), the shard accumulator ([`accumulator`]), and the shared file edges
 //! ([`util`]: atomic writes, bounded reads, the parser panic guard).
 
@@ -10,4 +10,5 @@ pub mod dds;
 pub mod exr;
 pub mod ktx2;
 pub mod sidecar;
+pub mod three;
 pub mod util;

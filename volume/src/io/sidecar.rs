@@ -307,7 +307,20 @@ pub struct Sidecar {
     /// required by their readers.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub checksum: Option<String>,
+    /// The engine lookup the described file is meant for (`lightvol`, `three`, `bevy`:
+    /// [`crate::engine_lookup::EngineLookup`]); files written before it was recorded are
+    /// read as `lightvol`.
+    #[serde(default = "lightvol_lookup")]
+    pub lookup: String,
 }
+
+/// The lookup of files that name none: lightvol's own.
+fn lightvol_lookup() -> String {
+    LIGHTVOL_LOOKUP.into()
+}
+
+/// Name of lightvol's own lookup (validity and node reach), as `--lookup` spells it.
+pub const LIGHTVOL_LOOKUP: &str = "lightvol";
 
 impl Sidecar {
     /// The same description with the data in `frame` (an export converted by
@@ -363,6 +376,7 @@ impl Sidecar {
             source_frame: m.frame,
             file_grid: Some(crate::frame::FileGrid::of(spec, m.frame)),
             checksum: None,
+            lookup: LIGHTVOL_LOOKUP.into(),
         }
     }
 

@@ -215,6 +215,32 @@ fn quantized_positions_and_normals() {
     assert_eq!(s.report.extensions[0].treatment, "supported");
 }
 
+/// Shading normals: the file's vertex normals blended with the hit's barycentrics and
+/// normalised (what engines shade with); none for a mesh without `NORMAL`.
+#[test]
+fn shading_normals_interpolate_the_vertex_normals() {
+    let mut d = Doc::default();
+    let f32s = |v: &[f32]| -> Vec<u8> { v.iter().flat_map(|x| x.to_le_bytes()).collect() };
+    let vp = d.view(&f32s(&[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]));
+    let pos = d.accessor(json!({"bufferView": vp, "componentType": 5126, "count": 3, "type": "VEC3",
+        "min": [0, 0, 0], "max": [1, 1, 0]}));
+    let vn = d.view(&f32s(&[0.0, 0.0, 1.0, 0.6, 0.0, 0.8, 0.0, 0.6, 0.8]));
+    let nrm = d.accessor(json!({"bufferView": vn, "componentType": 5126, "count": 3, "type": "VEC3"}));
+    let text = d.json(json!({
+        "nodes": [{"mesh": 0}, {"mesh": 1, "translation": [0, 0, 1]}], "scenes": [{"nodes": [0, 1]}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": pos, "NORMAL": nrm}}]},
+                   {"primitives": [{"attributes": {"POSITION": pos}}]}]
+    }));
+    let s = load_str(&text).unwrap();
+    // f32 normals of unit length to 1e-7; the blend and its normalisation in f64.
+    const TOL: f64 = 1e-6;
+    let at_vertex = s.shading_normal(0, 1.0, 0.0).unwrap();
+    assert!((at_vertex - DVec3::new(0.6, 0.0, 0.8)).length() < TOL, "{at_vertex}");
+    let centre = s.shading_normal(0, 1.0 / 3.0, 1.0 / 3.0).unwrap();
+    assert!((centre - DVec3::new(0.6, 0.6, 2.6).normalize()).length() < TOL, "{centre}");
+    assert_eq!(s.shading_normal(1, 0.2, 0.2), None);
+}
+
 /// `KHR_texture_transform` on the base colour: an offset of half the texture width moves
 /// every lookup onto the other texel.
 #[test]
