@@ -173,6 +173,9 @@ pub fn write_three(path: &Path, vol: &IrradianceVolume) -> Result<(), VolumeErro
     let mut description =
         Sidecar::describe(&file_vol, Encoding::F16, file, "three-probe-atlas").in_frame(frame);
     description.lookup = info.lookup.clone();
+    // The atlas holds the coefficients only: three interpolates plainly.
+    description.validity = None;
+    description.reach = None;
     let mut json = serde_json::to_string_pretty(&ThreeSidecar { description, three: info })
         .map_err(|e| VolumeError::InvalidData(e.to_string()))?;
     json.push('\n');
