@@ -216,7 +216,11 @@ pub(crate) fn config(
         memory_sweep: args
             .memory_sweep
             .then(|| SweepConfig { scales: args.sweep_scales.clone(), gradient_estimator }),
-        views: ViewsConfig { cameras: views, reference_samples: args.views.view_samples },
+        views: ViewsConfig {
+            cameras: views,
+            reference_samples: args.views.view_samples,
+            engine_views: args.views.engine_views.clone(),
+        },
         lookup: args.lookup,
         threads,
     }
@@ -250,9 +254,13 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
         return Err(flag_error(EvalError::PlateHeightNotFinite(height)));
     }
     let views = cameras(&args.views, &loaded, &grid)?;
-    ViewsConfig { cameras: views.clone(), reference_samples: args.views.view_samples }
-        .validate()
-        .map_err(flag_error)?;
+    ViewsConfig {
+        cameras: views.clone(),
+        reference_samples: args.views.view_samples,
+        engine_views: args.views.engine_views.clone(),
+    }
+    .validate()
+    .map_err(flag_error)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let threads = resolve_threads(args.sampling.threads)?;
     let config = config(args, methods, grid, height, views, threads);

@@ -93,6 +93,7 @@ fn scene_compare_args(
             view_width: level.view_width,
             view_height: None,
             view_samples: level.view_samples,
+            engine_views: vec![lightvol_volume::EngineLookup::Three, lightvol_volume::EngineLookup::Bevy],
         },
         lookup: lightvol_volume::EngineLookup::Lightvol,
         output: out,

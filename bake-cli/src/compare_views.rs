@@ -35,6 +35,11 @@ pub(crate) struct ViewArgs {
     /// Path-traced irradiance samples per pixel of the reference views.
     #[arg(long, value_parser = parse_samples, default_value_t = ViewsConfig::DEFAULT_REFERENCE_SAMPLES)]
     pub(crate) view_samples: Samples,
+    /// Also draw every view as these engines read the `doi` volume (comma-separated:
+    /// `three`, `bevy`, `apv`, `trilinear`; `render --lookup` names them), as
+    /// `view_LABEL_doi@ENGINE.png` with its relative RMSE in `report.json`.
+    #[arg(long, value_delimiter = ',')]
+    pub(crate) engine_views: Vec<lightvol_volume::EngineLookup>,
 }
 
 /// Characters kept in a file camera's name when it labels a view (the rest become `_`).

@@ -433,60 +433,95 @@ fn memory_html(s: &mut String, sweeps: &[(String, Value)]) {
     }
 }
 
-/// The methods a person compares in a scene's views: point sampling, the engine baseline
-/// with the lowest relative RMSE over the view's pixels, and `doi`, each beside the
-/// path-traced view.
+/// The views a person compares first, large and side by side: the path-traced view,
+/// lightvol's (`doi`), what three.js and Bevy draw of the same volume (the `doi@ENGINE`
+/// views, lightvol's emulation of their lookups), point sampling and the engine baseline
+/// with the lowest relative RMSE over the view's pixels.
 fn views_html(s: &mut String, scene: &str, r: &CompareReport) {
     for v in r.views.iter().flatten() {
         let rel = |m: &str| v.methods.get(m).and_then(|x| x["rel_rmse"].as_f64());
-        let best = v
-            .methods
-            .keys()
-            .filter(|m| super::table::is_engine_baseline(m))
-            .filter_map(|m| rel(m).map(|e| (m.clone(), e)))
-            .min_by(|a, b| a.1.total_cmp(&b.1));
-        let mut shown: Vec<(String, String)> = vec![("reference".into(), "path-traced reference".into())];
-        for m in ["point".to_owned()].into_iter().chain(best.map(|b| b.0)).chain(["doi".to_owned()]) {
-            if let Some(e) = rel(&m) {
-                shown.push((m.clone(), format!("{m}: relative RMSE {e:.3}")));
+        let best = best_baseline(v);
+        let mut shown: Vec<(String, String)> = vec![("reference".into(), "path-traced".into())];
+        let engines = [
+            ("doi", "lightvol (doi)"),
+            ("doi@three", "three.js, same volume"),
+            ("doi@bevy", "Bevy, same volume"),
+        ];
+        for (m, label) in engines.into_iter().chain([("point", "point sampling")]) {
+            if let Some(e) = rel(m) {
+                shown.push((m.to_owned(), format!("{label}: {e:.3}")));
             }
         }
-        let _ = writeln!(
-            s,
-            "<p>View <i>{}</i> ({}×{} pixels, reference {} samples per pixel): the scene shaded by each volume.</p>\n<div>",
-            v.camera, v.resolution[0], v.resolution[1], v.reference.samples
-        );
+        if let Some((m, e)) = best {
+            shown.push((m.clone(), format!("best engine fix, {m}: {e:.3}")));
+        }
+        let _ = writeln!(s, "<div class=\"views\">");
         for (m, caption) in shown {
             let _ = writeln!(
                 s,
-                "<figure style=\"display:inline-block;margin:4px\"><img src=\"{scene}/view_{}_{m}.png\" alt=\"{caption}\" width=\"{}\"><figcaption>{caption}</figcaption></figure>",
-                v.camera,
-                v.resolution[0].max(320)
+                "<figure><img src=\"{scene}/view_{}_{m}.png\" alt=\"{caption}\"><figcaption>{caption}</figcaption></figure>",
+                v.camera
             );
         }
-        s.push_str("</div>\n");
+        let _ = writeln!(
+            s,
+            "</div>\n<p class=\"note\">Camera <i>{}</i>, {}×{} pixels; numbers are the relative RMSE of each view against the path-traced one ({} samples per pixel) over the pixels that see a surface inside the grid.</p>",
+            v.camera, v.resolution[0], v.resolution[1], v.reference.samples
+        );
     }
+}
+
+/// The engine baseline with the lowest relative RMSE in view `v`.
+fn best_baseline(v: &ViewReport) -> Option<(String, f64)> {
+    v.methods
+        .iter()
+        .filter(|(m, _)| super::table::is_engine_baseline(m))
+        .filter_map(|(m, x)| x["rel_rmse"].as_f64().map(|e| (m.clone(), e)))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+}
+
+/// The short table: point sampling, the engines' leak fixes and `doi`, by the plate's and
+/// the view's relative RMSE, and the engines' views of `doi`'s volume.
+fn short_table_html(s: &mut String, r: &CompareReport) {
+    let view = r.views.iter().flatten().next();
+    let view_rel = |m: &str| view.and_then(|v| v.methods.get(m)).and_then(|x| x["rel_rmse"].as_f64());
+    let cell = |x: Option<f64>| x.map_or_else(|| "–".to_owned(), |e| format!("{e:.3}"));
+    s.push_str("<table><tr><th>method</th><th>plate rel. RMSE</th><th>view rel. RMSE</th></tr>\n");
+    let names =
+        r.methods.keys().filter(|m| *m == "point" || *m == "doi" || super::table::is_engine_baseline(m));
+    for m in names.map(String::as_str).chain(["doi@three", "doi@bevy"]) {
+        let plate = r.methods.get(m).and_then(|v| v.get("rel_rmse")).and_then(Value::as_f64);
+        if plate.is_none() && view_rel(m).is_none() {
+            continue;
+        }
+        let _ = writeln!(s, "<tr><th>{m}</th><td>{}</td><td>{}</td></tr>", cell(plate), cell(view_rel(m)));
+    }
+    s.push_str("</table>\n");
 }
 
 /// One page of several scenes' comparisons (`reports`, each with its folder name, whose
 /// files [`compare_files`] made), a resolution study's plot (`sweep.svg`, `sweep.png`) and
 /// the memory studies of `sweeps` (each scene's `memory_sweep.json`); `quick` names the
-/// settings level. Per scene: the plate and grid, every entry's metrics, the views of point
-/// sampling, the best engine baseline and `doi` beside the reference, and every panel.
+/// settings level. Per scene, first the views side by side ([`views_html`]) and the short
+/// table ([`short_table_html`]), then folded: the plate and grid, every entry's metrics and
+/// every panel; the studies folded at the end.
 #[must_use]
 pub fn index_html(reports: &[(String, CompareReport)], sweeps: &[(String, Value)], quick: bool) -> String {
     let mut s = String::from(
-        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>lightvol demo</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;}table{border-collapse:collapse;}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right;}img{image-rendering:pixelated;margin:4px;border:1px solid #ddd;}</style></head><body>\n<h1>lightvol: domain-of-interest sampling vs point sampling</h1>\n",
+        "<!doctype html>\n<html><head><meta charset=\"utf-8\"><title>lightvol demo</title>\n<style>body{font-family:sans-serif;max-width:1500px;margin:1.5em auto;padding:0 1em;}table{border-collapse:collapse;margin:0.5em 0;}td,th{border:1px solid #ccc;padding:3px 8px;text-align:right;}.views{display:flex;flex-wrap:wrap;gap:8px;}.views figure{margin:0;flex:1 1 30%;min-width:300px;}.views img{width:100%;image-rendering:pixelated;border:1px solid #ddd;}figcaption{font-size:0.9em;}.note{color:#555;font-size:0.9em;}details{margin:0.8em 0;}summary{cursor:pointer;font-weight:bold;}details img{image-rendering:pixelated;margin:4px;border:1px solid #ddd;}</style></head><body>\n<h1>lightvol: what a volume looks like in the frame</h1>\n",
     );
     let _ = writeln!(
         s,
-        "<p>Each scene is baked with every method at the same sample budget and evaluated on a horizontal plate (normal up) against a path-traced reference, as in Kontkanen &amp; Laine 2006, Fig. 6. Panels show method | reference; points outside the domain of interest (inside solids) are bright green. Error maps: blue too dark, red too bright (±50% of the mean). Settings: {}.</p>",
+        "<p>Each scene is baked with every method at the same sample budget and drawn from one camera: first the path-traced view, then lightvol's (<code>doi</code>, Kontkanen &amp; Laine 2006), the same volume as three.js and Bevy read it, point sampling and the best of the engines' leak fixes. The table gives each method's relative RMSE on a horizontal plate (Kontkanen &amp; Laine 2006, Fig. 6) and in the view; everything else is folded below each scene. Settings: {}.</p>",
         if quick { "quick" } else { "full" }
     );
     for (scene, r) in reports {
+        let _ = writeln!(s, "<h2>{scene}</h2>");
+        views_html(&mut s, scene, r);
+        short_table_html(&mut s, r);
         let _ = writeln!(
             s,
-            "<h2>{scene}</h2>\n<p>plate at height {} m, {}×{} points, {} valid, {} near a surface; grid {}×{}×{}; reference {} samples per point.</p>",
+            "<details><summary>All methods: metrics, plate panels and error maps</summary>\n<p>Plate at height {} m, {}×{} points, {} valid, {} near a surface; grid {}×{}×{}; reference {} samples per point. Panels show method | reference; points outside the domain of interest (inside solids) are bright green. Error maps: blue too dark, red too bright (±50% of the mean).</p>",
             r.plate.height,
             r.plate.res[0],
             r.plate.res[1],
@@ -513,16 +548,16 @@ pub fn index_html(reports: &[(String, CompareReport)], sweeps: &[(String, Value)
             );
         }
         s.push_str("</table>\n");
-        views_html(&mut s, scene, r);
         for (name, _) in &r.methods {
             let _ = writeln!(
                 s,
                 "<div><b>{name}</b><br><img src=\"{scene}/panel_{name}.png\" alt=\"{name} | reference\"><img src=\"{scene}/error_{name}.png\" alt=\"{name} error\"></div>"
             );
         }
+        s.push_str("</details>\n");
     }
-    s.push_str("<h2>Grid resolution sweep (city)</h2>\n<img src=\"sweep.svg\" alt=\"relative RMSE vs resolution\"><p>Also as <a href=\"sweep.png\">PNG</a>.</p>\n");
+    s.push_str("<h2>Studies</h2>\n<details><summary>Grid resolution sweep (city)</summary>\n<img src=\"sweep.svg\" alt=\"relative RMSE vs resolution\"><p>Also as <a href=\"sweep.png\">PNG</a>.</p>\n</details>\n<details><summary>Error vs memory</summary>\n");
     memory_html(&mut s, sweeps);
-    s.push_str("</body></html>\n");
+    s.push_str("</details>\n</body></html>\n");
     s
 }

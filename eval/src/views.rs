@@ -25,6 +25,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use lightvol_volume::GridSpec;
+use lightvol_volume::engine_lookup::{EngineField, EngineLookup};
 use rayon::prelude::*;
 
 use crate::error::EvalError;
@@ -66,6 +67,19 @@ pub struct ViewsConfig {
     pub cameras: Vec<ViewCamera>,
     /// Path-traced irradiance samples per pixel of the reference views.
     pub reference_samples: Samples,
+    /// Engines whose reading of the [`ENGINE_VIEW_ENTRY`] entry's volume is also drawn in
+    /// every view, as `doi@ENGINE` ([`EngineLookup`]: what that engine shows of the same
+    /// file); none by default, and nothing when the entry is absent or not a uniform grid.
+    pub engine_views: Vec<EngineLookup>,
+}
+
+/// The entry whose volume the engine views read: lightvol's default method.
+pub const ENGINE_VIEW_ENTRY: &str = "doi";
+
+/// The name of `lookup`'s view of `entry`'s volume: `entry@engine`.
+#[must_use]
+pub fn engine_view_name(entry: &str, lookup: EngineLookup) -> String {
+    format!("{entry}@{}", lookup.name())
 }
 
 impl ViewsConfig {
@@ -99,7 +113,11 @@ impl ViewsConfig {
 impl Default for ViewsConfig {
     /// No camera, [`DEFAULT_REFERENCE_SAMPLES`](Self::DEFAULT_REFERENCE_SAMPLES).
     fn default() -> Self {
-        Self { cameras: Vec::new(), reference_samples: Self::DEFAULT_REFERENCE_SAMPLES }
+        Self {
+            cameras: Vec::new(),
+            reference_samples: Self::DEFAULT_REFERENCE_SAMPLES,
+            engine_views: Vec::new(),
+        }
     }
 }
 
@@ -230,7 +248,7 @@ pub fn compare_views(
         if !(mean_reference > 0.0) {
             return Err(EvalError::BlackView(c.label.clone()));
         }
-        let methods = runs
+        let mut methods = runs
             .iter()
             .map(|run| {
                 let image =
@@ -238,7 +256,15 @@ pub fn compare_views(
                 let metrics = view_metrics(&image, &reference, &measured);
                 Ok(MethodView { name: run.name.clone(), image, metrics })
             })
-            .collect::<Result<_, EvalError>>()?;
+            .collect::<Result<Vec<_>, EvalError>>()?;
+        let engine_source =
+            runs.iter().find(|r| r.name == ENGINE_VIEW_ENTRY).and_then(|r| r.volume.uniform());
+        for &lookup in views.engine_views.iter().filter(|_| engine_source.is_some()) {
+            let field = EngineField { volume: engine_source.expect("filtered"), lookup };
+            let image = render_volume(transport.scene(), transport.tracer(), &c.camera, &config, &field)?;
+            let metrics = view_metrics(&image, &reference, &measured);
+            methods.push(MethodView { name: engine_view_name(ENGINE_VIEW_ENTRY, lookup), image, metrics });
+        }
         out.push(ComparedView {
             label: c.label.clone(),
             reference,
@@ -297,6 +323,7 @@ mod tests {
         c.views = ViewsConfig {
             cameras: vec![ViewCamera { label: "over".into(), camera, width: 32, height: 20 }],
             reference_samples: samples(4),
+            engine_views: vec![EngineLookup::Three, EngineLookup::Bevy],
         };
         (maze, c)
     }
@@ -320,7 +347,19 @@ mod tests {
         let v = &r.views[0];
         assert_eq!(v.label, "over");
         let names: Vec<&str> = v.methods.iter().map(|m| m.name.as_str()).collect();
-        assert_eq!(names, ["point", "doi", "doi-paper+hermite", "adaptive1", "point+apv", "point+vlm"]);
+        assert_eq!(
+            names,
+            [
+                "point",
+                "doi",
+                "doi-paper+hermite",
+                "adaptive1",
+                "point+apv",
+                "point+vlm",
+                "doi@three",
+                "doi@bevy"
+            ]
+        );
         let tracer = Tracer::new(&maze.scene);
         let transport = Transport::new(&maze.scene, &tracer, config.transport);
         let cam = &config.views.cameras[0];
@@ -351,6 +390,16 @@ mod tests {
                 m.metrics
             );
         }
+        // The engines' views of doi's volume: the scene shaded through their lookups.
+        let doi = r.methods.iter().find(|m| m.name == "doi").unwrap().volume.uniform().unwrap();
+        for (m, lookup) in v.methods[r.methods.len()..].iter().zip([EngineLookup::Three, EngineLookup::Bevy])
+        {
+            let field = EngineField { volume: doi, lookup };
+            let image = render_volume(&maze.scene, &tracer, &cam.camera, &cam.view_config(), &field).unwrap();
+            assert_eq!(image, m.image, "{}", m.name);
+            assert_eq!(m.metrics, view_metrics(&m.image, &v.reference, &v.measured));
+            assert_ne!(m.image, v.methods[1].image, "{} reads doi's volume its own way", m.name);
+        }
         let one = compare(&maze.scene, &CompareConfig { threads: Some(1), ..config }, &Silent).unwrap();
         assert_eq!(one.views[0].reference, v.reference);
         for (a, b) in one.views[0].methods.iter().zip(&v.methods) {
@@ -374,7 +423,8 @@ mod tests {
         assert!(matches!(e, EvalError::DuplicateView(ref l) if l == "over"));
         // No camera: nothing to check.
         let mut none = config.clone();
-        none.views = ViewsConfig { cameras: Vec::new(), reference_samples: samples(1) };
+        none.views =
+            ViewsConfig { cameras: Vec::new(), reference_samples: samples(1), engine_views: Vec::new() };
         assert!(none.validate().is_ok());
         let mut sky = config.clone();
         let up = Camera::look_at(DVec3::new(0.0, 0.0, 50.0), DVec3::new(0.0, 1.0, 100.0), 30.0).unwrap();

@@ -70,7 +70,8 @@ fn demo_quick_writes_everything() {
         assert!(r["methods"][m]["rel_rmse"].as_f64().is_some_and(f64::is_finite), "occlusion_room: {m}");
     }
     // Every scene has a view: the path-traced reference, point, the best engine baseline
-    // by the view's relative RMSE, and doi, each shown in index.html.
+    // by the view's relative RMSE, doi, and doi's volume as three.js and Bevy read it, each
+    // shown in index.html.
     for scene in ["city", "interior", "maze", "occlusion_room"] {
         let r: Value =
             serde_json::from_str(&std::fs::read_to_string(out.join(scene).join("report.json")).unwrap())
@@ -83,9 +84,19 @@ fn demo_quick_writes_everything() {
             .filter(|m| rel(m).is_some())
             .min_by(|a, b| rel(a).unwrap().total_cmp(&rel(b).unwrap()))
             .expect("an engine baseline in the view");
-        for m in ["reference", "point", best, "doi"] {
+        for m in ["reference", "point", best, "doi", "doi@three", "doi@bevy"] {
             let f = format!("{scene}/view_{label}_{m}.png");
             assert!(index.contains(&f), "index.html shows {f}");
+        }
+        // The views come first; the full tables and panels are folded below them.
+        let section = &index[index.find(&format!("<h2>{scene}</h2>")).expect("a section")..];
+        let first_view = section.find(&format!("view_{label}_doi@three.png")).unwrap();
+        let folded = section.find("<details>").expect("folded details");
+        assert!(first_view < folded, "{scene}: the views come before the folded tables");
+        assert!(section[..folded].find(&format!("{scene}/panel_")).is_none(), "{scene}: panels are folded");
+        // three.js and Bevy read doi's volume: their views differ from lightvol's.
+        for engine in ["doi@three", "doi@bevy"] {
+            assert!(rel(engine).is_some_and(f64::is_finite), "{scene}: {engine} has a relative RMSE");
         }
     }
     // Every file index.html names exists.

@@ -209,6 +209,40 @@ fn frame_rmse(got: &Frame, want: &Frame, interior: &[bool]) -> (f64, usize) {
     ((num / den).sqrt(), n)
 }
 
+/// `render` of the bake's scene and camera with extra arguments, as an EXR frame.
+fn render_view(name: &str, extra: &[&str]) -> Frame {
+    let b = bake();
+    let out = b.dir.path().join(name);
+    let cam = format!("{}:{}:{FOV}", csv(EYE), csv(TARGET));
+    let (w, h) = (WIDTH.to_string(), HEIGHT.to_string());
+    let scene = b.dir.path().join("living_room.glb");
+    let mut args = vec!["render", s(&scene), "--quantity", "radiosity"];
+    args.extend(["--camera", &cam, "--width", &w, "--height", &h, "--quiet", "-o", s(&out)]);
+    args.extend(extra);
+    ok(&args);
+    read_exr(&out)
+}
+
+/// The path-traced view under the bake's light (the ground truth), 256 samples a pixel.
+fn reference() -> &'static Frame {
+    static REFERENCE: OnceLock<Frame> = OnceLock::new();
+    REFERENCE.get_or_init(|| {
+        render_view(
+            "reference.exr",
+            &["--reference", "--light", "sky+indirect", "--reference-samples", "256"],
+        )
+    })
+}
+
+/// The view through lightvol's own lookup (validity and node reach) of the same volume.
+fn own_view() -> &'static Frame {
+    static OWN: OnceLock<Frame> = OnceLock::new();
+    OWN.get_or_init(|| {
+        let v = bake().dir.path().join("v.exr");
+        render_view("lightvol.exr", &["--volume", s(&v), "--lookup", "lightvol"])
+    })
+}
+
 /// One engine client: how to run it and which lookup it uses.
 struct Client {
     name: &'static str,
@@ -315,29 +349,11 @@ impl Client {
 
     /// lightvol's emulation of this engine's view: `render --lookup`.
     fn emulation(&self) -> Frame {
-        let b = bake();
-        let out = b.dir.path().join(format!("emu-{}.exr", self.name));
-        let cam = format!("{}:{}:{FOV}", csv(EYE), csv(TARGET));
-        ok(&[
-            "render",
-            s(&b.dir.path().join("living_room.glb")),
-            "--volume",
-            s(&b.dir.path().join(self.emulated)),
-            "--lookup",
-            self.lookup.name(),
-            "--quantity",
-            "radiosity",
-            "--camera",
-            &cam,
-            "--width",
-            &WIDTH.to_string(),
-            "--height",
-            &HEIGHT.to_string(),
-            "--quiet",
-            "-o",
-            s(&out),
-        ]);
-        read_exr(&out)
+        let volume = bake().dir.path().join(self.emulated);
+        render_view(
+            &format!("emu-{}.exr", self.name),
+            &["--volume", s(&volume), "--lookup", self.lookup.name()],
+        )
     }
 
     fn check(&self) {
@@ -350,6 +366,21 @@ impl Client {
         let mut failures = Vec::new();
         if rmse > self.frame_rmse {
             failures.push(format!("frame against lightvol's emulation: relative RMSE {rmse}"));
+        }
+
+        // Against the path-traced view: the engine's frame is as far from it as lightvol
+        // predicts (the emulation's distance), within the frame's own bound; lightvol's
+        // lookup of the same volume is printed beside it.
+        let truth = reference();
+        let (engine_err, _) = frame_rmse(&frame, truth, &interior);
+        let (emu_err, _) = frame_rmse(&emu, truth, &interior);
+        let (own_err, _) = frame_rmse(own_view(), truth, &interior);
+        eprintln!(
+            "{}: against the path-traced view: the engine's frame {engine_err:.4}, its emulation {emu_err:.4}, lightvol's lookup {own_err:.4}",
+            self.name
+        );
+        if (engine_err - emu_err).abs() > self.frame_rmse {
+            failures.push(format!("against the path-traced view {engine_err}, emulated {emu_err}"));
         }
 
         // Known points on the spheres.

@@ -64,9 +64,13 @@ pub enum EngineLookup {
 /// (`lightprobes_pars_fragment.glsl.js` line 22: 1% of a cell, for precision).
 pub const THREE_BOX_MARGIN: f64 = 0.01;
 
-/// Unity APV's default normal bias, metres (`ProbeVolumesOptions.normalBias`).
+/// Unity APV's default normal bias, metres: `ProbeVolumesOptions.normalBias` of Unity 6's
+/// core render pipeline package (`Runtime/Lighting/ProbeVolume/ProbeVolumesOptions.cs`,
+/// `ClampedFloatParameter(0.05f, 0.0f, 2.0f)`; the earlier HDRP-only experimental version
+/// defaulted to 0.33 with no view bias).
 pub const APV_NORMAL_BIAS: f64 = 0.05;
-/// Unity APV's default view bias, metres (`ProbeVolumesOptions.viewBias`).
+/// Unity APV's default view bias, metres: `ProbeVolumesOptions.viewBias` of the same file
+/// (`ClampedFloatParameter(0.1f, 0.0f, 2.0f)`).
 pub const APV_VIEW_BIAS: f64 = 0.1;
 
 impl EngineLookup {

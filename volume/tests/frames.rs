@@ -53,6 +53,22 @@ fn queries(vol: &IrradianceVolume, n: usize) -> Vec<([f64; 3], [f64; 3])> {
         .collect()
 }
 
+/// `path` opens through `open` to `vol`'s grid and frame and to its lookups within f16
+/// rounding, at random points and normals.
+fn reads_back_to(vol: &IrradianceVolume, path: &Path, label: &str) {
+    let AnyVolume::Uniform(back) = open(path).unwrap() else { panic!("{label}: a uniform grid") };
+    assert_eq!(back.spec(), vol.spec(), "{label}");
+    assert_eq!(back.metadata().frame, vol.metadata().frame, "{label}");
+    for (p, n) in queries(vol, 400) {
+        let a = vol.irradiance_reference(p, n);
+        let b = back.irradiance_reference(p, n);
+        let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for ch in 0..3 {
+            assert!((a[ch] - b[ch]).abs() <= F16_REL * scale, "{label}: {a:?} vs {b:?}");
+        }
+    }
+}
+
 /// KTX2 and DDS of a Y-up and of a Z-up volume read back through `open` in the native
 /// file's (internal) frame: the same lookups to f16 rounding. Before the readers turned the
 /// texture's file-frame data back, a Y-up KTX2 was looked up in the wrong axes.
@@ -64,17 +80,7 @@ fn textures_read_back_to_the_native_lookups_in_both_frames() {
         for (format, ext) in [(ExportFormat::Ktx2, "ktx2"), (ExportFormat::Dds, "dds")] {
             let path = dir.path().join(format!("v-{}.{ext}", up.name()));
             export(&AnyVolume::Uniform(vol.clone()), Path::new("v.exr"), format, None, &path).unwrap();
-            let AnyVolume::Uniform(back) = open(&path).unwrap() else { panic!("a uniform grid") };
-            assert_eq!(back.spec(), vol.spec(), "{ext} {}", up.name());
-            assert_eq!(back.metadata().frame, up);
-            for (p, n) in queries(&vol, 400) {
-                let a = vol.irradiance_reference(p, n);
-                let b = back.irradiance_reference(p, n);
-                let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-                for ch in 0..3 {
-                    assert!((a[ch] - b[ch]).abs() <= F16_REL * scale, "{ext} {}: {a:?} vs {b:?}", up.name());
-                }
-            }
+            reads_back_to(&vol, &path, &format!("{ext} {}", up.name()));
         }
     }
 }
@@ -142,17 +148,7 @@ fn three_atlas_reads_back_and_places_probes_on_the_nodes() {
         let want = info_grid(&native);
         let path = dir.path().join(format!("t-{}.ktx2", up.name()));
         export(&AnyVolume::Uniform(vol.clone()), &native, ExportFormat::Three, None, &path).unwrap();
-        let AnyVolume::Uniform(back) = open(&path).unwrap() else { panic!("a uniform grid") };
-        assert_eq!(back.spec(), vol.spec(), "{}", up.name());
-        assert_eq!(back.metadata().frame, up);
-        for (p, n) in queries(&vol, 400) {
-            let a = vol.irradiance_reference(p, n);
-            let b = back.irradiance_reference(p, n);
-            let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-            for ch in 0..3 {
-                assert!((a[ch] - b[ch]).abs() <= F16_REL * scale, "three {}: {a:?} vs {b:?}", up.name());
-            }
-        }
+        reads_back_to(&vol, &path, &format!("three {}", up.name()));
         let (info, _) = read_three(&path).unwrap();
         assert_eq!(info.resolution.to_vec(), want.0, "three's resolution is the file grid");
         assert_eq!(info.lookup, "three");

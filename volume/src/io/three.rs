@@ -42,6 +42,9 @@ pub const THREE_INFO_KEY: &str = "lightvol.three";
 pub const THREE_SUBVOLUMES: u32 = 7;
 /// Padding slices at each end of a sub-volume.
 pub const THREE_PADDING: u32 = 1;
+/// The lookup a three.js export is meant for, as `--lookup` names it (three.js's own,
+/// `EngineLookup::Three`).
+pub const THREE_LOOKUP: &str = "three";
 /// SH coefficients per channel of three's grid (L2).
 pub const THREE_COEFFS: usize = 9;
 
@@ -137,7 +140,7 @@ pub fn three_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
         size,
         bounds,
         frame,
-        lookup: crate::engine_lookup::EngineLookup::Three.name().into(),
+        lookup: THREE_LOOKUP.into(),
         quantity:
             "incident radiance SH, lightvol's basis order and normalisation (three.js LightProbeGrid's)"
                 .into(),
