@@ -542,3 +542,66 @@ fn coordinates_round_trip_in_the_file_frame() {
         }
     }
 }
+
+/// Every SH texture export (KTX2, DDS, three.js's atlas) of the Y-up glTF room's bake and
+/// of its Z-up OBJ twin's reads back through `volume::open` to the native volume: the same
+/// grid in the same frame and every node's coefficients within f16 rounding; the sidecar
+/// beside it names the grid `info` prints for the native file. (The Bevy export, an
+/// ambient cube, is read back by [`bevy_client_reproduces_lightvol_in_both_frames`].)
+///
+/// Tolerance: the export rotates a Y-up volume's coefficients into the file's axes (an
+/// orthogonal map within each band), rounds them to f16 (2^-11 relative) and the reader
+/// rotates them back, so each coefficient moves by at most 2^-11 times the norm of its band
+/// (per channel), with 1% for the f32 arithmetic of the rotations.
+#[test]
+fn sh_textures_of_real_bakes_read_back_in_both_frames() {
+    const F16_BAND: f64 = 1.01 / 2048.0;
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let (gltf, obj) = twin_scenes(d);
+    for (scene, frame, tag) in [(&gltf, UpAxis::Y, "y"), (&obj, UpAxis::Z, "z")] {
+        let case = bake_and_export(d, scene, frame, tag, "rgba16f");
+        let native_path = d.join(format!("{tag}.exr"));
+        let info = lightvol_volume::info::describe_file(&native_path).unwrap()["grid"].clone();
+        for format in ["ktx2", "dds", "three"] {
+            let out = d.join(format!("{tag}-{format}.{}", if format == "dds" { "dds" } else { "ktx2" }));
+            ok(&["export", s(&native_path), "--format", format, "-o", s(&out)]);
+            let lightvol_volume::AnyVolume::Uniform(back) = lightvol_volume::open(&out).unwrap() else {
+                panic!("{format}: a uniform grid")
+            };
+            let native = &case.native;
+            assert_eq!(back.spec(), native.spec(), "{tag} {format}");
+            assert_eq!(back.metadata().frame, frame, "{tag} {format}");
+            let k = native.coeffs();
+            for i in 0..native.spec().node_count() {
+                let (a, b) = (native.node(i), back.node(i));
+                for ch in 0..3 {
+                    for band in 0..native.bands() {
+                        let js = band * band..(band + 1) * (band + 1);
+                        let norm = js.clone().map(|j| f64::from(a[3 * j + ch]).powi(2)).sum::<f64>().sqrt();
+                        for j in js.filter(|&j| j < k) {
+                            let e = (f64::from(a[3 * j + ch]) - f64::from(b[3 * j + ch])).abs();
+                            assert!(
+                                e <= F16_BAND * norm + 1e-30,
+                                "{tag} {format} node {i} coeff {j}: {a:?} vs {b:?}"
+                            );
+                        }
+                    }
+                }
+            }
+            let side: serde_json::Value = serde_json::from_str(
+                &std::fs::read_to_string(lightvol_volume::io::sidecar::sidecar_path(&out)).unwrap(),
+            )
+            .unwrap();
+            assert_eq!(side["file_grid"]["res"], info["res"], "{tag} {format}");
+            assert_eq!(side["file_grid"]["bounds"], info["bounds"], "{tag} {format}");
+            assert_eq!(side["file_grid"]["frame"], frame.name(), "{tag} {format}");
+            assert_eq!(side["grid"]["to_world"], serde_json::Value::Null, "{tag} {format}: file axes");
+            let want_lookup = if format == "three" { "three" } else { "lightvol" };
+            assert_eq!(side["lookup"], want_lookup, "{tag} {format}");
+            let exported = lightvol_volume::info::describe_file(&out).unwrap()["grid"].clone();
+            assert_eq!(exported["res"], info["res"], "{tag} {format}: info of the export");
+            assert_eq!(exported["bounds"], info["bounds"], "{tag} {format}: info of the export");
+        }
+    }
+}

@@ -59,6 +59,9 @@ pub struct ThreeInfo {
     pub size: [f64; 3],
     /// The box's corners (`boundingBox` after `updateBoundingBox()`).
     pub bounds: [[f64; 3]; 2],
+    /// The first and the last probe's centres: lightvol's grid bounds, exactly (the box
+    /// is half a cell beyond them; recomputing them from it would round).
+    pub probes: [[f64; 3]; 2],
     /// The frame of positions and SH directions: the scene file's.
     pub frame: UpAxis,
     /// The lookup the file is meant for.
@@ -139,6 +142,10 @@ pub fn three_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
         position,
         size,
         bounds,
+        probes: {
+            let (lo, hi) = spec.bounds();
+            [lo, hi]
+        },
         frame,
         lookup: THREE_LOOKUP.into(),
         quantity:
@@ -228,10 +235,20 @@ pub fn three_from_bytes(bytes: &[u8]) -> Result<(ThreeInfo, IrradianceVolume), V
             let at = ((slice as usize * ry + y as usize) * rx + x as usize) * 8;
             data[at..at + 8].try_into().expect("8 bytes")
         };
-        let h: [f64; 3] = std::array::from_fn(|a| info.size[a] / f64::from(info.resolution[a]));
-        let lo: [f64; 3] = std::array::from_fn(|a| info.bounds[0][a] + h[a] / 2.0);
-        let hi: [f64; 3] = std::array::from_fn(|a| info.bounds[1][a] - h[a] / 2.0);
-        let spec = GridSpec::new(lo, hi, info.resolution)?;
+        // The probes sit half a cell inside the box (to rounding).
+        for a in 0..3 {
+            let h = info.size[a] / f64::from(info.resolution[a]);
+            let slack = 1e-9 * info.size[a].abs().max(1.0);
+            if (info.probes[0][a] - (info.bounds[0][a] + h / 2.0)).abs() > slack
+                || (info.probes[1][a] - (info.bounds[1][a] - h / 2.0)).abs() > slack
+            {
+                return Err(VolumeError::malformed(
+                    f,
+                    format!("axis {a}: the probes do not sit half a cell inside the box"),
+                ));
+            }
+        }
+        let spec = GridSpec::new(info.probes[0], info.probes[1], info.resolution)?;
         let mut values = Vec::with_capacity(spec.node_count() * 3 * THREE_COEFFS);
         for z in 0..nz {
             for y in 0..ny {
