@@ -502,8 +502,8 @@ fn short_table_html(s: &mut String, r: &CompareReport) {
 /// One page of several scenes' comparisons (`reports`, each with its folder name, whose
 /// files [`compare_files`] made), a resolution study's plot (`sweep.svg`, `sweep.png`) and
 /// the memory studies of `sweeps` (each scene's `memory_sweep.json`); `quick` names the
-/// settings level. Per scene, first the views side by side ([`views_html`]) and the short
-/// table ([`short_table_html`]), then folded: the plate and grid, every entry's metrics and
+/// settings level. Per scene, first the views side by side and a short
+/// table of point sampling, the engines' fixes and `doi`, then folded: the plate and grid, every entry's metrics and
 /// every panel; the studies folded at the end.
 #[must_use]
 pub fn index_html(reports: &[(String, CompareReport)], sweeps: &[(String, Value)], quick: bool) -> String {

@@ -172,7 +172,8 @@ fn setup(
     ));
     let scene = assets.load(GltfAssetLabel::Scene(0).from_asset(args.scene.clone()));
     commands.spawn(WorldAssetRoot(scene.clone()));
-    let volume_entity = lightvol_volume::spawn_lightvol_volume(&mut commands, &assets, &args.assets, &args.volume);
+    let volume_entity =
+        lightvol_volume::spawn_lightvol_volume(&mut commands, &assets, &args.assets, &args.volume);
     let volume = assets.load(args.volume.clone());
     let _ = volume_entity;
     for s in &args.spheres {
@@ -216,7 +217,9 @@ fn prepare(
     }
     match state.ready_frames {
         None => {
-            if !assets.is_loaded_with_dependencies(&state.scene) || !assets.is_loaded_with_dependencies(&state.volume) {
+            if !assets.is_loaded_with_dependencies(&state.scene)
+                || !assets.is_loaded_with_dependencies(&state.volume)
+            {
                 if let Some(bevy::asset::LoadState::Failed(e)) = assets.get_load_state(&state.volume) {
                     state.done = Some(Err(format!("loading {}: {e}", args.volume)));
                 }
@@ -228,11 +231,11 @@ fn prepare(
                 m.perceptual_roughness = 1.0;
                 m.emissive = LinearRgba::BLACK;
             }
-            if let Some(mut img) = images.get_mut(&state.volume) {
-                if let Err(e) = corrupt(&mut img, &args.control) {
-                    state.done = Some(Err(e));
-                    return;
-                }
+            if let Some(mut img) = images.get_mut(&state.volume)
+                && let Err(e) = corrupt(&mut img, &args.control)
+            {
+                state.done = Some(Err(e));
+                return;
             }
             state.ready_frames = Some(0);
         }
@@ -352,7 +355,13 @@ fn half_to_f32(h: u16) -> f32 {
     let frac = f32::from(h & 0x3ff);
     match exp {
         0 => sign * frac * 2f32.powi(-24),
-        31 => if frac == 0.0 { sign * f32::INFINITY } else { f32::NAN },
+        31 => {
+            if frac == 0.0 {
+                sign * f32::INFINITY
+            } else {
+                f32::NAN
+            }
+        }
         e => sign * (1.0 + frac / 1024.0) * 2f32.powi(e - 15),
     }
 }
