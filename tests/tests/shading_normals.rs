@@ -7,6 +7,7 @@
 mod common;
 
 use common::{ok, s};
+use lightvol_scene::load::gltf::base64_encode;
 use lightvol_volume::io::exr::{ExrOptions, write_exr};
 use lightvol_volume::up_axis::UpAxis;
 use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
@@ -14,25 +15,6 @@ use lightvol_volume::{BakeMetadata, GridSpec, IrradianceVolume};
 /// Y_00 and the l = 1 constant of the real SH basis (sqrt(1/4π), sqrt(3/4π)).
 const Y00: f64 = 0.282_094_791_773_878_1;
 const Y1: f64 = 0.488_602_511_902_919_9;
-
-/// Standard base64 of `bytes` (for the glTF's data URI).
-fn base64(bytes: &[u8]) -> String {
-    const T: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for c in bytes.chunks(3) {
-        let n = (u32::from(c[0]) << 16)
-            | (u32::from(*c.get(1).unwrap_or(&0)) << 8)
-            | u32::from(*c.get(2).unwrap_or(&0));
-        for k in 0..4 {
-            if k <= c.len() {
-                out.push(T[(n >> (18 - 6 * k) & 63) as usize] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
-}
 
 /// A 2 m floor at y = 0 (+Y up), facing +y, every vertex normal `n`.
 fn floor_gltf(path: &std::path::Path, n: [f32; 3]) {
@@ -49,7 +31,7 @@ fn floor_gltf(path: &std::path::Path, n: [f32; 3]) {
 "bufferViews":[{{"buffer":0,"byteOffset":0,"byteLength":48}},{{"buffer":0,"byteOffset":48,"byteLength":48}},{{"buffer":0,"byteOffset":96,"byteLength":12}}],
 "buffers":[{{"byteLength":{},"uri":"data:application/octet-stream;base64,{}"}}]}}"#,
         buf.len(),
-        base64(&buf)
+        base64_encode(&buf)
     );
     std::fs::write(path, json).unwrap();
 }

@@ -53,6 +53,19 @@ fn queries(vol: &IrradianceVolume, n: usize) -> Vec<([f64; 3], [f64; 3])> {
         .collect()
 }
 
+/// The volume of `up`'s frame, written as the native EXR in `dir`, and the grid `info`
+/// prints for it.
+fn native_file(
+    dir: &Path,
+    up: UpAxis,
+) -> (IrradianceVolume, std::path::PathBuf, (Vec<u32>, Vec<Vec<f64>>, String)) {
+    let vol = volume(up);
+    let native = dir.join(format!("v-{}.exr", up.name()));
+    lightvol_volume::io::exr::write_exr(&native, &vol, &Default::default()).unwrap();
+    let want = info_grid(&native);
+    (vol, native, want)
+}
+
 /// `path` opens through `open` to `vol`'s grid and frame and to its lookups within f16
 /// rounding, at random points and normals.
 fn reads_back_to(vol: &IrradianceVolume, path: &Path, label: &str) {
@@ -93,10 +106,7 @@ fn textures_read_back_to_the_native_lookups_in_both_frames() {
 fn every_texture_has_a_sidecar_that_agrees_with_info() {
     let dir = tempfile::tempdir().unwrap();
     for up in [UpAxis::Y, UpAxis::Z] {
-        let vol = volume(up);
-        let native = dir.path().join(format!("v-{}.exr", up.name()));
-        lightvol_volume::io::exr::write_exr(&native, &vol, &Default::default()).unwrap();
-        let want = info_grid(&native);
+        let (vol, native, want) = native_file(dir.path(), up);
         if up == UpAxis::Y {
             // The file's axes: internal (x, y, z) res (5, 4, 6) is file (x, z, y).
             assert_eq!(want.0, vec![5, 6, 4]);
@@ -142,10 +152,7 @@ fn three_atlas_reads_back_and_places_probes_on_the_nodes() {
     use lightvol_volume::io::three::{atlas_depth, read_three};
     let dir = tempfile::tempdir().unwrap();
     for up in [UpAxis::Y, UpAxis::Z] {
-        let vol = volume(up);
-        let native = dir.path().join(format!("v-{}.exr", up.name()));
-        lightvol_volume::io::exr::write_exr(&native, &vol, &Default::default()).unwrap();
-        let want = info_grid(&native);
+        let (vol, native, want) = native_file(dir.path(), up);
         let path = dir.path().join(format!("t-{}.ktx2", up.name()));
         export(&AnyVolume::Uniform(vol.clone()), &native, ExportFormat::Three, None, &path).unwrap();
         reads_back_to(&vol, &path, &format!("three {}", up.name()));
