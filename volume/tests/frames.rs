@@ -25,7 +25,10 @@ fn volume(up: UpAxis) -> IrradianceVolume {
     vol.with_metadata(meta)
 }
 
-fn info_grid(path: &Path) -> (Vec<u32>, Vec<Vec<f64>>, String) {
+/// A grid as `info` prints it: `res`, `bounds` and `frame`.
+type InfoGrid = (Vec<u32>, Vec<Vec<f64>>, String);
+
+fn info_grid(path: &Path) -> InfoGrid {
     let v = lightvol_volume::info::describe_file(path).unwrap();
     let g = &v["grid"];
     (
@@ -35,7 +38,7 @@ fn info_grid(path: &Path) -> (Vec<u32>, Vec<Vec<f64>>, String) {
     )
 }
 
-fn file_grid_tuple(g: &FileGrid) -> (Vec<u32>, Vec<Vec<f64>>, String) {
+fn file_grid_tuple(g: &FileGrid) -> InfoGrid {
     (g.res.to_vec(), g.bounds.iter().map(|b| b.to_vec()).collect(), g.frame.name().to_string())
 }
 
@@ -55,10 +58,7 @@ fn queries(vol: &IrradianceVolume, n: usize) -> Vec<([f64; 3], [f64; 3])> {
 
 /// The volume of `up`'s frame, written as the native EXR in `dir`, and the grid `info`
 /// prints for it.
-fn native_file(
-    dir: &Path,
-    up: UpAxis,
-) -> (IrradianceVolume, std::path::PathBuf, (Vec<u32>, Vec<Vec<f64>>, String)) {
+fn native_file(dir: &Path, up: UpAxis) -> (IrradianceVolume, std::path::PathBuf, InfoGrid) {
     let vol = volume(up);
     let native = dir.join(format!("v-{}.exr", up.name()));
     lightvol_volume::io::exr::write_exr(&native, &vol, &Default::default()).unwrap();
