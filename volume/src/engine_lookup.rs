@@ -54,9 +54,13 @@ pub enum EngineLookup {
     /// an ambient cube per voxel, each face filtered trilinearly, weighted by the squared
     /// normal components.
     Bevy,
-    /// Unity's Adaptive Probe Volumes (`ProbeVolume.hlsl`): validity-weighted trilinear at a
-    /// point pushed along the normal and towards the viewer ([`APV_NORMAL_BIAS`],
-    /// [`APV_VIEW_BIAS`]).
+    /// Unity 6's Adaptive Probe Volumes (core render pipeline package,
+    /// `Runtime/Lighting/ProbeVolume/ProbeVolume.hlsl`): the point pushed along the normal
+    /// and towards the viewer (`TryToGetPoolUVWAndSubdiv`: `posWS + normalWS · normalBias +
+    /// viewDirWS · viewBias`, [`APV_NORMAL_BIAS`], [`APV_VIEW_BIAS`]), then trilinear over
+    /// the valid probes with the weights renormalised (`QualityLeakReduction`, the default
+    /// leak-reduction mode, which realises those weights with up to three filtered samples).
+    /// APV's per-pixel sampling noise (a jitter meant to hide seams) is left out.
     Apv,
 }
 
