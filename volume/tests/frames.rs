@@ -202,3 +202,26 @@ fn three_refuses_a_placed_grid_in_one_line() {
     assert!(err.contains("three.js") && !err.contains('\n'), "{err}");
     assert!(!path.exists() && !sidecar_path(&path).exists(), "nothing written");
 }
+
+/// An order-2 volume (4 coefficients) goes into three's L2 atlas zero-padded: it reads back
+/// with 9 coefficients whose lookups are the native volume's (f16).
+#[test]
+fn three_pads_an_order_two_volume() {
+    let dir = tempfile::tempdir().unwrap();
+    let vol = common::physical_volume(4, [4, 5, 3], 3);
+    let path = dir.path().join("l1.ktx2");
+    export(&AnyVolume::Uniform(vol.clone()), Path::new("v.exr"), ExportFormat::Three, None, &path).unwrap();
+    let AnyVolume::Uniform(back) = open(&path).unwrap() else { panic!("a uniform grid") };
+    assert_eq!(back.coeffs(), 9);
+    for i in 0..back.spec().node_count() {
+        assert!(back.node(i)[12..].iter().all(|&c| c == 0.0), "node {i}: the L2 band is zero");
+    }
+    for (p, n) in queries(&vol, 200) {
+        let a = vol.irradiance_reference(p, n);
+        let b = back.irradiance_reference(p, n);
+        let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        for ch in 0..3 {
+            assert!((a[ch] - b[ch]).abs() <= F16_REL * scale, "{a:?} vs {b:?}");
+        }
+    }
+}
