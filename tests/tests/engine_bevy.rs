@@ -4,7 +4,8 @@
 //!
 //! The client below re-implements, line by line, `irradiance_volume_light` of
 //! `crates/bevy_pbr/src/light_probe/irradiance_volume.wesl` (bevyengine/bevy at commit
-//! 190a5aca): `unit_pos = light_from_world · P`;
+//! 190a5aca; the same lines, 59-91, are `src/light_probe/irradiance_volume.wgsl` of the
+//! bevy_pbr 0.19.1 crate that `clients/bevy` runs): `unit_pos = light_from_world · P`;
 //! `stp = clamp((unit_pos + 0.5) · resolution, 0.5, resolution − 0.5)`; `uvw = stp /
 //! atlas_resolution`; the negative faces at `+0.5` in `v` where `N < 0`, the Y and Z faces
 //! at `+1/3` and `+2/3` in `w`; `textureSampleLevel` (linear filtering, clamped) of the three
