@@ -110,13 +110,12 @@ fn write_uniform(
     match format {
         ExportFormat::Ktx2 => crate::io::ktx2::write_ktx2(out, vol)?,
         ExportFormat::Dds => crate::io::dds::write_dds(out, vol)?,
-        ExportFormat::Three => {
-            crate::io::three::write_three(out, vol)?;
-            report.dropped_mask_nodes = vol.validity().map(ValidityMask::invalid_count);
-            report.dropped_reach_nodes = vol.reach().map(NodeReach::limited_count);
-        }
-        ExportFormat::Bevy(f) => {
-            crate::io::bevy::write_bevy(out, vol, f)?;
+        ExportFormat::Three | ExportFormat::Bevy(_) => {
+            match format {
+                ExportFormat::Bevy(f) => crate::io::bevy::write_bevy(out, vol, f)?,
+                _ => crate::io::three::write_three(out, vol)?,
+            }
+            // Both engines interpolate their probes plainly.
             report.dropped_mask_nodes = vol.validity().map(ValidityMask::invalid_count);
             report.dropped_reach_nodes = vol.reach().map(NodeReach::limited_count);
         }

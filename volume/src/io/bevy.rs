@@ -392,12 +392,7 @@ pub fn bevy_from_bytes(bytes: &[u8]) -> Result<BevyVolume, VolumeError> {
     guard(F, || {
         let (vk, (dims, kvd, data)) =
             parse_ktx2(bytes, F, &[ktx2::Format::R16G16B16A16_SFLOAT, ktx2::Format::E5B9G9R9_UFLOAT_PACK32])?;
-        let raw = kvd
-            .iter()
-            .find(|(k, _)| k == BEVY_INFO_KEY)
-            .map(|(_, v)| v.as_slice())
-            .ok_or_else(|| VolumeError::malformed(F, format!("missing key {BEVY_INFO_KEY}")))?;
-        let raw = raw.strip_suffix(&[0]).unwrap_or(raw);
+        let raw = crate::io::ktx2::kvd_value(&kvd, BEVY_INFO_KEY, F)?;
         let info: BevyInfo =
             serde_json::from_slice(raw).map_err(|e| VolumeError::malformed(F, e.to_string()))?;
         let res = info.res;

@@ -151,14 +151,24 @@ pub fn embedded_sidecar(bytes: &[u8]) -> Result<Sidecar, VolumeError> {
     sidecar_of(&kvd)
 }
 
-fn sidecar_of(kvd: &[(String, Vec<u8>)]) -> Result<Sidecar, VolumeError> {
-    let f = FileFormat::Ktx2;
+/// The value of `key` in parsed key/value data, without the terminating NUL the KTX2
+/// format allows; a missing key is a malformed `f` file.
+pub(crate) fn kvd_value<'a>(
+    kvd: &'a [(String, Vec<u8>)],
+    key: &str,
+    f: FileFormat,
+) -> Result<&'a [u8], VolumeError> {
     let raw = kvd
         .iter()
-        .find(|(k, _)| k == KTX2_SIDECAR_KEY)
+        .find(|(k, _)| k == key)
         .map(|(_, v)| v.as_slice())
-        .ok_or_else(|| VolumeError::malformed(f, format!("missing key {KTX2_SIDECAR_KEY}")))?;
-    let raw = raw.strip_suffix(&[0]).unwrap_or(raw);
+        .ok_or_else(|| VolumeError::malformed(f, format!("missing key {key}")))?;
+    Ok(raw.strip_suffix(&[0]).unwrap_or(raw))
+}
+
+fn sidecar_of(kvd: &[(String, Vec<u8>)]) -> Result<Sidecar, VolumeError> {
+    let f = FileFormat::Ktx2;
+    let raw = kvd_value(kvd, KTX2_SIDECAR_KEY, f)?;
     let text = std::str::from_utf8(raw).map_err(|e| VolumeError::malformed(f, e.to_string()))?;
     Sidecar::from_json(text)
 }

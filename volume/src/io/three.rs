@@ -29,7 +29,7 @@ use crate::checksum::{fnv1a, from_hex, to_hex};
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::GridSpec;
-use crate::io::ktx2::{KTX2_WRITER, ktx2_rgba16f_bytes, parse_ktx2_rgba16f};
+use crate::io::ktx2::{KTX2_WRITER, ktx2_rgba16f_bytes, kvd_value, parse_ktx2_rgba16f};
 use crate::io::sidecar::{Sidecar, sidecar_path};
 use crate::io::util::{guard, read_bounded, write_atomic};
 use crate::slab::f16_bytes;
@@ -97,6 +97,12 @@ pub fn atlas_depth(nz: u32) -> u32 {
 /// A grid that three cannot place (a rotated or otherwise placed grid: three's box is
 /// axis-aligned), more than 9 coefficients, or a value beyond f16.
 pub fn three_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
+    encode(vol).map(|(_, _, bytes)| bytes)
+}
+
+/// The three.js export of `vol`: its placement, the volume in the file's frame it was
+/// laid out from, and the KTX2 bytes ([`three_to_bytes`]).
+fn encode(vol: &IrradianceVolume) -> Result<(ThreeInfo, IrradianceVolume, Vec<u8>), VolumeError> {
     let frame = vol.metadata().frame;
     if vol.spec().placement().is_some() {
         return Err(VolumeError::InvalidData(
@@ -109,7 +115,8 @@ pub fn three_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
             vol.coeffs()
         )));
     }
-    let vol = &crate::frame::to_file_frame(vol, frame)?;
+    let file_vol = crate::frame::to_file_frame(vol, frame)?;
+    let vol = &file_vol;
     let spec = vol.spec();
     let [nx, ny, nz] = spec.res();
     let depth = atlas_depth(nz);
@@ -155,7 +162,9 @@ pub fn three_to_bytes(vol: &IrradianceVolume) -> Result<Vec<u8>, VolumeError> {
         texel_checksum: to_hex(fnv1a(&texels)),
     };
     let json = serde_json::to_string(&info).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
-    Ok(ktx2_rgba16f_bytes([nx, ny, depth], &texels, &[("KTXwriter", KTX2_WRITER), (THREE_INFO_KEY, &json)]))
+    let bytes =
+        ktx2_rgba16f_bytes([nx, ny, depth], &texels, &[("KTXwriter", KTX2_WRITER), (THREE_INFO_KEY, &json)]);
+    Ok((info, file_vol, bytes))
 }
 
 /// The JSON beside a three.js export: the usual description of the texture (grid and
@@ -175,10 +184,8 @@ pub struct ThreeSidecar {
 /// # Errors
 /// As [`three_to_bytes`], and I/O errors.
 pub fn write_three(path: &Path, vol: &IrradianceVolume) -> Result<(), VolumeError> {
-    let bytes = three_to_bytes(vol)?;
-    let (info, _) = three_from_bytes(&bytes)?;
-    let frame = vol.metadata().frame;
-    let file_vol = crate::frame::to_file_frame(vol, frame)?;
+    let (info, file_vol, bytes) = encode(vol)?;
+    let frame = info.frame;
     let file = path.file_name().map(|n| n.to_string_lossy().into_owned());
     let mut description =
         Sidecar::describe(&file_vol, Encoding::F16, file, "three-probe-atlas").in_frame(frame);
@@ -196,8 +203,8 @@ pub fn write_three(path: &Path, vol: &IrradianceVolume) -> Result<(), VolumeErro
 /// Whether KTX2 bytes are a three.js export (they carry [`THREE_INFO_KEY`]).
 #[must_use]
 pub fn is_three(bytes: &[u8]) -> bool {
-    parse_ktx2_rgba16f(bytes, FileFormat::Ktx2)
-        .is_ok_and(|(_, kvd, _)| kvd.iter().any(|(k, _)| k == THREE_INFO_KEY))
+    // The key/value data alone: the reader that follows parses and checks the rest.
+    ktx2::Reader::new(bytes).is_ok_and(|r| r.key_value_data().any(|(k, _)| k == THREE_INFO_KEY))
 }
 
 /// Parses a three.js export: its placement and the volume it holds, on the grid of its
@@ -211,12 +218,7 @@ pub fn three_from_bytes(bytes: &[u8]) -> Result<(ThreeInfo, IrradianceVolume), V
     let f = FileFormat::Ktx2;
     guard(f, || {
         let (dims, kvd, data) = parse_ktx2_rgba16f(bytes, f)?;
-        let raw = kvd
-            .iter()
-            .find(|(k, _)| k == THREE_INFO_KEY)
-            .map(|(_, v)| v.as_slice())
-            .ok_or_else(|| VolumeError::malformed(f, format!("missing key {THREE_INFO_KEY}")))?;
-        let raw = raw.strip_suffix(&[0]).unwrap_or(raw);
+        let raw = kvd_value(&kvd, THREE_INFO_KEY, f)?;
         let info: ThreeInfo =
             serde_json::from_slice(raw).map_err(|e| VolumeError::malformed(f, e.to_string()))?;
         let [nx, ny, nz] = info.resolution;
