@@ -20,7 +20,7 @@ use lightvol_eval::report::{CompareReport, compare_files};
 use lightvol_eval::sweep::{SweepConfig, check_scales};
 use lightvol_eval::{
     CompareConfig, Comparison, EvalError, Metrics, NamedEntry, Observer, PlateConfig, SweepPoint, ViewCamera,
-    ViewsConfig, default_plate_height,
+    default_plate_height,
 };
 use lightvol_view::ViewError;
 use lightvol_volume::GridSpec;
@@ -216,11 +216,7 @@ pub(crate) fn config(
         memory_sweep: args
             .memory_sweep
             .then(|| SweepConfig { scales: args.sweep_scales.clone(), gradient_estimator }),
-        views: ViewsConfig {
-            cameras: views,
-            reference_samples: args.views.view_samples,
-            engine_views: args.views.engine_views.clone(),
-        },
+        views: args.views.config(views),
         lookup: args.lookup,
         threads,
     }
@@ -254,13 +250,7 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
         return Err(flag_error(EvalError::PlateHeightNotFinite(height)));
     }
     let views = cameras(&args.views, &loaded, &grid)?;
-    ViewsConfig {
-        cameras: views.clone(),
-        reference_samples: args.views.view_samples,
-        engine_views: args.views.engine_views.clone(),
-    }
-    .validate()
-    .map_err(flag_error)?;
+    args.views.config(views.clone()).validate().map_err(flag_error)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let threads = resolve_threads(args.sampling.threads)?;
     let config = config(args, methods, grid, height, views, threads);

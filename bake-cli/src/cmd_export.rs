@@ -62,7 +62,9 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             if finest { " (its finest level)" } else { "" }
         );
     }
-    let engine = if args.format == CliFormat::Three { "three.js" } else { "Bevy" };
+    // The engine whose export drops what it cannot read, and its `render --lookup` name.
+    let (engine, lookup) =
+        if args.format == CliFormat::Three { ("three.js", "three") } else { ("Bevy", "bevy") };
     if let Some(n) = report.dropped_mask_nodes {
         eprintln!(
             "note: {engine} interpolates its probes plainly; the validity mask ({n} invalid nodes) is not in the {engine} export"
@@ -70,8 +72,7 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
     }
     if let Some(n) = report.dropped_reach_nodes {
         eprintln!(
-            "note: {engine} interpolates its probes plainly; the node reach ({n} limited nodes) is not in the {engine} export, so its lookups read nodes through thin walls (lightvol render --lookup {} shows what it draws)",
-            if args.format == CliFormat::Three { "three" } else { "bevy" }
+            "note: {engine} interpolates its probes plainly; the node reach ({n} limited nodes) is not in the {engine} export, so its lookups read nodes through thin walls (lightvol render --lookup {lookup} shows what it draws)"
         );
     }
     eprintln!("wrote {}", out.display());

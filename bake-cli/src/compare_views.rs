@@ -42,6 +42,13 @@ pub(crate) struct ViewArgs {
     pub(crate) engine_views: Vec<lightvol_volume::EngineLookup>,
 }
 
+impl ViewArgs {
+    /// The views of these options through `cameras` (resolved by [`cameras`]).
+    pub(crate) fn config(&self, cameras: Vec<ViewCamera>) -> ViewsConfig {
+        ViewsConfig { cameras, reference_samples: self.view_samples, engine_views: self.engine_views.clone() }
+    }
+}
+
 /// Characters kept in a file camera's name when it labels a view (the rest become `_`).
 fn label_char(c: char) -> char {
     if c.is_ascii_alphanumeric() || c == '-' || c == '_' { c } else { '_' }

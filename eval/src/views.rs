@@ -259,11 +259,17 @@ pub fn compare_views(
             .collect::<Result<Vec<_>, EvalError>>()?;
         let engine_source =
             runs.iter().find(|r| r.name == ENGINE_VIEW_ENTRY).and_then(|r| r.volume.uniform());
-        for &lookup in views.engine_views.iter().filter(|_| engine_source.is_some()) {
-            let field = EngineField { volume: engine_source.expect("filtered"), lookup };
-            let image = render_volume(transport.scene(), transport.tracer(), &c.camera, &config, &field)?;
-            let metrics = view_metrics(&image, &reference, &measured);
-            methods.push(MethodView { name: engine_view_name(ENGINE_VIEW_ENTRY, lookup), image, metrics });
+        if let Some(volume) = engine_source {
+            for &lookup in &views.engine_views {
+                let field = EngineField { volume, lookup };
+                let image = render_volume(transport.scene(), transport.tracer(), &c.camera, &config, &field)?;
+                let metrics = view_metrics(&image, &reference, &measured);
+                methods.push(MethodView {
+                    name: engine_view_name(ENGINE_VIEW_ENTRY, lookup),
+                    image,
+                    metrics,
+                });
+            }
         }
         out.push(ComparedView {
             label: c.label.clone(),

@@ -172,10 +172,9 @@ fn setup(
     ));
     let scene = assets.load(GltfAssetLabel::Scene(0).from_asset(args.scene.clone()));
     commands.spawn(WorldAssetRoot(scene.clone()));
-    let volume_entity =
-        lightvol_volume::spawn_lightvol_volume(&mut commands, &assets, &args.assets, &args.volume);
+    lightvol_volume::spawn_lightvol_volume(&mut commands, &assets, &args.assets, &args.volume);
+    // The same handle the probe holds (the asset server loads a path once), to wait for it.
     let volume = assets.load(args.volume.clone());
-    let _ = volume_entity;
     for s in &args.spheres {
         commands.spawn((
             Mesh3d(meshes.add(Sphere::new(s.w).mesh().uv(256, 128))),
