@@ -8,6 +8,7 @@ use clap::Args;
 use lightvol_sampler::adaptive::{AdaptiveSettings, node_budget_bytes};
 use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::request::{AdaptiveRequest, BakeRequest, Conflict, GradientChoice, RequestError};
+use lightvol_sampler::target::TargetSettings;
 
 use crate::gradient_args::GradientEstimatorArg;
 use crate::setup::{GridArgs, SampleArgs, SceneArgs, shard_option};
@@ -57,6 +58,20 @@ pub(crate) struct BakeArgs {
     /// method's own: `basis` for prefilter and doi-paper, `central` for the others.
     #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1)]
     pub(crate) gradients: Option<Option<GradientEstimatorArg>>,
+    /// Choose the node values for this engine's lookup instead of lightvol's: `three`
+    /// (three.js LightProbeGrid), `bevy` (Bevy's irradiance volume), `apv` (Unity APV's
+    /// lookup; the file gets a validity mask), `trilinear` (any engine that filters the
+    /// texture trilinearly, Godot) or `lightvol` (the default: no fit). After the bake,
+    /// a least-squares fit makes the engine's reconstruction match lightvol's own reading
+    /// of the bake over points near surfaces and in free space in the domain of interest,
+    /// held to the baked values by --target-lambda (16 extra rays per node find the points;
+    /// no light path is traced). The file records the target, and `export` warns when it
+    /// writes the volume for another engine. Uniform bakes only, not sharded.
+    #[arg(long, value_name = "ENGINE", default_value_t = lightvol_volume::EngineLookup::Lightvol)]
+    pub(crate) target: lightvol_volume::EngineLookup,
+    /// The --target fit's weight toward the baked values (0: a pure least-squares fit).
+    #[arg(long, value_name = "LAMBDA", default_value_t = lightvol_sampler::target::DEFAULT_TARGET_LAMBDA)]
+    pub(crate) target_lambda: f64,
     /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
     #[command(flatten)]
     pub(crate) adaptive: AdaptiveArgs,
@@ -218,7 +233,14 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         shard,
         keep_accumulator: args.keep_accumulator,
         adaptive,
+        target: Some(TargetSettings {
+            lambda: args.target_lambda,
+            ..TargetSettings::new(args.target, args.sampling.seed)
+        }),
     };
+    if !(args.target_lambda >= 0.0 && args.target_lambda.is_finite()) {
+        bail!("--target-lambda must be a number >= 0 (got {})", args.target_lambda);
+    }
     request.validate().map_err(request_error)?;
     Ok(request)
 }
@@ -268,7 +290,7 @@ fn request_error(e: RequestError) -> anyhow::Error {
         RequestError::FitWithGradients(fit) => anyhow::anyhow!(
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
         ),
-        e @ RequestError::NotUniform(_) => e.into(),
+        e @ (RequestError::NotUniform(_) | RequestError::Target(_)) => e.into(),
         RequestError::BasisNeedsCells(_) => anyhow::anyhow!(
             "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
         ),

@@ -59,6 +59,20 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             solve.active_nodes, solve.max_iterations, solve.max_relative_residual
         );
     }
+    if let (Some(t), Some(r), false) = (request.effective_target(), &bake.target, args.json) {
+        eprintln!(
+            "fitted for the {} lookup (λ = {}): {} nodes from {} surface and {} free-space samples ({} rays, {} CG iterations); the engine's reading differs from lightvol's by {:.4} relative RMS before the fit, {:.4} after",
+            t.lookup,
+            t.lambda,
+            r.nodes_fitted,
+            r.surface_samples,
+            r.free_samples,
+            r.rays,
+            r.iterations,
+            r.relative_rms_before,
+            r.relative_rms_after
+        );
+    }
     let vol = &bake.volume;
     match &bake.gradients {
         None => write_exr(&args.output, vol, &ExrOptions::default()),

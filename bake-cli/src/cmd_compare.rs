@@ -59,7 +59,9 @@ pub(crate) struct CompareArgs {
     /// resolution; `adaptive1` stops one level earlier); `BASE+lsq[:λ]` or `BASE+average` for
     /// a bake finalized with that node fit instead of `--fit`'s; the engines' leak fixes
     /// `point+validity` (invalid probes dilated), `point+apv` (Unity APV, validity-weighted
-    /// lookups), `point+vlm` (Unreal), `point+ddgi` (DDGI relocation).
+    /// lookups), `point+vlm` (Unreal), `point+ddgi` (DDGI relocation); `BASE+ENGINE`
+    /// (`three`, `bevy`, `trilinear`, `apv`) for a bake whose node values are fitted for that
+    /// engine's lookup (`bake --target`), read through it unless `--lookup` says otherwise.
     #[arg(long, default_value = "point,prefilter,doi-paper,doi", value_delimiter = ',')]
     pub(crate) methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for

@@ -75,6 +75,22 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             "note: {engine} interpolates its probes plainly; the node reach ({n} limited nodes) is not in the {engine} export, so its lookups read nodes through thin walls (lightvol render --lookup {lookup} shows what it draws)"
         );
     }
+    if let Some(t) = opened.field().metadata().settings.as_ref().and_then(|s| s.target.as_ref()) {
+        let reads = match args.format {
+            CliFormat::Three => Some("three"),
+            CliFormat::Bevy => Some("bevy"),
+            _ => None,
+        };
+        if reads != Some(t.lookup.as_str()) {
+            eprintln!(
+                "warning: the volume's node values were fitted for the {} lookup (bake --target {}); {} reads them differently, so the fit's gain is lost there: bake again with --target {} for it",
+                t.lookup,
+                t.lookup,
+                reads.map_or("a texture read by lightvol's lookup".to_owned(), |r| format!("the {r} lookup")),
+                reads.unwrap_or("lightvol")
+            );
+        }
+    }
     eprintln!("wrote {}", out.display());
     if args.format != CliFormat::Json {
         let sc = sidecar_path(out);

@@ -15,7 +15,8 @@ use crate::error::EvalError;
 use crate::observer::Observer;
 use crate::plate::{Plate, PlateConfig};
 use crate::runs::{
-    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_gradient, run_uniform,
+    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_gradient, run_targeted,
+    run_uniform,
 };
 use crate::sweep::{SweepConfig, SweepReport, check_scales, memory_sweep};
 use crate::views::{ComparedView, ViewsConfig, check_cameras, compare_views};
@@ -212,6 +213,7 @@ fn compare_here(
             }
             Entry::Adaptive(levels) => run_adaptive(&ctx, grid, name, levels, &plate)?,
             Entry::Baseline(b) => run_baseline(&ctx, grid, name, b, &plate)?,
+            Entry::Targeted(method, lookup) => run_targeted(&ctx, grid, name, method, lookup, &plate)?,
         };
         runs.push(read_as_engine(run, config.lookup, &plate));
     }

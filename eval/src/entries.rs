@@ -11,6 +11,7 @@
 //! | `point`, `prefilter`, `doi`, `doi-paper`, `doi-node` | [`Entry::Uniform`] |
 //! | `BASE+average`, `BASE+lsq`, `BASE+lsq:λ` | [`Entry::Fitted`] |
 //! | `BASE+taylor`, `BASE+gtrilinear`, `BASE+hermite` | [`Entry::Gradient`] |
+//! | `BASE+three`, `BASE+bevy`, `BASE+trilinear`, `BASE+apv` | [`Entry::Targeted`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
 //! | `point+validity`, `point+apv`, `point+vlm`, `point+ddgi` | [`Entry::Baseline`] |
 //!
@@ -32,8 +33,8 @@
 use std::fmt;
 use std::str::FromStr;
 
-use lightvol_volume::GridSpec;
 use lightvol_volume::gradient::GradientLookup;
+use lightvol_volume::{EngineLookup, GridSpec};
 
 use crate::error::EvalError;
 use lightvol_sampler::method::Baseline;
@@ -56,6 +57,9 @@ pub enum Entry {
     /// Point sampling with an engine's leak fix: validity and dilation, Unity APV, Unreal
     /// VLM or DDGI relocation ([`lightvol_sampler::baselines`]).
     Baseline(Baseline),
+    /// A uniform bake whose node values are then fitted for an engine's lookup
+    /// ([`lightvol_sampler::target`]).
+    Targeted(Method, EngineLookup),
 }
 
 /// Level 0 of the `adaptive` entry: the compared grid's cell counts times this.
@@ -112,7 +116,12 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
             parse_method(base)?,
             fit.parse::<Fit>().map_err(|message| EvalError::Fit { entry: s.to_owned(), message })?,
         )),
-        Some((base, lookup)) => Ok(Entry::Gradient(parse_method(base)?, parse_lookup(lookup)?)),
+        Some((base, lookup)) => match EngineLookup::parse(lookup) {
+            Some(engine) if engine != EngineLookup::Lightvol => {
+                Ok(Entry::Targeted(parse_method(base)?, engine))
+            }
+            _ => Ok(Entry::Gradient(parse_method(base)?, parse_lookup(lookup)?)),
+        },
     }
 }
 
@@ -133,6 +142,7 @@ impl fmt::Display for Entry {
             Self::Adaptive(ADAPTIVE_MAX_LEVEL) => f.write_str("adaptive"),
             Self::Adaptive(l) => write!(f, "adaptive{l}"),
             Self::Baseline(b) => f.write_str(b.name()),
+            Self::Targeted(m, l) => write!(f, "{}+{l}", m.name()),
         }
     }
 }
@@ -244,6 +254,9 @@ mod tests {
         assert_eq!(parse_entry("point+ddgi").unwrap(), Entry::Baseline(Baseline::Ddgi));
         assert_eq!(parse_entry("point+validity").unwrap(), Entry::Baseline(Baseline::Validity));
         assert_eq!(parse_entry("point+apv").unwrap(), Entry::Baseline(Baseline::Apv));
+        assert_eq!(parse_entry("doi+apv").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Apv));
+        assert_eq!(parse_entry("doi+three").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Three));
+        assert!(parse_entry("doi+lightvol").is_err(), "lightvol's lookup is the plain bake");
         assert_eq!(parse_entry("point+vlm").unwrap(), Entry::Baseline(Baseline::Vlm));
         assert!(parse_entry("doi+lsq:-2").is_err());
         assert_eq!(parse_entry("adaptive1").unwrap(), Entry::Adaptive(1));

@@ -12,7 +12,8 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
-use lightvol_volume::{AdaptiveVolume, GridSpec, LevelStats};
+use lightvol_volume::validity::ValidityMask;
+use lightvol_volume::{AdaptiveVolume, EngineLookup, GridSpec, LevelStats};
 use rayon::prelude::*;
 
 use crate::baked::{GradientVolume, RunVolume};
@@ -29,6 +30,7 @@ use lightvol_sampler::method::Baseline;
 use lightvol_sampler::method::Method;
 use lightvol_sampler::node_fit::{Fit, bake_fitted};
 use lightvol_sampler::settings::BakeSettings;
+use lightvol_sampler::target::{TargetSettings, fit_for_lookup};
 use lightvol_scene::stats::RayCounts;
 use lightvol_scene::transport::Transport;
 
@@ -162,6 +164,51 @@ impl MethodRun {
             volume,
         }
     }
+}
+
+/// Bakes `method` on `grid` (Eq. 6's average), fits its node values for `lookup`'s engine
+/// ([`fit_for_lookup`]) and measures it on the plate read through that lookup (stage
+/// `name`). The fit's rays count with the bake's.
+///
+/// # Errors
+/// The bake's and the fit's.
+pub fn run_targeted(
+    ctx: &BakeContext<'_>,
+    grid: &GridSpec,
+    name: &str,
+    method: Method,
+    lookup: EngineLookup,
+    plate: &Plate,
+) -> Result<MethodRun, EvalError> {
+    let settings = ctx.settings(method);
+    let out = ctx
+        .stage(name, |c| lightvol_sampler::bake(&ctx.transport, grid, &settings, c))
+        .map_err(EvalError::at("baking"))?;
+    let valid = ValidityMask::new(out.accumulator.denominator().iter().map(|&d| d > 0.0).collect());
+    let (baked, mut stats) = out.finish();
+    let t0 = Instant::now();
+    let (vol, report) =
+        fit_for_lookup(&ctx.transport, &baked, &TargetSettings::new(lookup, ctx.seed), Some(valid))
+            .map_err(EvalError::at("fitting for the target lookup"))?;
+    stats.rays.query += report.rays;
+    let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
+    let up = [0.0, 0.0, 1.0];
+    let estimate: Vec<[f64; 3]> =
+        plate.points.par_iter().map(|p| vol.engine_irradiance(lookup, p.to_array(), up, up)).collect();
+    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
+        + vol.validity().map_or(0, ValidityMask::memory_bytes);
+    Ok(MethodRun::new(
+        name,
+        ctx.samples,
+        stats.rays,
+        seconds,
+        plate,
+        estimate,
+        memory,
+        grid.node_count(),
+        RunDetail::Uniform,
+        RunVolume::Engine(Arc::new(vol), lookup),
+    ))
 }
 
 /// Bakes `method` on `grid`, finalized with `fit` ([`bake_fitted`]; `point` always takes
@@ -424,7 +471,7 @@ pub fn run_baseline(
     };
     let detail = RunDetail::Baseline { invalid_nodes: b.invalid_nodes(), moved_nodes: b.moved_nodes(grid) };
     let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
-        + b.volume.validity().map_or(0, lightvol_volume::ValidityMask::memory_bytes);
+        + b.volume.validity().map_or(0, ValidityMask::memory_bytes);
     let volume = if baseline.weights_lookups() {
         RunVolume::Reference(Arc::new(b.volume))
     } else {

@@ -21,6 +21,7 @@ pub mod request;
 pub mod scene_setup;
 pub mod settings;
 pub mod stats;
+pub mod target;
 mod unit;
 
 pub use bake::{BakeOutput, bake};

@@ -7,8 +7,10 @@
 //! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
 
 use lightvol_core::samples::Samples;
+use lightvol_volume::validity::ValidityMask;
 use lightvol_volume::{
-    BakeMetadata, BakeRecord, FillReport, FitRecord, GridSpec, IrradianceVolume, VolumeGradients,
+    BakeMetadata, BakeRecord, EngineLookup, FillReport, FitRecord, GridSpec, IrradianceVolume, TargetRecord,
+    VolumeGradients,
 };
 
 use crate::adaptive::AdaptiveSettings;
@@ -19,6 +21,7 @@ use crate::method::BakeMethod;
 use crate::method::Baseline;
 use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
 use crate::provenance;
+use crate::target::{TargetReport, TargetSettings, fit_for_lookup};
 use crate::{BakeError, BakeOutput, BakeSettings, Method};
 use lightvol_core::progress::BakeControl;
 use lightvol_scene::{Scene, Transport, TransportSettings, UpAxis};
@@ -70,6 +73,9 @@ pub struct BakeRequest {
     pub keep_accumulator: bool,
     /// An octree bake instead of a uniform one.
     pub adaptive: Option<AdaptiveRequest>,
+    /// Node values chosen for this engine lookup ([`crate::target`]; `None` or
+    /// [`EngineLookup::Lightvol`]: for lightvol's own).
+    pub target: Option<TargetSettings>,
 }
 
 impl BakeRequest {
@@ -88,6 +94,7 @@ impl BakeRequest {
             shard: None,
             keep_accumulator: false,
             adaptive: None,
+            target: None,
         }
     }
 
@@ -129,14 +136,24 @@ impl BakeRequest {
         })
     }
 
+    /// The engine lookup the node values are fitted for, when not lightvol's own.
+    #[must_use]
+    pub fn effective_target(&self) -> Option<TargetSettings> {
+        self.target.filter(|t| t.lookup != EngineLookup::Lightvol)
+    }
+
     /// The method label in reports and file metadata: the method's name, with the fit when it
-    /// is not the average.
+    /// is not the average and the target lookup when there is one.
     #[must_use]
     pub fn label(&self) -> String {
-        match self.effective_fit() {
+        let mut label = match self.effective_fit() {
             Fit::Average => self.method_name().to_owned(),
             fit => format!("{} fit={fit}", self.method_name()),
+        };
+        if let Some(t) = self.effective_target() {
+            label.push_str(&format!(" target={}", t.lookup));
         }
+        label
     }
 
     /// The typed record of the method and settings that every file of this bake carries
@@ -156,6 +173,9 @@ impl BakeRequest {
             russian_roulette: self.transport.russian_roulette,
             direct_light: self.transport.direct.name().to_owned(),
             octree: self.adaptive.map(|a| a.settings),
+            target: self
+                .effective_target()
+                .map(|t| TargetRecord { lookup: t.lookup.name().to_owned(), lambda: t.lambda }),
         }
     }
 
@@ -231,6 +251,21 @@ impl BakeRequest {
     /// The first [`RequestError`] in the order: samples, then the baselines', octree's,
     /// fit's and gradients' rules.
     pub fn validate(&self) -> Result<(), RequestError> {
+        if self.effective_target().is_some() {
+            let refused = [
+                (
+                    matches!(self.method, BakeMethod::Baseline(_)),
+                    "an engine baseline (a fix for its own lookup)",
+                ),
+                (self.adaptive.is_some(), "an octree bake"),
+                (self.shard.is_some(), "a shard (the fit reads the whole volume)"),
+                (self.keep_accumulator, "keeping the accumulator"),
+                (self.gradients.is_some(), "gradients"),
+            ];
+            if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
+                return Err(RequestError::Target(with));
+            }
+        }
         if let BakeMethod::Baseline(baseline) = self.method {
             let refused = [
                 (self.adaptive.is_some(), Conflict::Adaptive),
@@ -339,6 +374,9 @@ pub enum RequestError {
     /// A baseline or octree request given to the uniform bake, which bakes neither.
     #[error("{0} has its own bake run, not the uniform one")]
     NotUniform(&'static str),
+    /// A target lookup with a setting it cannot go with.
+    #[error("--target cannot be combined with {0}")]
+    Target(&'static str),
     /// The basis estimator needs cell samples.
     #[error("basis gradients need cell samples (prefilter or doi-paper), not {}", .0.name())]
     BasisNeedsCells(Method),
@@ -372,6 +410,9 @@ pub struct UniformBake {
     pub gradients: Option<GradientsOutcome>,
     /// The least-squares fit's weight λ and solve, when that is the fit.
     pub least_squares: Option<(f64, FitReport)>,
+    /// The fit for a target lookup, when asked for ([`crate::target`]); its rays are
+    /// counted in the output's query rays.
+    pub target: Option<TargetReport>,
 }
 
 /// Why a bake failed.
@@ -389,6 +430,9 @@ pub enum UniformBakeError {
     /// The least-squares node fit.
     #[error("least-squares node fit")]
     LeastSquares(#[source] BakeError),
+    /// The fit for a target lookup.
+    #[error("fit for the target lookup")]
+    Target(#[source] BakeError),
 }
 
 /// Where the baked scene's coordinates are shown, and the key of its settings
@@ -478,7 +522,19 @@ pub fn bake_uniform(
             (v.with_metadata(meta), fill, None, Some((lambda, solve)))
         }
     };
-    Ok(UniformBake { output, volume, fill, gradients, least_squares })
+    let (volume, target) = match request.effective_target() {
+        None => (volume, None),
+        Some(t) => {
+            // APV's lookup renormalises over valid nodes: those with samples of their own.
+            let valid =
+                ValidityMask::new(output.accumulator.denominator().iter().map(|&d| d > 0.0).collect());
+            let (fitted, report) =
+                fit_for_lookup(transport, &volume, &t, Some(valid)).map_err(UniformBakeError::Target)?;
+            output.stats.rays.query += report.rays;
+            (fitted.with_metadata(volume.metadata().clone()), Some(report))
+        }
+    };
+    Ok(UniformBake { output, volume, fill, gradients, least_squares, target })
 }
 
 #[cfg(test)]

@@ -228,6 +228,112 @@ impl IrradianceVolume {
     }
 }
 
+/// An engine's lookup at one query as a linear form of the node values: every rule of the
+/// module docs interpolates the nodes with per-corner weights (trilinear, renormalised by
+/// validity or reach, zero outside the engine's box) and expands each corner's coefficients
+/// with one per-coefficient vector (`A_j Y_j(n)` for SH irradiance, Kontkanen & Laine 2006
+/// Eq. 3; `Σ_a n_a² A_j Y_j(±e_a)` for Bevy's ambient cube), so
+/// `E_ch = Σ_c corner_c Σ_j basis_j · node(nodes_c)[3j + ch]`. A bake that chooses node
+/// values for an engine fits through this form; [`IrradianceVolume::engine_irradiance`]
+/// is its slow reference (a test keeps them equal).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EngineWeights {
+    /// The cell's 8 corner nodes (flat indices).
+    pub nodes: [usize; 8],
+    /// Each corner's weight (all zero where the engine leaves the point unlit).
+    pub corner: [f64; 8],
+    /// The per-coefficient factors; entries past the volume's coefficient count are zero.
+    pub basis: [f64; 16],
+}
+
+impl EngineWeights {
+    /// The irradiance this form gives over `vol`'s node values.
+    #[must_use]
+    pub fn apply(&self, vol: &IrradianceVolume) -> [f64; 3] {
+        let mut e = [0.0; 3];
+        for c in 0..8 {
+            if self.corner[c] == 0.0 {
+                continue;
+            }
+            let node = vol.node(self.nodes[c]);
+            for j in 0..vol.coeffs() {
+                let a = self.corner[c] * self.basis[j];
+                for ch in 0..3 {
+                    e[ch] += a * f64::from(node[3 * j + ch]);
+                }
+            }
+        }
+        e
+    }
+
+    /// Whether the engine lights the point at all (some corner has weight).
+    #[must_use]
+    pub fn lit(&self) -> bool {
+        self.corner.iter().any(|&w| w != 0.0)
+    }
+}
+
+/// `A_j Y_j(n)` for the first `coeffs` coefficients: the SH irradiance expansion (Eq. 3).
+fn irradiance_basis(coeffs: usize, n: [f64; 3]) -> [f64; 16] {
+    let mut y = [0.0; 16];
+    eval_into(coeffs.isqrt(), n, &mut y[..coeffs]);
+    std::array::from_fn(|j| if j < coeffs { cosine_lobe_factor(sh_lm(j).0) * y[j] } else { 0.0 })
+}
+
+impl IrradianceVolume {
+    /// [`Self::engine_irradiance`] as a linear form of the node values ([`EngineWeights`]).
+    #[must_use]
+    pub fn engine_weights(
+        &self,
+        lookup: EngineLookup,
+        p: [f64; 3],
+        n: [f64; 3],
+        v: [f64; 3],
+    ) -> EngineWeights {
+        let coeffs = self.coeffs();
+        let unlit = |nodes| EngineWeights { nodes, corner: [0.0; 8], basis: irradiance_basis(coeffs, n) };
+        let sh = |(nodes, corner): ([usize; 8], [f64; 8])| EngineWeights {
+            nodes,
+            corner,
+            basis: irradiance_basis(coeffs, n),
+        };
+        match lookup {
+            EngineLookup::Lightvol => sh(self.reference_weights(p, Some(n))),
+            EngineLookup::Trilinear => sh(self.spec().trilinear_world(p)),
+            EngineLookup::Three => {
+                let h = self.spec().cell_size();
+                let q = std::array::from_fn(|a| p[a] + n[a] * h[a] * 0.5);
+                let tri = self.spec().trilinear_world(q);
+                if self.outside_engine_box(q, THREE_BOX_MARGIN) { unlit(tri.0) } else { sh(tri) }
+            }
+            EngineLookup::Bevy => {
+                let (nodes, corner) = self.spec().trilinear_world(p);
+                if self.outside_engine_box(p, 0.0) {
+                    return unlit(nodes);
+                }
+                let mut basis = [0.0; 16];
+                for a in 0..3 {
+                    let mut axis = [0.0; 3];
+                    axis[a] = if n[a] < 0.0 { -1.0 } else { 1.0 };
+                    let face = irradiance_basis(coeffs, axis);
+                    for j in 0..coeffs {
+                        basis[j] += n[a] * n[a] * face[j];
+                    }
+                }
+                EngineWeights { nodes, corner, basis }
+            }
+            EngineLookup::Apv => {
+                let q = std::array::from_fn(|a| p[a] + n[a] * APV_NORMAL_BIAS + v[a] * APV_VIEW_BIAS);
+                let (nodes, mut w) = self.spec().trilinear_world(q);
+                if let Some(mask) = self.validity() {
+                    mask.reweight_f64(|c| nodes[c], &mut w);
+                }
+                sh((nodes, w))
+            }
+        }
+    }
+}
+
 /// A uniform volume read through an engine's lookup, as a [`VolumeField`]: irradiance by
 /// [`IrradianceVolume::engine_irradiance`] (viewed along the normal when no eye is given,
 /// [`VolumeField::irradiance`]; from the eye by [`VolumeField::irradiance_seen`]),
@@ -331,6 +437,42 @@ mod tests {
         for ch in 0..3 {
             assert!((bevy[ch] - tri[ch]).abs() < TOL, "{bevy:?} {tri:?}");
         }
+    }
+
+    /// Every lookup's linear form gives its reference irradiance, with a validity mask
+    /// and a node reach on the volume (which lightvol's and APV's rules read), inside and
+    /// outside the engines' boxes.
+    #[test]
+    fn engine_weights_equal_the_reference_lookups() {
+        // Both sum the same f64 products in a different order: 1e-12 of values up to ~10.
+        const TOL: f64 = 1e-11;
+        let mut vol = linear_volume();
+        let nodes = vol.spec().node_count();
+        vol.set_validity(Some(crate::validity::ValidityMask::new((0..nodes).map(|i| i % 7 != 3).collect())))
+            .unwrap();
+        let reach: Vec<[f32; 6]> =
+            (0..nodes).map(|i| if i % 5 == 1 { [0.3, 1.0, 1.0, 0.6, 1.0, 1.0] } else { [1.0; 6] }).collect();
+        vol.set_reach(Some(crate::reach::NodeReach::new(reach).unwrap())).unwrap();
+        let mut checked = 0;
+        for i in 0..200 {
+            let f = |k: u32| f64::from((i * 37 + k * 11) % 101) / 100.0;
+            let p = [-0.6 + 5.2 * f(1), -0.6 + 3.2 * f(2), -0.6 + 4.2 * f(3)];
+            let n = {
+                let d = [f(4) - 0.5, f(5) - 0.5, f(6) - 0.45];
+                let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                d.map(|x| x / l)
+            };
+            let v = [n[1], -n[0], n[2]];
+            for l in EngineLookup::ALL {
+                let want = vol.engine_irradiance(l, p, n, v);
+                let got = vol.engine_weights(l, p, n, v).apply(&vol);
+                for ch in 0..3 {
+                    assert!((want[ch] - got[ch]).abs() < TOL, "{l} at {p:?}: {got:?} against {want:?}");
+                }
+                checked += usize::from(want[0] != 0.0);
+            }
+        }
+        assert!(checked > 800, "only {checked} lit queries");
     }
 
     /// three.js lights a fragment only while its sample point (half a cell along the normal)

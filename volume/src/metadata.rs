@@ -35,6 +35,19 @@ pub struct BakeRecord {
     pub direct_light: String,
     /// The octree settings of an adaptive bake (\[Oat05\], "Subdivision Heuristics").
     pub octree: Option<OctreeSettings>,
+    /// The engine lookup the node values were chosen for (`bake --target`), when not
+    /// lightvol's own. Absent in files written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub target: Option<TargetRecord>,
+}
+
+/// The engine lookup a bake's node values were fitted for, and the fit's weight.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TargetRecord {
+    /// The lookup's name (`three`, `bevy`, `trilinear`, `apv`; [`crate::EngineLookup::name`]).
+    pub lookup: String,
+    /// The regularisation weight λ toward the bake's own values.
+    pub lambda: f64,
 }
 
 /// How node values came from their samples.

@@ -82,6 +82,7 @@ pub fn random_volume(coeffs: usize, res: [u32; 3], seed: u64) -> IrradianceVolum
                 memory_budget: Some(1 << 20),
                 ..lightvol_volume::OctreeSettings::default()
             }),
+            target: Some(lightvol_volume::TargetRecord { lookup: "three".into(), lambda: 0.05 }),
         }),
     })
 }

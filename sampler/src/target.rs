@@ -1,0 +1,409 @@
+//! Node values chosen for the lookup an engine runs (`bake --target`).
+//!
+//! A bake's node values are free; what a user sees is the engine's reconstruction of them,
+//! and the engines read a grid differently from lightvol (three.js half a cell along the
+//! normal, Bevy through an ambient cube, Unity APV with biases and validity, most with
+//! neither validity nor the node reach; [`lightvol_volume::engine_lookup`]). Kontkanen &
+//! Laine 2006 (Eq. 5-6) choose each node's value from the light over its trilinear support
+//! in the domain of interest; with the reconstruction known at bake time, the node values
+//! can instead minimise the error of *the target's* reconstruction over the domain of
+//! interest:
+//!
+//! `min_c Σ_s ‖R_X(c; p_s, n_s, v_s) − E_s‖² + λ Σ_i μ_i ‖c_i − ĉ_i‖²`
+//!
+//! with `R_X` the target lookup's linear form ([`EngineWeights`]), `ĉ` the bake's own
+//! values and `μ_i = (π/4) Σ_s b_i(s)` (the row sum of the data term's weights on node
+//! `i`'s constant coefficient, `(A_0 Y_0)² = π/4`, as in the consistent-mass fit of
+//! [`crate::node_fit`]), so that coefficients the samples do not determine (the ambient
+//! cube ignores three of nine) and nodes that samples reach only with small weights stay
+//! at the bake's values (`Σ b ≥ Σ b²`: a sliver node is held harder than it is pulled). The normal equations are solved by Jacobi-preconditioned conjugate gradients,
+//! all three colour channels in one pass, in a fixed order (bit-identical for any thread
+//! count).
+//!
+//! **The samples.** From every node with samples of its own (not filled from its
+//! neighbours), [`TARGET_RAYS_PER_NODE`] rays (Halton directions keyed by seed and node)
+//! find the surfaces near it: a front face met within [`TARGET_REACH_CELLS`] cells gives a
+//! *surface sample* (the point, its shading normal, viewed from the node), and a point
+//! uniform along the unobstructed part of the ray gives a *free-space sample* with a
+//! uniform normal. A node any of whose rays meets a back face gives none (it stands inside
+//! a solid, or outside a room whose walls face inward: Kontkanen & Laine's test of the
+//! domain of interest, on the node's rays). These are the points an engine shades and a
+//! moving object passes through. Their value `E_s` is the bake's irradiance read by lightvol's own lookup
+//! (validity and node reach, [`IrradianceVolume::irradiance_reference`]): the fit moves
+//! the bake's light, estimated once, into the target's reconstruction, and traces no
+//! light path: the rays above are its whole cost ([`TargetReport::rays`]).
+
+use std::f64::consts::PI;
+
+use glam::DVec3;
+use lightvol_scene::qmc::Qmc;
+use lightvol_scene::transport::Transport;
+use lightvol_sh::lowdisc::hash2;
+use lightvol_sh::sampling::sample_uniform_sphere;
+use lightvol_volume::engine_lookup::EngineWeights;
+use lightvol_volume::validity::ValidityMask;
+use lightvol_volume::{EngineLookup, IrradianceVolume};
+use rayon::prelude::*;
+
+use crate::error::BakeError;
+
+/// Rays traced from each node to find its samples: each gives up to two (a surface and a
+/// free-space point). Sixteen cost about 1% of the rays of a 128-sample `doi` bake (whose
+/// probe samples each trace a path and a shadow ray; measured 1.0% on the Breakfast Room,
+/// 2.8% on the built-in city) and gave lower plate errors through three.js's lookup than
+/// eight on six of six scenes (sampler README).
+pub const TARGET_RAYS_PER_NODE: u32 = 16;
+
+/// How far, in the largest cell size, a node's rays look for surfaces: two cells covers
+/// the trilinear supports of the node's neighbours that a surface point there reads.
+pub const TARGET_REACH_CELLS: f64 = 2.0;
+
+/// Default λ: how strongly node values stay at the bake's. Measured on six scenes through
+/// three.js's and Bevy's lookups at 0.05, 0.5 and 2 (sampler README): 0.05 lets nodes that
+/// few samples reach swing (Bevy's plate error on zdm2 rose from 0.047 to 0.131), 2 leaves
+/// most of the engine's error in place; 0.5 was best or near it on most.
+pub const DEFAULT_TARGET_LAMBDA: f64 = 0.5;
+
+/// Relative residual at which conjugate gradients stop: node values are stored as f32
+/// (relative precision 6e-8); 1e-7 leaves the solver's error below that of the rounding.
+const CG_TOLERANCE: f64 = 1e-7;
+
+/// Iteration cap: a guard against a broken input, far above the few hundred iterations
+/// the regularised system needs.
+const CG_MAX_ITERATIONS: usize = 2000;
+
+/// `(A_0 Y_0)²`: the squared factor of the constant coefficient in the irradiance
+/// expansion, `(π · 1/(2√π))² = π/4`.
+const DC_FACTOR_SQUARED: f64 = PI / 4.0;
+
+/// What the fit aims at and how hard it holds on to the bake.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TargetSettings {
+    /// The engine lookup the node values are chosen for.
+    pub lookup: EngineLookup,
+    /// λ ≥ 0 (module docs).
+    pub lambda: f64,
+    /// Rays per node that find the samples.
+    pub rays_per_node: u32,
+    /// Seed of the rays' directions.
+    pub seed: u64,
+}
+
+impl TargetSettings {
+    /// The fit for `lookup` with the default λ and rays, seeded by `seed`.
+    #[must_use]
+    pub fn new(lookup: EngineLookup, seed: u64) -> Self {
+        Self { lookup, lambda: DEFAULT_TARGET_LAMBDA, rays_per_node: TARGET_RAYS_PER_NODE, seed }
+    }
+}
+
+/// What the fit did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct TargetReport {
+    /// Surface samples.
+    pub surface_samples: usize,
+    /// Free-space samples.
+    pub free_samples: usize,
+    /// Samples the target lookup leaves unlit (outside the engine's box), left out.
+    pub unlit_samples: usize,
+    /// Rays traced to find the samples.
+    pub rays: u64,
+    /// Nodes whose values the fit chose (the others keep the bake's).
+    pub nodes_fitted: usize,
+    /// Conjugate-gradient iterations (the slowest channel).
+    pub iterations: usize,
+    /// Relative RMS difference over the samples between the target lookup and the samples'
+    /// values, with the bake's node values.
+    pub relative_rms_before: f64,
+    /// The same with the fitted values.
+    pub relative_rms_after: f64,
+}
+
+/// One sample: where the engine is asked, and what it should answer.
+#[derive(Clone, Copy, Debug)]
+struct Sample {
+    p: [f64; 3],
+    n: [f64; 3],
+    v: [f64; 3],
+    surface: bool,
+}
+
+/// The samples of node `node` (module docs): none when any of its rays meets a back face
+/// (the node stands inside a solid, or outside a room whose walls face inward: not where
+/// an engine shades).
+fn node_samples(
+    t: &Transport<'_>,
+    vol: &IrradianceVolume,
+    settings: &TargetSettings,
+    node: usize,
+) -> (Vec<Sample>, u64) {
+    let spec = vol.spec();
+    let [i, j, k] = spec.node_coords(node);
+    let x = DVec3::from_array(spec.node_position_world(i, j, k));
+    let reach = TARGET_REACH_CELLS * spec.cell_size().into_iter().fold(0.0, f64::max);
+    let h = Qmc::<5>::new(settings.seed, hash2(node as u64, 0x7461_7267_6574));
+    let eps = t.epsilon();
+    let mut out = Vec::with_capacity(2 * settings.rays_per_node as usize);
+    for s in 0..u64::from(settings.rays_per_node) {
+        let q = h.point(s);
+        let dir = DVec3::from_array(sample_uniform_sphere([q[0], q[1]]));
+        let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
+        if hit.is_some_and(|h| h.back_face) {
+            return (Vec::new(), s + 1);
+        }
+        let end = hit.map_or(reach, |h| h.t.min(reach));
+        let n = sample_uniform_sphere([q[3], q[4]]);
+        out.push(Sample { p: (x + dir * (q[2] * end)).to_array(), n, v: n, surface: false });
+        if let Some(h) = hit.filter(|h| h.t <= reach) {
+            // The face the node sees, and the engine's shading normal on that side.
+            let face = if h.from_behind { -h.normal } else { h.normal };
+            let shading = t.scene().shading_normal(h.triangle, h.bary[0], h.bary[1]).unwrap_or(face);
+            let n = if shading.dot(face) < 0.0 { -shading } else { shading };
+            let p = x + dir * h.t + face * eps;
+            out.push(Sample { p: p.to_array(), n: n.to_array(), v: (-dir).to_array(), surface: true });
+        }
+    }
+    (out, u64::from(settings.rays_per_node))
+}
+
+/// A sample's row: the target's linear form and the value it should give.
+struct Row {
+    w: EngineWeights,
+    value: [f64; 3],
+}
+
+/// Chooses node values for `settings.lookup` (module docs) from the baked `volume` (read
+/// through lightvol's lookup for the samples' values), over `transport`'s scene. The result
+/// has the bake's grid and metadata, no node reach (no engine reads one) and, for
+/// [`EngineLookup::Apv`], the validity mask `valid` (APV's lookup renormalises over the
+/// valid nodes; `None`: every node valid). [`EngineLookup::Lightvol`] returns the volume as
+/// it is: the bake is already chosen for lightvol's lookup.
+///
+/// # Errors
+/// [`BakeError::Settings`] for a negative or non-finite λ, a mask of the wrong size, or a
+/// grid with a placement transform.
+pub fn fit_for_lookup(
+    transport: &Transport<'_>,
+    volume: &IrradianceVolume,
+    settings: &TargetSettings,
+    valid: Option<ValidityMask>,
+) -> Result<(IrradianceVolume, TargetReport), BakeError> {
+    if !(settings.lambda >= 0.0 && settings.lambda.is_finite()) {
+        return Err(BakeError::Settings(format!("target λ must be >= 0 (got {})", settings.lambda)));
+    }
+    if settings.lookup == EngineLookup::Lightvol {
+        return Ok((volume.clone(), TargetReport::default()));
+    }
+    let mut fitted = volume.clone();
+    fitted.set_reach(None).map_err(|e| BakeError::Settings(e.to_string()))?;
+    let nodes = volume.spec().node_count();
+    if valid.as_ref().is_some_and(|m| m.len() != nodes) {
+        return Err(BakeError::Settings(format!(
+            "a validity mask of {} nodes for {nodes}",
+            valid.map_or(0, |m| m.len())
+        )));
+    }
+    // Nodes without samples of their own (filled from their neighbours) shoot no rays.
+    let shoots = |node: usize| valid.as_ref().is_none_or(|m| m.is_valid(node));
+    let per_node: Vec<(Vec<Sample>, u64)> = (0..nodes)
+        .into_par_iter()
+        .map(
+            |node| {
+                if shoots(node) { node_samples(transport, volume, settings, node) } else { (Vec::new(), 0) }
+            },
+        )
+        .collect();
+    let mask = if settings.lookup == EngineLookup::Apv { valid } else { None };
+    fitted.set_validity(mask).map_err(|e| BakeError::Settings(e.to_string()))?;
+    let mut report = TargetReport { rays: per_node.iter().map(|(_, r)| r).sum(), ..TargetReport::default() };
+    let samples: Vec<Sample> = per_node.into_iter().flat_map(|(s, _)| s).collect();
+    report.surface_samples = samples.iter().filter(|s| s.surface).count();
+    report.free_samples = samples.len() - report.surface_samples;
+    let rows: Vec<Row> = samples
+        .into_par_iter()
+        .filter_map(|s| {
+            let w = fitted.engine_weights(settings.lookup, s.p, s.n, s.v);
+            w.lit().then(|| Row { w, value: volume.irradiance_reference(s.p, s.n) })
+        })
+        .collect();
+    report.unlit_samples = report.surface_samples + report.free_samples - rows.len();
+    let (values, nodes_fitted, iterations) = solve(&fitted, &rows, settings.lambda);
+    report.nodes_fitted = nodes_fitted;
+    report.iterations = iterations;
+    report.relative_rms_before = relative_rms(&fitted, &rows);
+    let coeffs = fitted.coeffs();
+    for node in 0..nodes {
+        let v: Vec<f32> =
+            values[node * 3 * coeffs..(node + 1) * 3 * coeffs].iter().map(|&x| x as f32).collect();
+        fitted.set_node(node, &v).map_err(|e| BakeError::Settings(e.to_string()))?;
+    }
+    report.relative_rms_after = relative_rms(&fitted, &rows);
+    Ok((fitted, report))
+}
+
+/// RMS of `R_X(c; s) − E_s` over the rows and channels, over the RMS of `E_s`.
+fn relative_rms(vol: &IrradianceVolume, rows: &[Row]) -> f64 {
+    let (err, norm) = rows
+        .iter()
+        .map(|r| {
+            let e = r.w.apply(vol);
+            (0..3).fold((0.0, 0.0), |(a, b), ch| (a + (e[ch] - r.value[ch]).powi(2), b + r.value[ch].powi(2)))
+        })
+        .fold((0.0, 0.0), |(a, b), (c, d)| (a + c, b + d));
+    if norm > 0.0 { (err / norm).sqrt() } else { 0.0 }
+}
+
+/// Solves the normal equations (module docs) over the nodes some row weighs: returns every
+/// node's values (`[node][coeff][rgb]`, the bake's where no row reaches), the nodes solved
+/// for and the iterations.
+fn solve(vol: &IrradianceVolume, rows: &[Row], lambda: f64) -> (Vec<f64>, usize, usize) {
+    let coeffs = vol.coeffs();
+    let nodes = vol.spec().node_count();
+    let k = coeffs * 3;
+    let x0: Vec<f64> = (0..nodes).flat_map(|i| vol.node(i).iter().map(|&v| f64::from(v))).collect();
+    // μ_i and the Jacobi diagonal of AᵀA, per node and coefficient.
+    let mut mu = vec![0.0; nodes];
+    let mut diag = vec![0.0; nodes * coeffs];
+    for r in rows {
+        for c in 0..8 {
+            let b = r.w.corner[c];
+            if b == 0.0 {
+                continue;
+            }
+            let node = r.w.nodes[c];
+            mu[node] += DC_FACTOR_SQUARED * b;
+            for j in 0..coeffs {
+                diag[node * coeffs + j] += (b * r.w.basis[j]).powi(2);
+            }
+        }
+    }
+    let active: Vec<bool> = mu.iter().map(|&m| m > 0.0).collect();
+    let fitted = active.iter().filter(|&&a| a).count();
+    let reg: Vec<f64> = mu.iter().map(|m| lambda * m).collect();
+    // `y = (AᵀA + λM) x` on the active unknowns (inactive ones read as 0 and give 0).
+    let apply = |x: &[f64], y: &mut [f64]| {
+        y.iter_mut().for_each(|v| *v = 0.0);
+        for r in rows {
+            let mut e = [0.0; 3];
+            for c in 0..8 {
+                let b = r.w.corner[c];
+                if b == 0.0 || !active[r.w.nodes[c]] {
+                    continue;
+                }
+                let base = r.w.nodes[c] * k;
+                for j in 0..coeffs {
+                    let a = b * r.w.basis[j];
+                    for ch in 0..3 {
+                        e[ch] += a * x[base + 3 * j + ch];
+                    }
+                }
+            }
+            for c in 0..8 {
+                let b = r.w.corner[c];
+                if b == 0.0 || !active[r.w.nodes[c]] {
+                    continue;
+                }
+                let base = r.w.nodes[c] * k;
+                for j in 0..coeffs {
+                    let a = b * r.w.basis[j];
+                    for ch in 0..3 {
+                        y[base + 3 * j + ch] += a * e[ch];
+                    }
+                }
+            }
+        }
+        for node in 0..nodes {
+            if active[node] {
+                for i in node * k..(node + 1) * k {
+                    y[i] += reg[node] * x[i];
+                }
+            }
+        }
+    };
+    // Right-hand side Aᵀ(E − A x⁰): the unknown is the change from the bake, δ = x − x⁰.
+    // A node no row weighs has μ = 0 and appears in no row, so it stays at x⁰.
+    let mut b = vec![0.0; nodes * k];
+    for r in rows {
+        let mut res = r.value;
+        for c in 0..8 {
+            let base = r.w.nodes[c] * k;
+            for j in 0..coeffs {
+                let a = r.w.corner[c] * r.w.basis[j];
+                for ch in 0..3 {
+                    res[ch] -= a * x0[base + 3 * j + ch];
+                }
+            }
+        }
+        for c in 0..8 {
+            let base = r.w.nodes[c] * k;
+            for j in 0..coeffs {
+                let a = r.w.corner[c] * r.w.basis[j];
+                for ch in 0..3 {
+                    b[base + 3 * j + ch] += a * res[ch];
+                }
+            }
+        }
+    }
+    let precond: Vec<f64> = (0..nodes * k)
+        .map(|i| {
+            let node = i / k;
+            let d = diag[node * coeffs + (i % k) / 3] + reg[node];
+            if active[node] && d > 0.0 { 1.0 / d } else { 0.0 }
+        })
+        .collect();
+    let (delta, iterations) = conjugate_gradient(apply, &b, &precond);
+    let x = x0.iter().zip(&delta).map(|(a, d)| a + d).collect();
+    (x, fitted, iterations)
+}
+
+/// Jacobi-preconditioned conjugate gradients on the three channels at once (interleaved
+/// `[..][rgb]`, each with its own step), from zero; returns the solution and the
+/// iterations of the slowest channel.
+fn conjugate_gradient(apply: impl Fn(&[f64], &mut [f64]), b: &[f64], precond: &[f64]) -> (Vec<f64>, usize) {
+    let len = b.len();
+    let dot3 = |u: &[f64], v: &[f64]| {
+        let mut s = [0.0; 3];
+        for i in 0..len {
+            s[i % 3] += u[i] * v[i];
+        }
+        s
+    };
+    let b_norm = dot3(b, b).map(f64::sqrt);
+    let mut x = vec![0.0; len];
+    let mut r = b.to_vec();
+    let mut z: Vec<f64> = r.iter().zip(precond).map(|(r, m)| r * m).collect();
+    let mut p = z.clone();
+    let mut rz = dot3(&r, &z);
+    let mut ap = vec![0.0; len];
+    let mut done = b_norm.map(|n| n == 0.0);
+    let mut iterations = 0;
+    while !done.iter().all(|&d| d) && iterations < CG_MAX_ITERATIONS {
+        apply(&p, &mut ap);
+        let pap = dot3(&p, &ap);
+        let alpha: [f64; 3] =
+            std::array::from_fn(|ch| if done[ch] || !(pap[ch] > 0.0) { 0.0 } else { rz[ch] / pap[ch] });
+        for i in 0..len {
+            x[i] += alpha[i % 3] * p[i];
+            r[i] -= alpha[i % 3] * ap[i];
+            z[i] = r[i] * precond[i];
+        }
+        let rz_new = dot3(&r, &z);
+        let rr = dot3(&r, &r);
+        for ch in 0..3 {
+            if alpha[ch] == 0.0 || rr[ch].sqrt() <= CG_TOLERANCE * b_norm[ch] {
+                done[ch] = true;
+            }
+        }
+        let beta: [f64; 3] = std::array::from_fn(|ch| if rz[ch] > 0.0 { rz_new[ch] / rz[ch] } else { 0.0 });
+        rz = rz_new;
+        for i in 0..len {
+            p[i] = z[i] + beta[i % 3] * p[i];
+        }
+        iterations += 1;
+    }
+    (x, iterations)
+}
+
+#[cfg(test)]
+#[path = "target_tests.rs"]
+mod tests;
