@@ -1,7 +1,9 @@
 #!/bin/sh
 # Regenerates the README's scene x method table: every built-in scene and every vendored
 # real scene, sky and bounce light (the sun left to the engine's shadow maps), each scene's
-# default grid and plate, 128 samples per node or cell, against a path-traced reference.
+# default grid and plate, 128 samples per node or cell, against a path-traced reference,
+# every method read through lightvol's lookup, each engine's own (native), three.js's, Bevy's,
+# plain trilinear and Unity APV's.
 #
 #   scripts/method-table.sh [OUT_DIR] [extra compare options, e.g. --seed 2]
 #
@@ -12,7 +14,8 @@ out=${1:-method-table}
 root=$(cd "$(dirname "$0")/.." && pwd)
 cargo build --release -q -p lightvol --manifest-path "$root/Cargo.toml"
 lv="$root/target/release/lightvol"
-methods=point,prefilter,doi-paper,doi-node,doi,point+validity,point+apv,point+vlm,point+ddgi
+methods=point,prefilter,doi-paper,doi-node,doi,doi+three,doi+bevy,doi+trilinear,doi+apv,point+validity,point+apv,point+vlm,point+ddgi
+lookups=lightvol,native,three,bevy,trilinear,apv
 dirs=""
 for scene in builtin:city builtin:interior builtin:maze \
     "$root/data/scenes/breakfast_room/BreakfastRoom.gltf" \
@@ -21,7 +24,7 @@ for scene in builtin:city builtin:interior builtin:maze \
     "$root/data/scenes/zdm2/zdm2.glb" \
     "$root/data/scenes/cornell_original/CornellBox-Original.obj"; do
     name=$(basename "$scene" | sed 's/^builtin://; s/\.[^.]*$//')
-    "$lv" compare "$scene" --light sky+indirect --samples 128 --methods "$methods" \
+    "$lv" compare "$scene" --light sky+indirect --samples 128 --methods "$methods" --lookup "$lookups" \
         --quiet -o "$out/$name" "$@" >/dev/null
     dirs="$dirs $out/$name"
 done

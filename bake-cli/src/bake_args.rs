@@ -64,7 +64,7 @@ pub(crate) struct BakeArgs {
     /// texture trilinearly, Godot) or `lightvol` (the default: no fit). After the bake,
     /// a least-squares fit makes the engine's reconstruction match lightvol's own reading
     /// of the bake over points near surfaces and in free space in the domain of interest,
-    /// held to the baked values by --target-lambda (16 extra rays per node find the points;
+    /// held to the baked values by --target-lambda (12 extra rays per node find the points;
     /// no light path is traced). The file records the target, and `export` warns when it
     /// writes the volume for another engine. Uniform bakes only, not sharded.
     #[arg(long, value_name = "ENGINE", default_value_t = lightvol_volume::EngineLookup::Lightvol)]

@@ -61,7 +61,8 @@ pub(crate) struct CompareArgs {
     /// `point+validity` (invalid probes dilated), `point+apv` (Unity APV, validity-weighted
     /// lookups), `point+vlm` (Unreal), `point+ddgi` (DDGI relocation); `BASE+ENGINE`
     /// (`three`, `bevy`, `trilinear`, `apv`) for a bake whose node values are fitted for that
-    /// engine's lookup (`bake --target`), read through it unless `--lookup` says otherwise.
+    /// engine's lookup (`bake --target`), read through it with `--lookup native` or that
+    /// engine's name.
     #[arg(long, default_value = "point,prefilter,doi-paper,doi", value_delimiter = ',')]
     pub(crate) methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for
@@ -87,9 +88,13 @@ pub(crate) struct CompareArgs {
     pub(crate) views: ViewArgs,
     /// Read every entry's plate and views as this engine does: `lightvol` (its own
     /// lookups), `trilinear`, `three`, `bevy` or `apv` (as for `render --lookup`; uniform-grid
-    /// entries only).
-    #[arg(long, default_value_t = lightvol_volume::EngineLookup::Lightvol)]
-    pub(crate) lookup: lightvol_volume::EngineLookup,
+    /// entries only), or `native`: each entry as its own engine reads it (`point+apv`
+    /// through APV's lookup, the other engines' fixes through plain trilinear, `BASE+ENGINE`
+    /// through that engine's, lightvol's methods through lightvol's). Repeatable (or
+    /// comma-separated): the first way keeps the methods' names, each further way adds
+    /// `METHOD@WAY`, read from the same bakes.
+    #[arg(long, value_delimiter = ',', default_value = "lightvol")]
+    pub(crate) lookup: Vec<lightvol_eval::ReadAs>,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "compare-out")]
     pub(crate) output: PathBuf,
@@ -219,7 +224,7 @@ pub(crate) fn config(
             .memory_sweep
             .then(|| SweepConfig { scales: args.sweep_scales.clone(), gradient_estimator }),
         views: args.views.config(views),
-        lookup: args.lookup,
+        lookups: args.lookup.clone(),
         threads,
     }
 }

@@ -95,7 +95,7 @@ fn scene_compare_args(
             view_samples: level.view_samples,
             engine_views: vec![lightvol_volume::EngineLookup::Three, lightvol_volume::EngineLookup::Bevy],
         },
-        lookup: lightvol_volume::EngineLookup::Lightvol,
+        lookup: vec![lightvol_eval::ReadAs::default()],
         output: out,
         quiet: args.quiet,
     }

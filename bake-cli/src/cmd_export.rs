@@ -75,21 +75,13 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             "note: {engine} interpolates its probes plainly; the node reach ({n} limited nodes) is not in the {engine} export, so its lookups read nodes through thin walls (lightvol render --lookup {lookup} shows what it draws)"
         );
     }
-    if let Some(t) = opened.field().metadata().settings.as_ref().and_then(|s| s.target.as_ref()) {
-        let reads = match args.format {
-            CliFormat::Three => Some("three"),
-            CliFormat::Bevy => Some("bevy"),
-            _ => None,
-        };
-        if reads != Some(t.lookup.as_str()) {
-            eprintln!(
-                "warning: the volume's node values were fitted for the {} lookup (bake --target {}); {} reads them differently, so the fit's gain is lost there: bake again with --target {} for it",
-                t.lookup,
-                t.lookup,
-                reads.map_or("a texture read by lightvol's lookup".to_owned(), |r| format!("the {r} lookup")),
-                reads.unwrap_or("lightvol")
-            );
-        }
+    let reads = match args.format {
+        CliFormat::Three => Some("three"),
+        CliFormat::Bevy => Some("bevy"),
+        _ => None,
+    };
+    if let Some(w) = opened.field().metadata().settings.as_ref().and_then(|r| target_warning(r, reads)) {
+        eprintln!("{w}");
     }
     eprintln!("wrote {}", out.display());
     if args.format != CliFormat::Json {
@@ -99,4 +91,50 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The warning for exporting a volume fitted for one engine's lookup (`bake --target`) to a
+/// format read by another (`reads`: the engine's lookup name, `None` for the textures that
+/// lightvol's own lookup and shader code read); `None` when they agree or there is no target.
+fn target_warning(record: &lightvol_volume::BakeRecord, reads: Option<&str>) -> Option<String> {
+    let t = record.target.as_ref()?;
+    (reads != Some(t.lookup.as_str())).then(|| {
+        format!(
+            "warning: the volume's node values were fitted for the {} lookup (bake --target {}); {} reads them differently, so the fit's gain is lost there: bake again with --target {} for it",
+            t.lookup,
+            t.lookup,
+            reads.map_or("a texture read by lightvol's lookup".to_owned(), |r| format!("the {r} lookup")),
+            reads.unwrap_or("lightvol")
+        )
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A volume fitted for three.js warns when exported for Bevy or as a plain texture, not
+    /// for three.js; a volume without a target never warns.
+    #[test]
+    fn exports_for_another_engine_warn() {
+        let mut r = lightvol_volume::BakeRecord {
+            method: "doi".into(),
+            samples_per_unit: 16,
+            coeffs: 9,
+            fit: lightvol_volume::FitRecord::Average,
+            gradients: None,
+            bounces: 2,
+            russian_roulette: true,
+            direct_light: "all".into(),
+            octree: None,
+            target: None,
+        };
+        assert_eq!(target_warning(&r, Some("bevy")), None);
+        r.target = Some(lightvol_volume::TargetRecord { lookup: "three".into(), lambda: 0.5 });
+        assert_eq!(target_warning(&r, Some("three")), None);
+        let w = target_warning(&r, Some("bevy")).unwrap();
+        assert!(w.contains("fitted for the three lookup") && w.contains("--target bevy"), "{w}");
+        let w = target_warning(&r, None).unwrap();
+        assert!(w.contains("lightvol's lookup") && w.contains("--target lightvol"), "{w}");
+    }
 }

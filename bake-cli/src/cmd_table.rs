@@ -34,14 +34,18 @@ fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
     let scene = v["scene"].as_str().with_context(|| format!("{}: no \"scene\"", file.display()))?;
     let methods =
         v["methods"].as_object().with_context(|| format!("{}: no \"methods\" object", file.display()))?;
+    // The first way of reading keeps the methods' names; further ways are `NAME@WAY`.
+    let first = v["lookup"].as_str().unwrap_or("lightvol");
     let mut rows = Vec::new();
     for (name, m) in methods {
+        let (method, lookup) = name.rsplit_once('@').unwrap_or((name.as_str(), first));
         let num = |k: &str| {
             m[k].as_f64().with_context(|| format!("{}: method {name} has no number \"{k}\"", file.display()))
         };
         rows.push(TableRow {
             scene: scene_label(scene),
-            method: name.clone(),
+            method: method.to_owned(),
+            lookup: lookup.to_owned(),
             rel_rmse: num("rel_rmse")?,
             too_dark_near: num("too_dark_near")?,
             too_bright: num("too_bright")?,
@@ -53,6 +57,11 @@ fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
     }
     if rows.is_empty() {
         bail!("{}: no methods", file.display());
+    }
+    // The ways in the order the comparison read them (the methods map is sorted by name).
+    if let Some(ways) = v["lookups"].as_array() {
+        let rank = |w: &str| ways.iter().position(|x| x.as_str() == Some(w)).unwrap_or(usize::MAX);
+        rows.sort_by_key(|r| rank(&r.lookup));
     }
     Ok(rows)
 }

@@ -4,16 +4,15 @@
 //! study.
 
 use lightvol_core::samples::{Samples, samples};
-use lightvol_volume::{EngineLookup, GridSpec};
-use rayon::prelude::*;
+use lightvol_volume::GridSpec;
 
-use crate::baked::RunVolume;
 use lightvol_volume::volume::check_coeffs;
 
 use crate::entries::{Entry, NamedEntry};
 use crate::error::EvalError;
 use crate::observer::Observer;
 use crate::plate::{Plate, PlateConfig};
+use crate::reads::{ReadAs, read_as};
 use crate::runs::{
     BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_gradient, run_targeted,
     run_uniform,
@@ -59,9 +58,11 @@ pub struct CompareConfig {
     /// The cameras through which every entry is also seen (module
     /// [`views`](crate::views)); none by default.
     pub views: ViewsConfig,
-    /// How every entry's plate and views are read: lightvol's own lookups (the default), or
-    /// one engine's ([`EngineLookup`]; uniform-grid entries only).
-    pub lookup: EngineLookup,
+    /// The ways every entry's plate and views are read ([`ReadAs`]): lightvol's own lookups
+    /// (the default), one engine's (uniform-grid entries only), or each entry's own
+    /// engine's. The first keeps the entries' names; each further one adds the runs
+    /// `NAME@WAY` (module [`reads`](crate::reads)). Empty reads as lightvol's.
+    pub lookups: Vec<ReadAs>,
     /// Worker threads; `None` runs on the caller's rayon pool (the global one, all cores,
     /// unless called inside `ThreadPool::install`).
     pub threads: Option<usize>,
@@ -87,7 +88,7 @@ impl CompareConfig {
             plate,
             memory_sweep: None,
             views: ViewsConfig::default(),
-            lookup: EngineLookup::Lightvol,
+            lookups: vec![ReadAs::default()],
             threads: None,
         }
     }
@@ -119,11 +120,10 @@ impl CompareConfig {
         if self.grid.placement().is_some() {
             return Err(EvalError::PlacedGrid);
         }
-        if self.lookup != EngineLookup::Lightvol
-            && let Some(m) =
-                self.methods.iter().find(|m| matches!(m.entry, Entry::Gradient(..) | Entry::Adaptive(_)))
-        {
-            return Err(EvalError::EngineLookupNeedsGrid { lookup: self.lookup, entry: m.name.clone() });
+        for &way in &self.lookups {
+            if let Some(m) = self.methods.iter().find(|m| way.needs_grid(m.entry)) {
+                return Err(EvalError::EngineLookupNeedsGrid { lookup: way, entry: m.name.clone() });
+            }
         }
         self.plate.validate(&self.grid)?;
         let basis_on_point = |m: &NamedEntry| match m.entry {
@@ -192,7 +192,7 @@ fn compare_here(
     check_cameras(&ctx.transport, grid, &config.views)?;
     let plate = Plate::build(&ctx.transport, grid, &config.plate, config.seed, observer)?;
     let mean_truth = plate.mean_truth().ok_or(EvalError::NoValidPoints(plate.height))?;
-    let mut runs = Vec::with_capacity(config.methods.len());
+    let mut baked = Vec::with_capacity(config.methods.len());
     let mut gradient_bakes = GradientCache::default();
     for NamedEntry { name, entry } in &config.methods {
         let run = match *entry {
@@ -215,7 +215,18 @@ fn compare_here(
             Entry::Baseline(b) => run_baseline(&ctx, grid, name, b, &plate)?,
             Entry::Targeted(method, lookup) => run_targeted(&ctx, grid, name, method, lookup, &plate)?,
         };
-        runs.push(read_as_engine(run, config.lookup, &plate));
+        baked.push(run);
+    }
+    let ways = if config.lookups.is_empty() { vec![ReadAs::default()] } else { config.lookups.clone() };
+    let mut runs = Vec::with_capacity(baked.len() * ways.len());
+    for (i, &way) in ways.iter().enumerate() {
+        for (run, m) in baked.iter().zip(&config.methods) {
+            let mut read = read_as(run.clone(), m.entry, way, &plate);
+            if i > 0 {
+                read.name = format!("{}@{way}", m.name);
+            }
+            runs.push(read);
+        }
     }
     let views = compare_views(&ctx.transport, grid, &config.views, &runs, config.seed, observer)?;
     let sweep = match &config.memory_sweep {
@@ -225,25 +236,14 @@ fn compare_here(
     Ok(Comparison { plate, mean_truth, methods: runs, views, memory_sweep: sweep })
 }
 
-/// `run` as `lookup`'s engine reads it: a uniform grid's plate estimate (normal up, viewed
-/// from above) and metrics by [`IrradianceVolume::engine_irradiance`](lightvol_volume::IrradianceVolume::engine_irradiance),
-/// and its views through the same lookup; lightvol's lookup leaves the run as it is.
-fn read_as_engine(run: MethodRun, lookup: EngineLookup, plate: &Plate) -> MethodRun {
-    let Some(vol) = run.volume.uniform().cloned().filter(|_| lookup != EngineLookup::Lightvol) else {
-        return run;
-    };
-    let up = [0.0, 0.0, 1.0];
-    let estimate: Vec<[f64; 3]> =
-        plate.points.par_iter().map(|p| vol.engine_irradiance(lookup, p.to_array(), up, up)).collect();
-    MethodRun { metrics: plate.metrics(&estimate), estimate, volume: RunVolume::Engine(vol, lookup), ..run }
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::baked::RunVolume;
     use crate::observer::Silent;
     use crate::runs::RunDetail;
     use lightvol_scene::builtin;
+    use lightvol_volume::EngineLookup;
     use lightvol_volume::gradient::GradientLookup;
     use std::sync::Mutex;
 
@@ -275,9 +275,9 @@ pub(crate) mod tests {
         let (maze, mut config) = maze_config();
         config.methods = ["point", "doi"].iter().map(|m| NamedEntry::parse(m).unwrap()).collect();
         let own = compare(&maze.scene, &config, &Silent).unwrap();
-        config.lookup = EngineLookup::Trilinear;
+        config.lookups = vec![ReadAs::Engine(EngineLookup::Trilinear)];
         let tri = compare(&maze.scene, &config, &Silent).unwrap();
-        config.lookup = EngineLookup::Three;
+        config.lookups = vec![ReadAs::Engine(EngineLookup::Three)];
         let three = compare(&maze.scene, &config, &Silent).unwrap();
         let rmse = |c: &Comparison, i: usize| c.methods[i].metrics.rel_rmse;
         assert!((rmse(&own, 0) - rmse(&tri, 0)).abs() < F32_TOL, "{} {}", rmse(&own, 0), rmse(&tri, 0));
@@ -287,8 +287,21 @@ pub(crate) mod tests {
         config.methods.push(NamedEntry::parse("adaptive").unwrap());
         assert!(matches!(
             compare(&maze.scene, &config, &Silent),
-            Err(EvalError::EngineLookupNeedsGrid { lookup: EngineLookup::Three, .. })
+            Err(EvalError::EngineLookupNeedsGrid { lookup: ReadAs::Engine(EngineLookup::Three), .. })
         ));
+        // Several ways at once: the same bakes, the first way under the entries' names.
+        config.methods.pop();
+        config.lookups = [EngineLookup::Lightvol, EngineLookup::Trilinear, EngineLookup::Three]
+            .map(ReadAs::Engine)
+            .to_vec();
+        let all = compare(&maze.scene, &config, &Silent).unwrap();
+        let names: Vec<&str> = all.methods.iter().map(|r| r.name.as_str()).collect();
+        assert_eq!(names, ["point", "doi", "point@trilinear", "doi@trilinear", "point@three", "doi@three"]);
+        for (i, c) in [(0, &own), (2, &tri), (4, &three)] {
+            for j in 0..2 {
+                assert_eq!(all.methods[i + j].estimate, c.methods[j].estimate, "run {}", i + j);
+            }
+        }
     }
 
     /// \[KL06\]'s claim on a small built-in scene: at equal samples, domain-of-interest

@@ -33,10 +33,15 @@ pub struct CompareReport {
     pub plate: PlateSummary,
     /// The grid.
     pub grid: FileGrid,
-    /// How the methods' plate and views were read: `lightvol`'s lookups, or an engine's
-    /// (`compare --lookup`; left out for lightvol's own).
+    /// How the methods' plate and views were read: `lightvol`'s lookups, an engine's or
+    /// `native` (`compare --lookup`; left out for lightvol's own), the first way when there
+    /// are several.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lookup: Option<String>,
+    /// Every way the methods were read, when more than one (the runs of each further way
+    /// are named `METHOD@WAY`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lookups: Option<Vec<String>>,
     /// The reference.
     pub reference: ReferenceSummary,
     /// Per method, in the order run.
@@ -203,8 +208,13 @@ pub fn compare_files(
     let report = CompareReport {
         scene: scene.to_owned(),
         up: frame.name().to_owned(),
-        lookup: (config.lookup != lightvol_volume::EngineLookup::Lightvol)
-            .then(|| config.lookup.name().to_owned()),
+        lookup: config
+            .lookups
+            .first()
+            .filter(|&&w| w != crate::ReadAs::default())
+            .map(|w| w.name().to_owned()),
+        lookups: (config.lookups.len() > 1)
+            .then(|| config.lookups.iter().map(|w| w.name().to_owned()).collect()),
         plate: PlateSummary {
             height: plate.height,
             res: [plate.res[0] as u32, plate.res[1] as u32],

@@ -48,11 +48,12 @@ use rayon::prelude::*;
 use crate::error::BakeError;
 
 /// Rays traced from each node to find its samples: each gives up to two (a surface and a
-/// free-space point). Sixteen cost about 1% of the rays of a 128-sample `doi` bake (whose
-/// probe samples each trace a path and a shadow ray; measured 1.0% on the Breakfast Room,
-/// 2.8% on the built-in city) and gave lower plate errors through three.js's lookup than
-/// eight on six of six scenes (sampler README).
-pub const TARGET_RAYS_PER_NODE: u32 = 16;
+/// free-space point). Twelve cost at most 5% of the rays of a 128-sample `doi` bake on
+/// every built-in and vendored scene (whose probe samples each trace a path and a shadow
+/// ray; the living room, with the shortest paths, is the dearest; test
+/// `target_fits_stay_within_their_ray_budget`). Sixteen gave lower plate errors through
+/// three.js's lookup than eight on six of six scenes, but cost 5.9% on the living room.
+pub const TARGET_RAYS_PER_NODE: u32 = 12;
 
 /// How far, in the largest cell size, a node's rays look for surfaces: two cells covers
 /// the trilinear supports of the node's neighbours that a surface point there reads.

@@ -269,3 +269,55 @@ fn least_squares_fit_bakes_and_refuses_what_it_cannot_do() {
     let e = run(&["bake", "builtin:interior", "--fit", "lsq:-1", "-o", s(&d.join("x.exr"))]).unwrap_err();
     assert!(e.contains("lsq"), "{e}");
 }
+
+/// `bake --target`: the fitted volume records its target in the file and in every export's
+/// sidecar, changes the node values but not the grid, and is refused where the fit cannot
+/// run (a shard, an engine baseline, an octree, gradients, a negative λ) in one line,
+/// writing nothing.
+#[test]
+fn target_bakes_record_the_engine_and_refuse_what_they_cannot_do() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let common = ["--samples", "16", "--quiet", "--seed", "3"];
+    let plain = d.join("plain.exr");
+    let three = d.join("three.exr");
+    let mut a = vec!["bake", "builtin:maze", "-o", s(&plain)];
+    a.extend_from_slice(&common);
+    ok(&a);
+    let mut a = vec!["bake", "builtin:maze", "--target", "three", "-o", s(&three)];
+    a.extend_from_slice(&common);
+    ok(&a);
+    let (vp, vt) = (read_exr(&plain).unwrap(), read_exr(&three).unwrap());
+    assert_eq!(vt.metadata().method, "doi target=three");
+    let rec = vt.metadata().settings.as_ref().and_then(|r| r.target.clone()).expect("a target record");
+    assert_eq!((rec.lookup.as_str(), rec.lambda), ("three", lightvol_sampler::target::DEFAULT_TARGET_LAMBDA));
+    assert_eq!(vp.spec(), vt.spec());
+    assert_ne!(vp.data(), vt.data());
+    assert!(vp.reach().is_some() && vt.reach().is_none(), "no engine reads a reach");
+    let out = d.join("three.ktx2");
+    ok(&["export", s(&three), "--format", "three", "-o", s(&out)]);
+    let sidecar: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("three.ktx2.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["bake"]["settings"]["target"]["lookup"], "three");
+    // `--target lightvol` is the plain bake.
+    let same = d.join("same.exr");
+    let mut a = vec!["bake", "builtin:maze", "--target", "lightvol", "-o", s(&same)];
+    a.extend_from_slice(&common);
+    ok(&a);
+    assert_eq!(read_exr(&same).unwrap().data(), vp.data());
+    for (extra, says) in [
+        (&["--shard", "0/2"][..], "a shard"),
+        (&["--method", "point+apv"][..], "an engine baseline"),
+        (&["--adaptive"][..], "an octree bake"),
+        (&["--gradients"][..], "gradients"),
+        (&["--target-lambda=-1"][..], "--target-lambda"),
+    ] {
+        let out = d.join("refused.exr");
+        let mut a = vec!["bake", "builtin:maze", "--target", "bevy", "-o", s(&out)];
+        a.extend_from_slice(&common);
+        a.extend_from_slice(extra);
+        let e = run(&a).expect_err("must be refused");
+        assert!(e.contains(says) && !e.contains('\n'), "{extra:?}: {e}");
+        assert!(!out.exists() && !out.with_extension("lvacc").exists(), "{extra:?}");
+    }
+}

@@ -39,8 +39,9 @@ fn default_grid(scene: &Scene) -> GridSpec {
     GridSpec::new(lo.to_array(), hi.to_array(), res.map(|r| r.max(2))).unwrap()
 }
 
-#[test]
-fn doi_stays_within_its_ray_budget() {
+/// Every built-in scene at its recommended grid and every vendored real scene at the CLI's
+/// default grid, a scene without lights under a uniform white sky.
+fn cases() -> Vec<(String, Scene, GridSpec)> {
     let mut cases: Vec<(String, Scene, GridSpec)> = BUILTIN_NAMES
         .iter()
         .map(|n| {
@@ -56,7 +57,12 @@ fn doi_stays_within_its_ray_budget() {
         let g = default_grid(&s);
         cases.push((rel.to_owned(), s, g));
     }
-    for (name, scene, grid) in &cases {
+    cases
+}
+
+#[test]
+fn doi_stays_within_its_ray_budget() {
+    for (name, scene, grid) in &cases() {
         let point = rays(scene, grid, Method::Point);
         for method in [Method::DoiPaper, Method::Doi] {
             let doi = rays(scene, grid, method);
@@ -64,5 +70,35 @@ fn doi_stays_within_its_ray_budget() {
             eprintln!("{name}: {method:?} {doi} rays, point {point}: {ratio:.3}");
             assert!(ratio <= DOI_RAY_BUDGET, "{name}: {method:?} traces {ratio:.3} x point's rays");
         }
+    }
+}
+
+/// `bake --target` may add this share to a `doi` bake's rays: the fit reuses the bake's
+/// light and traces only the rays that find its sample points.
+const TARGET_RAY_BUDGET: f64 = 0.05;
+
+/// Samples per node of the method table's bakes, at which the budget is stated.
+const TABLE_SAMPLES: u32 = 128;
+
+/// At the method table's settings, fitting a `doi` bake for an engine's lookup adds at
+/// most 5% to its rays, on every scene.
+#[test]
+fn target_fits_stay_within_their_ray_budget() {
+    use lightvol_sampler::target::{TargetSettings, fit_for_lookup};
+    use lightvol_volume::EngineLookup;
+    use lightvol_volume::validity::ValidityMask;
+    for (name, scene, grid) in &cases() {
+        let tracer = Tracer::new(scene);
+        let t = Transport::new(scene, &tracer, TransportSettings::default());
+        let s = BakeSettings { samples: samples(TABLE_SAMPLES), seed: 3, ..BakeSettings::default() };
+        let out = bake(&t, grid, &s, &BakeControl::default()).unwrap();
+        let valid = ValidityMask::new(out.accumulator.denominator().iter().map(|&d| d > 0.0).collect());
+        let doi = out.stats.rays.total();
+        let (vol, _) = out.finish();
+        let (_, r) =
+            fit_for_lookup(&t, &vol, &TargetSettings::new(EngineLookup::Three, 3), Some(valid)).unwrap();
+        let share = r.rays as f64 / doi as f64;
+        eprintln!("{name}: doi {doi} rays, the fit {} more ({:.2}%)", r.rays, 100.0 * share);
+        assert!(r.rays > 0 && share <= TARGET_RAY_BUDGET, "{name}: the fit adds {:.2}%", 100.0 * share);
     }
 }
