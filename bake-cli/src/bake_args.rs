@@ -233,6 +233,7 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         shard,
         keep_accumulator: args.keep_accumulator,
         adaptive,
+        noise: args.sampling.noise_target()?,
         target: Some(TargetSettings {
             lambda: args.target_lambda,
             ..TargetSettings::new(args.target, args.sampling.seed)
@@ -290,7 +291,7 @@ fn request_error(e: RequestError) -> anyhow::Error {
         RequestError::FitWithGradients(fit) => anyhow::anyhow!(
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
         ),
-        e @ (RequestError::NotUniform(_) | RequestError::Target(_)) => e.into(),
+        e @ (RequestError::NotUniform(_) | RequestError::Target(_) | RequestError::Noise(_)) => e.into(),
         RequestError::BasisNeedsCells(_) => anyhow::anyhow!(
             "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
         ),

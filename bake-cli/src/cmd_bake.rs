@@ -160,6 +160,17 @@ fn print_report(args: &BakeArgs, report: &BakeReport) -> anyhow::Result<()> {
                 report.filled_nodes
             );
         }
+        if let Some(n) = &report.noise {
+            eprintln!(
+                "until converged: {} units to a relative error of {} with {} samples in their final rounds (mean {:.0} per unit), {} stopped at --max-samples {}",
+                n.units,
+                n.relative_error,
+                n.final_samples,
+                n.final_samples as f64 / n.units.max(1) as f64,
+                n.capped_units,
+                n.max_samples
+            );
+        }
         if let Some(g) = &report.gradients {
             eprintln!(
                 "gradients ({}) in {:.2} s: {} extra directions, {} singular nodes (zero gradient), {} bytes",

@@ -211,6 +211,8 @@ pub(crate) fn config(
         methods,
         samples: args.sampling.samples,
         seed: args.sampling.seed,
+        // Checked by `compare` before the scene is read; the demo sets none.
+        noise: args.sampling.noise_target().ok().flatten(),
         transport: args.sampling.transport(),
         fit: args.sampling.fit,
         gradient_estimator,
@@ -247,6 +249,7 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     if methods.is_empty() {
         return Err(flag_error(EvalError::NoMethods));
     }
+    args.sampling.noise_target()?;
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded, methods.iter().any(|m| m.entry.records_node_reach()))?;
     if grid.placement().is_some() {

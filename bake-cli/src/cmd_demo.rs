@@ -79,6 +79,8 @@ fn scene_compare_args(
             seed: 1,
             threads: args.threads,
             fit: lightvol_sampler::node_fit::Fit::Average,
+            noise: None,
+            max_samples: lightvol_core::samples::samples(lightvol_sampler::noise::DEFAULT_MAX_SAMPLES),
         },
         plate_height: None,
         plate_res: level.plate_res,

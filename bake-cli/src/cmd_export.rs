@@ -128,6 +128,7 @@ mod tests {
             direct_light: "all".into(),
             octree: None,
             target: None,
+            noise: None,
         };
         assert_eq!(target_warning(&r, Some("bevy")), None);
         r.target = Some(lightvol_volume::TargetRecord { lookup: "three".into(), lambda: 0.5 });

@@ -142,6 +142,16 @@ pub(crate) struct SampleArgs {
     /// toward Eq. 6 with weight LAMBDA; see lightvol-sampler's `fit` module).
     #[arg(long, default_value = "average")]
     pub(crate) fit: lightvol_sampler::node_fit::Fit,
+    /// Bake until converged: sample each node (cell for prefilter and doi-paper) in rounds
+    /// doubling from --samples until the relative standard error of its estimate is at most
+    /// N (e.g. 0.01), or it has --max-samples. Each unit's count depends only on its own
+    /// samples, so results stay bit-identical for any thread or shard count; the report
+    /// says how many samples were spent and how many units stopped at the cap.
+    #[arg(long, value_name = "N")]
+    pub(crate) noise: Option<f64>,
+    /// The most samples a unit gets under --noise.
+    #[arg(long, value_parser = parse_samples, default_value_t = samples(lightvol_sampler::noise::DEFAULT_MAX_SAMPLES))]
+    pub(crate) max_samples: Samples,
 }
 
 fn parse_floats<const N: usize>(what: &str, s: &str) -> anyhow::Result<[f64; N]> {
@@ -313,6 +323,19 @@ impl SampleArgs {
     #[must_use]
     pub(crate) fn transport(&self) -> TransportSettings {
         self.path.transport()
+    }
+
+    /// The noise target of `--noise` and `--max-samples`, checked: a positive, finite
+    /// error and a cap no lower than `--samples`.
+    pub(crate) fn noise_target(&self) -> anyhow::Result<Option<lightvol_sampler::noise::NoiseTarget>> {
+        let Some(relative_error) = self.noise else { return Ok(None) };
+        if !(relative_error > 0.0 && relative_error.is_finite()) {
+            bail!("--noise must be a relative error > 0, e.g. 0.01 (got {relative_error})");
+        }
+        if self.max_samples < self.samples {
+            bail!("--max-samples {} is below --samples {}", self.max_samples, self.samples);
+        }
+        Ok(Some(lightvol_sampler::noise::NoiseTarget { relative_error, max_samples: self.max_samples }))
     }
 }
 

@@ -42,6 +42,9 @@ pub struct CompareConfig {
     /// Seed of every random stream (bakes, plate classification, reference); results are
     /// bit-identical for a seed, whatever the thread count.
     pub seed: u64,
+    /// Bake every entry until its units converge ([`lightvol_sampler::noise`]), from
+    /// [`samples`](Self::samples); `None`: exactly `samples`.
+    pub noise: Option<lightvol_sampler::noise::NoiseTarget>,
     /// Path length and direct light of the bakes and the reference alike.
     pub transport: TransportSettings,
     /// Node fit of the [`Entry::Uniform`] cell-sample entries (`prefilter`, `doi-paper`); the
@@ -82,6 +85,7 @@ impl CompareConfig {
                 .to_vec(),
             samples: samples(256),
             seed: 1,
+            noise: None,
             transport: TransportSettings::default(),
             fit: Fit::Average,
             gradient_estimator: None,
@@ -96,7 +100,14 @@ impl CompareConfig {
     /// The context of this configuration's bakes over `transport`, reporting to `observer`.
     #[must_use]
     pub fn bake_context<'a>(&self, transport: Transport<'a>, observer: &'a dyn Observer) -> BakeContext<'a> {
-        BakeContext { transport, samples: self.samples, coeffs: self.coeffs, seed: self.seed, observer }
+        BakeContext {
+            transport,
+            samples: self.samples,
+            coeffs: self.coeffs,
+            seed: self.seed,
+            noise: self.noise,
+            observer,
+        }
     }
 
     /// Checks everything that can be checked before tracing a ray: at least one entry,

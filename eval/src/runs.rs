@@ -44,6 +44,8 @@ pub struct BakeContext<'a> {
     pub coeffs: usize,
     /// Seed of every random stream.
     pub seed: u64,
+    /// The noise target of every bake, if any ([`lightvol_sampler::noise`]).
+    pub noise: Option<lightvol_sampler::noise::NoiseTarget>,
     /// Where progress goes.
     pub observer: &'a dyn Observer,
 }
@@ -57,6 +59,7 @@ impl BakeContext<'_> {
             samples: self.samples,
             coeffs: self.coeffs,
             seed: self.seed,
+            noise: self.noise,
             ..BakeSettings::default()
         }
     }

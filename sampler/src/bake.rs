@@ -380,12 +380,7 @@ fn run_units(
                 if control.cancelled() {
                     return None;
                 }
-                Some(match settings.method {
-                    Method::Point => point_unit(transport, grid, settings, u),
-                    Method::DoiNode => node_box_unit(transport, grid, settings, u),
-                    Method::Doi => probe_unit(transport, grid, settings, u).0,
-                    Method::Prefilter | Method::DoiPaper => cell_unit(transport, grid, settings, u),
-                })
+                Some(sample_unit(transport, grid, settings, u))
             })
             .collect();
         if control.cancelled() || outs.iter().any(Option::is_none) {
@@ -401,6 +396,36 @@ fn run_units(
     }
     stats.wall_time = start.elapsed();
     Ok(stats)
+}
+
+/// One unit's samples at `settings.samples`, or with a noise target in doubling rounds
+/// until its estimate converges ([`crate::noise`]): the last round, with every round's rays.
+fn sample_unit(transport: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, u: usize) -> UnitOut {
+    let once = |s: &BakeSettings| {
+        let mut out = match s.method {
+            Method::Point => point_unit(transport, grid, s, u),
+            Method::DoiNode => node_box_unit(transport, grid, s, u),
+            Method::Doi => probe_unit(transport, grid, s, u).0,
+            Method::Prefilter | Method::DoiPaper => cell_unit(transport, grid, s, u),
+        };
+        out.stats.final_samples = u64::from(s.samples.get());
+        out
+    };
+    let Some(target) = settings.noise else { return once(settings) };
+    let mut s = *settings;
+    let mut earlier = lightvol_scene::stats::RayCounts::default();
+    loop {
+        let mut out = once(&s);
+        let n = s.samples.get();
+        let done = crate::noise::converged(&out, &target);
+        if done || n >= target.max_samples.get() {
+            out.stats.rays.add(&earlier);
+            out.stats.capped_units = u64::from(!done);
+            return out;
+        }
+        earlier.add(&out.stats.rays);
+        s.samples = lightvol_core::samples::samples(n.saturating_mul(2).min(target.max_samples.get()));
+    }
 }
 
 /// Adds a unit's samples in order. A sample with two terms is added as two half-weight

@@ -424,3 +424,46 @@ fn doi_back_faces_count_inside_the_support_or_in_a_quarter_of_directions() {
     assert_eq!(capture, ProbeCapture::Filled);
     assert!(out.samples.is_empty());
 }
+
+/// Baking until converged: bit-identical for 1 and 2 threads and across shards, like any
+/// bake; every unit either meets the target or stops at the cap, and sample counts differ
+/// between units (the target adapts them); a tighter target spends more samples.
+#[test]
+fn noise_targets_are_deterministic_and_met_unit_by_unit() {
+    use crate::noise::{NoiseTarget, converged};
+    let c = city();
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let grid = small_city_grid();
+    for method in [Method::Doi, Method::DoiPaper] {
+        let target = NoiseTarget { relative_error: 0.05, max_samples: samples(512) };
+        let s = BakeSettings { method, samples: samples(16), seed: 11, chunk: 7, noise: Some(target), ..Default::default() };
+        let one = run(1, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
+        let two = run(2, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
+        assert_eq!(one.accumulator, two.accumulator, "{method:?}");
+        assert_eq!(one.stats.rays, two.stats.rays);
+        let shards: Vec<BakeOutput> = (0..3)
+            .map(|k| bake(&t, &grid, &BakeSettings { shard: (k, 3), ..s }, &BakeControl::default()).unwrap())
+            .collect();
+        let mut merged = shards[0].accumulator.clone();
+        merged.merge(&shards[2].accumulator).unwrap();
+        merged.merge(&shards[1].accumulator).unwrap();
+        assert_eq!(merged, one.accumulator, "{method:?}");
+        let units = one.stats.units;
+        assert!(one.stats.final_samples > 16 * units && one.stats.final_samples < 512 * units, "{:?}", one.stats);
+        // Unit by unit: the last round meets the target or had the cap.
+        let count = if method == Method::Doi { grid.node_count() } else { grid.cell_count() };
+        let mut counts = std::collections::BTreeSet::new();
+        for u in 0..count {
+            let out = sample_unit(&t, &grid, &s, u);
+            let n = out.stats.final_samples;
+            counts.insert(n);
+            assert!(n == 512 || converged(&out, &target), "{method:?} unit {u}: {n} samples");
+            assert_eq!(out.stats.capped_units == 1, !converged(&out, &target));
+        }
+        assert!(counts.len() >= 3, "{method:?}: sample counts {counts:?}");
+        let tight = BakeSettings { noise: Some(NoiseTarget { relative_error: 0.02, ..target }), ..s };
+        let more = bake(&t, &grid, &tight, &BakeControl::default()).unwrap();
+        assert!(more.stats.final_samples > one.stats.final_samples, "{method:?}");
+    }
+}

@@ -12,6 +12,7 @@ pub mod gradient_estimator;
 pub mod merge;
 pub mod method;
 pub mod node_fit;
+pub mod noise;
 pub mod probe;
 pub mod provenance;
 pub mod reach;

@@ -74,6 +74,25 @@ pub struct BakeReport {
     /// What an engine baseline did, when the method is one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub baseline: Option<BaselineReport>,
+    /// The samples a bake until converged spent, when it had a noise target.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise: Option<NoiseReport>,
+}
+
+/// What a bake until converged (`--noise`, [`crate::noise`]) spent.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NoiseReport {
+    /// The relative standard error aimed at.
+    pub relative_error: f64,
+    /// The cap on samples per unit.
+    pub max_samples: u32,
+    /// Units (nodes, or cells) baked.
+    pub units: u64,
+    /// Samples of the units' final rounds, summed (the rays of earlier rounds are in the
+    /// report's ray counts).
+    pub final_samples: u64,
+    /// Units that reached the cap before the target.
+    pub capped_units: u64,
 }
 
 /// Size and cost figures of a bake (flattened into [`BakeReport`]).
@@ -159,6 +178,13 @@ impl BakeReport {
             zero_weight_nodes: bake.volume.weights().iter().filter(|&&w| w == 0.0).count(),
             filled_nodes: bake.fill.filled,
             mrays_per_second: s.mrays_per_second(),
+            noise: request.noise.map(|n| NoiseReport {
+                relative_error: n.relative_error,
+                max_samples: n.max_samples.get(),
+                units: s.units,
+                final_samples: s.final_samples,
+                capped_units: s.capped_units,
+            }),
             gradients: bake.gradients.as_ref().map(|g| GradientsReport {
                 estimator: g.estimator,
                 singular_nodes: g.singular_nodes,
@@ -224,6 +250,7 @@ impl BakeReport {
             output: run.output,
             gradients: None,
             baseline: None,
+            noise: None,
         }
     }
 }

@@ -9,7 +9,8 @@
 use lightvol_core::samples::Samples;
 use lightvol_volume::validity::ValidityMask;
 use lightvol_volume::{
-    BakeMetadata, BakeRecord, EngineLookup, FillReport, FitRecord, GridSpec, IrradianceVolume, TargetRecord,
+    BakeMetadata, BakeRecord, EngineLookup, FillReport, FitRecord, GridSpec, IrradianceVolume, NoiseRecord,
+    TargetRecord,
     VolumeGradients,
 };
 
@@ -21,6 +22,7 @@ use crate::method::BakeMethod;
 use crate::method::Baseline;
 use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
 use crate::provenance;
+use crate::noise::NoiseTarget;
 use crate::target::{TargetReport, TargetSettings, fit_for_lookup};
 use crate::{BakeError, BakeOutput, BakeSettings, Method};
 use lightvol_core::progress::BakeControl;
@@ -76,6 +78,8 @@ pub struct BakeRequest {
     /// Node values chosen for this engine lookup ([`crate::target`]; `None` or
     /// [`EngineLookup::Lightvol`]: for lightvol's own).
     pub target: Option<TargetSettings>,
+    /// Sample each unit until its estimate converges ([`crate::noise`]).
+    pub noise: Option<NoiseTarget>,
 }
 
 impl BakeRequest {
@@ -95,6 +99,7 @@ impl BakeRequest {
             keep_accumulator: false,
             adaptive: None,
             target: None,
+            noise: None,
         }
     }
 
@@ -150,6 +155,9 @@ impl BakeRequest {
             Fit::Average => self.method_name().to_owned(),
             fit => format!("{} fit={fit}", self.method_name()),
         };
+        if let Some(n) = self.noise {
+            label.push_str(&format!(" noise={}:{}", n.relative_error, n.max_samples));
+        }
         if let Some(t) = self.effective_target() {
             label.push_str(&format!(" target={}", t.lookup));
         }
@@ -176,6 +184,9 @@ impl BakeRequest {
             target: self
                 .effective_target()
                 .map(|t| TargetRecord { lookup: t.lookup.name().to_owned(), lambda: t.lambda }),
+            noise: self
+                .noise
+                .map(|n| NoiseRecord { relative_error: n.relative_error, max_samples: n.max_samples.get() }),
         }
     }
 
@@ -241,6 +252,7 @@ impl BakeRequest {
             coeffs: self.coeffs,
             seed: self.seed,
             shard: self.shard.unwrap_or((0, 1)),
+            noise: self.noise,
             ..BakeSettings::default()
         }
     }
@@ -264,6 +276,16 @@ impl BakeRequest {
             ];
             if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
                 return Err(RequestError::Target(with));
+            }
+        }
+        if self.noise.is_some() {
+            let refused = [
+                (matches!(self.method, BakeMethod::Baseline(_)), "an engine baseline"),
+                (self.adaptive.is_some(), "an octree bake"),
+                (self.gradients.is_some(), "gradients"),
+            ];
+            if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
+                return Err(RequestError::Noise(with));
             }
         }
         if let BakeMethod::Baseline(baseline) = self.method {
@@ -374,6 +396,9 @@ pub enum RequestError {
     /// A baseline or octree request given to the uniform bake, which bakes neither.
     #[error("{0} has its own bake run, not the uniform one")]
     NotUniform(&'static str),
+    /// A noise target with a setting it cannot go with.
+    #[error("--noise cannot be combined with {0}")]
+    Noise(&'static str),
     /// A target lookup with a setting it cannot go with.
     #[error("--target cannot be combined with {0}")]
     Target(&'static str),

@@ -4,6 +4,7 @@
 use lightvol_core::samples::{Samples, samples};
 
 use crate::method::Method;
+use crate::noise::NoiseTarget;
 
 /// Bake settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,6 +24,9 @@ pub struct BakeSettings {
     pub shard: (u32, u32),
     /// Units per parallel chunk (progress and cancellation granularity).
     pub chunk: usize,
+    /// Sample each unit in doubling rounds from `samples` until its estimate's relative
+    /// standard error reaches this target ([`crate::noise`]); `None`: `samples` exactly.
+    pub noise: Option<NoiseTarget>,
 }
 
 impl Default for BakeSettings {
@@ -35,6 +39,7 @@ impl Default for BakeSettings {
             light_sampling: true,
             shard: (0, 1),
             chunk: 256,
+            noise: None,
         }
     }
 }

@@ -25,6 +25,11 @@ pub struct BakeStats {
     pub zero_weight_nodes: u64,
     /// How lightvol-volume filled zero-weight nodes (its `FillReport`, formatted).
     pub fill_report: String,
+    /// Samples per unit summed over the units: the bake's samples times its units, or with
+    /// a noise target ([`crate::noise`]) each unit's final round.
+    pub final_samples: u64,
+    /// Units that reached the noise target's cap before its error target.
+    pub capped_units: u64,
     /// Wall time of the sampling (excluding BVH build).
     pub wall_time: Duration,
     /// BVH build time.
@@ -53,6 +58,8 @@ impl BakeStats {
         self.samples_kept += o.samples_kept;
         self.samples_rejected += o.samples_rejected;
         self.back_face_points += o.back_face_points;
+        self.final_samples += o.final_samples;
+        self.capped_units += o.capped_units;
     }
 }
 

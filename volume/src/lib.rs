@@ -35,7 +35,7 @@ pub use field::{AnyVolume, GradientField, VolumeField, open};
 pub use fill::FillReport;
 pub use gradient::{GradientLookup, VolumeGradients};
 pub use grid::{GridSpec, Placement};
-pub use metadata::{BakeMetadata, BakeRecord, FitRecord, TargetRecord};
+pub use metadata::{BakeMetadata, BakeRecord, FitRecord, NoiseRecord, TargetRecord};
 pub use reach::NodeReach;
 pub use validity::ValidityMask;
 pub use volume::IrradianceVolume;

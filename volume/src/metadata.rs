@@ -39,6 +39,21 @@ pub struct BakeRecord {
     /// lightvol's own. Absent in files written before it existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub target: Option<TargetRecord>,
+    /// The noise target of a bake sampled until converged (`bake --noise`); absent for a
+    /// fixed sample count and in files written before it existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise: Option<NoiseRecord>,
+}
+
+/// A bake sampled until converged: each unit in rounds doubling from
+/// [`BakeRecord::samples_per_unit`] until its estimate's relative standard error reached
+/// `relative_error`, or it had `max_samples`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct NoiseRecord {
+    /// The relative standard error aimed at.
+    pub relative_error: f64,
+    /// The most samples a unit got.
+    pub max_samples: u32,
 }
 
 /// The engine lookup a bake's node values were fitted for, and the fit's weight.

@@ -83,6 +83,7 @@ pub fn random_volume(coeffs: usize, res: [u32; 3], seed: u64) -> IrradianceVolum
                 ..lightvol_volume::OctreeSettings::default()
             }),
             target: Some(lightvol_volume::TargetRecord { lookup: "three".into(), lambda: 0.05 }),
+            noise: Some(lightvol_volume::NoiseRecord { relative_error: 0.01, max_samples: 4096 }),
         }),
     })
 }
