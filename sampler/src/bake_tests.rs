@@ -437,7 +437,14 @@ fn noise_targets_are_deterministic_and_met_unit_by_unit() {
     let grid = small_city_grid();
     for method in [Method::Doi, Method::DoiPaper] {
         let target = NoiseTarget { relative_error: 0.05, max_samples: samples(512) };
-        let s = BakeSettings { method, samples: samples(16), seed: 11, chunk: 7, noise: Some(target), ..Default::default() };
+        let s = BakeSettings {
+            method,
+            samples: samples(16),
+            seed: 11,
+            chunk: 7,
+            noise: Some(target),
+            ..Default::default()
+        };
         let one = run(1, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
         let two = run(2, || bake(&t, &grid, &s, &BakeControl::default()).unwrap());
         assert_eq!(one.accumulator, two.accumulator, "{method:?}");
@@ -450,7 +457,11 @@ fn noise_targets_are_deterministic_and_met_unit_by_unit() {
         merged.merge(&shards[1].accumulator).unwrap();
         assert_eq!(merged, one.accumulator, "{method:?}");
         let units = one.stats.units;
-        assert!(one.stats.final_samples > 16 * units && one.stats.final_samples < 512 * units, "{:?}", one.stats);
+        assert!(
+            one.stats.final_samples > 16 * units && one.stats.final_samples < 512 * units,
+            "{:?}",
+            one.stats
+        );
         // Unit by unit: the last round meets the target or had the cap.
         let count = if method == Method::Doi { grid.node_count() } else { grid.cell_count() };
         let mut counts = std::collections::BTreeSet::new();

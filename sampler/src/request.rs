@@ -10,8 +10,7 @@ use lightvol_core::samples::Samples;
 use lightvol_volume::validity::ValidityMask;
 use lightvol_volume::{
     BakeMetadata, BakeRecord, EngineLookup, FillReport, FitRecord, GridSpec, IrradianceVolume, NoiseRecord,
-    TargetRecord,
-    VolumeGradients,
+    TargetRecord, VolumeGradients,
 };
 
 use crate::adaptive::AdaptiveSettings;
@@ -21,8 +20,8 @@ use crate::gradient_estimator::{GradientBakeError, GradientEstimator, bake_with_
 use crate::method::BakeMethod;
 use crate::method::Baseline;
 use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
-use crate::provenance;
 use crate::noise::NoiseTarget;
+use crate::provenance;
 use crate::target::{TargetReport, TargetSettings, fit_for_lookup};
 use crate::{BakeError, BakeOutput, BakeSettings, Method};
 use lightvol_core::progress::BakeControl;
