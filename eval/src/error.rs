@@ -58,8 +58,8 @@ pub enum EvalError {
         "--lookup {lookup} reads uniform grids; entry {entry} is not one (leave out gradient and adaptive entries)"
     )]
     EngineLookupNeedsGrid {
-        /// The way of reading.
-        lookup: crate::reads::ReadAs,
+        /// The way of reading (`ReadAs::name`).
+        lookup: String,
         /// The entry's name.
         entry: String,
     },

@@ -417,7 +417,7 @@ fn sample_unit(transport: &Transport<'_>, grid: &GridSpec, settings: &BakeSettin
     loop {
         let mut out = once(&s);
         let n = s.samples.get();
-        let done = crate::noise::converged(&out, &target);
+        let done = crate::noise::converged(&out.sample_values(), &target);
         if done || n >= target.max_samples.get() {
             out.stats.rays.add(&earlier);
             out.stats.capped_units = u64::from(!done);

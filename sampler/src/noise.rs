@@ -16,8 +16,6 @@
 use lightvol_core::samples::Samples;
 use lightvol_scene::envmap::luminance;
 
-use crate::unit::UnitOut;
-
 /// Sample until the relative standard error of a unit's estimate is at most
 /// `relative_error`, doubling from the bake's samples up to `max_samples`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -31,29 +29,23 @@ pub struct NoiseTarget {
 /// Default cap of `--noise`: sixteen thousand samples per unit.
 pub const DEFAULT_MAX_SAMPLES: u32 = 16_384;
 
-/// Relative standard error of `out`'s estimate (module docs): `None` when it has fewer
-/// than two samples; 0 when every sample is 0 (a unit that sees only black); infinite
-/// when the samples are not all 0 but their mean is not positive.
+/// The value of one sample (module docs): the luminance of its terms' radiance over
+/// density, summed.
 #[must_use]
-pub(crate) fn relative_standard_error(out: &UnitOut) -> Option<f64> {
-    let values: Vec<f64> = out
-        .samples
-        .iter()
-        .map(|s| {
-            let mut sum = [0.0; 3];
-            for t in &s.terms[..usize::from(s.n_terms)] {
-                for ch in 0..3 {
-                    sum[ch] += t.1[ch];
-                }
-            }
-            luminance(sum)
-        })
-        .collect();
-    relative_error_of(&values)
+pub(crate) fn sample_value(terms: &[[f64; 3]]) -> f64 {
+    let mut sum = [0.0; 3];
+    for t in terms {
+        for ch in 0..3 {
+            sum[ch] += t[ch];
+        }
+    }
+    luminance(sum)
 }
 
-/// Relative standard error of the mean of `values` (module docs).
-fn relative_error_of(values: &[f64]) -> Option<f64> {
+/// Relative standard error of the mean of `values` (module docs): `None` for fewer than
+/// two values; 0 when every value is 0 (a unit that sees only black); infinite when they
+/// are not all 0 but their mean is not positive.
+pub(crate) fn relative_error_of(values: &[f64]) -> Option<f64> {
     let n = values.len();
     if n < 2 {
         return None;
@@ -69,11 +61,11 @@ fn relative_error_of(values: &[f64]) -> Option<f64> {
     Some((var / n as f64).sqrt() / mean)
 }
 
-/// Whether `out` meets `target`: its relative error is known and at most the target's. A
-/// unit with fewer than two samples (outside the domain, filled from its neighbours) has
-/// nothing more to gain.
-pub(crate) fn converged(out: &UnitOut, target: &NoiseTarget) -> bool {
-    relative_standard_error(out).is_none_or(|e| e <= target.relative_error)
+/// Whether a unit whose samples have `values` meets `target`: its relative error is known
+/// and at most the target's. A unit with fewer than two samples (outside the domain,
+/// filled from its neighbours) has nothing more to gain.
+pub(crate) fn converged(values: &[f64], target: &NoiseTarget) -> bool {
+    relative_error_of(values).is_none_or(|e| e <= target.relative_error)
 }
 
 #[cfg(test)]

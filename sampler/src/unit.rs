@@ -41,6 +41,19 @@ pub(crate) struct UnitOut {
     pub(crate) relocated: Option<DVec3>,
 }
 
+impl UnitOut {
+    /// Each kept sample's value for the noise target ([`crate::noise::sample_value`]).
+    pub(crate) fn sample_values(&self) -> Vec<f64> {
+        self.samples
+            .iter()
+            .map(|s| {
+                let terms: Vec<[f64; 3]> = s.terms[..usize::from(s.n_terms)].iter().map(|t| t.1).collect();
+                crate::noise::sample_value(&terms)
+            })
+            .collect()
+    }
+}
+
 /// Density of uniform sphere directions.
 const UNIFORM_SPHERE_PDF: f64 = 1.0 / (4.0 * PI);
 
