@@ -173,6 +173,44 @@ struct Row {
     value: [f64; 3],
 }
 
+impl Row {
+    /// The row applied to node values `x` (`[node][coeff][rgb]`, `coeffs` per channel).
+    fn dot(&self, x: &[f64], coeffs: usize) -> [f64; 3] {
+        let mut e = [0.0; 3];
+        for c in 0..8 {
+            let b = self.w.corner[c];
+            if b == 0.0 {
+                continue;
+            }
+            let base = self.w.nodes[c] * 3 * coeffs;
+            for j in 0..coeffs {
+                let a = b * self.w.basis[j];
+                for ch in 0..3 {
+                    e[ch] += a * x[base + 3 * j + ch];
+                }
+            }
+        }
+        e
+    }
+
+    /// Adds the transposed row times `e` to `y` (the twin of [`Self::dot`]).
+    fn scatter(&self, e: [f64; 3], y: &mut [f64], coeffs: usize) {
+        for c in 0..8 {
+            let b = self.w.corner[c];
+            if b == 0.0 {
+                continue;
+            }
+            let base = self.w.nodes[c] * 3 * coeffs;
+            for j in 0..coeffs {
+                let a = b * self.w.basis[j];
+                for ch in 0..3 {
+                    y[base + 3 * j + ch] += a * e[ch];
+                }
+            }
+        }
+    }
+}
+
 /// Chooses node values for `settings.lookup` (module docs) from the baked `volume` (read
 /// through lightvol's lookup for the samples' values), over `transport`'s scene. The result
 /// has the bake's grid and metadata, no node reach (no engine reads one) and, for
@@ -281,37 +319,12 @@ fn solve(vol: &IrradianceVolume, rows: &[Row], lambda: f64) -> (Vec<f64>, usize,
     let active: Vec<bool> = mu.iter().map(|&m| m > 0.0).collect();
     let fitted = active.iter().filter(|&&a| a).count();
     let reg: Vec<f64> = mu.iter().map(|m| lambda * m).collect();
-    // `y = (AᵀA + λM) x` on the active unknowns (inactive ones read as 0 and give 0).
+    // `y = (AᵀA + λM) x` on the active unknowns (a node no row weighs has no row entry).
     let apply = |x: &[f64], y: &mut [f64]| {
         y.iter_mut().for_each(|v| *v = 0.0);
         for r in rows {
-            let mut e = [0.0; 3];
-            for c in 0..8 {
-                let b = r.w.corner[c];
-                if b == 0.0 || !active[r.w.nodes[c]] {
-                    continue;
-                }
-                let base = r.w.nodes[c] * k;
-                for j in 0..coeffs {
-                    let a = b * r.w.basis[j];
-                    for ch in 0..3 {
-                        e[ch] += a * x[base + 3 * j + ch];
-                    }
-                }
-            }
-            for c in 0..8 {
-                let b = r.w.corner[c];
-                if b == 0.0 || !active[r.w.nodes[c]] {
-                    continue;
-                }
-                let base = r.w.nodes[c] * k;
-                for j in 0..coeffs {
-                    let a = b * r.w.basis[j];
-                    for ch in 0..3 {
-                        y[base + 3 * j + ch] += a * e[ch];
-                    }
-                }
-            }
+            let e = r.dot(x, coeffs);
+            r.scatter(e, y, coeffs);
         }
         for node in 0..nodes {
             if active[node] {
@@ -325,25 +338,8 @@ fn solve(vol: &IrradianceVolume, rows: &[Row], lambda: f64) -> (Vec<f64>, usize,
     // A node no row weighs has μ = 0 and appears in no row, so it stays at x⁰.
     let mut b = vec![0.0; nodes * k];
     for r in rows {
-        let mut res = r.value;
-        for c in 0..8 {
-            let base = r.w.nodes[c] * k;
-            for j in 0..coeffs {
-                let a = r.w.corner[c] * r.w.basis[j];
-                for ch in 0..3 {
-                    res[ch] -= a * x0[base + 3 * j + ch];
-                }
-            }
-        }
-        for c in 0..8 {
-            let base = r.w.nodes[c] * k;
-            for j in 0..coeffs {
-                let a = r.w.corner[c] * r.w.basis[j];
-                for ch in 0..3 {
-                    b[base + 3 * j + ch] += a * res[ch];
-                }
-            }
-        }
+        let e = r.dot(&x0, coeffs);
+        r.scatter(std::array::from_fn(|ch| r.value[ch] - e[ch]), &mut b, coeffs);
     }
     let precond: Vec<f64> = (0..nodes * k)
         .map(|i| {
