@@ -16,7 +16,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 use lightvol_sh::lowdisc::hash2;
-use lightvol_volume::{GridSpec, IrradianceVolume};
+use lightvol_volume::{EngineLookup, GridSpec, IrradianceVolume};
 use rayon::prelude::*;
 
 use crate::error::EvalError;
@@ -225,6 +225,15 @@ impl Plate {
             .par_iter()
             .map(|p| vol.irradiance(p.as_vec3().to_array(), [0.0, 0.0, 1.0]).map(f64::from))
             .collect()
+    }
+
+    /// Irradiance (normal up, viewed from above) of a uniform volume at every point,
+    /// through `lookup`'s engine rule
+    /// ([`IrradianceVolume::engine_irradiance`], f64).
+    #[must_use]
+    pub fn engine_estimate(&self, vol: &IrradianceVolume, lookup: EngineLookup) -> Vec<[f64; 3]> {
+        let up = [0.0, 0.0, 1.0];
+        self.points.par_iter().map(|p| vol.engine_irradiance(lookup, p.to_array(), up, up)).collect()
     }
 
     /// The metrics ([`compute`]) of `estimate` (one RGB irradiance per point, in point

@@ -10,7 +10,6 @@
 //! on the same plate and views from the same bakes.
 
 use lightvol_volume::EngineLookup;
-use rayon::prelude::*;
 
 use crate::baked::RunVolume;
 use crate::entries::Entry;
@@ -91,9 +90,7 @@ pub fn read_as(run: MethodRun, entry: Entry, way: ReadAs, plate: &Plate) -> Meth
     if matches!(run.volume, RunVolume::Engine(_, l) if l == lookup) {
         return run;
     }
-    let up = [0.0, 0.0, 1.0];
-    let estimate: Vec<[f64; 3]> =
-        plate.points.par_iter().map(|p| vol.engine_irradiance(lookup, p.to_array(), up, up)).collect();
+    let estimate = plate.engine_estimate(&vol, lookup);
     MethodRun { metrics: plate.metrics(&estimate), estimate, volume: RunVolume::Engine(vol, lookup), ..run }
 }
 

@@ -30,7 +30,7 @@ use lightvol_sampler::method::Baseline;
 use lightvol_sampler::method::Method;
 use lightvol_sampler::node_fit::{Fit, bake_fitted};
 use lightvol_sampler::settings::BakeSettings;
-use lightvol_sampler::target::{TargetSettings, fit_for_lookup};
+use lightvol_sampler::target::{TargetSettings, fit_for_lookup, own_samples_mask};
 use lightvol_scene::stats::RayCounts;
 use lightvol_scene::transport::Transport;
 
@@ -187,7 +187,7 @@ pub fn run_targeted(
     let out = ctx
         .stage(name, |c| lightvol_sampler::bake(&ctx.transport, grid, &settings, c))
         .map_err(EvalError::at("baking"))?;
-    let valid = ValidityMask::new(out.accumulator.denominator().iter().map(|&d| d > 0.0).collect());
+    let valid = own_samples_mask(&out.accumulator);
     let (baked, mut stats) = out.finish();
     let t0 = Instant::now();
     let (vol, report) =
@@ -195,9 +195,7 @@ pub fn run_targeted(
             .map_err(EvalError::at("fitting for the target lookup"))?;
     stats.rays.query += report.rays;
     let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
-    let up = [0.0, 0.0, 1.0];
-    let estimate: Vec<[f64; 3]> =
-        plate.points.par_iter().map(|p| vol.engine_irradiance(lookup, p.to_array(), up, up)).collect();
+    let estimate = plate.engine_estimate(&vol, lookup);
     let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
         + vol.validity().map_or(0, ValidityMask::memory_bytes);
     Ok(MethodRun::new(

@@ -7,7 +7,6 @@
 //! bake ([`crate::adaptive`]) and the baselines' own runs take the request's settings.
 
 use lightvol_core::samples::Samples;
-use lightvol_volume::validity::ValidityMask;
 use lightvol_volume::{
     BakeMetadata, BakeRecord, EngineLookup, FillReport, FitRecord, GridSpec, IrradianceVolume, NoiseRecord,
     TargetRecord, VolumeGradients,
@@ -22,7 +21,7 @@ use crate::method::Baseline;
 use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
 use crate::noise::NoiseTarget;
 use crate::provenance;
-use crate::target::{TargetReport, TargetSettings, fit_for_lookup};
+use crate::target::{TargetReport, TargetSettings, fit_for_lookup, own_samples_mask};
 use crate::{BakeError, BakeOutput, BakeSettings, Method};
 use lightvol_core::progress::BakeControl;
 use lightvol_scene::{Scene, Transport, TransportSettings, UpAxis};
@@ -550,12 +549,12 @@ pub fn bake_uniform(
         None => (volume, None),
         Some(t) => {
             // APV's lookup renormalises over valid nodes: those with samples of their own.
-            let valid =
-                ValidityMask::new(output.accumulator.denominator().iter().map(|&d| d > 0.0).collect());
+            let valid = own_samples_mask(&output.accumulator);
+            // The fitted volume keeps the bake's metadata.
             let (fitted, report) =
                 fit_for_lookup(transport, &volume, &t, Some(valid)).map_err(UniformBakeError::Target)?;
             output.stats.rays.query += report.rays;
-            (fitted.with_metadata(volume.metadata().clone()), Some(report))
+            (fitted, Some(report))
         }
     };
     Ok(UniformBake { output, volume, fill, gradients, least_squares, target })

@@ -42,7 +42,7 @@ use lightvol_sh::lowdisc::hash2;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use lightvol_volume::engine_lookup::EngineWeights;
 use lightvol_volume::validity::ValidityMask;
-use lightvol_volume::{EngineLookup, IrradianceVolume};
+use lightvol_volume::{Accumulator, EngineLookup, IrradianceVolume};
 use rayon::prelude::*;
 
 use crate::error::BakeError;
@@ -174,20 +174,21 @@ struct Row {
 }
 
 impl Row {
+    /// The row's non-zero entries: the index of each (node, coefficient) pair's red value
+    /// in `[node][coeff][rgb]` (`coeffs` per channel) and its weight.
+    fn entries(&self, coeffs: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        (0..8).filter(move |&c| self.w.corner[c] != 0.0).flat_map(move |c| {
+            let base = self.w.nodes[c] * 3 * coeffs;
+            (0..coeffs).map(move |j| (base + 3 * j, self.w.corner[c] * self.w.basis[j]))
+        })
+    }
+
     /// The row applied to node values `x` (`[node][coeff][rgb]`, `coeffs` per channel).
     fn dot(&self, x: &[f64], coeffs: usize) -> [f64; 3] {
         let mut e = [0.0; 3];
-        for c in 0..8 {
-            let b = self.w.corner[c];
-            if b == 0.0 {
-                continue;
-            }
-            let base = self.w.nodes[c] * 3 * coeffs;
-            for j in 0..coeffs {
-                let a = b * self.w.basis[j];
-                for ch in 0..3 {
-                    e[ch] += a * x[base + 3 * j + ch];
-                }
+        for (i, a) in self.entries(coeffs) {
+            for ch in 0..3 {
+                e[ch] += a * x[i + ch];
             }
         }
         e
@@ -195,20 +196,19 @@ impl Row {
 
     /// Adds the transposed row times `e` to `y` (the twin of [`Self::dot`]).
     fn scatter(&self, e: [f64; 3], y: &mut [f64], coeffs: usize) {
-        for c in 0..8 {
-            let b = self.w.corner[c];
-            if b == 0.0 {
-                continue;
-            }
-            let base = self.w.nodes[c] * 3 * coeffs;
-            for j in 0..coeffs {
-                let a = b * self.w.basis[j];
-                for ch in 0..3 {
-                    y[base + 3 * j + ch] += a * e[ch];
-                }
+        for (i, a) in self.entries(coeffs) {
+            for ch in 0..3 {
+                y[i + ch] += a * e[ch];
             }
         }
     }
+}
+
+/// The nodes with samples of their own in a bake's sums (a positive Eq. 6 denominator):
+/// the mask [`fit_for_lookup`] takes, since the others were filled from their neighbours.
+#[must_use]
+pub fn own_samples_mask(acc: &Accumulator) -> ValidityMask {
+    ValidityMask::new(acc.denominator().iter().map(|&d| d > 0.0).collect())
 }
 
 /// Chooses node values for `settings.lookup` (module docs) from the baked `volume` (read

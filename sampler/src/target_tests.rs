@@ -87,7 +87,7 @@ fn fits_bring_each_engine_closer_to_lightvols_reading() {
         let t = Transport::new(&b.scene, &tracer, TransportSettings::default());
         let settings = BakeSettings { samples: samples(32), seed: 5, ..BakeSettings::default() };
         let out = crate::bake(&t, &b.grid, &settings, &BakeControl::default()).unwrap();
-        let valid = ValidityMask::new(out.accumulator.denominator().iter().map(|&d| d > 0.0).collect());
+        let valid = own_samples_mask(&out.accumulator);
         let (vol, _) = out.finish();
         assert!(vol.reach().is_some());
         let nodes = b.grid.node_count();

@@ -84,15 +84,14 @@ const TABLE_SAMPLES: u32 = 128;
 /// most 5% to its rays, on every scene.
 #[test]
 fn target_fits_stay_within_their_ray_budget() {
-    use lightvol_sampler::target::{TargetSettings, fit_for_lookup};
+    use lightvol_sampler::target::{TargetSettings, fit_for_lookup, own_samples_mask};
     use lightvol_volume::EngineLookup;
-    use lightvol_volume::validity::ValidityMask;
     for (name, scene, grid) in &cases() {
         let tracer = Tracer::new(scene);
         let t = Transport::new(scene, &tracer, TransportSettings::default());
         let s = BakeSettings { samples: samples(TABLE_SAMPLES), seed: 3, ..BakeSettings::default() };
         let out = bake(&t, grid, &s, &BakeControl::default()).unwrap();
-        let valid = ValidityMask::new(out.accumulator.denominator().iter().map(|&d| d > 0.0).collect());
+        let valid = own_samples_mask(&out.accumulator);
         let doi = out.stats.rays.total();
         let (vol, _) = out.finish();
         let (_, r) =
