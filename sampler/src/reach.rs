@@ -1,4 +1,4 @@
-//! Baking the node reach of [`lightvol_volume::reach`]: six rays per node, one cell long,
+//! Baking the node reach of [`lightvol_volume::reach`]: six bundles of rays per node, one cell long,
 //! along the grid axes.
 //!
 //! Node `i`'s reach along `±a` is `t / ℓ_a`, `t` the distance of the closest surface its
@@ -120,8 +120,8 @@ mod tests {
             (0..grid.node_count()).map(|node| node_reach(&tracer, &grid, node, None)).collect();
         let rays: u64 = per_node.iter().map(|p| p.1).sum();
         let reach = lightvol_volume::NodeReach::new(per_node.into_iter().map(|p| p.0).collect()).unwrap();
-        // 27 nodes × 6 directions, less the 9 × 6 that would leave the grid.
-        assert_eq!(rays, 27 * 6 - 54);
+        // 27 nodes × 6 directions, less the 9 × 6 that would leave the grid, each a bundle.
+        assert_eq!(rays, (27 * 6 - 54) * REACH_BUNDLE_RAYS as u64);
         for node in 0..grid.node_count() {
             let [i, _, _] = grid.node_coords(node);
             let r = reach.node(node);
@@ -151,7 +151,7 @@ mod tests {
         // f64 ray distances of O(1) rounded to f32.
         let close = |a: f32, b: f32| (a - b).abs() < 1e-6;
         let (r, rays) = node_reach(&tracer, &grid, node, None);
-        assert_eq!(rays, 6);
+        assert_eq!(rays, 6 * REACH_BUNDLE_RAYS as u64);
         assert_eq!(r, [1.0; 6], "not relocated: every back face gives a full cell");
         let (r, _) = node_reach(&tracer, &grid, node, Some(DVec3::new(1.41, 1.0, 1.0)));
         assert_eq!(r[0], 1.0, "{r:?}");
