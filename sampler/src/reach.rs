@@ -93,6 +93,11 @@ pub fn node_reach(
             {
                 seen[r] = ((hit.t / len) as f32).clamp(0.0, 1.0);
             }
+            if r == 0 && seen[0] == 1.0 {
+                // Nothing across the edge's own line: a wall across the edge would have
+                // stopped it, so the node reaches a full cell and the bundle is not traced.
+                break;
+            }
         }
         seen.sort_by(f32::total_cmp);
         reach[d] = seen[REACH_BUNDLE_RAYS / 2];
