@@ -121,6 +121,7 @@ pub(crate) fn bake_with_sink(
         for (node, (r, rays)) in range.zip(reach) {
             acc.set_reach(node, r);
             stats.rays.query += rays;
+            stats.reach_rays += rays;
         }
         stats.wall_time += t0.elapsed();
     }

@@ -30,6 +30,9 @@ pub struct BakeStats {
     pub final_samples: u64,
     /// Units that reached the noise target's cap before its error target.
     pub capped_units: u64,
+    /// Rays of `doi`'s node reach ([`crate::reach`]), also counted among the query rays: a
+    /// cost per node that does not grow with the samples.
+    pub reach_rays: u64,
     /// Wall time of the sampling (excluding BVH build).
     pub wall_time: Duration,
     /// BVH build time.
@@ -60,6 +63,7 @@ impl BakeStats {
         self.back_face_points += o.back_face_points;
         self.final_samples += o.final_samples;
         self.capped_units += o.capped_units;
+        self.reach_rays += o.reach_rays;
     }
 }
 

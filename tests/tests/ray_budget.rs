@@ -3,10 +3,14 @@
 //! recommended grid) and every vendored real scene (16 cells along its longest axis,
 //! under a uniform white sky, as the CLI lights a scene without lights). Algorithm 2's
 //! query rays are the extra cost; the classification rays' hits are reused for lighting.
+//! `doi`'s node reach adds a cost per node that does not grow with the samples: one ray
+//! per direction inside the budget, and at most [`REACH_BUNDLE_RAYS`]` − 1` more where
+//! something stops that ray.
 
 use lightvol_core::samples::samples;
 
 use lightvol_core::progress::BakeControl;
+use lightvol_sampler::reach::REACH_BUNDLE_RAYS;
 use lightvol_sampler::{BakeSettings, Method, bake};
 use lightvol_scene::builtin::{BUILTIN_NAMES, builtin};
 use lightvol_scene::lights::Environment;
@@ -19,14 +23,20 @@ mod vendored;
 /// `doi` may trace this many times `point`'s rays.
 const DOI_RAY_BUDGET: f64 = 1.25;
 
+/// The node reach's rays per node and grid direction, on average over the grid: one where
+/// nothing stops the first ray, at most [`REACH_BUNDLE_RAYS`] elsewhere.
+const REACH_RAYS_PER_DIRECTION: f64 = 2.0;
+
 /// Samples per cell or node: enough for every cell near a wall to find its back faces.
 const SAMPLES: u32 = 16;
 
-fn rays(scene: &Scene, grid: &GridSpec, method: Method) -> u64 {
+/// All rays, and the node reach's among them.
+fn rays(scene: &Scene, grid: &GridSpec, method: Method) -> (u64, u64) {
     let tracer = Tracer::new(scene);
     let t = Transport::new(scene, &tracer, TransportSettings::default());
     let s = BakeSettings { method, samples: samples(SAMPLES), seed: 3, ..BakeSettings::default() };
-    bake(&t, grid, &s, &BakeControl::default()).unwrap().stats.rays.total()
+    let stats = bake(&t, grid, &s, &BakeControl::default()).unwrap().stats;
+    (stats.rays.total(), stats.reach_rays)
 }
 
 /// The CLI's default grid: the bounds grown by 5%, 16 cells along the longest axis.
@@ -63,12 +73,20 @@ fn cases() -> Vec<(String, Scene, GridSpec)> {
 #[test]
 fn doi_stays_within_its_ray_budget() {
     for (name, scene, grid) in &cases() {
-        let point = rays(scene, grid, Method::Point);
+        let (point, _) = rays(scene, grid, Method::Point);
         for method in [Method::DoiPaper, Method::Doi] {
-            let doi = rays(scene, grid, method);
-            let ratio = doi as f64 / point as f64;
-            eprintln!("{name}: {method:?} {doi} rays, point {point}: {ratio:.3}");
+            let (doi, reach) = rays(scene, grid, method);
+            let ratio = (doi - reach) as f64 / point as f64;
+            let per_direction = reach as f64 / (6 * grid.node_count()) as f64;
+            eprintln!(
+                "{name}: {method:?} {doi} rays, {reach} of them the reach's ({per_direction:.2} a node \
+                 and direction), point {point}: {ratio:.3} less the reach"
+            );
             assert!(ratio <= DOI_RAY_BUDGET, "{name}: {method:?} traces {ratio:.3} x point's rays");
+            assert!(
+                per_direction <= REACH_RAYS_PER_DIRECTION,
+                "{name}: {method:?} reach traces {per_direction:.2} rays a node and direction"
+            );
         }
     }
 }
