@@ -266,7 +266,8 @@ fn interior_walls_do_not_leak_with_doi() {
 /// `doi` takes each node from one of three places; every city node is checked against
 /// an independent classification of where its samples were taken.
 /// - `AtNode`: the node's own samples met no back face that takes it out of the domain
-///   (none inside its support, far ones in at most a quarter of its directions), and the
+///   (near ones, inside its support, in at most 5% of its directions, far ones in at most a
+///   quarter), and the
 ///   node's value is `point`'s bit for bit (same stream, same directions);
 /// - `Relocated(y)`: the node is outside the domain, `y` is within [`PROBE_MAX_OFFSET`] ×
 ///   spacing per axis and 256 classification rays from `y` find no back face at all (256

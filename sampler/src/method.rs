@@ -20,8 +20,10 @@ pub enum Method {
     /// those in the domain of interest. A support half as wide as Eq. 6's trilinear one.
     DoiNode,
     /// The default (`doi`): a probe per node, kept in the domain of interest. Point-sampled
-    /// (Eq. 4) where the node is in the domain: it sees no back face inside its trilinear
-    /// support, and back faces beyond it in at most [`PROBE_FAR_BACK_SHARE`](crate::probe::PROBE_FAR_BACK_SHARE) of its
+    /// (Eq. 4) where the node is in the domain: it meets back faces inside its trilinear
+    /// support in at most [`PROBE_NEAR_BACK_SHARE`](crate::probe::PROBE_NEAR_BACK_SHARE) of its directions (the
+    /// slivers of single-sided content beside it), and back faces beyond it in at most
+    /// [`PROBE_FAR_BACK_SHARE`](crate::probe::PROBE_FAR_BACK_SHARE) of its
     /// directions (a distance-limited test, so that the back of a single-sided panel seen
     /// across a room does not move the node); otherwise at the point reached through its
     /// closest back face (the relocation rule of \[Maj21\], preferring points that stay in

@@ -58,8 +58,9 @@ pub const PROBE_OUTSIDE_SHARE: f64 = 0.5;
 /// Where `doi` took a node's value from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ProbeCapture {
-    /// The node is in the domain of interest: it sees no back face inside its trilinear
-    /// support, and far ones in at most [`PROBE_FAR_BACK_SHARE`] of its directions;
+    /// The node is in the domain of interest: it meets back faces inside its trilinear
+    /// support in at most [`PROBE_NEAR_BACK_SHARE`] of its directions, and far ones in at
+    /// most [`PROBE_FAR_BACK_SHARE`];
     /// point-sampled there (Eq. 4).
     AtNode,
     /// The node is outside the domain of interest; this point, reached through the closest
@@ -88,10 +89,11 @@ struct Stopped {
     back_face: (DVec3, f64),
 }
 
-/// `doi`'s distance-limited back-face test of a point: a back face inside the
+/// `doi`'s distance-limited back-face test of a point: back faces inside the
 /// box of one grid spacing around the point (a node's trilinear support, \[KL06\] Eq. 6)
-/// takes it out of the domain of interest; back faces beyond that box do only when more
-/// than [`PROBE_FAR_BACK_SHARE`] of the directions meet one.
+/// take it out of the domain of interest when more than [`PROBE_NEAR_BACK_SHARE`] of the
+/// directions meet one; back faces beyond that box do when more than
+/// [`PROBE_FAR_BACK_SHARE`] of the directions meet one.
 struct BackFaceTest {
     /// Grid spacing per axis: the half-widths of the box.
     spacing: DVec3,

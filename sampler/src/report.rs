@@ -57,6 +57,8 @@ pub struct BakeReport {
     pub zero_weight_nodes: usize,
     /// Zero-weight (or invalid) nodes filled from their neighbours.
     pub filled_nodes: usize,
+    /// Rays of the node reach (`doi`; [`crate::reach`]), counted among `rays.query` too.
+    pub reach_rays: u64,
     /// Sampling wall time, in seconds.
     pub seconds: f64,
     /// Seconds the ray tracer took to build.
@@ -177,6 +179,7 @@ impl BakeReport {
             samples_rejected: s.samples_rejected,
             zero_weight_nodes: bake.volume.weights().iter().filter(|&&w| w == 0.0).count(),
             filled_nodes: bake.fill.filled,
+            reach_rays: s.reach_rays,
             mrays_per_second: s.mrays_per_second(),
             noise: request.noise.map(|n| NoiseReport {
                 relative_error: n.relative_error,
@@ -243,6 +246,7 @@ impl BakeReport {
             samples_rejected: 0,
             zero_weight_nodes: 0,
             filled_nodes: 0,
+            reach_rays: 0,
             seconds,
             bvh_seconds: run.bvh_seconds,
             mrays_per_second: 0.0,
