@@ -3,6 +3,7 @@
 //! filled from its neighbours when neither is ([`ProbeCapture`]).
 
 use glam::DVec3;
+use lightvol_scene::bvh::{Hit, Tracer};
 use lightvol_scene::qmc::Qmc;
 use lightvol_scene::transport::{PathRng, Transport};
 use lightvol_sh::lowdisc::hash2;
@@ -119,31 +120,29 @@ impl BackFaceTest {
     }
 }
 
-/// Point samples at `x` along directions `first..first + count` of `h` (stream `stream`),
-/// stopping at the first back face that takes `x` out of the domain under `test`: the
-/// samples, or where it stopped. Directions meeting a tolerated far back face are kept,
-/// as `point` keeps them.
-#[allow(clippy::too_many_arguments, reason = "one sampling loop, two callers")]
-fn clean_point_samples(
-    t: &Transport<'_>,
-    settings: &BakeSettings,
+/// One direction a point traced: its index in the stream, the direction and what it met.
+type Traced = (u64, DVec3, Option<Hit>);
+
+/// The directions `first..first + count` of `h` traced from `x`, stopping at the first
+/// back face that takes `x` out of the domain under `test`: every direction traced (those
+/// meeting a tolerated far or near back face are kept, as `point` keeps them), or where
+/// it stopped. `rays` counts the rays traced.
+fn clean_directions(
+    tracer: &Tracer,
     h: &Qmc<2>,
-    stream: u64,
     x: DVec3,
     first: u64,
     count: u64,
     test: &BackFaceTest,
-    out: &mut UnitOut,
-) -> Result<Vec<SampleOut>, Stopped> {
-    let mut one = [0.0; 8];
-    one[0] = 1.0;
+    rays: &mut u64,
+) -> Result<Vec<Traced>, Stopped> {
     let mut hits = Vec::with_capacity(count as usize);
     let mut far = 0u64;
     let mut near = 0u64;
     for s in first..first + count {
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(s)));
-        out.stats.rays.sampling += 1;
-        let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
+        *rays += 1;
+        let hit = tracer.closest_hit(x, dir, 0.0, f64::INFINITY);
         if let Some(b) = hit.filter(|h| h.back_face) {
             let is_near = test.near(dir, b.t);
             if (is_near && near >= test.near_allowed) || (!is_near && far >= test.far_allowed) {
@@ -153,45 +152,34 @@ fn clean_point_samples(
         }
         hits.push((s, dir, hit));
     }
-    Ok(hits
-        .into_iter()
-        .map(|(s, dir, hit)| {
-            let mut rng = PathRng::new(settings.seed, stream, s);
-            let (terms, n_terms) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats);
-            SampleOut { weights: one, terms, n_terms }
-        })
-        .collect())
+    Ok(hits)
 }
 
-/// `doi` for one node: the samples and where they were taken.
-pub(crate) fn probe_unit(
-    t: &Transport<'_>,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    node: usize,
-) -> (UnitOut, ProbeCapture) {
+/// `doi`'s classification of one node: where its value comes from, and the directions
+/// traced from there (none when it is filled).
+pub(crate) struct NodeClass {
+    /// Where the node's value comes from.
+    pub capture: ProbeCapture,
+    /// The directions kept, traced from the node or from its relocated point.
+    pub kept: Vec<Traced>,
+    /// Rays traced, kept or not.
+    pub rays: u64,
+}
+
+/// Classifies node `node` of `grid` with `samples` directions of `point`'s stream under
+/// `seed` (the rays of [`probe_unit`], without the light they carry).
+pub(crate) fn classify_node(tracer: &Tracer, grid: &GridSpec, seed: u64, samples: u64, node: usize) -> NodeClass {
     let [i, j, k] = grid.node_coords(node);
     let x = DVec3::from_array(grid.node_position_world(i, j, k));
-    // `point`'s stream and directions, so that a node in the domain is `point`'s bit for bit.
-    let stream = hash2(node as u64, 0x0070_6f69_6e74);
-    let h = Qmc::<2>::new(settings.seed, stream);
-    let n = u64::from(settings.samples.get());
-    let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
-    out.stats.units = 1;
-    out.stats.candidates = n;
+    let h = Qmc::<2>::new(seed, point_stream(node));
+    let n = samples;
+    let mut rays = 0u64;
     let spacing = spacing(grid);
     let at_node = BackFaceTest::new(spacing, n);
-    let (mut used, first_back) =
-        match clean_point_samples(t, settings, &h, stream, x, 0, n, &at_node, &mut out) {
-            Ok(samples) => {
-                out.stats.samples_kept = samples.len() as u64;
-                out.samples = samples;
-                return (out, ProbeCapture::AtNode);
-            }
-            Err(e) => (e.traced, e.back_face),
-        };
-    out.stats.back_face_points = 1;
-    out.stats.cells_with_back_faces = 1;
+    let (mut used, first_back) = match clean_directions(tracer, &h, x, 0, n, &at_node, &mut rays) {
+        Ok(kept) => return NodeClass { capture: ProbeCapture::AtNode, kept, rays },
+        Err(e) => (e.traced, e.back_face),
+    };
     let (lo, hi) = grid.bounds();
     // A back face met at `dist` along `dir`: where the node moves through it, and whether
     // that point stays in the grid's box.
@@ -207,9 +195,9 @@ pub(crate) fn probe_unit(
     let search = PROBE_SEARCH_RAYS.min(n);
     while used < search {
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(used)));
-        out.stats.rays.sampling += 1;
+        rays += 1;
         used += 1;
-        if let Some(b) = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY).filter(|h| h.back_face) {
+        if let Some(b) = tracer.closest_hit(x, dir, 0.0, f64::INFINITY).filter(|h| h.back_face) {
             let c = candidate((dir, b.t));
             if rank(c) < rank(best) {
                 best = c;
@@ -220,12 +208,66 @@ pub(crate) fn probe_unit(
     if left > 0 {
         let y = best.1;
         let at_y = BackFaceTest::new(spacing, left);
-        if let Ok(samples) = clean_point_samples(t, settings, &h, stream, y, n, left, &at_y, &mut out) {
-            out.stats.samples_kept = samples.len() as u64;
-            out.samples = samples;
-            out.relocated = Some(y);
-            return (out, ProbeCapture::Relocated(y));
+        if let Ok(kept) = clean_directions(tracer, &h, y, n, left, &at_y, &mut rays) {
+            return NodeClass { capture: ProbeCapture::Relocated(y), kept, rays };
         }
     }
-    (out, ProbeCapture::Filled)
+    NodeClass { capture: ProbeCapture::Filled, kept: Vec::new(), rays }
 }
+
+/// `point`'s random stream for node `node`, which `doi` shares so that a node in the
+/// domain is `point`'s bit for bit.
+fn point_stream(node: usize) -> u64 {
+    hash2(node as u64, 0x0070_6f69_6e74)
+}
+
+/// `doi` for one node: the samples and where they were taken.
+pub(crate) fn probe_unit(
+    t: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    node: usize,
+) -> (UnitOut, ProbeCapture) {
+    let n = u64::from(settings.samples.get());
+    let class = classify_node(t.tracer(), grid, settings.seed, n, node);
+    let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
+    out.stats.units = 1;
+    out.stats.candidates = n;
+    out.stats.rays.sampling = class.rays;
+    let x = match class.capture {
+        ProbeCapture::AtNode => {
+            let [i, j, k] = grid.node_coords(node);
+            DVec3::from_array(grid.node_position_world(i, j, k))
+        }
+        ProbeCapture::Relocated(y) => y,
+        ProbeCapture::Filled => DVec3::ZERO,
+    };
+    if class.capture != ProbeCapture::AtNode {
+        out.stats.back_face_points = 1;
+        out.stats.cells_with_back_faces = 1;
+    }
+    let stream = point_stream(node);
+    let one = {
+        let mut w = [0.0; 8];
+        w[0] = 1.0;
+        w
+    };
+    out.samples = class
+        .kept
+        .into_iter()
+        .map(|(s, dir, hit)| {
+            let mut rng = PathRng::new(settings.seed, stream, s);
+            let (terms, n_terms) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats);
+            SampleOut { weights: one, terms, n_terms }
+        })
+        .collect();
+    out.stats.samples_kept = out.samples.len() as u64;
+    if let ProbeCapture::Relocated(y) = class.capture {
+        out.relocated = Some(y);
+    }
+    (out, class.capture)
+}
+
+#[cfg(test)]
+#[path = "probe_tests.rs"]
+mod tests;
