@@ -83,11 +83,13 @@ pub enum ProbeCapture {
     Filled,
 }
 
-/// Where [`clean_point_samples`] stopped: the directions it traced, the last one meeting a
-/// back face at this direction and distance.
+/// Where [`clean_directions`] stopped.
 struct Stopped {
+    /// Directions traced, the last one meeting the back face that stopped it.
     traced: u64,
-    back_face: (DVec3, f64),
+    /// Every back face met, tolerated or not, as (direction index, direction, distance),
+    /// in stream order.
+    back_faces: Vec<(u64, DVec3, f64)>,
 }
 
 /// `doi`'s distance-limited back-face test of a point: back faces inside the
@@ -139,14 +141,16 @@ fn clean_directions(
     let mut hits = Vec::with_capacity(count as usize);
     let mut far = 0u64;
     let mut near = 0u64;
+    let mut back_faces = Vec::new();
     for s in first..first + count {
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(s)));
         *rays += 1;
         let hit = tracer.closest_hit(x, dir, 0.0, f64::INFINITY);
         if let Some(b) = hit.filter(|h| h.back_face) {
+            back_faces.push((s, dir, b.t));
             let is_near = test.near(dir, b.t);
             if (is_near && near >= test.near_allowed) || (!is_near && far >= test.far_allowed) {
-                return Err(Stopped { traced: s + 1 - first, back_face: (dir, b.t) });
+                return Err(Stopped { traced: s + 1 - first, back_faces });
             }
             if is_near { near += 1 } else { far += 1 }
         }
@@ -164,11 +168,19 @@ pub(crate) struct NodeClass {
     pub kept: Vec<Traced>,
     /// Rays traced, kept or not.
     pub rays: u64,
+    /// The point a node outside the domain was moved to, kept (relocated) or not (filled).
+    pub moved_to: Option<DVec3>,
 }
 
 /// Classifies node `node` of `grid` with `samples` directions of `point`'s stream under
 /// `seed` (the rays of [`probe_unit`], without the light they carry).
-pub(crate) fn classify_node(tracer: &Tracer, grid: &GridSpec, seed: u64, samples: u64, node: usize) -> NodeClass {
+pub(crate) fn classify_node(
+    tracer: &Tracer,
+    grid: &GridSpec,
+    seed: u64,
+    samples: u64,
+    node: usize,
+) -> NodeClass {
     let [i, j, k] = grid.node_coords(node);
     let x = DVec3::from_array(grid.node_position_world(i, j, k));
     let h = Qmc::<2>::new(seed, point_stream(node));
@@ -176,9 +188,9 @@ pub(crate) fn classify_node(tracer: &Tracer, grid: &GridSpec, seed: u64, samples
     let mut rays = 0u64;
     let spacing = spacing(grid);
     let at_node = BackFaceTest::new(spacing, n);
-    let (mut used, first_back) = match clean_directions(tracer, &h, x, 0, n, &at_node, &mut rays) {
-        Ok(kept) => return NodeClass { capture: ProbeCapture::AtNode, kept, rays },
-        Err(e) => (e.traced, e.back_face),
+    let (mut used, met) = match clean_directions(tracer, &h, x, 0, n, &at_node, &mut rays) {
+        Ok(kept) => return NodeClass { capture: ProbeCapture::AtNode, kept, rays, moved_to: None },
+        Err(e) => (e.traced, e.back_faces),
     };
     let (lo, hi) = grid.bounds();
     // A back face met at `dist` along `dir`: where the node moves through it, and whether
@@ -188,12 +200,20 @@ pub(crate) fn classify_node(tracer: &Tracer, grid: &GridSpec, seed: u64, samples
         let g = grid.to_grid(y.to_array());
         (dist, y, (0..3).all(|a| (lo[a]..=hi[a]).contains(&g[a])))
     };
-    // The best back face among the first PROBE_SEARCH_RAYS directions: one whose move stays
-    // in the box beats one whose move leaves it; otherwise the closer one wins.
+    // The best back face among the first PROBE_SEARCH_RAYS directions, or up to the first
+    // back face met when none of those meets one: one whose move stays in the box beats one
+    // whose move leaves it; otherwise the closer one wins. The window does not depend on
+    // the sample count (the stream's directions do not), so neither does the point.
     let rank = |(dist, _, in_box): (f64, DVec3, bool)| (!in_box, dist);
-    let mut best = candidate(first_back);
-    let search = PROBE_SEARCH_RAYS.min(n);
-    while used < search {
+    let window = PROBE_SEARCH_RAYS.min(n).max(met[0].0 + 1);
+    let mut best = candidate((met[0].1, met[0].2));
+    for &(_, dir, dist) in met.iter().skip(1).take_while(|m| m.0 < window) {
+        let c = candidate((dir, dist));
+        if rank(c) < rank(best) {
+            best = c;
+        }
+    }
+    while used < window {
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(used)));
         rays += 1;
         used += 1;
@@ -205,14 +225,14 @@ pub(crate) fn classify_node(tracer: &Tracer, grid: &GridSpec, seed: u64, samples
         }
     }
     let left = n.saturating_sub(used).min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64);
+    let y = best.1;
     if left > 0 {
-        let y = best.1;
         let at_y = BackFaceTest::new(spacing, left);
         if let Ok(kept) = clean_directions(tracer, &h, y, n, left, &at_y, &mut rays) {
-            return NodeClass { capture: ProbeCapture::Relocated(y), kept, rays };
+            return NodeClass { capture: ProbeCapture::Relocated(y), kept, rays, moved_to: Some(y) };
         }
     }
-    NodeClass { capture: ProbeCapture::Filled, kept: Vec::new(), rays }
+    NodeClass { capture: ProbeCapture::Filled, kept: Vec::new(), rays, moved_to: Some(y) }
 }
 
 /// `point`'s random stream for node `node`, which `doi` shares so that a node in the
