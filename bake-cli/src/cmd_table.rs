@@ -6,6 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use clap::Args;
+use lightvol_eval::convergence::{ErrorAtSamples, convergence_plot, convergence_table};
 use lightvol_eval::table::{TableRow, markdown_table};
 use serde_json::Value;
 
@@ -15,7 +16,17 @@ pub(crate) struct TableArgs {
     /// `compare` output directories (each holding a `report.json`), or report files.
     #[arg(required = true)]
     pub(crate) reports: Vec<PathBuf>,
+    /// Instead of the method table, the error against the sample count of reports that
+    /// differ in `--samples`: each method's relative RMSE on the plate and in each view, a
+    /// column per sample count, written as STEM.svg and STEM.png too
+    #[arg(long, value_name = "STEM")]
+    pub(crate) samples_plot: Option<PathBuf>,
 }
+
+/// How much a series may rise from one sample count to the next and still count as
+/// falling: the reference's noise, shared by every count, is about 1% of the error at
+/// the reference samples `compare` uses by default.
+const MONOTONE_SLACK: f64 = 0.01;
 
 /// The label of a report's scene: `builtin:NAME` as given, a file by its name without
 /// the extension.
@@ -28,9 +39,7 @@ fn scene_label(scene: &str) -> String {
 
 /// The rows of one `report.json`.
 fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
-    let file = if path.is_dir() { path.join("report.json") } else { path.to_path_buf() };
-    let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
-    let v: Value = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", file.display()))?;
+    let (file, v) = read_report(path)?;
     let scene = v["scene"].as_str().with_context(|| format!("{}: no \"scene\"", file.display()))?;
     let methods =
         v["methods"].as_object().with_context(|| format!("{}: no \"methods\" object", file.display()))?;
@@ -66,12 +75,119 @@ fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
     Ok(rows)
 }
 
+/// The report in `path` (a `compare` output directory or its `report.json`).
+fn read_report(path: &Path) -> anyhow::Result<(PathBuf, Value)> {
+    let file = if path.is_dir() { path.join("report.json") } else { path.to_path_buf() };
+    let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
+    let v = serde_json::from_str(&text).with_context(|| format!("{}: not JSON", file.display()))?;
+    Ok((file, v))
+}
+
+/// Each method's error on the plate and in each view of one report, at its sample count
+/// (the first way of reading only).
+fn errors_at_samples(path: &Path) -> anyhow::Result<(String, Vec<ErrorAtSamples>)> {
+    let (file, v) = read_report(path)?;
+    let scene = v["scene"].as_str().with_context(|| format!("{}: no \"scene\"", file.display()))?;
+    let methods =
+        v["methods"].as_object().with_context(|| format!("{}: no \"methods\" object", file.display()))?;
+    let mut out = Vec::new();
+    for (name, m) in methods.iter().filter(|(n, _)| !n.contains('@')) {
+        let samples = m["samples"]
+            .as_u64()
+            .and_then(|n| u32::try_from(n).ok())
+            .with_context(|| format!("{}: method {name} has no sample count", file.display()))?;
+        let at = |series: String, e: &Value| {
+            e.as_f64()
+                .map(|rel_rmse| ErrorAtSamples { series, samples, rel_rmse })
+                .with_context(|| format!("{}: method {name} has no relative RMSE", file.display()))
+        };
+        out.push(at(format!("{name}, plate"), &m["rel_rmse"])?);
+        for view in v["views"].as_array().into_iter().flatten() {
+            let camera = view["camera"].as_str().unwrap_or("view");
+            out.push(at(format!("{name}, {camera}"), &view["methods"][name]["rel_rmse"])?);
+        }
+    }
+    Ok((scene_label(scene), out))
+}
+
+/// `lightvol table --samples-plot`: the table on stdout, the plot beside `stem`.
+fn samples_plot(reports: &[PathBuf], stem: &Path) -> anyhow::Result<ExitCode> {
+    let mut points = Vec::new();
+    let mut scenes: Vec<String> = Vec::new();
+    for p in reports {
+        let (scene, pts) = errors_at_samples(p)?;
+        if !scenes.contains(&scene) {
+            scenes.push(scene);
+        }
+        points.extend(pts);
+    }
+    if scenes.len() > 1 {
+        bail!(
+            "--samples-plot compares one scene at several sample counts; the reports hold {}",
+            scenes.join(", ")
+        );
+    }
+    for (path, bytes) in convergence_plot(&scenes[0], &points).files(stem)? {
+        lightvol_core::fs::write_atomic(&path, &bytes)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    print!("{}", convergence_table(&points, MONOTONE_SLACK));
+    Ok(ExitCode::SUCCESS)
+}
+
 /// Runs `lightvol table`.
 pub(crate) fn run(args: &TableArgs) -> anyhow::Result<ExitCode> {
+    if let Some(stem) = &args.samples_plot {
+        return samples_plot(&args.reports, stem);
+    }
     let mut rows = Vec::new();
     for p in &args.reports {
         rows.extend(rows_of(p)?);
     }
     print!("{}", markdown_table(&rows));
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A `compare` report of `scene` with `doi` at `samples`, its plate error `plate` and
+    /// one view's error `view`.
+    fn report(dir: &Path, name: &str, scene: &str, samples: u32, plate: f64, view: f64) -> PathBuf {
+        let v = serde_json::json!({
+            "scene": scene,
+            "methods": {
+                "doi": {"samples": samples, "rel_rmse": plate},
+                "doi@three": {"samples": samples, "rel_rmse": 1.0}
+            },
+            "views": [{"camera": "Main", "methods": {"doi": {"rel_rmse": view}}}]
+        });
+        let p = dir.join(name);
+        std::fs::write(&p, v.to_string()).unwrap();
+        p
+    }
+
+    #[test]
+    fn the_samples_plot_reads_plates_and_views_and_refuses_two_scenes() {
+        let dir = tempfile::tempdir().unwrap();
+        let a = report(dir.path(), "a.json", "room.glb", 1024, 0.2, 0.3);
+        let b = report(dir.path(), "b.json", "room.glb", 256, 0.25, 0.35);
+        let (scene, pts) = errors_at_samples(&a).unwrap();
+        assert_eq!(scene, "room");
+        assert_eq!(
+            pts,
+            vec![
+                ErrorAtSamples { series: "doi, plate".into(), samples: 1024, rel_rmse: 0.2 },
+                ErrorAtSamples { series: "doi, Main".into(), samples: 1024, rel_rmse: 0.3 },
+            ]
+        );
+        let stem = dir.path().join("conv");
+        samples_plot(&[a.clone(), b], &stem).unwrap();
+        assert!(std::fs::read_to_string(stem.with_extension("svg")).unwrap().contains("<svg"));
+        assert!(stem.with_extension("png").exists());
+        let c = report(dir.path(), "c.json", "hall.glb", 256, 0.25, 0.35);
+        let e = samples_plot(&[a, c], &stem).unwrap_err().to_string();
+        assert!(e.contains("room, hall"), "{e}");
+    }
 }

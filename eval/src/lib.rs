@@ -2,6 +2,7 @@
 
 pub mod baked;
 pub mod compare;
+pub mod convergence;
 pub mod demo;
 pub mod entries;
 pub mod error;

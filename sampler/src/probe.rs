@@ -169,6 +169,7 @@ pub(crate) struct NodeClass {
     /// Rays traced, kept or not.
     pub rays: u64,
     /// The point a node outside the domain was moved to, kept (relocated) or not (filled).
+    #[cfg_attr(not(test), expect(dead_code, reason = "read by the convergence test"))]
     pub moved_to: Option<DVec3>,
 }
 
