@@ -325,6 +325,7 @@ pub fn assemble_adaptive(
 }
 
 /// Where the levels of [`drive`] come from.
+#[allow(clippy::large_enum_variant, reason = "one value per adaptive bake, made once")]
 enum Source<'a> {
     /// Bake every level.
     Whole,

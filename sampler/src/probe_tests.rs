@@ -57,6 +57,9 @@ fn breakfast_room() -> (lightvol_scene::Scene, GridSpec) {
     (loaded.scene, grid)
 }
 
+/// A node, its captures and moved-to points at [`COUNTS`], and its near and far shares.
+type Row = (usize, [ProbeCapture; 4], [Option<DVec3>; 4], (f64, f64));
+
 /// Where a capture came from, without the relocated point.
 fn kind(c: ProbeCapture) -> u8 {
     match c {
@@ -77,7 +80,7 @@ fn doi_classification_changes_only_near_its_thresholds() {
     let (scene, grid) = breakfast_room();
     let tracer = Tracer::new(&scene);
     let sp = spacing(&grid);
-    let rows: Vec<(usize, [ProbeCapture; 4], [Option<DVec3>; 4], (f64, f64))> = (0..grid.node_count())
+    let rows: Vec<Row> = (0..grid.node_count())
         .into_par_iter()
         .map(|node| {
             let classes = COUNTS.map(|n| classify_node(&tracer, &grid, 1, n, node));

@@ -25,7 +25,7 @@ use lightvol_scene::bvh::Tracer;
 
 /// Rays per direction of a node's reach, at most: one to the neighbour and four to points
 /// a quarter of a cell beside it on the neighbour's side ([`REACH_BUNDLE_OFFSET`]); the
-/// reach is their median ([`bundle_reach`]). A wall across the cell edge stops all of them
+/// reach is their median (traced in order: the first ray, then a pair only where the earlier rays leave it open). A wall across the cell edge stops all of them
 /// at the same share of their length (exactly, for a wall perpendicular to the axis); a
 /// chair leg, a table leg or a lamp's cable stops one or two of them and leaves the reach a
 /// full cell, where one ray along the edge would cut the node off from everything behind

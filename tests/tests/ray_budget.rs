@@ -4,13 +4,12 @@
 //! under a uniform white sky, as the CLI lights a scene without lights). Algorithm 2's
 //! query rays are the extra cost; the classification rays' hits are reused for lighting.
 //! `doi`'s node reach adds a cost per node that does not grow with the samples: one ray
-//! per direction inside the budget, and at most [`REACH_BUNDLE_RAYS`]` − 1` more where
+//! per direction inside the budget, and at most [`REACH_BUNDLE_RAYS`](lightvol_sampler::reach::REACH_BUNDLE_RAYS)` − 1` more where
 //! something stops that ray.
 
 use lightvol_core::samples::samples;
 
 use lightvol_core::progress::BakeControl;
-use lightvol_sampler::reach::REACH_BUNDLE_RAYS;
 use lightvol_sampler::{BakeSettings, Method, bake};
 use lightvol_scene::builtin::{BUILTIN_NAMES, builtin};
 use lightvol_scene::lights::Environment;
@@ -24,7 +23,7 @@ mod vendored;
 const DOI_RAY_BUDGET: f64 = 1.25;
 
 /// The node reach's rays per node and grid direction, on average over the grid: one where
-/// nothing stops the first ray, at most [`REACH_BUNDLE_RAYS`] elsewhere.
+/// nothing stops the first ray, at most [`REACH_BUNDLE_RAYS`](lightvol_sampler::reach::REACH_BUNDLE_RAYS) elsewhere.
 const REACH_RAYS_PER_DIRECTION: f64 = 2.0;
 
 /// Samples per cell or node: enough for every cell near a wall to find its back faces.
