@@ -168,9 +168,9 @@ pub(crate) struct NodeClass {
     pub kept: Vec<Traced>,
     /// Rays traced, kept or not.
     pub rays: u64,
-    /// The point a node outside the domain was moved to, kept (relocated) or not (filled).
-    #[cfg_attr(not(test), expect(dead_code, reason = "read by the convergence test"))]
-    pub moved_to: Option<DVec3>,
+    /// Where the directions start: the node, or for a node outside the domain the point it
+    /// was moved to, kept (relocated) or not (filled, with no directions kept).
+    pub from: DVec3,
 }
 
 /// Classifies node `node` of `grid` with `samples` directions of `point`'s stream under
@@ -190,7 +190,7 @@ pub(crate) fn classify_node(
     let spacing = spacing(grid);
     let at_node = BackFaceTest::new(spacing, n);
     let (mut used, met) = match clean_directions(tracer, &h, x, 0, n, &at_node, &mut rays) {
-        Ok(kept) => return NodeClass { capture: ProbeCapture::AtNode, kept, rays, moved_to: None },
+        Ok(kept) => return NodeClass { capture: ProbeCapture::AtNode, kept, rays, from: x },
         Err(e) => (e.traced, e.back_faces),
     };
     let (lo, hi) = grid.bounds();
@@ -207,33 +207,33 @@ pub(crate) fn classify_node(
     // the sample count (the stream's directions do not), so neither does the point.
     let rank = |(dist, _, in_box): (f64, DVec3, bool)| (!in_box, dist);
     let window = PROBE_SEARCH_RAYS.min(n).max(met[0].0 + 1);
-    let mut best = candidate((met[0].1, met[0].2));
-    for &(_, dir, dist) in met.iter().skip(1).take_while(|m| m.0 < window) {
+    let mut best: Option<(f64, DVec3, bool)> = None;
+    let mut consider = |dir: DVec3, dist: f64| {
         let c = candidate((dir, dist));
-        if rank(c) < rank(best) {
-            best = c;
+        if best.is_none_or(|b| rank(c) < rank(b)) {
+            best = Some(c);
         }
+    };
+    for &(_, dir, dist) in met.iter().take_while(|m| m.0 < window) {
+        consider(dir, dist);
     }
     while used < window {
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(used)));
         rays += 1;
         used += 1;
         if let Some(b) = tracer.closest_hit(x, dir, 0.0, f64::INFINITY).filter(|h| h.back_face) {
-            let c = candidate((dir, b.t));
-            if rank(c) < rank(best) {
-                best = c;
-            }
+            consider(dir, b.t);
         }
     }
     let left = n.saturating_sub(used).min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as u64);
-    let y = best.1;
+    let y = best.expect("the first back face met is in the window").1;
     if left > 0 {
         let at_y = BackFaceTest::new(spacing, left);
         if let Ok(kept) = clean_directions(tracer, &h, y, n, left, &at_y, &mut rays) {
-            return NodeClass { capture: ProbeCapture::Relocated(y), kept, rays, moved_to: Some(y) };
+            return NodeClass { capture: ProbeCapture::Relocated(y), kept, rays, from: y };
         }
     }
-    NodeClass { capture: ProbeCapture::Filled, kept: Vec::new(), rays, moved_to: Some(y) }
+    NodeClass { capture: ProbeCapture::Filled, kept: Vec::new(), rays, from: y }
 }
 
 /// `point`'s random stream for node `node`, which `doi` shares so that a node in the
@@ -255,14 +255,7 @@ pub(crate) fn probe_unit(
     out.stats.units = 1;
     out.stats.candidates = n;
     out.stats.rays.sampling = class.rays;
-    let x = match class.capture {
-        ProbeCapture::AtNode => {
-            let [i, j, k] = grid.node_coords(node);
-            DVec3::from_array(grid.node_position_world(i, j, k))
-        }
-        ProbeCapture::Relocated(y) => y,
-        ProbeCapture::Filled => DVec3::ZERO,
-    };
+    let x = class.from;
     if class.capture != ProbeCapture::AtNode {
         out.stats.back_face_points = 1;
         out.stats.cells_with_back_faces = 1;

@@ -85,7 +85,7 @@ fn doi_classification_changes_only_near_its_thresholds() {
         .map(|node| {
             let classes = COUNTS.map(|n| classify_node(&tracer, &grid, 1, n, node));
             let captures = classes.each_ref().map(|c| c.capture);
-            let moved = classes.each_ref().map(|c| c.moved_to);
+            let moved = classes.each_ref().map(|c| (c.capture != ProbeCapture::AtNode).then_some(c.from));
             let [i, j, k] = grid.node_coords(node);
             let x = DVec3::from_array(grid.node_position_world(i, j, k));
             (node, captures, moved, shares(&tracer, x, sp))

@@ -21,7 +21,7 @@ mod common;
 
 use std::sync::OnceLock;
 
-use clients::{Engine, Frame, Shot, csv, edge_mask, frame_rmse, render_view, root};
+use clients::{Engine, Frame, Shot, csv, edge_mask, frame_rmse, path_traced, render_view, root};
 use common::{ok, s};
 use glam::DVec3;
 use lightvol_view::camera::Camera;
@@ -110,13 +110,7 @@ fn shot() -> Shot<'static> {
 /// The path-traced view under the bake's light (the ground truth), 256 samples a pixel.
 fn reference() -> &'static Frame {
     static REFERENCE: OnceLock<Frame> = OnceLock::new();
-    REFERENCE.get_or_init(|| {
-        render_view(
-            &shot(),
-            "reference.exr",
-            &["--reference", "--light", "sky+indirect", "--reference-samples", "256"],
-        )
-    })
+    REFERENCE.get_or_init(|| path_traced(&shot(), &["--light", "sky+indirect"]))
 }
 
 /// The view through lightvol's own lookup (validity and node reach) of the same volume.

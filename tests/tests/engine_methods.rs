@@ -18,7 +18,7 @@ mod common;
 use std::path::Path;
 use std::sync::OnceLock;
 
-use clients::{Engine, Frame, Shot, edge_mask, frame_rmse, render_view, root};
+use clients::{Engine, Frame, Shot, edge_mask, frame_rmse, path_traced, root};
 use common::{ok, s};
 use serde_json::Value;
 
@@ -117,11 +117,7 @@ fn shot() -> Shot<'static> {
 /// The path-traced view under the bakes' light, 256 samples a pixel.
 fn reference() -> &'static Frame {
     static REFERENCE: OnceLock<Frame> = OnceLock::new();
-    REFERENCE.get_or_init(|| {
-        let mut extra = vec!["--reference", "--reference-samples", "256"];
-        extra.extend(LIGHT);
-        render_view(&shot(), "reference.exr", &extra)
-    })
+    REFERENCE.get_or_init(|| path_traced(&shot(), &LIGHT))
 }
 
 /// How much farther from the path-traced view than a fix's frame the targeted `doi`'s frame

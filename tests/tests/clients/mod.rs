@@ -239,6 +239,14 @@ pub fn render_view(shot: &Shot<'_>, name: &str, extra: &[&str]) -> Frame {
     read_exr(&out)
 }
 
+/// The path-traced view of `shot` under `light` (`render`'s light options), 256 samples a
+/// pixel: the ground truth the clients' frames are measured against.
+pub fn path_traced(shot: &Shot<'_>, light: &[&str]) -> Frame {
+    let mut extra = vec!["--reference", "--reference-samples", "256"];
+    extra.extend(light);
+    render_view(shot, "reference.exr", &extra)
+}
+
 /// Relative RMSE of `got` against `want` over the pixels both see lit and `interior`
 /// admits, and how many pixels entered.
 pub fn frame_rmse(got: &Frame, want: &Frame, interior: &[bool]) -> (f64, usize) {
