@@ -143,8 +143,10 @@ pub(crate) struct SampleArgs {
     #[arg(long, default_value = "average")]
     pub(crate) fit: lightvol_sampler::node_fit::Fit,
     /// Bake until converged: sample each node (cell for prefilter and doi-paper) in rounds
-    /// doubling from --samples until the relative standard error of its estimate is at most
-    /// N (e.g. 0.01), or it has --max-samples. Each unit's count depends only on its own
+    /// growing from --samples (at least doubling) until the estimated relative error of its
+    /// estimate is at most N (e.g. 0.01), or it has --max-samples. The error is estimated
+    /// from how far the mean of the unit's first half and first quarter of samples lie from
+    /// the mean of all of them. Each unit's count depends only on its own
     /// samples, so results stay bit-identical for any thread or shard count; the report
     /// says how many samples were spent and how many units stopped at the cap.
     #[arg(long, value_name = "N")]

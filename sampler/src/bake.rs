@@ -36,7 +36,7 @@ use rayon::prelude::*;
 
 use crate::error::BakeError;
 use crate::method::Method;
-use crate::probe::probe_unit;
+use crate::probe::{Earlier, probe_round};
 use crate::settings::BakeSettings;
 use crate::stats::BakeStats;
 use crate::unit::{UnitOut, cell_unit, node_box_unit, point_unit};
@@ -399,33 +399,43 @@ fn run_units(
     Ok(stats)
 }
 
-/// One unit's samples at `settings.samples`, or with a noise target in doubling rounds
-/// until its estimate converges ([`crate::noise`]): the last round, with every round's rays.
+/// One unit's samples at `settings.samples`, or with a noise target in growing rounds
+/// until its estimate converges ([`crate::noise`]): the last round, with every round's
+/// rays. `doi`'s rounds reuse the earlier round's samples ([`probe_round`]); the other
+/// methods' rounds bake afresh.
 fn sample_unit(transport: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, u: usize) -> UnitOut {
-    let once = |s: &BakeSettings| {
-        let mut out = match s.method {
-            Method::Point => point_unit(transport, grid, s, u),
-            Method::DoiNode => node_box_unit(transport, grid, s, u),
-            Method::Doi => probe_unit(transport, grid, s, u).0,
-            Method::Prefilter | Method::DoiPaper => cell_unit(transport, grid, s, u),
+    // One round; `doi`'s also returns where its directions started and its samples' indices.
+    let round = |s: &BakeSettings, earlier: Option<&Earlier>| {
+        let (mut out, doi) = match s.method {
+            Method::Point => (point_unit(transport, grid, s, u), None),
+            Method::DoiNode => (node_box_unit(transport, grid, s, u), None),
+            Method::Doi => {
+                let (out, capture, indices) = probe_round(transport, grid, s, u, earlier);
+                (out, Some((capture, indices)))
+            }
+            Method::Prefilter | Method::DoiPaper => (cell_unit(transport, grid, s, u), None),
         };
         out.stats.final_samples = u64::from(s.samples.get());
-        out
+        (out, doi)
     };
-    let Some(target) = settings.noise else { return once(settings) };
+    let Some(target) = settings.noise else { return round(settings, None).0 };
     let mut s = *settings;
-    let mut earlier = lightvol_scene::stats::RayCounts::default();
+    let mut earlier_rays = lightvol_scene::stats::RayCounts::default();
+    let mut earlier: Option<Earlier> = None;
     loop {
-        let mut out = once(&s);
+        let (mut out, doi) = round(&s, earlier.as_ref());
         let n = s.samples.get();
-        let done = crate::noise::converged(&out.sample_values(), &target);
+        let error = crate::noise::relative_error_of(&out.sample_values());
+        let done = error.is_none_or(|e| e <= target.relative_error);
         if done || n >= target.max_samples.get() {
-            out.stats.rays.add(&earlier);
+            out.stats.rays.add(&earlier_rays);
             out.stats.capped_units = u64::from(!done);
             return out;
         }
-        earlier.add(&out.stats.rays);
-        s.samples = lightvol_core::samples::samples(n.saturating_mul(2).min(target.max_samples.get()));
+        earlier_rays.add(&out.stats.rays);
+        earlier = doi.map(|(capture, indices)| Earlier::keep(out, capture, &indices));
+        let next = crate::noise::next_samples(n, error.unwrap_or(f64::INFINITY), &target);
+        s.samples = lightvol_core::samples::samples(next);
     }
 }
 

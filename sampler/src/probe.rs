@@ -174,7 +174,7 @@ pub(crate) struct NodeClass {
 }
 
 /// Classifies node `node` of `grid` with `samples` directions of `point`'s stream under
-/// `seed` (the rays of [`probe_unit`], without the light they carry).
+/// `seed` (the rays of [`probe_round`], without the light they carry).
 pub(crate) fn classify_node(
     tracer: &Tracer,
     grid: &GridSpec,
@@ -242,13 +242,47 @@ fn point_stream(node: usize) -> u64 {
     hash2(node as u64, 0x0070_6f69_6e74)
 }
 
-/// `doi` for one node: the samples and where they were taken.
+/// `doi` for one node: the samples and where they were taken (one [`probe_round`]).
+#[cfg(test)]
 pub(crate) fn probe_unit(
     t: &Transport<'_>,
     grid: &GridSpec,
     settings: &BakeSettings,
     node: usize,
 ) -> (UnitOut, ProbeCapture) {
+    let (out, capture, _) = probe_round(t, grid, settings, node, None);
+    (out, capture)
+}
+
+/// What one round of a node's samples under a noise target ([`crate::noise`]) leaves for
+/// the next: where its directions started, and each kept sample with its index in the
+/// node's stream.
+#[derive(Debug, Default)]
+pub(crate) struct Earlier {
+    capture: Option<ProbeCapture>,
+    samples: Vec<(u64, SampleOut)>,
+}
+
+impl Earlier {
+    /// A round's output and its samples' indices ([`probe_round`]), kept for the next.
+    pub(crate) fn keep(out: UnitOut, capture: ProbeCapture, indices: &[u64]) -> Self {
+        Self { capture: Some(capture), samples: indices.iter().copied().zip(out.samples).collect() }
+    }
+}
+
+/// `doi` for one node, reusing the samples of an `earlier` round of the same node: a sample is
+/// a function of where the directions start, its direction and first hit (both fixed by
+/// its index in the stream) and its own path stream, so where the earlier round started
+/// at the same point, its samples of the same indices are this round's bit for bit and
+/// their bounces need no tracing again (their rays were counted with that round). Also
+/// returns the kept samples' indices.
+pub(crate) fn probe_round(
+    t: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    node: usize,
+    earlier: Option<&Earlier>,
+) -> (UnitOut, ProbeCapture, Vec<u64>) {
     let n = u64::from(settings.samples.get());
     let class = classify_node(t.tracer(), grid, settings.seed, n, node);
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
@@ -266,10 +300,17 @@ pub(crate) fn probe_unit(
         w[0] = 1.0;
         w
     };
+    let reuse = earlier.filter(|e| e.capture == Some(class.capture)).map_or(&[][..], |e| &e.samples[..]);
+    let mut reuse = reuse.iter().peekable();
+    let indices: Vec<u64> = class.kept.iter().map(|k| k.0).collect();
     out.samples = class
         .kept
         .into_iter()
         .map(|(s, dir, hit)| {
+            while reuse.next_if(|(i, _)| *i < s).is_some() {}
+            if let Some((_, same)) = reuse.next_if(|(i, _)| *i == s) {
+                return *same;
+            }
             let mut rng = PathRng::new(settings.seed, stream, s);
             let (terms, n_terms) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats);
             SampleOut { weights: one, terms, n_terms }
@@ -279,7 +320,7 @@ pub(crate) fn probe_unit(
     if let ProbeCapture::Relocated(y) = class.capture {
         out.relocated = Some(y);
     }
-    (out, class.capture)
+    (out, class.capture, indices)
 }
 
 #[cfg(test)]

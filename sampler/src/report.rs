@@ -84,7 +84,7 @@ pub struct BakeReport {
 /// What a bake until converged (`--noise`, [`crate::noise`]) spent.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct NoiseReport {
-    /// The relative standard error aimed at.
+    /// The relative error aimed at.
     pub relative_error: f64,
     /// The cap on samples per unit.
     pub max_samples: u32,

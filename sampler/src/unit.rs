@@ -23,7 +23,7 @@ use crate::stats::BakeStats;
 
 /// One sample's contribution: trilinear weights of its origin for the unit's 8 nodes, and
 /// up to two directional terms `(direction, radiance / pdf)`.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct SampleOut {
     pub(crate) weights: [f64; 8],
     pub(crate) terms: [(DVec3, [f64; 3]); 2],

@@ -45,12 +45,12 @@ pub struct BakeRecord {
     pub noise: Option<NoiseRecord>,
 }
 
-/// A bake sampled until converged: each unit in rounds doubling from
-/// [`BakeRecord::samples_per_unit`] until its estimate's relative standard error reached
+/// A bake sampled until converged: each unit in rounds growing from
+/// [`BakeRecord::samples_per_unit`] until its estimate's estimated relative error reached
 /// `relative_error`, or it had `max_samples`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct NoiseRecord {
-    /// The relative standard error aimed at.
+    /// The relative error aimed at.
     pub relative_error: f64,
     /// The most samples a unit got.
     pub max_samples: u32,
