@@ -62,7 +62,10 @@ pub(crate) struct CompareArgs {
     /// lookups), `point+vlm` (Unreal), `point+ddgi` (DDGI relocation); `BASE+ENGINE`
     /// (`three`, `bevy`, `trilinear`, `apv`) for a bake whose node values are fitted for that
     /// engine's lookup (`bake --target`), read through it with `--lookup native` or that
-    /// engine's name.
+    /// engine's name; `bound+LOOKUP` (`three`, `bevy`, `trilinear`, `apv`, `lightvol`) for
+    /// the node values that fit the plate's reference best through that lookup: not a
+    /// bake but the lowest plate error any bake reaches on this grid read that way, always
+    /// read through its own lookup.
     #[arg(long, default_value = "point,prefilter,doi-paper,doi", value_delimiter = ',')]
     pub(crate) methods: Vec<String>,
     /// Gradient estimator of the `BASE+LOOKUP` entries (default: `basis` for

@@ -14,7 +14,7 @@ use crate::observer::Observer;
 use crate::plate::{Plate, PlateConfig};
 use crate::reads::{ReadAs, read_as};
 use crate::runs::{
-    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_gradient, run_targeted,
+    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_bound, run_gradient, run_targeted,
     run_uniform,
 };
 use crate::sweep::{SweepConfig, SweepReport, check_scales, memory_sweep};
@@ -228,6 +228,7 @@ fn compare_here(
             Entry::Adaptive(levels) => run_adaptive(&ctx, grid, name, levels, &plate)?,
             Entry::Baseline(b) => run_baseline(&ctx, grid, name, b, &plate)?,
             Entry::Targeted(method, lookup) => run_targeted(&ctx, grid, name, method, lookup, &plate)?,
+            Entry::Bound(lookup) => run_bound(&ctx, grid, name, lookup, &plate)?,
         };
         baked.push(run);
     }

@@ -2,7 +2,8 @@
 //! (\[KL06\] §4-6) read by trilinear interpolation, the same bakes finalized with another
 //! node fit ([`lightvol_sampler::node_fit`]), read through one of Oat 2005's gradient lookups (\[Oat05\],
 //! "Spherical Harmonic Irradiance Gradients"), \[Oat05\]'s adaptive octree, and the engines'
-//! leak fixes ([`lightvol_sampler::baselines`]).
+//! leak fixes ([`lightvol_sampler::baselines`]), and the lowest plate error any node values
+//! reach through a lookup ([`Entry::Bound`]).
 //!
 //! Every entry has a name, which [`parse_entry`] reads and [`Entry`]'s `Display` writes:
 //!
@@ -14,6 +15,7 @@
 //! | `BASE+three`, `BASE+bevy`, `BASE+trilinear`, `BASE+apv` | [`Entry::Targeted`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
 //! | `point+validity`, `point+apv`, `point+vlm`, `point+ddgi` | [`Entry::Baseline`] |
+//! | `bound+three`, `bound+bevy`, `bound+trilinear`, `bound+apv`, `bound+lightvol` | [`Entry::Bound`] |
 //!
 //! **Memory.** Every entry reports the run-time bytes of what a renderer would keep: for a
 //! uniform grid \[Oat05\]'s accounting ("GPU Memory Requirements"), the RGB SH floats per
@@ -60,6 +62,11 @@ pub enum Entry {
     /// A uniform bake whose node values are then fitted for an engine's lookup
     /// ([`lightvol_sampler::target`]).
     Targeted(Method, EngineLookup),
+    /// Not a bake: the node values that fit the plate's path-traced reference best through
+    /// this lookup ([`lightvol_sampler::target::best_for_points`]), so its plate error is
+    /// the lowest any bake reaches on this grid read that way. Always read through its
+    /// own lookup.
+    Bound(EngineLookup),
 }
 
 /// Level 0 of the `adaptive` entry: the compared grid's cell counts times this.
@@ -110,6 +117,11 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
     if let Some(b) = Baseline::from_name(s) {
         return Ok(Entry::Baseline(b));
     }
+    if let Some(l) = s.strip_prefix("bound+") {
+        return EngineLookup::parse(l)
+            .map(Entry::Bound)
+            .ok_or_else(|| EvalError::UnknownEngineLookup(l.to_owned()));
+    }
     match s.split_once('+') {
         None => Ok(Entry::Uniform(parse_method(s)?)),
         Some((base, fit)) if fit == "average" || fit.starts_with("lsq") => Ok(Entry::Fitted(
@@ -143,6 +155,7 @@ impl fmt::Display for Entry {
             Self::Adaptive(l) => write!(f, "adaptive{l}"),
             Self::Baseline(b) => f.write_str(b.name()),
             Self::Targeted(m, l) => write!(f, "{}+{l}", m.name()),
+            Self::Bound(l) => write!(f, "bound+{l}"),
         }
     }
 }
@@ -256,6 +269,10 @@ mod tests {
         assert_eq!(parse_entry("point+apv").unwrap(), Entry::Baseline(Baseline::Apv));
         assert_eq!(parse_entry("doi+apv").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Apv));
         assert_eq!(parse_entry("doi+three").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Three));
+        assert_eq!(parse_entry("bound+three").unwrap(), Entry::Bound(EngineLookup::Three));
+        assert_eq!(parse_entry("bound+lightvol").unwrap(), Entry::Bound(EngineLookup::Lightvol));
+        assert_eq!(Entry::Bound(EngineLookup::Apv).to_string(), "bound+apv");
+        assert!(parse_entry("bound+unity").unwrap_err().to_string().contains("'unity'"));
         assert!(parse_entry("doi+lightvol").is_err(), "lightvol's lookup is the plain bake");
         assert_eq!(parse_entry("point+vlm").unwrap(), Entry::Baseline(Baseline::Vlm));
         assert!(parse_entry("doi+lsq:-2").is_err());

@@ -20,6 +20,9 @@ pub enum EvalError {
     /// An entry names no gradient lookup.
     #[error("unknown gradient lookup '{0}' (taylor, gtrilinear, hermite)")]
     UnknownLookup(String),
+    /// `bound+NAME` names no engine lookup.
+    #[error("unknown engine lookup '{0}' in bound+ (three, bevy, trilinear, apv, lightvol)")]
+    UnknownEngineLookup(String),
     /// `adaptiveL` with `L` outside `1..=max` (`entries::ADAPTIVE_LEVELS_MAX`).
     #[error("'{name}': adaptiveL needs a finest level L from 1 to {max}")]
     AdaptiveLevel {

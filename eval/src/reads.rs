@@ -46,6 +46,7 @@ impl ReadAs {
     #[must_use]
     pub fn lookup_for(self, entry: Entry) -> Option<EngineLookup> {
         match (self, entry) {
+            (_, Entry::Bound(l)) => Some(l),
             (Self::Engine(EngineLookup::Lightvol), Entry::Targeted(..)) => Some(EngineLookup::Lightvol),
             (Self::Engine(EngineLookup::Lightvol), _) => None,
             (Self::Engine(l), _) => Some(l),
@@ -114,6 +115,10 @@ mod tests {
         assert_eq!(n.lookup_for(Entry::Baseline(Baseline::Vlm)), Some(EngineLookup::Trilinear));
         assert_eq!(n.lookup_for(Entry::Targeted(Method::Doi, EngineLookup::Bevy)), Some(EngineLookup::Bevy));
         assert_eq!(n.lookup_for(Entry::Uniform(Method::Doi)), None);
+        // A bound is read through its own lookup, whichever way the others are read.
+        for w in [ReadAs::Native, ReadAs::default(), ReadAs::Engine(EngineLookup::Bevy)] {
+            assert_eq!(w.lookup_for(Entry::Bound(EngineLookup::Three)), Some(EngineLookup::Three));
+        }
         assert!(!n.needs_grid(Entry::Adaptive(2)));
         assert!(ReadAs::Engine(EngineLookup::Three).needs_grid(Entry::Adaptive(2)));
         assert!(!ReadAs::default().needs_grid(Entry::Adaptive(2)));

@@ -30,7 +30,9 @@ use lightvol_sampler::method::Baseline;
 use lightvol_sampler::method::Method;
 use lightvol_sampler::node_fit::{Fit, bake_fitted};
 use lightvol_sampler::settings::BakeSettings;
-use lightvol_sampler::target::{TargetSettings, fit_for_lookup, own_samples_mask};
+use lightvol_sampler::target::{
+    KnownPoint, TargetSettings, best_for_points, fit_for_lookup, own_samples_mask,
+};
 use lightvol_scene::stats::RayCounts;
 use lightvol_scene::transport::Transport;
 
@@ -194,6 +196,53 @@ pub fn run_targeted(
         fit_for_lookup(&ctx.transport, &baked, &TargetSettings::new(lookup, ctx.seed), Some(valid))
             .map_err(EvalError::at("fitting for the target lookup"))?;
     stats.rays.query += report.rays;
+    let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
+    let estimate = plate.engine_estimate(&vol, lookup);
+    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
+        + vol.validity().map_or(0, ValidityMask::memory_bytes);
+    Ok(MethodRun::new(
+        name,
+        ctx.samples,
+        stats.rays,
+        seconds,
+        plate,
+        estimate,
+        memory,
+        grid.node_count(),
+        RunDetail::Uniform,
+        RunVolume::Engine(Arc::new(vol), lookup),
+    ))
+}
+
+/// The plate's lower bound through `lookup` (stage `name`): bakes `doi` on `grid` for a
+/// starting point and APV's validity, then sets the node values that fit the plate's
+/// reference best through the lookup ([`best_for_points`]; the points the reference
+/// classifies as seeing back faces are left out, as the metrics leave them out). Its rays
+/// are the bake's; its time includes the fit.
+///
+/// # Errors
+/// The bake's and the fit's.
+pub fn run_bound(
+    ctx: &BakeContext<'_>,
+    grid: &GridSpec,
+    name: &str,
+    lookup: EngineLookup,
+    plate: &Plate,
+) -> Result<MethodRun, EvalError> {
+    let settings = ctx.settings(Method::Doi);
+    let out = ctx
+        .stage(name, |c| lightvol_sampler::bake(&ctx.transport, grid, &settings, c))
+        .map_err(EvalError::at("baking"))?;
+    let valid = own_samples_mask(&out.accumulator);
+    let (baked, stats) = out.finish();
+    let t0 = Instant::now();
+    let up = [0.0, 0.0, 1.0];
+    let points: Vec<KnownPoint> = (0..plate.points.len())
+        .filter(|&i| plate.valid[i])
+        .map(|i| KnownPoint { p: plate.points[i].to_array(), n: up, to_eye: up, value: plate.truth[i] })
+        .collect();
+    let vol = best_for_points(&baked, lookup, Some(valid), &points)
+        .map_err(EvalError::at("fitting the plate's reference"))?;
     let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
     let estimate = plate.engine_estimate(&vol, lookup);
     let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)

@@ -266,18 +266,77 @@ pub fn fit_for_lookup(
         })
         .collect();
     report.unlit_samples = report.surface_samples + report.free_samples - rows.len();
-    let (values, nodes_fitted, iterations) = solve(&fitted, &rows, settings.lambda);
-    report.nodes_fitted = nodes_fitted;
-    report.iterations = iterations;
     report.relative_rms_before = relative_rms(&fitted, &rows);
-    let coeffs = fitted.coeffs();
-    for node in 0..nodes {
-        let v: Vec<f32> =
-            values[node * 3 * coeffs..(node + 1) * 3 * coeffs].iter().map(|&x| x as f32).collect();
-        fitted.set_node(node, &v).map_err(|e| BakeError::Settings(e.to_string()))?;
-    }
+    (report.nodes_fitted, report.iterations) = solve_into(&mut fitted, &rows, settings.lambda)?;
     report.relative_rms_after = relative_rms(&fitted, &rows);
     Ok((fitted, report))
+}
+
+/// Solves the fit of `rows` ([`solve`]) and stores the node values in `vol`: returns the
+/// nodes solved for and the iterations.
+fn solve_into(vol: &mut IrradianceVolume, rows: &[Row], lambda: f64) -> Result<(usize, usize), BakeError> {
+    let (values, nodes_fitted, iterations) = solve(vol, rows, lambda);
+    let k = 3 * vol.coeffs();
+    for node in 0..vol.spec().node_count() {
+        let v: Vec<f32> = values[node * k..(node + 1) * k].iter().map(|&x| x as f32).collect();
+        vol.set_node(node, &v).map_err(|e| BakeError::Settings(e.to_string()))?;
+    }
+    Ok((nodes_fitted, iterations))
+}
+
+/// A point where the lookup is asked, and the irradiance it should answer there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KnownPoint {
+    /// Where the engine shades, in the volume's frame.
+    pub p: [f64; 3],
+    /// The shading normal (unit).
+    pub n: [f64; 3],
+    /// Towards the eye (unit; APV's view bias).
+    pub to_eye: [f64; 3],
+    /// The irradiance wanted, RGB.
+    pub value: [f64; 3],
+}
+
+/// λ of [`best_for_points`]: small enough that the data decide every coefficient they
+/// reach (it adds `λ μ`, a millionth of the data's own weight on a node's constant
+/// coefficient, to the normal equations), large enough that coefficients no point
+/// determines stay at the volume's values.
+pub const BOUND_LAMBDA: f64 = 1e-6;
+
+/// The node values that reproduce known irradiance at `points` best through `lookup`:
+/// the least-squares fit of the module docs with the points' values as data and a
+/// vanishing regulariser ([`BOUND_LAMBDA`]) toward `volume`'s values, so the result's
+/// error at those points is the lowest any node values on this grid reach through this
+/// lookup (with `valid` as APV's validity mask; lightvol's lookup keeps the volume's own
+/// validity and node reach). With a path-traced reference as the values this bounds
+/// every bake from below at those points: no choice of node values, and so no bake
+/// method, does better there on this grid.
+///
+/// # Errors
+/// [`BakeError::Settings`] for a mask of the wrong size.
+pub fn best_for_points(
+    volume: &IrradianceVolume,
+    lookup: EngineLookup,
+    valid: Option<ValidityMask>,
+    points: &[KnownPoint],
+) -> Result<IrradianceVolume, BakeError> {
+    let mut fitted = volume.clone();
+    // lightvol's own lookup keeps the volume's validity and node reach; the engines' read
+    // neither, except APV's validity.
+    if lookup != EngineLookup::Lightvol {
+        fitted.set_reach(None).map_err(|e| BakeError::Settings(e.to_string()))?;
+        let mask = if lookup == EngineLookup::Apv { valid } else { None };
+        fitted.set_validity(mask).map_err(|e| BakeError::Settings(e.to_string()))?;
+    }
+    let rows: Vec<Row> = points
+        .par_iter()
+        .filter_map(|k| {
+            let w = fitted.engine_weights(lookup, k.p, k.n, k.to_eye);
+            w.lit().then_some(Row { w, value: k.value })
+        })
+        .collect();
+    solve_into(&mut fitted, &rows, BOUND_LAMBDA)?;
+    Ok(fitted)
 }
 
 /// RMS of `R_X(c; s) − E_s` over the rows and channels, over the RMS of `E_s`.

@@ -131,3 +131,61 @@ fn bad_lambda_is_refused() {
         assert!(e.to_string().contains("λ must be >= 0"), "{e}");
     }
 }
+
+/// The lower bound on a grid ([`best_for_points`]): values the lookup can reproduce are
+/// reproduced; values it cannot (a ripple finer than a cell) are met no worse by any
+/// other node values tried: the start, the volume that made the smooth part, and the bound
+/// moved by each of 24 random perturbations (a least-squares minimum, so each must raise
+/// the error). Every engine's rule.
+#[test]
+fn the_bound_is_the_least_error_any_node_values_reach() {
+    let truth = smooth_volume(0.0);
+    let start = smooth_volume(0.7);
+    let error = |vol: &IrradianceVolume, lookup: EngineLookup, pts: &[KnownPoint]| -> f64 {
+        let (e, n) = pts.iter().fold((0.0, 0.0), |(e, n), k| {
+            let got = vol.engine_irradiance(lookup, k.p, k.n, k.to_eye);
+            (
+                e + (0..3).map(|c| (got[c] - k.value[c]).powi(2)).sum::<f64>(),
+                n + (0..3).map(|c| k.value[c].powi(2)).sum::<f64>(),
+            )
+        });
+        (e / n).sqrt()
+    };
+    let h = Qmc::<5>::new(5, 1);
+    let (lo, hi) = start.spec().bounds();
+    for lookup in [EngineLookup::Trilinear, EngineLookup::Three, EngineLookup::Bevy] {
+        let points = |ripple: f64| -> Vec<KnownPoint> {
+            (0..3000)
+                .map(|s| {
+                    let q = h.point(s);
+                    let p: [f64; 3] = std::array::from_fn(|a| lo[a] + (hi[a] - lo[a]) * q[a]);
+                    let n = sample_uniform_sphere([q[3], q[4]]);
+                    let e = truth.engine_irradiance(lookup, p, n, n);
+                    let r = 1.0 + ripple * (7.0 * p[0]).sin() * (5.0 * p[1]).cos();
+                    KnownPoint { p, n, to_eye: n, value: e.map(|v| v * r) }
+                })
+                .collect()
+        };
+        let exact = points(0.0);
+        let bound = best_for_points(&start, lookup, None, &exact).unwrap();
+        // f32 node values: 1e-6 relative after rounding, as in the solver's test.
+        assert!(error(&bound, lookup, &exact) < 1e-5, "{lookup}: {}", error(&bound, lookup, &exact));
+        let rippled = points(0.2);
+        let bound = best_for_points(&start, lookup, None, &rippled).unwrap();
+        let best = error(&bound, lookup, &rippled);
+        assert!(best > 0.01, "{lookup}: a ripple finer than a cell cannot be met ({best})");
+        assert!(best < error(&start, lookup, &rippled) && best < error(&truth, lookup, &rippled), "{lookup}");
+        let mut rng = lightvol_sh::lowdisc::SplitMix64::new(17);
+        for _ in 0..24 {
+            let mut moved = bound.clone();
+            let node = (rng.next_u64() % moved.spec().node_count() as u64) as usize;
+            let mut v = moved.node(node).to_vec();
+            let c = (rng.next_u64() % v.len() as u64) as usize;
+            v[c] += 0.02 * (rng.next_f64() - 0.5).signum() as f32;
+            moved.set_node(node, &v).unwrap();
+            // The minimum's f32 rounding leaves ~1e-7 relative; a step of 0.01 raises the
+            // error by far more.
+            assert!(error(&moved, lookup, &rippled) >= best - 1e-7, "{lookup}: node {node} coefficient {c}");
+        }
+    }
+}
