@@ -36,7 +36,7 @@ use rayon::prelude::*;
 
 use crate::error::BakeError;
 use crate::method::Method;
-use crate::probe::{Earlier, probe_round};
+use crate::probe::{classify_node, probe_samples};
 use crate::settings::BakeSettings;
 use crate::stats::BakeStats;
 use crate::unit::{UnitOut, cell_unit, node_box_unit, point_unit};
@@ -401,29 +401,33 @@ fn run_units(
 
 /// One unit's samples at `settings.samples`, or with a noise target in growing rounds
 /// until its estimate converges ([`crate::noise`]): the last round, with every round's
-/// rays. `doi`'s rounds reuse the earlier round's samples ([`probe_round`]); the other
-/// methods' rounds bake afresh.
+/// rays. `doi` classifies a node once, with the cap's directions, and its rounds extend
+/// one another ([`doi_until_converged`]); the other methods' rounds bake afresh.
 fn sample_unit(transport: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, u: usize) -> UnitOut {
-    // One round; `doi`'s also returns where its directions started and its samples' indices.
-    let round = |s: &BakeSettings, earlier: Option<&Earlier>| {
-        let (mut out, doi) = match s.method {
-            Method::Point => (point_unit(transport, grid, s, u), None),
-            Method::DoiNode => (node_box_unit(transport, grid, s, u), None),
+    let once = |s: &BakeSettings| {
+        let mut out = match s.method {
+            Method::Point => point_unit(transport, grid, s, u),
+            Method::DoiNode => node_box_unit(transport, grid, s, u),
             Method::Doi => {
-                let (out, capture, indices) = probe_round(transport, grid, s, u, earlier);
-                (out, Some((capture, indices)))
+                let n = u64::from(s.samples.get());
+                let class = classify_node(transport.tracer(), grid, s.seed, n, u);
+                let mut out = probe_samples(transport, s, u, &class, class.kept.len(), &[]);
+                out.stats.rays.sampling += class.rays;
+                out
             }
-            Method::Prefilter | Method::DoiPaper => (cell_unit(transport, grid, s, u), None),
+            Method::Prefilter | Method::DoiPaper => cell_unit(transport, grid, s, u),
         };
         out.stats.final_samples = u64::from(s.samples.get());
-        (out, doi)
+        out
     };
-    let Some(target) = settings.noise else { return round(settings, None).0 };
+    let Some(target) = settings.noise else { return once(settings) };
+    if settings.method == Method::Doi {
+        return doi_until_converged(transport, grid, settings, &target, u);
+    }
     let mut s = *settings;
     let mut earlier_rays = lightvol_scene::stats::RayCounts::default();
-    let mut earlier: Option<Earlier> = None;
     loop {
-        let (mut out, doi) = round(&s, earlier.as_ref());
+        let mut out = once(&s);
         let n = s.samples.get();
         let error = crate::noise::relative_error_of(&out.sample_values());
         let done = error.is_none_or(|e| e <= target.relative_error);
@@ -433,9 +437,43 @@ fn sample_unit(transport: &Transport<'_>, grid: &GridSpec, settings: &BakeSettin
             return out;
         }
         earlier_rays.add(&out.stats.rays);
-        earlier = doi.map(|(capture, indices)| Earlier::keep(out, capture, &indices));
         let next = crate::noise::next_samples(n, error.unwrap_or(f64::INFINITY), &target);
         s.samples = lightvol_core::samples::samples(next);
+    }
+}
+
+/// `doi` under a noise target: the node is classified once with the cap's directions, so
+/// it is kept, relocated or filled as a bake at the cap would have it whatever count it
+/// stops at (a classification at each round's count moves near its thresholds as the
+/// count grows, [`crate::probe`]); each round takes the first kept directions a bake of
+/// its count would take ([`NodeClass::take`](crate::probe::NodeClass::take)) and reuses
+/// the samples of the round before.
+fn doi_until_converged(
+    transport: &Transport<'_>,
+    grid: &GridSpec,
+    settings: &BakeSettings,
+    target: &crate::noise::NoiseTarget,
+    u: usize,
+) -> UnitOut {
+    let cap = target.max_samples.get();
+    let class = classify_node(transport.tracer(), grid, settings.seed, u64::from(cap), u);
+    let mut spent = lightvol_scene::stats::RayCounts { sampling: class.rays, ..Default::default() };
+    let mut n = settings.samples.get().min(cap);
+    let mut earlier = Vec::new();
+    loop {
+        let s = BakeSettings { samples: lightvol_core::samples::samples(n), ..*settings };
+        let mut out = probe_samples(transport, &s, u, &class, class.take(u64::from(n)), &earlier);
+        out.stats.final_samples = u64::from(n);
+        let error = crate::noise::relative_error_of(&out.sample_values());
+        let done = error.is_none_or(|e| e <= target.relative_error);
+        if done || n >= cap {
+            out.stats.rays.add(&spent);
+            out.stats.capped_units = u64::from(!done);
+            return out;
+        }
+        spent.add(&out.stats.rays);
+        n = crate::noise::next_samples(n, error.unwrap_or(f64::INFINITY), target);
+        earlier = out.samples;
     }
 }
 

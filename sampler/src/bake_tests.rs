@@ -480,32 +480,42 @@ fn noise_targets_are_deterministic_and_met_unit_by_unit() {
     }
 }
 
-/// A `doi` round that reuses an earlier round's samples equals a fresh round bit for bit,
-/// and traces the bounces of the new samples only. Node by node over the small city grid,
-/// from 16 to 64 samples: nodes kept at their place reuse the first 16 samples; relocated
-/// nodes take their samples from indices that start at the count, so they share none.
+/// Under a noise target `doi` classifies each node once with the cap's directions: a
+/// round that extends an earlier round's samples equals the same round traced afresh bit
+/// for bit, and traces the bounces of its new samples only; and a bake until converged
+/// keeps, relocates and fills exactly the nodes that a bake at the cap does.
 #[test]
-fn a_reusing_doi_round_equals_a_fresh_one() {
-    use crate::probe::{Earlier, probe_round};
+fn doi_rounds_extend_one_classification() {
+    use crate::noise::NoiseTarget;
+    use crate::probe::{classify_node, probe_samples};
     let c = city();
     let tracer = Tracer::new(&c.scene);
     let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
     let grid = small_city_grid();
-    let first = BakeSettings { method: Method::Doi, samples: samples(16), seed: 5, ..Default::default() };
-    let second = BakeSettings { samples: samples(64), ..first };
-    let mut reused_nodes = 0;
+    let s = BakeSettings { method: Method::Doi, samples: samples(64), seed: 5, ..Default::default() };
+    let mut extended = 0;
     for node in 0..grid.node_count() {
-        let (out, capture, indices) = probe_round(&t, &grid, &first, node, None);
-        let earlier = Earlier::keep(out, capture, &indices);
-        let (fresh, fresh_capture, _) = probe_round(&t, &grid, &second, node, None);
-        let (again, again_capture, _) = probe_round(&t, &grid, &second, node, Some(&earlier));
-        assert_eq!(fresh_capture, again_capture, "node {node}");
+        let class = classify_node(&tracer, &grid, s.seed, 256, node);
+        let first = probe_samples(&t, &s, node, &class, class.take(16), &[]);
+        let fresh = probe_samples(&t, &s, node, &class, class.take(64), &[]);
+        let again = probe_samples(&t, &s, node, &class, class.take(64), &first.samples);
         assert_eq!(fresh.samples, again.samples, "node {node}");
-        assert_eq!(fresh.stats.rays.sampling, again.stats.rays.sampling, "node {node}");
-        if capture == ProbeCapture::AtNode && fresh_capture == ProbeCapture::AtNode {
-            reused_nodes += 1;
+        assert_eq!(fresh.samples[..first.samples.len()], first.samples[..], "node {node}");
+        if !first.samples.is_empty() {
+            extended += 1;
             assert!(again.stats.rays.bounce < fresh.stats.rays.bounce, "node {node}");
         }
     }
-    assert!(reused_nodes > grid.node_count() / 2, "{reused_nodes} of {}", grid.node_count());
+    assert!(extended > grid.node_count() / 2, "{extended} of {}", grid.node_count());
+    let cap = samples(256);
+    let noisy = BakeSettings {
+        samples: samples(16),
+        noise: Some(NoiseTarget { relative_error: 0.05, max_samples: cap }),
+        ..s
+    };
+    let converged = bake(&t, &grid, &noisy, &BakeControl::default()).unwrap();
+    let at_cap = bake(&t, &grid, &BakeSettings { samples: cap, ..s }, &BakeControl::default()).unwrap();
+    assert!(converged.stats.final_samples < at_cap.stats.final_samples, "{:?}", converged.stats);
+    assert_eq!(converged.stats.back_face_points, at_cap.stats.back_face_points);
+    assert_eq!(converged.stats.zero_weight_nodes, at_cap.stats.zero_weight_nodes);
 }

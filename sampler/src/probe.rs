@@ -174,7 +174,7 @@ pub(crate) struct NodeClass {
 }
 
 /// Classifies node `node` of `grid` with `samples` directions of `point`'s stream under
-/// `seed` (the rays of [`probe_round`], without the light they carry).
+/// `seed` (the rays of [`probe_samples`], without the light they carry).
 pub(crate) fn classify_node(
     tracer: &Tracer,
     grid: &GridSpec,
@@ -242,7 +242,7 @@ fn point_stream(node: usize) -> u64 {
     hash2(node as u64, 0x0070_6f69_6e74)
 }
 
-/// `doi` for one node: the samples and where they were taken (one [`probe_round`]).
+/// `doi` for one node: the samples and where they were taken.
 #[cfg(test)]
 pub(crate) fn probe_unit(
     t: &Transport<'_>,
@@ -250,45 +250,46 @@ pub(crate) fn probe_unit(
     settings: &BakeSettings,
     node: usize,
 ) -> (UnitOut, ProbeCapture) {
-    let (out, capture, _) = probe_round(t, grid, settings, node, None);
-    (out, capture)
+    let class = classify_node(t.tracer(), grid, settings.seed, u64::from(settings.samples.get()), node);
+    let mut out = probe_samples(t, settings, node, &class, class.kept.len(), &[]);
+    out.stats.rays.sampling += class.rays;
+    (out, class.capture)
 }
 
-/// What one round of a node's samples under a noise target ([`crate::noise`]) leaves for
-/// the next: where its directions started, and each kept sample with its index in the
-/// node's stream.
-#[derive(Debug, Default)]
-pub(crate) struct Earlier {
-    capture: Option<ProbeCapture>,
-    samples: Vec<(u64, SampleOut)>,
-}
-
-impl Earlier {
-    /// A round's output and its samples' indices ([`probe_round`]), kept for the next.
-    pub(crate) fn keep(out: UnitOut, capture: ProbeCapture, indices: &[u64]) -> Self {
-        Self { capture: Some(capture), samples: indices.iter().copied().zip(out.samples).collect() }
+impl NodeClass {
+    /// How many of the kept directions a round of `n` samples takes when the node was
+    /// classified with more directions (a bake until converged, [`crate::noise`]): those of
+    /// index below `n` at the node, as a bake of `n` samples would keep; for a relocated
+    /// node the first `⌈n · PROBE_OUTSIDE_SHARE⌉`, the most a bake of `n` would keep there.
+    pub(crate) fn take(&self, n: u64) -> usize {
+        match self.capture {
+            ProbeCapture::AtNode => self.kept.partition_point(|k| k.0 < n),
+            ProbeCapture::Relocated(_) => {
+                self.kept.len().min((n as f64 * PROBE_OUTSIDE_SHARE).ceil() as usize)
+            }
+            ProbeCapture::Filled => 0,
+        }
     }
 }
 
-/// `doi` for one node, reusing the samples of an `earlier` round of the same node: a sample is
-/// a function of where the directions start, its direction and first hit (both fixed by
-/// its index in the stream) and its own path stream, so where the earlier round started
-/// at the same point, its samples of the same indices are this round's bit for bit and
-/// their bounces need no tracing again (their rays were counted with that round). Also
-/// returns the kept samples' indices.
-pub(crate) fn probe_round(
+/// The light of `node`'s first `take` kept directions of `class` (the point sample of
+/// Eq. 4 at the node, or at its relocated point), without the classification's rays. The
+/// first samples are taken from `earlier` where it has them: a sample is a function of
+/// where the directions start, its direction and first hit and its own path stream, so a
+/// round of a bake until converged that extends an earlier round of the same
+/// classification gets that round's samples bit for bit, and their bounces need no
+/// tracing again (their rays were counted with that round).
+pub(crate) fn probe_samples(
     t: &Transport<'_>,
-    grid: &GridSpec,
     settings: &BakeSettings,
     node: usize,
-    earlier: Option<&Earlier>,
-) -> (UnitOut, ProbeCapture, Vec<u64>) {
-    let n = u64::from(settings.samples.get());
-    let class = classify_node(t.tracer(), grid, settings.seed, n, node);
+    class: &NodeClass,
+    take: usize,
+    earlier: &[SampleOut],
+) -> UnitOut {
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     out.stats.units = 1;
-    out.stats.candidates = n;
-    out.stats.rays.sampling = class.rays;
+    out.stats.candidates = u64::from(settings.samples.get());
     let x = class.from;
     if class.capture != ProbeCapture::AtNode {
         out.stats.back_face_points = 1;
@@ -300,15 +301,11 @@ pub(crate) fn probe_round(
         w[0] = 1.0;
         w
     };
-    let reuse = earlier.filter(|e| e.capture == Some(class.capture)).map_or(&[][..], |e| &e.samples[..]);
-    let mut reuse = reuse.iter().peekable();
-    let indices: Vec<u64> = class.kept.iter().map(|k| k.0).collect();
-    out.samples = class
-        .kept
-        .into_iter()
-        .map(|(s, dir, hit)| {
-            while reuse.next_if(|(i, _)| *i < s).is_some() {}
-            if let Some((_, same)) = reuse.next_if(|(i, _)| *i == s) {
+    out.samples = class.kept[..take]
+        .iter()
+        .enumerate()
+        .map(|(i, &(s, dir, hit))| {
+            if let Some(same) = earlier.get(i) {
                 return *same;
             }
             let mut rng = PathRng::new(settings.seed, stream, s);
@@ -320,7 +317,7 @@ pub(crate) fn probe_round(
     if let ProbeCapture::Relocated(y) = class.capture {
         out.relocated = Some(y);
     }
-    (out, class.capture, indices)
+    out
 }
 
 #[cfg(test)]
