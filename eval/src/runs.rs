@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
 use lightvol_volume::validity::ValidityMask;
-use lightvol_volume::{AdaptiveVolume, EngineLookup, GridSpec, LevelStats};
+use lightvol_volume::{AdaptiveVolume, EngineLookup, GridSpec, IrradianceVolume, LevelStats};
 use rayon::prelude::*;
 
 use crate::baked::{GradientVolume, RunVolume};
@@ -185,33 +185,12 @@ pub fn run_targeted(
     lookup: EngineLookup,
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
-    let settings = ctx.settings(method);
-    let out = ctx
-        .stage(name, |c| lightvol_sampler::bake(&ctx.transport, grid, &settings, c))
-        .map_err(EvalError::at("baking"))?;
-    let valid = own_samples_mask(&out.accumulator);
-    let (baked, mut stats) = out.finish();
-    let t0 = Instant::now();
-    let (vol, report) =
-        fit_for_lookup(&ctx.transport, &baked, &TargetSettings::new(lookup, ctx.seed), Some(valid))
-            .map_err(EvalError::at("fitting for the target lookup"))?;
-    stats.rays.query += report.rays;
-    let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
-    let estimate = plate.engine_estimate(&vol, lookup);
-    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
-        + vol.validity().map_or(0, ValidityMask::memory_bytes);
-    Ok(MethodRun::new(
-        name,
-        ctx.samples,
-        stats.rays,
-        seconds,
-        plate,
-        estimate,
-        memory,
-        grid.node_count(),
-        RunDetail::Uniform,
-        RunVolume::Engine(Arc::new(vol), lookup),
-    ))
+    run_set_for_lookup(ctx, grid, name, method, lookup, plate, |baked, valid| {
+        let (vol, report) =
+            fit_for_lookup(&ctx.transport, baked, &TargetSettings::new(lookup, ctx.seed), Some(valid))
+                .map_err(EvalError::at("fitting for the target lookup"))?;
+        Ok((vol, report.rays))
+    })
 }
 
 /// The plate's lower bound through `lookup` (stage `name`): bakes `doi` on `grid` for a
@@ -229,20 +208,40 @@ pub fn run_bound(
     lookup: EngineLookup,
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
-    let settings = ctx.settings(Method::Doi);
-    let out = ctx
-        .stage(name, |c| lightvol_sampler::bake(&ctx.transport, grid, &settings, c))
-        .map_err(EvalError::at("baking"))?;
-    let valid = own_samples_mask(&out.accumulator);
-    let (baked, stats) = out.finish();
-    let t0 = Instant::now();
     let up = [0.0, 0.0, 1.0];
     let points: Vec<KnownPoint> = (0..plate.points.len())
         .filter(|&i| plate.valid[i])
         .map(|i| KnownPoint { p: plate.points[i].to_array(), n: up, to_eye: up, value: plate.truth[i] })
         .collect();
-    let vol = best_for_points(&baked, lookup, Some(valid), &points)
-        .map_err(EvalError::at("fitting the plate's reference"))?;
+    run_set_for_lookup(ctx, grid, name, Method::Doi, lookup, plate, |baked, valid| {
+        let vol = best_for_points(baked, lookup, Some(valid), &points)
+            .map_err(EvalError::at("fitting the plate's reference"))?;
+        Ok((vol, 0))
+    })
+}
+
+/// Bakes `method` on `grid` (stage `name`), sets its node values with `set` (given the
+/// bake and the mask of its nodes with samples of their own; it returns the volume and the
+/// rays it traced, counted with the bake's), and measures the result on the plate read
+/// through `lookup`.
+fn run_set_for_lookup(
+    ctx: &BakeContext<'_>,
+    grid: &GridSpec,
+    name: &str,
+    method: Method,
+    lookup: EngineLookup,
+    plate: &Plate,
+    set: impl FnOnce(&IrradianceVolume, ValidityMask) -> Result<(IrradianceVolume, u64), EvalError>,
+) -> Result<MethodRun, EvalError> {
+    let settings = ctx.settings(method);
+    let out = ctx
+        .stage(name, |c| lightvol_sampler::bake(&ctx.transport, grid, &settings, c))
+        .map_err(EvalError::at("baking"))?;
+    let valid = own_samples_mask(&out.accumulator);
+    let (baked, mut stats) = out.finish();
+    let t0 = Instant::now();
+    let (vol, rays) = set(&baked, valid)?;
+    stats.rays.query += rays;
     let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
     let estimate = plate.engine_estimate(&vol, lookup);
     let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
@@ -492,7 +491,7 @@ pub fn run_adaptive(
 /// validity rays, which its ray count includes), read through its volume's lookup: Unity
 /// APV's volume carries its validity mask, so its lookups are validity-weighted, the others
 /// are plain trilinear. APV is read by the f64 reference lookup
-/// ([`IrradianceVolume::irradiance_reference`](lightvol_volume::IrradianceVolume::irradiance_reference), which applies the mask like the f32 path),
+/// ([`IrradianceVolume::irradiance_reference`], which applies the mask like the f32 path),
 /// as the comparison has always read it; the other baselines by the f32 lookup of every
 /// uniform entry ([`Plate::evaluate`]). Its memory adds the mask's bytes
 /// ([`lightvol_volume::ValidityMask::memory_bytes`]) to the uniform grid's.

@@ -22,12 +22,14 @@
 //! and more at any faster one. Taking the larger of the two guards against one difference
 //! that happens to cross zero (test `the_prefix_estimate_covers_the_true_error`).
 //!
-//! **Rounds.** Round 0 has the bake's samples; each round after it bakes the unit afresh
-//! with the same per-sample streams (so its first samples are the previous round's) and at
-//! least twice as many samples, more when the estimate is far from the target
-//! ([`next_samples`]); the last round is kept. What a unit receives depends only on its own
-//! samples, so a bake is bit-identical for any thread or shard count. Earlier rounds' rays
-//! are counted with the unit's, so the total stays honest (under twice the final round's).
+//! **Rounds.** Round 0 has the bake's samples; each round after it has at least twice as
+//! many, more when the estimate is far from the target (`next_samples`), and the last
+//! round is kept. The other methods bake each round afresh with the same per-sample streams
+//! (so a round's first samples are the previous round's); `doi` classifies a node once,
+//! with the cap's directions, and each round extends the one before (the bake's
+//! `doi_until_converged`). What a unit receives depends only on its own samples, so a bake
+//! is bit-identical for any thread or shard count. Earlier rounds' rays are counted with
+//! the unit's, so the total stays honest.
 
 use lightvol_core::samples::Samples;
 use lightvol_scene::envmap::luminance;
