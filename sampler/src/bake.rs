@@ -36,11 +36,13 @@ use rayon::prelude::*;
 
 use crate::error::BakeError;
 use crate::method::Method;
-use crate::probe::{classify_node, probe_samples};
+use crate::noise::NoiseTarget;
+use crate::probe::{classify_node, probe_samples, probe_unit};
 use crate::settings::BakeSettings;
 use crate::stats::BakeStats;
-use crate::unit::{UnitOut, cell_unit, node_box_unit, point_unit};
+use crate::unit::{SampleOut, UnitOut, cell_unit, node_box_unit, point_unit};
 use lightvol_core::progress::{BakeControl, Progress};
+use lightvol_scene::stats::RayCounts;
 use lightvol_scene::transport::Transport;
 
 /// A finished (shard of a) bake.
@@ -400,79 +402,61 @@ fn run_units(
 }
 
 /// One unit's samples at `settings.samples`, or with a noise target in growing rounds
-/// until its estimate converges ([`crate::noise`]): the last round, with every round's
-/// rays. `doi` classifies a node once, with the cap's directions, and its rounds extend
-/// one another ([`doi_until_converged`]); the other methods' rounds bake afresh.
+/// until its estimate converges ([`until_converged`]). `doi` classifies a node once, with
+/// the cap's directions, so it is kept, relocated or filled as a bake at the cap would
+/// have it whatever count it stops at (a classification at each round's count moves near
+/// its thresholds as the count grows, [`crate::probe`]); each of its rounds takes the
+/// first kept directions a bake of its count would take
+/// ([`NodeClass::take`](crate::probe::NodeClass::take)) and reuses the samples of the round
+/// before. The other methods' rounds bake afresh.
 fn sample_unit(transport: &Transport<'_>, grid: &GridSpec, settings: &BakeSettings, u: usize) -> UnitOut {
     let once = |s: &BakeSettings| {
         let mut out = match s.method {
             Method::Point => point_unit(transport, grid, s, u),
             Method::DoiNode => node_box_unit(transport, grid, s, u),
-            Method::Doi => {
-                let n = u64::from(s.samples.get());
-                let class = classify_node(transport.tracer(), grid, s.seed, n, u);
-                let mut out = probe_samples(transport, s, u, &class, class.kept.len(), &[]);
-                out.stats.rays.sampling += class.rays;
-                out
-            }
+            Method::Doi => probe_unit(transport, grid, s, u).0,
             Method::Prefilter | Method::DoiPaper => cell_unit(transport, grid, s, u),
         };
         out.stats.final_samples = u64::from(s.samples.get());
         out
     };
+    let with = |n: u32| BakeSettings { samples: lightvol_core::samples::samples(n), ..*settings };
     let Some(target) = settings.noise else { return once(settings) };
-    if settings.method == Method::Doi {
-        return doi_until_converged(transport, grid, settings, &target, u);
+    if settings.method != Method::Doi {
+        return until_converged(settings.samples.get(), &target, RayCounts::default(), |n, _| once(&with(n)));
     }
-    let mut s = *settings;
-    let mut earlier_rays = lightvol_scene::stats::RayCounts::default();
-    loop {
-        let mut out = once(&s);
-        let n = s.samples.get();
-        let error = crate::noise::relative_error_of(&out.sample_values());
-        let done = error.is_none_or(|e| e <= target.relative_error);
-        if done || n >= target.max_samples.get() {
-            out.stats.rays.add(&earlier_rays);
-            out.stats.capped_units = u64::from(!done);
-            return out;
-        }
-        earlier_rays.add(&out.stats.rays);
-        let next = crate::noise::next_samples(n, error.unwrap_or(f64::INFINITY), &target);
-        s.samples = lightvol_core::samples::samples(next);
-    }
-}
-
-/// `doi` under a noise target: the node is classified once with the cap's directions, so
-/// it is kept, relocated or filled as a bake at the cap would have it whatever count it
-/// stops at (a classification at each round's count moves near its thresholds as the
-/// count grows, [`crate::probe`]); each round takes the first kept directions a bake of
-/// its count would take ([`NodeClass::take`](crate::probe::NodeClass::take)) and reuses
-/// the samples of the round before.
-fn doi_until_converged(
-    transport: &Transport<'_>,
-    grid: &GridSpec,
-    settings: &BakeSettings,
-    target: &crate::noise::NoiseTarget,
-    u: usize,
-) -> UnitOut {
     let cap = target.max_samples.get();
     let class = classify_node(transport.tracer(), grid, settings.seed, u64::from(cap), u);
-    let mut spent = lightvol_scene::stats::RayCounts { sampling: class.rays, ..Default::default() };
-    let mut n = settings.samples.get().min(cap);
+    let spent = RayCounts { sampling: class.rays, ..Default::default() };
+    until_converged(settings.samples.get().min(cap), &target, spent, |n, earlier| {
+        let mut out = probe_samples(transport, &with(n), u, &class, class.take(u64::from(n)), &earlier);
+        out.stats.final_samples = u64::from(n);
+        out
+    })
+}
+
+/// A unit's rounds under a noise target ([`crate::noise`]), from `start` samples: `round`
+/// gives the round of `n` samples, given the previous round's samples (empty at first).
+/// Returns the last round, with the rays of every round and `spent` (those traced before
+/// the first) added to its own.
+fn until_converged(
+    start: u32,
+    target: &NoiseTarget,
+    mut spent: RayCounts,
+    mut round: impl FnMut(u32, Vec<SampleOut>) -> UnitOut,
+) -> UnitOut {
+    let mut n = start;
     let mut earlier = Vec::new();
     loop {
-        let s = BakeSettings { samples: lightvol_core::samples::samples(n), ..*settings };
-        let mut out = probe_samples(transport, &s, u, &class, class.take(u64::from(n)), &earlier);
-        out.stats.final_samples = u64::from(n);
-        let error = crate::noise::relative_error_of(&out.sample_values());
-        let done = error.is_none_or(|e| e <= target.relative_error);
-        if done || n >= cap {
+        let mut out = round(n, earlier);
+        let unmet = crate::noise::unmet_error(&out.sample_values(), target);
+        if unmet.is_none() || n >= target.max_samples.get() {
             out.stats.rays.add(&spent);
-            out.stats.capped_units = u64::from(!done);
+            out.stats.capped_units = u64::from(unmet.is_some());
             return out;
         }
         spent.add(&out.stats.rays);
-        n = crate::noise::next_samples(n, error.unwrap_or(f64::INFINITY), target);
+        n = crate::noise::next_samples(n, unmet.unwrap_or(f64::INFINITY), target);
         earlier = out.samples;
     }
 }

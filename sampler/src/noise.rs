@@ -20,14 +20,15 @@
 //! `|m_n − m_{n/2}|` estimates the error of `m_{n/2}`, which is at least `m_n`'s; `|m_n − m_{n/4}|`
 //! estimates `m_{n/4}`'s, which is at least twice `m_n`'s at the Monte Carlo rate `n^-½`
 //! and more at any faster one. Taking the larger of the two guards against one difference
-//! that happens to cross zero (test `the_prefix_estimate_covers_the_true_error`).
+//! that happens to cross zero (test
+//! `the_prefix_estimate_is_calibrated_like_a_standard_error`).
 //!
 //! **Rounds.** Round 0 has the bake's samples; each round after it has at least twice as
 //! many, more when the estimate is far from the target (`next_samples`), and the last
 //! round is kept. The other methods bake each round afresh with the same per-sample streams
 //! (so a round's first samples are the previous round's); `doi` classifies a node once,
 //! with the cap's directions, and each round extends the one before (the bake's
-//! `doi_until_converged`). What a unit receives depends only on its own samples, so a bake
+//! `sample_unit`). What a unit receives depends only on its own samples, so a bake
 //! is bit-identical for any thread or shard count. Earlier rounds' rays are counted with
 //! the unit's, so the total stays honest.
 
@@ -90,13 +91,17 @@ pub(crate) fn relative_error_of(values: &[f64]) -> Option<f64> {
     Some(e / m)
 }
 
-/// Whether a unit whose samples have `values` meets `target`: its relative error is known
-/// and at most the target's. A unit with fewer than [`MIN_VALUES`] kept samples has nothing
-/// the estimate can judge. (The bake applies this rule inline, as it also plans the next
-/// round from the error.)
+/// The estimated relative error of a unit whose samples have `values` where it misses
+/// `target`, `None` where it meets it: its error is known and at most the target's, or it
+/// has fewer than [`MIN_VALUES`] kept samples, which the estimate cannot judge.
+pub(crate) fn unmet_error(values: &[f64], target: &NoiseTarget) -> Option<f64> {
+    relative_error_of(values).filter(|&e| !(e <= target.relative_error))
+}
+
+/// Whether a unit whose samples have `values` meets `target` ([`unmet_error`]).
 #[cfg(test)]
 pub(crate) fn converged(values: &[f64], target: &NoiseTarget) -> bool {
-    relative_error_of(values).is_none_or(|e| e <= target.relative_error)
+    unmet_error(values, target).is_none()
 }
 
 /// The next round's samples after a round of `n` whose estimated relative error is

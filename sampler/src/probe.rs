@@ -242,8 +242,8 @@ fn point_stream(node: usize) -> u64 {
     hash2(node as u64, 0x0070_6f69_6e74)
 }
 
-/// `doi` for one node: the samples and where they were taken.
-#[cfg(test)]
+/// `doi` for one node: the samples and where they were taken, with the classification's
+/// rays.
 pub(crate) fn probe_unit(
     t: &Transport<'_>,
     grid: &GridSpec,
