@@ -233,8 +233,6 @@ pub fn fit_for_lookup(
     if settings.lookup == EngineLookup::Lightvol {
         return Ok((volume.clone(), TargetReport::default()));
     }
-    let mut fitted = volume.clone();
-    fitted.set_reach(None).map_err(|e| BakeError::Settings(e.to_string()))?;
     let nodes = volume.spec().node_count();
     if valid.as_ref().is_some_and(|m| m.len() != nodes) {
         return Err(BakeError::Settings(format!(
@@ -252,8 +250,7 @@ pub fn fit_for_lookup(
             },
         )
         .collect();
-    let mask = if settings.lookup == EngineLookup::Apv { valid } else { None };
-    fitted.set_validity(mask).map_err(|e| BakeError::Settings(e.to_string()))?;
+    let mut fitted = as_read_by(volume, settings.lookup, valid)?;
     let mut report = TargetReport { rays: per_node.iter().map(|(_, r)| r).sum(), ..TargetReport::default() };
     let samples: Vec<Sample> = per_node.into_iter().flat_map(|(s, _)| s).collect();
     report.surface_samples = samples.iter().filter(|s| s.surface).count();
@@ -270,6 +267,23 @@ pub fn fit_for_lookup(
     (report.nodes_fitted, report.iterations) = solve_into(&mut fitted, &rows, settings.lambda)?;
     report.relative_rms_after = relative_rms(&fitted, &rows);
     Ok((fitted, report))
+}
+
+/// `volume` with what `lookup` reads besides the node values: lightvol's own lookup keeps
+/// the volume's validity and node reach; the engines' read neither, except APV's validity,
+/// which is `valid`.
+fn as_read_by(
+    volume: &IrradianceVolume,
+    lookup: EngineLookup,
+    valid: Option<ValidityMask>,
+) -> Result<IrradianceVolume, BakeError> {
+    let mut vol = volume.clone();
+    if lookup != EngineLookup::Lightvol {
+        vol.set_reach(None).map_err(|e| BakeError::Settings(e.to_string()))?;
+        let mask = if lookup == EngineLookup::Apv { valid } else { None };
+        vol.set_validity(mask).map_err(|e| BakeError::Settings(e.to_string()))?;
+    }
+    Ok(vol)
 }
 
 /// Solves the fit of `rows` ([`solve`]) and stores the node values in `vol`: returns the
@@ -320,14 +334,7 @@ pub fn best_for_points(
     valid: Option<ValidityMask>,
     points: &[KnownPoint],
 ) -> Result<IrradianceVolume, BakeError> {
-    let mut fitted = volume.clone();
-    // lightvol's own lookup keeps the volume's validity and node reach; the engines' read
-    // neither, except APV's validity.
-    if lookup != EngineLookup::Lightvol {
-        fitted.set_reach(None).map_err(|e| BakeError::Settings(e.to_string()))?;
-        let mask = if lookup == EngineLookup::Apv { valid } else { None };
-        fitted.set_validity(mask).map_err(|e| BakeError::Settings(e.to_string()))?;
-    }
+    let mut fitted = as_read_by(volume, lookup, valid)?;
     let rows: Vec<Row> = points
         .par_iter()
         .filter_map(|k| {
