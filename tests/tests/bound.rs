@@ -3,16 +3,15 @@
 
 use serde_json::Value;
 
+mod common;
+
 /// Runs `lightvol compare` with `args` quietly into a temporary folder and returns the
 /// parsed `report.json`.
 fn report(args: &[&str]) -> Value {
     let dir = tempfile::tempdir().unwrap();
     let mut all = args.to_vec();
-    all.extend(["--quiet", "-o", dir.path().to_str().unwrap()]);
-    match lightvol::run_from_args(std::iter::once("lightvol").chain(all.iter().copied())) {
-        Ok(c) => assert_eq!(c, std::process::ExitCode::SUCCESS),
-        Err(e) => panic!("lightvol {}: {e:#}", all.join(" ")),
-    }
+    all.extend(["--quiet", "-o", common::s(dir.path())]);
+    common::ok(&all);
     let text = std::fs::read_to_string(dir.path().join("report.json")).expect("report.json");
     serde_json::from_str(&text).expect("report.json parses")
 }
