@@ -64,6 +64,8 @@ pub struct SceneBuilder {
     pub sun: Option<Sun>,
     /// Punctual lights to attach.
     pub punctual: Vec<PunctualLight>,
+    /// Names of the punctual lights, in the same order (may be shorter).
+    pub punctual_names: Vec<String>,
 }
 
 impl SceneBuilder {
@@ -291,6 +293,7 @@ impl SceneBuilder {
             environment: self.environment,
             sun: self.sun,
             punctual: self.punctual,
+            punctual_names: self.punctual_names,
             report: self.report,
             meshes: self.meshes,
             triangle_refs: self.triangle_refs,

@@ -12,6 +12,7 @@ pub mod estimate;
 pub mod fingerprint;
 pub mod instance;
 pub mod layout;
+pub mod light_groups;
 pub mod light_sampler;
 pub mod lights;
 pub mod load;

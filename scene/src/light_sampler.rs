@@ -10,6 +10,7 @@ use glam::DVec3;
 use lightvol_sh::sampling::{Frame, sample_uniform_cone};
 
 use crate::envmap::luminance;
+use crate::light_groups::LightKey;
 use crate::lights::Environment;
 use crate::scene::Scene;
 
@@ -32,6 +33,8 @@ pub struct LightSample {
     pub emitter: Option<u32>,
     /// Which kind of light it is.
     pub source: LightSource,
+    /// Which light it is ([`crate::light_groups`]).
+    pub key: LightKey,
 }
 
 /// The kinds of light a sample can come from.
@@ -143,6 +146,7 @@ impl LightSampler {
                         delta: true,
                         emitter: None,
                         source: LightSource::Sun,
+                        key: LightKey::Sun,
                     });
                 }
                 let local = sample_uniform_cone([u[1], u[2]], sun.cos_max());
@@ -155,6 +159,7 @@ impl LightSampler {
                     delta: false,
                     emitter: None,
                     source: LightSource::Sun,
+                    key: LightKey::Sun,
                 })
             }
             Strategy::EnvMap => {
@@ -168,6 +173,7 @@ impl LightSampler {
                     delta: false,
                     emitter: None,
                     source: LightSource::Environment,
+                    key: LightKey::Sky,
                 })
             }
             Strategy::Emitters => {
@@ -202,6 +208,7 @@ impl LightSampler {
                     delta: false,
                     emitter: Some(tri),
                     source: LightSource::Emitter,
+                    key: LightKey::Emitter(scene.stored_triangle(tri).material),
                 })
             }
             Strategy::Punctual(i) => {
@@ -214,6 +221,7 @@ impl LightSampler {
                     delta: true,
                     emitter: None,
                     source: LightSource::Punctual,
+                    key: LightKey::Punctual(i as u32),
                 })
             }
         }

@@ -75,6 +75,9 @@ pub struct Scene {
     pub sun: Option<Sun>,
     /// Point, spot and directional lights (glTF KHR_lights_punctual).
     pub punctual: Vec<PunctualLight>,
+    /// Names of [`Scene::punctual`]'s lights, in the same order (glTF `name`); a light past
+    /// its end is unnamed ([`Scene::punctual_name`]).
+    pub punctual_names: Vec<String>,
     /// Loader notes.
     pub report: LoadReport,
     /// Lightmap objects with their vertex attributes (empty for scenes without them).
@@ -195,6 +198,13 @@ impl Scene {
     #[inline]
     pub fn material_of(&self, tri: u32) -> &Material {
         &self.materials[self.stored_triangle(tri).material as usize]
+    }
+
+    /// The name of punctual light `i`: its name in the file, or `lightN` after its index
+    /// when it has none.
+    #[must_use]
+    pub fn punctual_name(&self, i: usize) -> String {
+        self.punctual_names.get(i).filter(|n| !n.is_empty()).cloned().unwrap_or_else(|| format!("light{i}"))
     }
 }
 

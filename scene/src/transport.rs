@@ -18,6 +18,7 @@ use lightvol_sh::lowdisc::{SplitMix64, hash2};
 use lightvol_sh::sampling::{Frame, sample_cosine_hemisphere};
 
 use crate::bvh::{Hit, Tracer};
+use crate::light_groups::{LightGroups, LightKey};
 use crate::light_sampler::{LightSampler, LightSource, power_heuristic};
 use crate::scene::Scene;
 use crate::stats::RayCounts;
@@ -168,6 +169,39 @@ pub struct Transport<'a> {
     lights: LightSampler,
     settings: TransportSettings,
     eps: f64,
+    groups: Option<LightGroups>,
+}
+
+/// Where a path's radiance terms go: one light's radiance times the path's throughput and
+/// a weight, tagged with the light ([`crate::light_groups`]).
+trait Terms {
+    fn add(&mut self, key: LightKey, radiance: [f64; 3], s: f64);
+}
+
+/// The sum of every term: the path's radiance.
+struct Total([f64; 3]);
+
+impl Terms for Total {
+    #[inline]
+    fn add(&mut self, _: LightKey, radiance: [f64; 3], s: f64) {
+        add_scaled(&mut self.0, radiance, s);
+    }
+}
+
+/// The sum of every term, with the same arithmetic as [`Total`], and each term also added to
+/// its light's group.
+struct Grouped<'g> {
+    total: [f64; 3],
+    groups: &'g LightGroups,
+    per_group: &'g mut [[f64; 3]],
+}
+
+impl Terms for Grouped<'_> {
+    #[inline]
+    fn add(&mut self, key: LightKey, radiance: [f64; 3], s: f64) {
+        add_scaled(&mut self.total, radiance, s);
+        add_scaled(&mut self.per_group[self.groups.group_of(key)], radiance, s);
+    }
 }
 
 #[inline]
@@ -186,7 +220,21 @@ impl<'a> Transport<'a> {
     /// An engine over `scene` traced by `tracer` (built from the same scene).
     #[must_use]
     pub fn new(scene: &'a Scene, tracer: &'a Tracer, settings: TransportSettings) -> Self {
-        Self { scene, tracer, lights: LightSampler::new(scene), settings, eps: scene.epsilon() }
+        Self { scene, tracer, lights: LightSampler::new(scene), settings, eps: scene.epsilon(), groups: None }
+    }
+
+    /// The same engine, also splitting each path's radiance by light group
+    /// ([`Self::radiance_from_hit_grouped`]); the groups must be of this scene.
+    #[must_use]
+    pub fn with_groups(mut self, groups: LightGroups) -> Self {
+        self.groups = Some(groups);
+        self
+    }
+
+    /// The light groups, if the engine splits by them.
+    #[must_use]
+    pub fn groups(&self) -> Option<&LightGroups> {
+        self.groups.as_ref()
     }
 
     /// The scene.
@@ -240,15 +288,52 @@ impl<'a> Transport<'a> {
         rng: &mut PathRng,
         rays: &mut RayCounts,
     ) -> [f64; 3] {
+        let mut l = Total([0.0; 3]);
+        self.trace_path(dir, hit, dir_pdf, rng, rays, &mut l);
+        l.0
+    }
+
+    /// [`Self::radiance_from_hit`], also split by light group: returns the same total (the
+    /// same arithmetic, bit for bit) and writes each group's share to `per_group` (one entry
+    /// per group of [`Self::groups`]; zeroed first). The shares sum to the total up to
+    /// rounding, and come from the same random numbers and rays.
+    ///
+    /// # Panics
+    /// If the engine has no groups or `per_group` has the wrong length.
+    pub fn radiance_from_hit_grouped(
+        &self,
+        dir: DVec3,
+        hit: Option<Hit>,
+        dir_pdf: Option<f64>,
+        rng: &mut PathRng,
+        rays: &mut RayCounts,
+        per_group: &mut [[f64; 3]],
+    ) -> [f64; 3] {
+        let groups = self.groups.as_ref().expect("a transport with light groups");
+        assert_eq!(per_group.len(), groups.len(), "one entry per light group");
+        per_group.fill([0.0; 3]);
+        let mut l = Grouped { total: [0.0; 3], groups, per_group };
+        self.trace_path(dir, hit, dir_pdf, rng, rays, &mut l);
+        l.total
+    }
+
+    fn trace_path(
+        &self,
+        dir: DVec3,
+        hit: Option<Hit>,
+        dir_pdf: Option<f64>,
+        rng: &mut PathRng,
+        rays: &mut RayCounts,
+        l: &mut impl Terms,
+    ) {
         let scene = self.scene;
-        let mut l = [0.0; 3];
         let mut beta = [1.0; 3];
         let (mut d, mut hit, mut prev_pdf) = (dir, hit, dir_pdf);
         for depth in 0..=self.settings.max_depth {
             // The first segment arrives at the receiver directly.
             let direct = if depth == 0 { self.settings.direct } else { DirectLight::All };
             let Some(h) = hit else {
-                self.add_escaped(&mut l, beta, d, prev_pdf, direct);
+                self.add_escaped(l, beta, d, prev_pdf, direct);
                 break;
             };
             if h.back_face {
@@ -265,7 +350,7 @@ impl<'a> Transport<'a> {
                     Some(p) => power_heuristic(p, self.lights.pdf_emitter(scene, tri, d, h.t)),
                     None => 1.0,
                 };
-                add_scaled(&mut l, mul(beta, m.emission), w);
+                l.add(LightKey::Emitter(t.material), mul(beta, m.emission), w);
             }
             if depth == self.settings.max_depth {
                 break;
@@ -273,16 +358,7 @@ impl<'a> Transport<'a> {
             if depth >= self.settings.bounces {
                 if !self.settings.russian_roulette {
                     // Truncated: the last surface still gets its direct light below.
-                    self.add_direct(
-                        &mut l,
-                        beta,
-                        x,
-                        n,
-                        scene.albedo(tri, h.bary[0], h.bary[1]),
-                        false,
-                        rng,
-                        rays,
-                    );
+                    self.add_direct(l, beta, x, n, scene.albedo(tri, h.bary[0], h.bary[1]), false, rng, rays);
                     break;
                 }
                 let q = beta.iter().copied().fold(0.0, f64::max).clamp(0.05, 0.95);
@@ -295,7 +371,7 @@ impl<'a> Transport<'a> {
             if albedo.iter().all(|&a| a <= 0.0) {
                 break;
             }
-            self.add_direct(&mut l, beta, x, n, albedo, true, rng, rays);
+            self.add_direct(l, beta, x, n, albedo, true, rng, rays);
             // Cosine-weighted bounce: f cos / pdf = albedo.
             let local = sample_cosine_hemisphere(rng.next2());
             let nd = DVec3::from_array(Frame::from_normal(n.to_array()).to_world(local));
@@ -305,13 +381,12 @@ impl<'a> Transport<'a> {
             rays.bounce += 1;
             hit = self.tracer.closest_hit(x + n * self.eps, d, 0.0, f64::INFINITY);
         }
-        l
     }
 
     /// Environment and sun radiance for an escaped ray, MIS-weighted against light sampling.
     fn add_escaped(
         &self,
-        l: &mut [f64; 3],
+        l: &mut impl Terms,
         beta: [f64; 3],
         d: DVec3,
         prev_pdf: Option<f64>,
@@ -321,7 +396,7 @@ impl<'a> Transport<'a> {
         if direct.allows(LightSource::Environment) {
             let env = scene.environment.radiance(d);
             let w_env = prev_pdf.map_or(1.0, |p| power_heuristic(p, self.lights.pdf_env(scene, d)));
-            add_scaled(l, mul(beta, env), w_env);
+            l.add(LightKey::Sky, mul(beta, env), w_env);
         }
         if let Some(sun) = scene.sun
             && direct.allows(LightSource::Sun)
@@ -329,7 +404,7 @@ impl<'a> Transport<'a> {
             let ls = sun.radiance_along(d);
             if ls.iter().any(|&v| v > 0.0) {
                 let w = prev_pdf.map_or(1.0, |p| power_heuristic(p, self.lights.pdf_sun(scene, d)));
-                add_scaled(l, mul(beta, ls), w);
+                l.add(LightKey::Sun, mul(beta, ls), w);
             }
         }
     }
@@ -340,7 +415,7 @@ impl<'a> Transport<'a> {
     #[allow(clippy::too_many_arguments)]
     fn add_direct(
         &self,
-        l: &mut [f64; 3],
+        l: &mut impl Terms,
         beta: [f64; 3],
         x: DVec3,
         n: DVec3,
@@ -365,7 +440,7 @@ impl<'a> Transport<'a> {
         let w = if s.delta || !bsdf_follows { 1.0 } else { power_heuristic(s.pdf, cos / PI) };
         // f = albedo / π.
         let k = cos * w / (PI * s.pdf);
-        add_scaled(l, mul(mul(beta, albedo), s.radiance), k);
+        l.add(s.key, mul(mul(beta, albedo), s.radiance), k);
     }
 
     fn visible(&self, from: DVec3, s: &crate::light_sampler::LightSample, rays: &mut RayCounts) -> bool {
@@ -386,6 +461,17 @@ impl<'a> Transport<'a> {
         u: [f64; 3],
         rays: &mut RayCounts,
     ) -> Option<(DVec3, [f64; 3])> {
+        self.light_sample_keyed(x, dir_pdf, u, rays).map(|(d, r, _)| (d, r))
+    }
+
+    /// [`Self::light_sample`] with the light the sample came from.
+    pub fn light_sample_keyed(
+        &self,
+        x: DVec3,
+        dir_pdf: f64,
+        u: [f64; 3],
+        rays: &mut RayCounts,
+    ) -> Option<(DVec3, [f64; 3], LightKey)> {
         let s = self.lights.sample(self.scene, x, u)?;
         // The receiver's own light sample is direct light.
         if !self.settings.direct.allows(s.source) || !self.visible(x, &s, rays) {
@@ -393,7 +479,7 @@ impl<'a> Transport<'a> {
         }
         let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, dir_pdf) };
         let k = w / s.pdf;
-        Some((s.dir, s.radiance.map(|v| v * k)))
+        Some((s.dir, s.radiance.map(|v| v * k), s.key))
     }
 
     /// One estimate of irradiance `E(x, n) = ∫ L cos θ dω` at a free-space point `x` for a

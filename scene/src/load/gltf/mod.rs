@@ -608,6 +608,9 @@ impl Loader<'_> {
         if light.get("range").is_some() {
             self.b.warn(format!("light '{name}': range ignored (physical inverse-square falloff)"));
         }
+        let index = self.b.punctual.len();
+        self.b.punctual_names.resize(index, String::new());
+        self.b.punctual_names.push(light.get("name").and_then(Value::as_str).unwrap_or("").to_owned());
         self.b.punctual.push(l);
         Ok(())
     }
