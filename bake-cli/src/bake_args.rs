@@ -72,6 +72,15 @@ pub(crate) struct BakeArgs {
     /// The --target fit's weight toward the baked values (0: a pure least-squares fit).
     #[arg(long, value_name = "LAMBDA", default_value_t = lightvol_sampler::target::DEFAULT_TARGET_LAMBDA)]
     pub(crate) target_lambda: f64,
+    /// Split the bake by light group, from the same paths (no extra rays): the file keeps
+    /// the whole bake and one volume per group, and scaling and summing the groups (`lightvol
+    /// relight`) gives the volume of any brightness and colour per group. `each` gives every
+    /// light a group of its own; `NAME=PATTERN,PATTERN;NAME=...` names groups of lights,
+    /// where the lights are `sky`, `sun`, each emissive material and each glTF punctual
+    /// light by name (`lightvol inspect` lists them) and `*` matches any run of characters.
+    /// Lights no pattern names form the group `other`. Uniform bakes with the average fit.
+    #[arg(long, value_name = "each|NAME=PATTERN,...;...")]
+    pub(crate) light_groups: Option<String>,
     /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
     #[command(flatten)]
     pub(crate) adaptive: AdaptiveArgs,
@@ -234,6 +243,7 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         keep_accumulator: args.keep_accumulator,
         adaptive,
         noise: args.sampling.noise_target()?,
+        light_groups: args.light_groups.is_some(),
         target: Some(TargetSettings {
             lambda: args.target_lambda,
             ..TargetSettings::new(args.target, args.sampling.seed)
@@ -291,7 +301,11 @@ fn request_error(e: RequestError) -> anyhow::Error {
         RequestError::FitWithGradients(fit) => anyhow::anyhow!(
             "--fit {fit} cannot be combined with --gradients (the gradient estimators assume --fit average)"
         ),
-        e @ (RequestError::NotUniform(_) | RequestError::Target(_) | RequestError::Noise(_)) => e.into(),
+        e @ (RequestError::NotUniform(_)
+        | RequestError::Target(_)
+        | RequestError::Noise(_)
+        | RequestError::LightGroups(_)
+        | RequestError::NoLightGroups) => e.into(),
         RequestError::BasisNeedsCells(_) => anyhow::anyhow!(
             "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"
         ),

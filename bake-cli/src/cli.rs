@@ -49,6 +49,9 @@ pub(crate) enum Command {
     Imse(crate::cmd_imse::ImseArgs),
     /// Print a volume file's grid, conventions, bake metadata and zero-weight node count.
     Info(InfoArgs),
+    /// Scale and sum the light groups of a volume baked with --light-groups: the volume of
+    /// other light intensities and colours, without baking again.
+    Relight(crate::cmd_relight::RelightArgs),
     /// The scene × method Markdown table of `compare` reports: relative RMSE, too dark
     /// near geometry, too bright, rays and seconds, each method's mean over the scenes and
     /// its ratio to the best engine baseline's mean.

@@ -10,9 +10,11 @@ use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::method::Baseline;
 use lightvol_sampler::report::{BakeReport, RunFigures};
 use lightvol_sampler::request::{BakeRequest, Provenance, bake_uniform};
+use lightvol_scene::light_groups::LightGroups;
 use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::io::accumulator::write_accumulator;
 use lightvol_volume::io::exr::{ExrOptions, write_exr, write_exr_with_gradients};
+use lightvol_volume::io::groups::write_grouped_exr;
 
 use crate::bake_args::{BakeArgs, request};
 use crate::progress::with_bar;
@@ -32,14 +34,30 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     }
     let started = Instant::now();
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
-    let grid = args.grid.grid(&loaded, request.records_node_reach())?;
+    let groups = match &args.light_groups {
+        Some(spec) => Some(
+            LightGroups::parse(&loaded.scene, spec).map_err(|e| anyhow::anyhow!("--light-groups: {e}"))?,
+        ),
+        None => None,
+    };
+    let grid = args.grid.grid_split(
+        &loaded,
+        request.records_node_reach(),
+        groups.as_ref().map_or(0, LightGroups::len),
+    )?;
+    if let (Some(g), false) = (&groups, args.quiet || args.json) {
+        eprintln!("light groups:\n{}", g.describe());
+    }
     let key = request.key(&loaded.scene, &grid);
     let provenance = Provenance { frame: loaded.frame, key: &key };
     let (bake, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
         let bvh_seconds = t0.elapsed().as_secs_f64();
-        let transport = Transport::new(&loaded.scene, &tracer, request.transport);
+        let mut transport = Transport::new(&loaded.scene, &tracer, request.transport);
+        if let Some(g) = groups {
+            transport = transport.with_groups(g);
+        }
         let bake = with_bar(args.quiet, &args.method, |c| {
             bake_uniform(&transport, &loaded.scene, &grid, &request, provenance, c)
         })?;
@@ -74,9 +92,10 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let vol = &bake.volume;
-    match &bake.gradients {
-        None => write_exr(&args.output, vol, &ExrOptions::default()),
-        Some(g) => write_exr_with_gradients(&args.output, vol, &g.gradients, &ExrOptions::default()),
+    match (&bake.gradients, &bake.groups) {
+        (_, Some(g)) => write_grouped_exr(&args.output, g, &ExrOptions::default()),
+        (None, None) => write_exr(&args.output, vol, &ExrOptions::default()),
+        (Some(g), None) => write_exr_with_gradients(&args.output, vol, &g.gradients, &ExrOptions::default()),
     }
     .with_context(|| format!("writing {}", args.output.display()))?;
     let report =

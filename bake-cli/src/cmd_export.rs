@@ -39,7 +39,12 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             BevyFormatArg::Rgb9e5 => BevyFormat::Rgb9e5,
         }),
     };
-    let report = export(&opened, &args.volume, format, res, out).map_err(|e| match e {
+    let grouped = grouped_volume(&args.volume)?;
+    let exported = match &grouped {
+        Some(g) if res.is_none() => lightvol_volume::export::export_grouped(g, &args.volume, format, out),
+        _ => export(&opened, &args.volume, format, res, out).map(|r| (r, Vec::new())),
+    };
+    let (report, group_files) = exported.map_err(|e| match e {
         ExportError::ResolutionForUniform => {
             anyhow::anyhow!(
                 "--res resamples adaptive volumes only; {} is a uniform volume",
@@ -84,6 +89,16 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
         eprintln!("{w}");
     }
     eprintln!("wrote {}", out.display());
+    if let Some(g) = &grouped {
+        eprintln!(
+            "the volume's {} light groups ({}): each written beside it in the same format, listed in the manifest",
+            g.names().len(),
+            g.names().join(", ")
+        );
+        for f in group_files.iter().skip(1) {
+            eprintln!("wrote {}", f.display());
+        }
+    }
     if args.format != CliFormat::Json {
         let sc = sidecar_path(out);
         if sc.exists() {
@@ -91,6 +106,21 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
         }
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The volume's light groups, when it is a native EXR file baked with them.
+fn grouped_volume(path: &std::path::Path) -> anyhow::Result<Option<lightvol_volume::GroupedVolume>> {
+    let is_exr = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if !is_exr {
+        return Ok(None);
+    }
+    let bytes = lightvol_volume::io::util::read_bounded(path)?;
+    if !lightvol_volume::io::groups::has_groups(&bytes)? {
+        return Ok(None);
+    }
+    let g = lightvol_volume::io::groups::grouped_exr_from_bytes(&bytes)
+        .with_context(|| format!("reading the light groups of {}", path.display()))?;
+    Ok(Some(g))
 }
 
 /// The warning for exporting a volume fitted for one engine's lookup (`bake --target`) to a

@@ -12,7 +12,22 @@ use crate::cli::InfoArgs;
 /// The description `info --json` prints (lightvol-volume's `info::describe`).
 fn describe(path: &Path) -> anyhow::Result<Value> {
     let opened = lightvol_volume::open(path).with_context(|| format!("reading {}", path.display()))?;
-    lightvol_volume::info::describe(&opened, path).with_context(|| format!("describing {}", path.display()))
+    let mut info = lightvol_volume::info::describe(&opened, path)
+        .with_context(|| format!("describing {}", path.display()))?;
+    let is_exr = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+    if is_exr {
+        let bytes = lightvol_volume::io::util::read_bounded(path)?;
+        if lightvol_volume::io::groups::has_groups(&bytes)? {
+            let g = lightvol_volume::io::groups::grouped_exr_from_bytes(&bytes)
+                .with_context(|| format!("reading the light groups of {}", path.display()))?;
+            info["light_groups"] = serde_json::json!({
+                "names": g.names(),
+                "bytes": g.layer_bytes(),
+                "sum_error": g.sum_error(),
+            });
+        }
+    }
+    Ok(info)
 }
 
 /// The text lines `info` prints for the octree section.
@@ -112,6 +127,16 @@ fn print_text(info: &Value) {
             println!("validity    mask of {} invalid nodes (lookups renormalise over valid corners)", n)
         }
         None => println!("validity    no mask"),
+    }
+    if let Some(names) = info["light_groups"]["names"].as_array() {
+        let names: Vec<&str> = names.iter().filter_map(Value::as_str).collect();
+        println!(
+            "groups      {} light groups ({}), {} bytes; their sum differs from the whole by {:.1e} of the largest coefficient",
+            names.len(),
+            names.join(", "),
+            info["light_groups"]["bytes"],
+            f(&info["light_groups"]["sum_error"])
+        );
     }
     match info["reach"]["limited_nodes"].as_u64() {
         Some(n) => println!(

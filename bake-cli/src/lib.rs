@@ -22,6 +22,7 @@ mod cmd_inspect;
 mod cmd_lint;
 mod cmd_merge;
 mod cmd_proxies;
+mod cmd_relight;
 mod cmd_render;
 mod cmd_render_surface;
 mod cmd_shader;
@@ -90,6 +91,7 @@ fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::GpuInfo(a) => cmd_gpu::run_info(&a),
         cli::Command::Imse(a) => cmd_imse::run(&a),
         cli::Command::Info(a) => cmd_info::run(&a),
+        cli::Command::Relight(a) => cmd_relight::run(&a),
         cli::Command::Table(a) => cmd_table::run(&a),
         cli::Command::Inspect(a) => cmd_inspect::run(&a),
         cli::Command::Lint(a) => cmd_lint::run(&a),

@@ -291,6 +291,17 @@ impl GridArgs {
     /// invalid or oversized grids before anything is allocated (counting the node reach
     /// when the bake records one, `node_reach`).
     pub(crate) fn grid(&self, scene: &LoadedScene, node_reach: bool) -> anyhow::Result<GridSpec> {
+        self.grid_split(scene, node_reach, 0)
+    }
+
+    /// [`Self::grid`] for a bake split into `light_groups` light groups (their memory
+    /// counted).
+    pub(crate) fn grid_split(
+        &self,
+        scene: &LoadedScene,
+        node_reach: bool,
+        light_groups: usize,
+    ) -> anyhow::Result<GridSpec> {
         let bounds = match &self.bounds {
             Some(b) => {
                 let v = parse_floats::<6>("--bounds", b)?;
@@ -306,6 +317,7 @@ impl GridArgs {
             coeffs: self.coeffs(),
             memory_limit: self.memory_limit(),
             node_reach,
+            light_groups,
         };
         choice.resolve(scene).map_err(|e| match e {
             GridError::EmptyBounds { .. } => anyhow::anyhow!("--{e}"),

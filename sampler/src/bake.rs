@@ -40,7 +40,7 @@ use crate::noise::NoiseTarget;
 use crate::probe::{classify_node, probe_samples, probe_unit};
 use crate::settings::BakeSettings;
 use crate::stats::BakeStats;
-use crate::unit::{SampleOut, UnitOut, cell_unit, node_box_unit, point_unit};
+use crate::unit::{UnitOut, cell_unit, node_box_unit, point_unit};
 use lightvol_core::progress::{BakeControl, Progress};
 use lightvol_scene::stats::RayCounts;
 use lightvol_scene::transport::Transport;
@@ -97,6 +97,9 @@ pub(crate) fn bake_with_sink(
     }
     let mut acc =
         Accumulator::new(grid.clone(), settings.coeffs).map_err(|e| BakeError::Volume(e.to_string()))?;
+    if let Some(g) = transport.groups() {
+        acc.enable_groups(g.len());
+    }
     let units = match settings.method {
         Method::Point | Method::DoiNode | Method::Doi => grid.node_count(),
         Method::Prefilter | Method::DoiPaper => grid.cell_count(),
@@ -136,11 +139,22 @@ pub(crate) fn bake_with_sink(
 trait NodeSums {
     fn add(&mut self, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]);
     fn add_outside(&mut self, node: usize, b: f64);
+    /// Light-group numerators kept (0: none; [`Accumulator::add_group`]).
+    fn groups(&self) -> usize {
+        0
+    }
+    fn add_group(&mut self, _g: usize, _node: usize, _b: f64, _radiance_over_pdf: [f64; 3], _basis: &[f64]) {}
 }
 
 impl NodeSums for Accumulator {
     fn add(&mut self, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
         Accumulator::add(self, node, b, radiance_over_pdf, basis);
+    }
+    fn groups(&self) -> usize {
+        self.group_count()
+    }
+    fn add_group(&mut self, g: usize, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
+        Accumulator::add_group(self, g, node, b, radiance_over_pdf, basis);
     }
     fn add_outside(&mut self, node: usize, b: f64) {
         Accumulator::add_outside(self, node, b);
@@ -316,6 +330,9 @@ pub fn bake_units_fixed(
     if settings.shard != (0, 1) {
         return Err(BakeError::Settings("a unit-subset bake cannot be sharded".into()));
     }
+    if transport.groups().is_some() {
+        return Err(BakeError::Settings("a unit-subset bake is not split by light group".into()));
+    }
     lightvol_volume::volume::check_coeffs(settings.coeffs).map_err(|e| BakeError::Settings(e.to_string()))?;
     let count = match settings.method {
         Method::Point | Method::DoiNode | Method::Doi => grid.node_count(),
@@ -429,24 +446,25 @@ fn sample_unit(transport: &Transport<'_>, grid: &GridSpec, settings: &BakeSettin
     let class = classify_node(transport.tracer(), grid, settings.seed, u64::from(cap), u);
     let spent = RayCounts { sampling: class.rays, ..Default::default() };
     until_converged(settings.samples.get().min(cap), &target, spent, |n, earlier| {
-        let mut out = probe_samples(transport, &with(n), u, &class, class.take(u64::from(n)), &earlier);
+        let mut out =
+            probe_samples(transport, &with(n), u, &class, class.take(u64::from(n)), earlier.as_ref());
         out.stats.final_samples = u64::from(n);
         out
     })
 }
 
 /// A unit's rounds under a noise target ([`crate::noise`]), from `start` samples: `round`
-/// gives the round of `n` samples, given the previous round's samples (empty at first).
+/// gives the round of `n` samples, given the previous round (none at first).
 /// Returns the last round, with the rays of every round and `spent` (those traced before
 /// the first) added to its own.
 fn until_converged(
     start: u32,
     target: &NoiseTarget,
     mut spent: RayCounts,
-    mut round: impl FnMut(u32, Vec<SampleOut>) -> UnitOut,
+    mut round: impl FnMut(u32, Option<UnitOut>) -> UnitOut,
 ) -> UnitOut {
     let mut n = start;
-    let mut earlier = Vec::new();
+    let mut earlier = None;
     loop {
         let mut out = round(n, earlier);
         let unmet = crate::noise::unmet_error(&out.sample_values(), target);
@@ -457,15 +475,19 @@ fn until_converged(
         }
         spent.add(&out.stats.rays);
         n = crate::noise::next_samples(n, unmet.unwrap_or(f64::INFINITY), target);
-        earlier = out.samples;
+        earlier = Some(out);
     }
 }
 
 /// Adds a unit's samples in order. A sample with two terms is added as two half-weight
 /// contributions with doubled radiance: `(b/2)·(2 r)` equals `b·r` exactly (powers of two),
 /// so the numerator receives `b (r₁ Y(ω₁) + r₂ Y(ω₂))` and the denominator exactly `b`.
+///
+/// With light groups, each group's terms are added the same way to its numerator (a zero
+/// term adds nothing, so it is skipped).
 fn feed(acc: &mut impl NodeSums, out: &UnitOut, bands: usize, basis: &mut [Vec<f64>; 2]) {
-    for s in &out.samples {
+    let groups = acc.groups();
+    for (i, s) in out.samples.iter().enumerate() {
         let n_terms = usize::from(s.n_terms);
         // One basis evaluation per term, shared by the (up to 8) corners.
         for (t, b) in s.terms[..n_terms].iter().zip(basis.iter_mut()) {
@@ -481,6 +503,20 @@ fn feed(acc: &mut impl NodeSums, out: &UnitOut, bands: usize, basis: &mut [Vec<f
             } else {
                 for (t, b) in s.terms[..n_terms].iter().zip(basis.iter()) {
                     acc.add(node, 0.5 * w, t.1.map(|v| 2.0 * v), b);
+                }
+            }
+            for g in 0..groups {
+                let term = |t: usize| out.grouped[(2 * i + t) * groups + g];
+                if n_terms == 1 {
+                    if term(0) != [0.0; 3] {
+                        acc.add_group(g, node, w, term(0), &basis[0]);
+                    }
+                } else {
+                    for (t, b) in basis.iter().enumerate() {
+                        if term(t) != [0.0; 3] {
+                            acc.add_group(g, node, 0.5 * w, term(t).map(|v| 2.0 * v), b);
+                        }
+                    }
                 }
             }
         }

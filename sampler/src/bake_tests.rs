@@ -496,9 +496,9 @@ fn doi_rounds_extend_one_classification() {
     let mut extended = 0;
     for node in 0..grid.node_count() {
         let class = classify_node(&tracer, &grid, s.seed, 256, node);
-        let first = probe_samples(&t, &s, node, &class, class.take(16), &[]);
-        let fresh = probe_samples(&t, &s, node, &class, class.take(64), &[]);
-        let again = probe_samples(&t, &s, node, &class, class.take(64), &first.samples);
+        let first = probe_samples(&t, &s, node, &class, class.take(16), None);
+        let fresh = probe_samples(&t, &s, node, &class, class.take(64), None);
+        let again = probe_samples(&t, &s, node, &class, class.take(64), Some(&first));
         assert_eq!(fresh.samples, again.samples, "node {node}");
         assert_eq!(fresh.samples[..first.samples.len()], first.samples[..], "node {node}");
         if !first.samples.is_empty() {
@@ -518,4 +518,71 @@ fn doi_rounds_extend_one_classification() {
     assert!(converged.stats.final_samples < at_cap.stats.final_samples, "{:?}", converged.stats);
     assert_eq!(converged.stats.back_face_points, at_cap.stats.back_face_points);
     assert_eq!(converged.stats.zero_weight_nodes, at_cap.stats.zero_weight_nodes);
+}
+
+/// A bake split by light group: its whole volume is the ungrouped bake's bit for bit, the
+/// groups sum to it within f32 rounding, under a noise target too, and a volume relit with
+/// one group scaled by k reads, through the lookup, k times that group more.
+#[test]
+fn light_groups_split_a_bake_and_sum_to_it() {
+    use crate::noise::NoiseTarget;
+    use lightvol_scene::light_groups::LightGroups;
+    let mut c = city();
+    // The buildings glow as well: three kinds of light (sky, sun, an emissive material).
+    let building = c.scene.triangles[c.scene.triangles.len() - 1].material as usize;
+    c.scene.materials[building].emission = [0.2, 0.1, 0.05];
+    let tracer = Tracer::new(&c.scene);
+    let groups = LightGroups::each(&c.scene).unwrap();
+    assert_eq!(groups.len(), 3, "{}", groups.describe());
+    let plain = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let split = Transport::new(&c.scene, &tracer, TransportSettings::default()).with_groups(groups.clone());
+    let grid = small_city_grid();
+    let base = BakeSettings { method: Method::Doi, samples: samples(32), seed: 3, ..Default::default() };
+    let noisy =
+        BakeSettings { noise: Some(NoiseTarget { relative_error: 0.05, max_samples: samples(128) }), ..base };
+    for (label, s) in
+        [("doi", base), ("doi --noise", noisy), ("point", BakeSettings { method: Method::Point, ..base })]
+    {
+        let a = bake(&plain, &grid, &s, &BakeControl::default()).unwrap();
+        let b = bake(&split, &grid, &s, &BakeControl::default()).unwrap();
+        let layers = b.accumulator.finalize_groups();
+        let (va, _) = a.finish();
+        let (vb, _) = b.finish();
+        assert_eq!(va.data(), vb.data(), "{label}: the whole bake is the ungrouped one");
+        let g = lightvol_volume::GroupedVolume::new(vb, groups.names().to_vec(), layers).unwrap();
+        // Each group is rounded to f32 once and so is the whole bake (their exact sums
+        // agree to 2^-64 per term): the sum of the groups is within (groups + 1) half-ulps
+        // of the largest magnitude any of them holds.
+        let scale = (0..3)
+            .flat_map(|i| g.layer(i).iter())
+            .chain(g.total().data())
+            .fold(0.0f64, |m, &v| m.max(f64::from(v.abs())));
+        let total_max = g.total().data().iter().fold(0.0f64, |m, &v| m.max(f64::from(v.abs())));
+        let bound = 4.0 * f64::from(f32::EPSILON) / 2.0 * scale / total_max;
+        assert!(g.sum_error() <= bound, "{label}: {} > {bound}", g.sum_error());
+        for i in 0..3 {
+            assert!(g.layer(i).iter().any(|&v| v != 0.0), "{label}: group {i} carries light");
+        }
+        // Scaling the sun by 3 adds twice the sun's lookup, at points across the grid.
+        let ones = vec![[1.0; 3]; 3];
+        let mut sun3 = ones.clone();
+        sun3[1] = [3.0; 3];
+        let (r1, r3, sun) = (g.relit(&ones).unwrap(), g.relit(&sun3).unwrap(), g.group(1));
+        let (lo, hi) = grid.bounds();
+        for k in 0..50 {
+            let f = [(k as f64 * 0.37) % 1.0, (k as f64 * 0.61) % 1.0, (k as f64 * 0.17) % 1.0];
+            let p: [f32; 3] = std::array::from_fn(|a| (lo[a] + f[a] * (hi[a] - lo[a])) as f32);
+            let n = [0.0, 0.0, 1.0];
+            let (e1, e3, es) = (r1.irradiance(p, n), r3.irradiance(p, n), sun.irradiance(p, n));
+            for ch in 0..3 {
+                let want = f64::from(e1[ch]) + 2.0 * f64::from(es[ch]);
+                // f32 lookups of O(1) irradiance, three of them: 1e-5 relative.
+                assert!(
+                    (f64::from(e3[ch]) - want).abs() <= 1e-5 * want.abs().max(1.0),
+                    "{label} point {k}: {} vs {want}",
+                    e3[ch]
+                );
+            }
+        }
+    }
 }

@@ -162,7 +162,8 @@ pub fn point_projection_counted(
         let dir = DVec3::from_array(sample_uniform_sphere(h.point(s)));
         let mut rng = PathRng::new(settings.seed, stream, s);
         let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
-        let (terms, n) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut stats);
+        // Gradient bakes are not split by light group (refused by the request).
+        let (terms, n) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut stats, &mut Vec::new());
         for (d, r) in &terms[..usize::from(n)] {
             eval_into(bands, d.to_array(), &mut y);
             for (j, yj) in y.iter().enumerate() {

@@ -251,7 +251,7 @@ pub(crate) fn probe_unit(
     node: usize,
 ) -> (UnitOut, ProbeCapture) {
     let class = classify_node(t.tracer(), grid, settings.seed, u64::from(settings.samples.get()), node);
-    let mut out = probe_samples(t, settings, node, &class, class.kept.len(), &[]);
+    let mut out = probe_samples(t, settings, node, &class, class.kept.len(), None);
     out.stats.rays.sampling += class.rays;
     (out, class.capture)
 }
@@ -278,14 +278,15 @@ impl NodeClass {
 /// where the directions start, its direction and first hit and its own path stream, so a
 /// round of a bake until converged that extends an earlier round of the same
 /// classification gets that round's samples bit for bit, and their bounces need no
-/// tracing again (their rays were counted with that round).
+/// tracing again (their rays were counted with that round). Their light-group terms, if
+/// any, come along.
 pub(crate) fn probe_samples(
     t: &Transport<'_>,
     settings: &BakeSettings,
     node: usize,
     class: &NodeClass,
     take: usize,
-    earlier: &[SampleOut],
+    earlier: Option<&UnitOut>,
 ) -> UnitOut {
     let mut out = UnitOut { nodes: [node; 8], ..Default::default() };
     out.stats.units = 1;
@@ -301,18 +302,19 @@ pub(crate) fn probe_samples(
         w[0] = 1.0;
         w
     };
-    out.samples = class.kept[..take]
-        .iter()
-        .enumerate()
-        .map(|(i, &(s, dir, hit))| {
-            if let Some(same) = earlier.get(i) {
-                return *same;
-            }
-            let mut rng = PathRng::new(settings.seed, stream, s);
-            let (terms, n_terms) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats);
-            SampleOut { weights: one, terms, n_terms }
-        })
-        .collect();
+    let per_sample = 2 * t.groups().map_or(0, |g| g.len());
+    out.samples.reserve(take);
+    for (i, &(s, dir, hit)) in class.kept[..take].iter().enumerate() {
+        if let Some(e) = earlier.filter(|e| i < e.samples.len()) {
+            out.samples.push(e.samples[i]);
+            out.grouped.extend_from_slice(&e.grouped[i * per_sample..(i + 1) * per_sample]);
+            continue;
+        }
+        let mut rng = PathRng::new(settings.seed, stream, s);
+        let (terms, n_terms) =
+            sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats, &mut out.grouped);
+        out.samples.push(SampleOut { weights: one, terms, n_terms });
+    }
     out.stats.samples_kept = out.samples.len() as u64;
     if let ProbeCapture::Relocated(y) = class.capture {
         out.relocated = Some(y);

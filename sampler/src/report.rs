@@ -79,6 +79,26 @@ pub struct BakeReport {
     /// The samples a bake until converged spent, when it had a noise target.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub noise: Option<NoiseReport>,
+    /// The light groups, when the bake was split by them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub light_groups: Option<LightGroupsReport>,
+}
+
+/// A bake split by light group ([`lightvol_volume::light_groups`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LightGroupsReport {
+    /// The groups' names, in the file's order.
+    pub groups: Vec<String>,
+    /// Bytes the groups add to the file's coefficients (f32).
+    pub bytes: usize,
+    /// [`Self::bytes`] per grid node.
+    pub bytes_per_node: usize,
+    /// Bytes the groups add to the bake's working memory per node
+    /// ([`crate::scene_setup::light_group_bytes`]).
+    pub working_bytes_per_node: u64,
+    /// The largest difference between the groups' sum and the whole bake, relative to the
+    /// largest coefficient ([`lightvol_volume::GroupedVolume::sum_error`]).
+    pub sum_error: f64,
 }
 
 /// What a bake until converged (`--noise`, [`crate::noise`]) spent.
@@ -172,7 +192,7 @@ impl BakeReport {
         run: RunFigures,
     ) -> Self {
         let s = &bake.output.stats;
-        Self {
+        let mut report = Self {
             cells_with_back_faces: s.cells_with_back_faces,
             candidates: s.candidates,
             samples_kept: s.samples_kept,
@@ -195,8 +215,33 @@ impl BakeReport {
                 seconds: g.seconds,
                 memory_bytes: g.gradients.memory_bytes(),
             }),
+            light_groups: bake.groups.as_ref().map(|g| {
+                let nodes = grid.node_count().max(1);
+                LightGroupsReport {
+                    groups: g.names().to_vec(),
+                    bytes: g.layer_bytes(),
+                    bytes_per_node: g.layer_bytes() / nodes,
+                    working_bytes_per_node: u64::try_from(crate::scene_setup::light_group_bytes(
+                        [1, 1, 1],
+                        request.coeffs,
+                        g.names().len(),
+                    ))
+                    .unwrap_or(u64::MAX),
+                    sum_error: g.sum_error(),
+                }
+            }),
             ..Self::common(loaded, grid, request, s.rays, s.wall_time.as_secs_f64(), run)
+        };
+        if let Some(g) = &bake.groups {
+            let extra = crate::scene_setup::light_group_bytes(
+                grid.res().map(u64::from),
+                request.coeffs,
+                g.names().len(),
+            );
+            let total = u128::from(report.scale.estimated_memory_bytes).saturating_add(extra);
+            report.scale.estimated_memory_bytes = u64::try_from(total).unwrap_or(u64::MAX);
         }
+        report
     }
 
     /// The report of the engine baseline `bake` of `loaded` on `grid` under `request`, with
@@ -255,6 +300,7 @@ impl BakeReport {
             gradients: None,
             baseline: None,
             noise: None,
+            light_groups: None,
         }
     }
 }

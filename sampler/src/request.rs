@@ -78,6 +78,10 @@ pub struct BakeRequest {
     pub target: Option<TargetSettings>,
     /// Sample each unit until its estimate converges ([`crate::noise`]).
     pub noise: Option<NoiseTarget>,
+    /// Also keep one volume per light group, from the same paths: the transport given to
+    /// [`bake_uniform`] must carry the groups
+    /// ([`Transport::with_groups`](lightvol_scene::transport::Transport::with_groups)).
+    pub light_groups: bool,
 }
 
 impl BakeRequest {
@@ -98,6 +102,7 @@ impl BakeRequest {
             adaptive: None,
             target: None,
             noise: None,
+            light_groups: false,
         }
     }
 
@@ -286,6 +291,21 @@ impl BakeRequest {
                 return Err(RequestError::Noise(with));
             }
         }
+        if self.light_groups {
+            let fit = self.effective_fit();
+            let refused = [
+                (matches!(self.method, BakeMethod::Baseline(_)), "an engine baseline"),
+                (self.adaptive.is_some(), "an octree bake"),
+                (self.shard.is_some(), "shards"),
+                (self.keep_accumulator, "keeping the accumulator"),
+                (self.gradients.is_some(), "gradients"),
+                (fit != Fit::Average, "a fit other than the average"),
+                (self.effective_target().is_some(), "--target"),
+            ];
+            if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
+                return Err(RequestError::LightGroups(with));
+            }
+        }
         if let BakeMethod::Baseline(baseline) = self.method {
             let refused = [
                 (self.adaptive.is_some(), Conflict::Adaptive),
@@ -400,6 +420,12 @@ pub enum RequestError {
     /// A target lookup with a setting it cannot go with.
     #[error("--target cannot be combined with {0}")]
     Target(&'static str),
+    /// Light groups with a setting they cannot go with (yet).
+    #[error("--light-groups cannot be combined with {0}")]
+    LightGroups(&'static str),
+    /// Light groups asked for, but the transport splits by none.
+    #[error("light groups were asked for, but the transport carries none (Transport::with_groups)")]
+    NoLightGroups,
     /// The basis estimator needs cell samples.
     #[error("basis gradients need cell samples (prefilter or doi-paper), not {}", .0.name())]
     BasisNeedsCells(Method),
@@ -436,6 +462,9 @@ pub struct UniformBake {
     /// The fit for a target lookup, when asked for ([`crate::target`]); its rays are
     /// counted in the output's query rays.
     pub target: Option<TargetReport>,
+    /// The volume split by light group, when asked for ([`BakeRequest::light_groups`]): the
+    /// whole bake is [`Self::volume`].
+    pub groups: Option<lightvol_volume::GroupedVolume>,
 }
 
 /// Why a bake failed.
@@ -485,6 +514,9 @@ pub fn bake_uniform(
     request.validate()?;
     if let BakeMethod::Baseline(baseline) = request.method {
         return Err(RequestError::NotUniform(baseline.name()).into());
+    }
+    if request.light_groups && transport.groups().is_none() {
+        return Err(RequestError::NoLightGroups.into());
     }
     if request.adaptive.is_some() {
         return Err(RequestError::NotUniform("an octree bake").into());
@@ -557,7 +589,18 @@ pub fn bake_uniform(
             (fitted, Some(report))
         }
     };
-    Ok(UniformBake { output, volume, fill, gradients, least_squares, target })
+    let groups = match transport.groups().filter(|_| request.light_groups) {
+        Some(g) => Some(
+            lightvol_volume::GroupedVolume::new(
+                volume.clone(),
+                g.names().to_vec(),
+                output.accumulator.finalize_groups(),
+            )
+            .map_err(|e| UniformBakeError::Bake(BakeError::Volume(e.to_string())))?,
+        ),
+        None => None,
+    };
+    Ok(UniformBake { output, volume, fill, gradients, least_squares, target, groups })
 }
 
 #[cfg(test)]

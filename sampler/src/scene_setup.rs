@@ -242,6 +242,20 @@ pub fn bake_memory_bytes(res: [u64; 3], coeffs: usize, node_reach: bool) -> u128
     nodes * ((k + 2) * SUM_BYTES + (k + 1) * 8 + (k + 1) * 4 + reach)
 }
 
+/// Bytes that splitting a bake of this grid into `groups` light groups adds
+/// ([`lightvol_volume::accumulator`]'s light-group numerators): per group and node, `3 ·
+/// coeffs` exact sums ([`SUM_BYTES`]) and the finalized f32 layer; once, the f64 values,
+/// the f32 volume and its copy that each group passes through when it is finalized.
+#[must_use]
+pub fn light_group_bytes(res: [u64; 3], coeffs: usize, groups: usize) -> u128 {
+    if groups == 0 {
+        return 0;
+    }
+    let nodes = u128::from(res[0]) * u128::from(res[1]) * u128::from(res[2]);
+    let k = coeffs as u128 * 3;
+    nodes * k * (groups as u128 * (SUM_BYTES + 4) + 8 + 4 + 4)
+}
+
 /// Bytes the system reports available (`MemAvailable`), or 8 GiB where it does not say.
 #[must_use]
 pub fn available_memory_bytes() -> u128 {
@@ -279,6 +293,8 @@ pub struct GridChoice {
     pub memory_limit: u128,
     /// The bake records the node reach ([`NODE_REACH_BYTES`]).
     pub node_reach: bool,
+    /// Light groups the bake is split into (0: none; [`light_group_bytes`]).
+    pub light_groups: usize,
 }
 
 /// Why a grid could not be chosen.
@@ -357,13 +373,21 @@ impl GridChoice {
             core::array::from_fn(|i| (((max[i] - min[i]) / longest * 16.0).ceil() as u64 + 1).max(2))
         };
         let coeffs = self.coeffs;
-        let grid_bytes = bake_memory_bytes(res, coeffs, self.node_reach);
+        let groups = light_group_bytes(res, coeffs, self.light_groups);
+        let grid_bytes = bake_memory_bytes(res, coeffs, self.node_reach).saturating_add(groups);
         let scene_bytes = u128::from(scene.memory.total());
-        let need = scene.bake_memory_bytes(res, coeffs, self.node_reach);
+        let need = scene.bake_memory_bytes(res, coeffs, self.node_reach).saturating_add(groups);
         let limit = self.memory_limit;
         if need > limit {
             let (what, bytes) = if grid_bytes >= scene_bytes {
-                (format!("grid {}x{}x{} with {coeffs} coefficients", res[0], res[1], res[2]), grid_bytes)
+                let split = match self.light_groups {
+                    0 => String::new(),
+                    g => format!(" in {g} light groups"),
+                };
+                (
+                    format!("grid {}x{}x{} with {coeffs} coefficients{split}", res[0], res[1], res[2]),
+                    grid_bytes,
+                )
             } else {
                 (format!("scene ({})", scene.memory.biggest().0), scene_bytes)
             };
@@ -434,6 +458,7 @@ mod tests {
     /// The scene's recommended grid, 9 coefficients, no memory limit, no node reach.
     fn recommended() -> GridChoice {
         GridChoice {
+            light_groups: 0,
             bounds: None,
             res: None,
             spacing: None,

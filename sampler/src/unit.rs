@@ -39,6 +39,10 @@ pub(crate) struct UnitOut {
     pub(crate) stats: BakeStats,
     /// [`Method::Doi`]: the point a node outside the domain was relocated to.
     pub(crate) relocated: Option<DVec3>,
+    /// With light groups ([`Transport::groups`]): per sample, its terms' radiance / pdf
+    /// split by group, `[sample][term][group]` (two terms per sample, the second zero
+    /// when the sample has one); empty without groups.
+    pub(crate) grouped: Vec<[f64; 3]>,
 }
 
 impl UnitOut {
@@ -57,7 +61,10 @@ impl UnitOut {
 /// Density of uniform sphere directions.
 const UNIFORM_SPHERE_PDF: f64 = 1.0 / (4.0 * PI);
 
-/// The light terms of one probe sample at `x` along `dir` with first hit `hit`.
+/// The light terms of one probe sample at `x` along `dir` with first hit `hit`. With light
+/// groups, the terms split by group are appended to `grouped` (two terms' worth, see
+/// [`UnitOut::grouped`]); the terms returned are the same, bit for bit, as without.
+#[allow(clippy::too_many_arguments, reason = "one sample's inputs and its two outputs")]
 pub(crate) fn sample_terms(
     t: &Transport<'_>,
     settings: &BakeSettings,
@@ -66,8 +73,27 @@ pub(crate) fn sample_terms(
     hit: Option<Hit>,
     rng: &mut PathRng,
     stats: &mut BakeStats,
+    grouped: &mut Vec<[f64; 3]>,
 ) -> ([(DVec3, [f64; 3]); 2], u8) {
     let pdf = settings.light_sampling.then_some(UNIFORM_SPHERE_PDF);
+    if let Some(groups) = t.groups() {
+        let g = groups.len();
+        let at = grouped.len();
+        grouped.resize(at + 2 * g, [0.0; 3]);
+        let l = t.radiance_from_hit_grouped(dir, hit, pdf, rng, &mut stats.rays, &mut grouped[at..at + g]);
+        for v in &mut grouped[at..at + g] {
+            *v = v.map(|c| c / UNIFORM_SPHERE_PDF);
+        }
+        let first = (dir, l.map(|v| v / UNIFORM_SPHERE_PDF));
+        if settings.light_sampling {
+            let u = rng.next3();
+            if let Some((d, r, key)) = t.light_sample_keyed(x, UNIFORM_SPHERE_PDF, u, &mut stats.rays) {
+                grouped[at + g + groups.group_of(key)] = r;
+                return ([first, (d, r)], 2);
+            }
+        }
+        return ([first, (DVec3::Z, [0.0; 3])], 1);
+    }
     let l = t.radiance_from_hit(dir, hit, pdf, rng, &mut stats.rays);
     let first = (dir, l.map(|v| v / UNIFORM_SPHERE_PDF));
     if settings.light_sampling {
@@ -97,7 +123,8 @@ pub(crate) fn point_unit(
         let mut rng = PathRng::new(settings.seed, hash2(node as u64, 0x0070_6f69_6e74), s);
         out.stats.rays.sampling += 1;
         let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
-        let (terms, n_terms) = sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats);
+        let (terms, n_terms) =
+            sample_terms(t, settings, x, dir, hit, &mut rng, &mut out.stats, &mut out.grouped);
         out.samples.push(SampleOut { weights, terms, n_terms });
     }
     out.stats.units = 1;
@@ -162,8 +189,16 @@ pub(crate) fn kept_node_samples(
     out.rejected = vec![one; c.rejected.len()];
     for cand in &c.kept {
         let mut rng = PathRng::new(settings.seed, stream, cand.index);
-        let (terms, n_terms) =
-            sample_terms(t, settings, cand.origin, cand.dir, cand.hit, &mut rng, &mut out.stats);
+        let (terms, n_terms) = sample_terms(
+            t,
+            settings,
+            cand.origin,
+            cand.dir,
+            cand.hit,
+            &mut rng,
+            &mut out.stats,
+            &mut out.grouped,
+        );
         out.samples.push(SampleOut { weights: one, terms, n_terms });
     }
     out.stats.samples_kept = c.kept.len() as u64;
@@ -228,7 +263,8 @@ pub(crate) fn cell_unit(t: &Transport<'_>, grid: &GridSpec, settings: &BakeSetti
     };
     for c in &candidates {
         let mut rng = PathRng::new(settings.seed, cell as u64, c.index);
-        let (terms, n_terms) = sample_terms(t, settings, c.origin, c.dir, c.hit, &mut rng, &mut out.stats);
+        let (terms, n_terms) =
+            sample_terms(t, settings, c.origin, c.dir, c.hit, &mut rng, &mut out.stats, &mut out.grouped);
         out.samples.push(SampleOut { weights: weights_of(candidate_at(c.index).0), terms, n_terms });
     }
     out.stats.units = 1;

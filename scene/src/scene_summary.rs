@@ -102,6 +102,8 @@ pub struct SceneSummary {
     pub extensions: Vec<ExtensionInfo>,
     /// Punctual lights (glTF `KHR_lights_punctual`), described in the file's frame.
     pub lights: Vec<String>,
+    /// The names `--light-groups` patterns match ([`crate::light_groups::scene_lights`]).
+    pub light_names: Vec<String>,
     /// The sun, if any (direction towards it, file frame).
     pub sun: Option<String>,
     /// The environment.
@@ -190,12 +192,14 @@ pub fn summarize(
     let lights = scene
         .punctual
         .iter()
-        .map(|l| match l {
+        .enumerate()
+        .map(|(i, l)| (scene.punctual_name(i), l))
+        .map(|(name, l)| match l {
             PunctualLight::Point { position, intensity } => {
-                format!("point at {} intensity {}", v(f(*position)), v(*intensity))
+                format!("{name}: point at {} intensity {}", v(f(*position)), v(*intensity))
             }
             PunctualLight::Spot { position, axis, intensity, inner, outer } => format!(
-                "spot at {} along {} intensity {} cone {:.1}°..{:.1}°",
+                "{name}: spot at {} along {} intensity {} cone {:.1}°..{:.1}°",
                 v(f(*position)),
                 v(f(*axis)),
                 v(*intensity),
@@ -203,7 +207,7 @@ pub fn summarize(
                 outer.to_degrees()
             ),
             PunctualLight::Directional { to_light, irradiance } => {
-                format!("directional towards {} irradiance {}", v(f(*to_light)), v(*irradiance))
+                format!("{name}: directional towards {} irradiance {}", v(f(*to_light)), v(*irradiance))
             }
         })
         .collect();
@@ -237,6 +241,7 @@ pub fn summarize(
             })
             .collect(),
         lights,
+        light_names: crate::light_groups::scene_lights(scene).into_iter().map(|l| l.name).collect(),
         sun: scene
             .sun
             .as_ref()
@@ -345,6 +350,7 @@ pub fn text(s: &SceneSummary) -> String {
     if let Some(sun) = &s.sun {
         println!("sun: {sun}");
     }
+    println!("light names (for --light-groups): {}", s.light_names.join(", "));
     println!("environment: {}", s.environment);
     println!("cameras: {}", s.cameras.len());
     for c in &s.cameras {

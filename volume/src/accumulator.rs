@@ -31,6 +31,12 @@
 //! volume; a node no shard recorded (an incomplete shard set), or a value no single
 //! record gives, reaches a full cell (no lookup leaves it out).
 //!
+//! ## Light groups
+//! A bake split by light group ([`crate::light_groups`]) keeps, beside the numerator, one
+//! numerator per group ([`Accumulator::enable_groups`], [`Accumulator::add_group`]): the
+//! same terms with the radiance of that group's lights only, over the same denominator.
+//! [`Accumulator::finalize_groups`] divides and fills each one as `finalize` does the whole.
+//!
 //! ## Zero-weight fill
 //! Nodes whose denominator is zero (no sample landed in their support inside the domain)
 //! have no estimate. `finalize` fills them as documented in [`crate::fill`] and counts
@@ -58,6 +64,8 @@ pub struct Accumulator {
     aux: Option<(String, FixedSums)>,
     /// The node reach as recorded (module docs): `6 · node + direction`, f32 bits + 1.
     reach: Option<FixedSums>,
+    /// Per light group, its share of the numerator (module docs).
+    groups: Vec<FixedSums>,
 }
 
 /// A summary, not the sums themselves.
@@ -87,6 +95,7 @@ impl Accumulator {
             contributions: 0,
             aux: None,
             reach: None,
+            groups: Vec::new(),
         })
     }
 
@@ -132,6 +141,56 @@ impl Accumulator {
         Some(NodeReach::new(nodes).expect("decoded reaches are in [0, 1]"))
     }
 
+    /// Starts `count` empty light-group numerators (module docs), replacing any earlier ones.
+    pub fn enable_groups(&mut self, count: usize) {
+        self.groups = vec![FixedSums::zeros(self.numerator.len()); count];
+    }
+
+    /// The number of light-group numerators (0 for a bake not split by group).
+    #[must_use]
+    pub fn group_count(&self) -> usize {
+        self.groups.len()
+    }
+
+    /// Adds one sample's terms for light group `g` to node `node`: the numerator arithmetic
+    /// of [`Self::add`] on group `g`'s numerator only (the denominator is the whole bake's,
+    /// added by [`Self::add`] for the same sample).
+    ///
+    /// # Panics
+    /// If `g` or `node` is out of range or `basis.len() != coeffs`.
+    #[inline]
+    pub fn add_group(&mut self, g: usize, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
+        assert_eq!(basis.len(), self.coeffs, "basis length must equal coeffs");
+        let k = self.coeffs * 3;
+        add_terms(&mut self.groups[g], node * k, b, radiance_over_pdf, basis);
+    }
+
+    /// Each light group's coefficients (module docs), `[node][coeff][rgb]` as f32: Eq. 6's
+    /// division by the whole bake's denominators, then the fill and checks of
+    /// [`Self::volume_from`] with the whole bake's weights, so that the groups sum to
+    /// [`Self::finalize`]'s coefficients up to rounding.
+    #[must_use]
+    pub fn finalize_groups(&self) -> Vec<Vec<f32>> {
+        let (_, weights, _) = self.estimates();
+        let n = self.spec.node_count();
+        let k = self.coeffs * 3;
+        self.groups
+            .iter()
+            .map(|g| {
+                let mut values = vec![0.0f64; n * k];
+                for node in 0..n {
+                    let d = self.denominator.get(node);
+                    if d.is_finite() && d > 0.0 {
+                        for (i, out) in values[node * k..(node + 1) * k].iter_mut().enumerate() {
+                            *out = g.get(node * k + i) / d;
+                        }
+                    }
+                }
+                self.volume_from(values, &weights, 0).0.data().to_vec()
+            })
+            .collect()
+    }
+
     /// Attaches auxiliary exact sums (named, e.g. `"mass"`); they are merged, saved and
     /// read back with the accumulator. Replaces any earlier ones.
     pub fn set_aux(&mut self, name: &str, sums: FixedSums) {
@@ -173,6 +232,7 @@ impl Accumulator {
             contributions,
             aux: None,
             reach: None,
+            groups: Vec::new(),
         })
     }
 
@@ -350,6 +410,16 @@ impl Accumulator {
                     "cannot merge accumulators with and without a node reach (doi and another method)".into(),
                 ));
             }
+        }
+        if self.groups.len() != other.groups.len() {
+            return Err(VolumeError::Mismatch(format!(
+                "cannot merge accumulators with {} and {} light groups",
+                self.groups.len(),
+                other.groups.len()
+            )));
+        }
+        for (a, b) in self.groups.iter_mut().zip(&other.groups) {
+            a.merge(b);
         }
         self.numerator.merge(&other.numerator);
         self.denominator.merge(&other.denominator);

@@ -100,6 +100,91 @@ pub fn export(
     }
 }
 
+/// The file of light group `g` beside the export `out`: `STEM.groupGG.EXT` (by index, so
+/// that any group name makes a safe file name; the manifest gives the names).
+#[must_use]
+pub fn group_export_path(out: &Path, g: usize) -> std::path::PathBuf {
+    let stem = out.file_stem().map_or_else(|| "volume".into(), |s| s.to_string_lossy().into_owned());
+    let name = match out.extension() {
+        Some(e) => format!("{stem}.group{g:02}.{}", e.to_string_lossy()),
+        None => format!("{stem}.group{g:02}"),
+    };
+    out.with_file_name(name)
+}
+
+/// The manifest of a grouped export beside `out`: `STEM.light_groups.json`.
+#[must_use]
+pub fn group_manifest_path(out: &Path) -> std::path::PathBuf {
+    let stem = out.file_stem().map_or_else(|| "volume".into(), |s| s.to_string_lossy().into_owned());
+    out.with_file_name(format!("{stem}.light_groups.json"))
+}
+
+/// What the manifest of a grouped export says (module docs of
+/// [`crate::light_groups`]): the whole bake's file, each group's name and file, and how
+/// they combine.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GroupManifest {
+    /// How the files combine.
+    pub convention: String,
+    /// The whole bake's file (name only, beside the manifest).
+    pub whole: String,
+    /// Each group: its name and file (name only), in group order.
+    pub groups: Vec<GroupFile>,
+}
+
+/// One light group's exported file.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GroupFile {
+    /// The group's name.
+    pub name: String,
+    /// Its file, beside the manifest.
+    pub file: String,
+}
+
+/// How a grouped export's files combine, in words (the manifest's `convention`).
+pub const GROUP_CONVENTION: &str = "each group file holds the coefficients that group's lights alone contribute, \
+     in the whole file's layout and frame (weights, validity and reach are the whole bake's); \
+     relit = sum over groups of scale_g * group_g (per colour channel); \
+     with every scale 1 the sum is the whole file up to f16/f32 rounding";
+
+/// Writes a volume baked with light groups in `format`: the whole bake to `out` as
+/// [`export`] does, each group to [`group_export_path`] in the same format, and the
+/// manifest ([`GroupManifest`]) to [`group_manifest_path`]. Returns the report of the
+/// whole bake's export and the files written.
+///
+/// # Errors
+/// As [`export`]; the JSON format describes the native file, which carries the groups
+/// already, so it writes the whole bake's sidecar and the manifest names the native file.
+pub fn export_grouped(
+    grouped: &crate::light_groups::GroupedVolume,
+    source: &Path,
+    format: ExportFormat,
+    out: &Path,
+) -> Result<(ExportReport, Vec<std::path::PathBuf>), ExportError> {
+    let report = write_uniform(grouped.total(), source, format, out)?;
+    let name = |p: &Path| p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
+    let mut files = vec![out.to_path_buf()];
+    let mut groups = Vec::with_capacity(grouped.names().len());
+    for (g, group_name) in grouped.names().iter().enumerate() {
+        let file = if format == ExportFormat::Json {
+            name(source)
+        } else {
+            let path = group_export_path(out, g);
+            write_uniform(&grouped.group(g), source, format, &path)?;
+            files.push(path.clone());
+            name(&path)
+        };
+        groups.push(GroupFile { name: group_name.clone(), file });
+    }
+    let manifest = GroupManifest { convention: GROUP_CONVENTION.into(), whole: name(out), groups };
+    let text =
+        serde_json::to_string_pretty(&manifest).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
+    let path = group_manifest_path(out);
+    crate::io::util::write_atomic(&path, text.as_bytes())?;
+    files.push(path);
+    Ok((report, files))
+}
+
 fn write_uniform(
     vol: &IrradianceVolume,
     source: &Path,

@@ -135,6 +135,20 @@ impl IrradianceVolume {
         })
     }
 
+    /// The same volume (grid, weights, validity, reach, metadata) with other coefficients,
+    /// `[node][coeff][rgb]`; errors if their count differs or one is not finite.
+    pub fn with_data(&self, data: Vec<f32>) -> Result<Self, VolumeError> {
+        if data.len() != self.data.len() {
+            return Err(VolumeError::Mismatch(format!(
+                "{} coefficients for a volume of {}",
+                data.len(),
+                self.data.len()
+            )));
+        }
+        check_finite("coefficients", &data)?;
+        Ok(Self { data, ..self.clone() })
+    }
+
     /// An all-zero volume with all weights 1.
     pub fn zeros(spec: GridSpec, coeffs: usize) -> Result<Self, VolumeError> {
         check_coeffs(coeffs)?;

@@ -8,6 +8,7 @@ pub mod adaptive;
 pub mod bevy;
 pub mod dds;
 pub mod exr;
+pub mod groups;
 pub mod ktx2;
 pub mod sidecar;
 pub mod three;

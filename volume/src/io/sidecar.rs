@@ -56,17 +56,20 @@ pub const FORMAT_NAME: &str = "lightvol-volume";
 /// Newest sidecar / file-format version (the sidecar's `version`, the EXR's
 /// `lightvol.version`); readers accept it and every older one. Version 2 added the validity
 /// mask, version 3 the typed settings record ([`crate::BakeRecord`]), version 4 the node
-/// reach ([`crate::reach`]). Writers write the
+/// reach ([`crate::reach`]), version 5 light groups in the EXR file
+/// ([`crate::io::groups`]). Writers write the
 /// oldest version that holds the volume ([`format_version`]), so a volume without a mask or
 /// record gives the same bytes as before, and an older reader refuses a file with them as a
 /// newer version instead of reading it without them.
-pub const FORMAT_VERSION: u32 = 4;
+pub const FORMAT_VERSION: u32 = 5;
 /// The first version that can carry a validity mask.
 pub const VALIDITY_VERSION: u32 = 2;
 /// The first version that can carry the typed settings record.
 pub const SETTINGS_VERSION: u32 = 3;
 /// The first version that can carry a node reach.
 pub const REACH_VERSION: u32 = 4;
+/// The first version that can carry light groups ([`crate::io::groups`]).
+pub const GROUPS_VERSION: u32 = 5;
 /// The bit packing of the `validity.bits` field, in words ([`ValidityMask::to_hex`]).
 pub const VALIDITY_LAYOUT: &str = "one bit per node, node i = x + nx*(y + ny*z) is bit i%8 (least significant \
                                    first) of byte i/8, 1 = valid; each byte as two lowercase hex digits";

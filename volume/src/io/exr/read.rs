@@ -19,6 +19,7 @@ use crate::checksum::verify;
 use crate::error::{VolumeError, check_finite};
 use crate::gradient::VolumeGradients;
 use crate::grid::{GridSpec, Placement};
+use crate::io::groups::{GROUPS_ATTRIBUTE, is_group_part};
 use crate::io::sidecar::{
     FORMAT_VERSION, QUANTITY, REACH_VERSION, SETTINGS_VERSION, SH_CONVENTION, VALIDITY_VERSION,
 };
@@ -260,8 +261,11 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     let part_name = |h: &exr::meta::header::Header| {
         h.own_attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default()
     };
-    let extra =
-        if extensions { meta.headers.iter().filter(|h| is_octree_part(&part_name(h))).count() } else { 0 };
+    // Extension parts: the octree's, read by its own reader only, and the light groups',
+    // which a reader of the whole bake skips (crate::io::groups).
+    let groups = attrs.keys().any(|k| k.as_slice() == GROUPS_ATTRIBUTE.as_bytes());
+    let is_extra = |name: &str| (extensions && is_octree_part(name)) || (groups && is_group_part(name));
+    let extra = meta.headers.iter().filter(|h| is_extra(&part_name(h))).count();
     // Slots: the coefficients, the weight, the validity (if any), the reach (if any), the
     // gradients (if any).
     let v = usize::from(d.validity);
@@ -278,7 +282,7 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
         GRAD_CHANNELS.iter().map(|&(c, _)| (c, SampleType::F32)).collect();
     for h in &meta.headers {
         let name = part_name(h);
-        if extensions && is_octree_part(&name) {
+        if is_extra(&name) {
             continue;
         }
         let grad_slot = (0..d.coeffs).find(|&j| d.gradients && grad_layer_name(j) == name);
@@ -328,7 +332,10 @@ fn exr_from_bytes_inner(bytes: &[u8], extensions: bool) -> Result<Parsed, Volume
     let mut extras = Vec::new();
     for layer in &image.layer_data {
         let name = layer.attributes.layer_name.as_ref().map(ToString::to_string).unwrap_or_default();
-        if extensions && is_octree_part(&name) {
+        if is_extra(&name) {
+            if !extensions {
+                continue;
+            }
             extras.push(ExtraPart {
                 name,
                 size: (layer.size.0, layer.size.1),

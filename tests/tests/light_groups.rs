@@ -1,0 +1,160 @@
+//! `bake --light-groups` and `relight`, end to end: a bake split by light group keeps the
+//! whole bake bit for bit, its groups sum to it, a relit volume is the scaled sum of its
+//! groups through the lookup, and bad requests are one-line errors that write nothing.
+
+use std::path::Path;
+
+use lightvol_volume::IrradianceVolume;
+use lightvol_volume::io::exr::read_exr;
+use lightvol_volume::io::groups::read_grouped_exr;
+
+mod common;
+use common::{ok, run, s};
+
+const SCENE: &str = "builtin:interior";
+
+fn bake(dir: &Path, name: &str, extra: &[&str]) -> std::path::PathBuf {
+    let out = dir.join(name);
+    let mut args = vec!["bake", SCENE, "--samples", "24", "--seed", "4", "--quiet", "-o", s(&out)];
+    args.extend_from_slice(extra);
+    ok(&args);
+    out
+}
+
+fn largest(v: &IrradianceVolume) -> f64 {
+    v.data().iter().fold(0.0f64, |m, &x| m.max(f64::from(x.abs())))
+}
+
+#[test]
+fn grouped_bake_keeps_the_whole_and_relights_linearly() {
+    let dir = tempfile::tempdir().unwrap();
+    let plain = read_exr(&bake(dir.path(), "plain.exr", &[])).unwrap();
+    let grouped_path = bake(dir.path(), "grouped.exr", &["--light-groups", "each"]);
+    let grouped = read_grouped_exr(&grouped_path).unwrap();
+    assert_eq!(grouped.names(), ["sky", "sun"]);
+    // The whole bake, as any reader of the file sees it, is the ungrouped bake bit for bit.
+    assert_eq!(read_exr(&grouped_path).unwrap().data(), plain.data());
+    assert_eq!(grouped.total().data(), plain.data());
+    // One thread or two: the same bytes.
+    let one = bake(dir.path(), "one.exr", &["--light-groups", "each", "--threads", "1"]);
+    assert_eq!(std::fs::read(&one).unwrap(), std::fs::read(&grouped_path).unwrap());
+
+    // Each group and the whole are rounded to f32 once from exact sums: the groups' sum is
+    // within three half-ulps of the largest magnitude.
+    let scale =
+        (0..2).flat_map(|g| grouped.layer(g).iter()).fold(largest(&plain), |m, &x| m.max(f64::from(x.abs())));
+    let bound = 3.0 * f64::from(f32::EPSILON) / 2.0 * scale / largest(&plain);
+    assert!(grouped.sum_error() <= bound, "{} > {bound}", grouped.sum_error());
+    for g in 0..2 {
+        assert!(grouped.layer(g).iter().any(|&v| v > 0.0), "group {g} carries light");
+    }
+
+    let relit = |name: &str, args: &[&str]| {
+        let out = dir.path().join(name);
+        let mut a = vec!["relight", s(&grouped_path), "-o", s(&out)];
+        a.extend_from_slice(args);
+        ok(&a);
+        read_exr(&out).unwrap()
+    };
+    let all = relit("all.exr", &[]);
+    let sun3 = relit("sun3.exr", &["--scale", "sun=3"]);
+    let sun = relit("sun.exr", &["--group", "sun"]);
+    let warm = relit("warm.exr", &["--scale", "sky=0;sun=1,0.5,0.25"]);
+    // Through the lookup: three times the sun adds twice the sun's irradiance, and a
+    // coloured sun alone scales the sun's channels.
+    let (lo, hi) = plain.spec().bounds();
+    let mut lit = 0;
+    for k in 0..200 {
+        let f = [(k as f64 * 0.371) % 1.0, (k as f64 * 0.613) % 1.0, (k as f64 * 0.177) % 1.0];
+        let p: [f32; 3] = std::array::from_fn(|a| (lo[a] + f[a] * (hi[a] - lo[a])) as f32);
+        let n = [[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -0.6, 0.8]][k % 3];
+        let (e1, e3, es, ew) =
+            (all.irradiance(p, n), sun3.irradiance(p, n), sun.irradiance(p, n), warm.irradiance(p, n));
+        for c in 0..3 {
+            let want = f64::from(e1[c]) + 2.0 * f64::from(es[c]);
+            // f32 lookups of volumes rounded once each: 1e-5 of the magnitudes involved.
+            let tol = 1e-5 * (f64::from(e1[c].abs()) + 3.0 * f64::from(es[c].abs())).max(1e-3);
+            assert!((f64::from(e3[c]) - want).abs() <= tol, "point {k} ch {c}: {} vs {want}", e3[c]);
+            let want = f64::from(es[c]) * [1.0, 0.5, 0.25][c];
+            assert!((f64::from(ew[c]) - want).abs() <= 1e-5 * want.abs().max(1e-3), "point {k} ch {c}");
+        }
+        lit += usize::from(es[0] > 0.01 * e1[0]);
+    }
+    assert!(lit > 20, "the sun lights {lit} of 200 points");
+}
+
+/// `export` of a grouped volume: the whole bake at the output, each group beside it in the
+/// same format, and a manifest naming them; the exported groups sum to the exported whole
+/// within f16 rounding.
+#[test]
+fn grouped_exports_carry_every_group() {
+    let dir = tempfile::tempdir().unwrap();
+    let grouped = bake(dir.path(), "g.exr", &["--light-groups", "day=sky;light=sun"]);
+    let out = dir.path().join("room.ktx2");
+    ok(&["export", s(&grouped), "--format", "ktx2", "-o", s(&out)]);
+    let manifest: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("room.light_groups.json")).unwrap())
+            .unwrap();
+    assert_eq!(manifest["whole"], "room.ktx2");
+    let open = |name: &str| match lightvol_volume::open(&dir.path().join(name)).unwrap() {
+        lightvol_volume::AnyVolume::Uniform(v) => v,
+        _ => panic!("{name} is a uniform volume"),
+    };
+    let whole = open("room.ktx2");
+    let groups: Vec<IrradianceVolume> = manifest["groups"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(["day", "light"])
+        .map(|(g, name)| {
+            assert_eq!(g["name"], name);
+            open(g["file"].as_str().unwrap())
+        })
+        .collect();
+    assert_eq!(groups.len(), 2);
+    assert_eq!(groups[0].weights(), whole.weights());
+    let scale = groups.iter().chain([&whole]).map(largest).fold(0.0, f64::max);
+    // Three values rounded to f16 (half an ulp is 2^-11 relative each).
+    let tol = 3.0 * scale / 2048.0;
+    for (i, &w) in whole.data().iter().enumerate() {
+        let sum = f64::from(groups[0].data()[i]) + f64::from(groups[1].data()[i]);
+        assert!((sum - f64::from(w)).abs() <= tol, "value {i}: {sum} vs {w}");
+    }
+}
+
+#[test]
+fn bad_light_group_requests_are_one_line_errors_that_write_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("v.exr");
+    for (args, says) in [
+        (vec!["--light-groups", "day=moon"], "matches none of the scene's lights (sky, sun)"),
+        (vec!["--light-groups", "a=sky;b=s*"], "is in groups"),
+        (vec!["--light-groups", "each", "--shard", "0/2"], "--light-groups cannot be combined with shards"),
+        (
+            vec!["--light-groups", "each", "--method", "point+apv"],
+            "cannot be combined with an engine baseline",
+        ),
+        (vec!["--light-groups", "each", "--gradients"], "cannot be combined with gradients"),
+    ] {
+        let mut a = vec!["bake", SCENE, "--samples", "4", "--quiet", "-o", s(&out)];
+        a.extend_from_slice(&args);
+        let e = run(&a).unwrap_err();
+        assert!(e.contains(says), "{args:?}: {e}");
+        assert!(!out.exists(), "{args:?} wrote a file");
+    }
+    let plain = bake(dir.path(), "plain.exr", &[]);
+    let e = run(&["relight", s(&plain), "-o", s(&out)]).unwrap_err();
+    assert!(e.contains("no light groups"), "{e}");
+    let grouped = bake(dir.path(), "g.exr", &["--light-groups", "each"]);
+    for (args, says) in [
+        (vec!["--scale", "moon=2"], "the volume has sky, sun"),
+        (vec!["--scale", "sun=x"], "not a finite number"),
+        (vec!["--group", "moon"], "no light group"),
+    ] {
+        let mut a = vec!["relight", s(&grouped), "-o", s(&out)];
+        a.extend_from_slice(&args);
+        let e = run(&a).unwrap_err();
+        assert!(e.contains(says), "{args:?}: {e}");
+        assert!(!out.exists(), "{args:?} wrote a file");
+    }
+}

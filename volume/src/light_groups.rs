@@ -1,0 +1,266 @@
+//! A volume split by light group: the whole bake and, per group of lights, the coefficients
+//! the lights of that group alone contribute, from the same paths.
+//!
+//! Light transport is linear in the emitters, and a bake's node values are linear in the
+//! radiance its samples carry (Kontkanen & Laine 2006, Eq. 4-6: sums of radiance times
+//! basis functions over a denominator that does not depend on the light; the fill of
+//! \[`crate::fill`\] averages neighbours with weights that do not either). So a bake that
+//! tags each sample's radiance with its light group has, per group, node values `c_g`
+//! with `Σ_g c_g = c` up to rounding, and the volume of a scene whose group `g` lights are
+//! scaled by `s_g` (a colour per channel) is `Σ_g s_g c_g` ([`GroupedVolume::relit`]), with
+//! no new rays. Every lookup is linear in the node values too, so a lookup of the relit
+//! volume equals the weighted sum of the groups' lookups.
+//!
+//! Each group is stored as coefficients only: the weights, validity, reach, grid and
+//! metadata are the whole bake's ([`GroupedVolume::total`]), which a group's volume
+//! ([`GroupedVolume::group`]) shares.
+
+use crate::error::VolumeError;
+use crate::volume::IrradianceVolume;
+
+/// A volume and its light groups' coefficients (module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct GroupedVolume {
+    total: IrradianceVolume,
+    names: Vec<String>,
+    /// Per group, coefficients in the total's layout `[node][coeff][rgb]`.
+    layers: Vec<Vec<f32>>,
+}
+
+/// Checks a group name: not empty, at most 64 bytes, printable ASCII without `"` or `\`
+/// (it travels in file headers and generated shader code comments).
+pub fn check_group_name(name: &str) -> Result<(), VolumeError> {
+    if name.is_empty()
+        || name.len() > 64
+        || !name.bytes().all(|b| (0x20..0x7f).contains(&b) && b != b'"' && b != b'\\')
+    {
+        return Err(VolumeError::InvalidData(format!(
+            "light group name {name:?} is not 1-64 printable ASCII characters without quotes or backslashes"
+        )));
+    }
+    Ok(())
+}
+
+impl GroupedVolume {
+    /// The volume `total` with one coefficient layer per group, in `total`'s layout; errors
+    /// if there are no groups, the names are not unique or valid ([`check_group_name`]), a
+    /// layer's length differs from the total's data or a value is not finite.
+    pub fn new(
+        total: IrradianceVolume,
+        names: Vec<String>,
+        layers: Vec<Vec<f32>>,
+    ) -> Result<Self, VolumeError> {
+        if names.is_empty() || names.len() != layers.len() {
+            return Err(VolumeError::Mismatch(format!(
+                "{} light group names for {} layers (at least one group)",
+                names.len(),
+                layers.len()
+            )));
+        }
+        for (i, n) in names.iter().enumerate() {
+            check_group_name(n)?;
+            if names[..i].contains(n) {
+                return Err(VolumeError::InvalidData(format!("light group {n:?} named twice")));
+            }
+        }
+        for (n, l) in names.iter().zip(&layers) {
+            if l.len() != total.data().len() {
+                return Err(VolumeError::Mismatch(format!(
+                    "light group {n:?} has {} values, the volume {}",
+                    l.len(),
+                    total.data().len()
+                )));
+            }
+            crate::error::check_finite("light group coefficients", l)?;
+        }
+        Ok(Self { total, names, layers })
+    }
+
+    /// The whole bake.
+    #[must_use]
+    pub fn total(&self) -> &IrradianceVolume {
+        &self.total
+    }
+
+    /// The group names, in group order.
+    #[must_use]
+    pub fn names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Group `g`'s coefficients, in the total's layout.
+    ///
+    /// # Panics
+    /// If `g` is out of range.
+    #[must_use]
+    pub fn layer(&self, g: usize) -> &[f32] {
+        &self.layers[g]
+    }
+
+    /// The index of the group named `name`.
+    #[must_use]
+    pub fn find(&self, name: &str) -> Option<usize> {
+        self.names.iter().position(|n| n == name)
+    }
+
+    /// Group `g` alone as a volume: the total's grid, weights, validity, reach and metadata
+    /// with the group's coefficients.
+    ///
+    /// # Panics
+    /// If `g` is out of range.
+    #[must_use]
+    pub fn group(&self, g: usize) -> IrradianceVolume {
+        self.total.with_data(self.layers[g].clone()).expect("layers are checked against the total")
+    }
+
+    /// The volume with group `g` scaled by `scales[g]` (per channel), `Σ_g s_g c_g`,
+    /// summed in f64 in group order and rounded to f32 once (module docs). With every
+    /// scale 1 it is the sum of the groups, the whole bake up to rounding.
+    ///
+    /// # Errors
+    /// [`VolumeError::Mismatch`] unless there is one scale per group;
+    /// [`VolumeError::InvalidData`] for a scale or result that is not finite.
+    pub fn relit(&self, scales: &[[f64; 3]]) -> Result<IrradianceVolume, VolumeError> {
+        if scales.len() != self.layers.len() {
+            return Err(VolumeError::Mismatch(format!(
+                "{} scales for {} light groups ({})",
+                scales.len(),
+                self.layers.len(),
+                self.names.join(", ")
+            )));
+        }
+        if let Some(s) = scales.iter().flatten().find(|s| !s.is_finite()) {
+            return Err(VolumeError::InvalidData(format!("light group scale {s} is not finite")));
+        }
+        let data: Vec<f32> = (0..self.total.data().len())
+            .map(|i| {
+                let c = i % 3;
+                let v: f64 = self.layers.iter().zip(scales).map(|(l, s)| s[c] * f64::from(l[i])).sum();
+                v as f32
+            })
+            .collect();
+        crate::error::check_finite("relit coefficients", &data)?;
+        self.total.with_data(data)
+    }
+
+    /// Parses scales given as `NAME=S` or `NAME=R,G,B`, separated by `;`: the named groups
+    /// get those scales, the others 1.
+    ///
+    /// # Errors
+    /// A malformed item, an unknown group name (the message lists the names), a group
+    /// named twice, or a scale that is not a finite number.
+    pub fn parse_scales(&self, spec: &str) -> Result<Vec<[f64; 3]>, VolumeError> {
+        let bad = |m: String| VolumeError::InvalidData(m);
+        let mut scales = vec![[1.0; 3]; self.layers.len()];
+        let mut given = vec![false; self.layers.len()];
+        for item in spec.split(';').map(str::trim).filter(|s| !s.is_empty()) {
+            let (name, value) = item
+                .split_once('=')
+                .ok_or_else(|| bad(format!("light group scale {item:?} is not NAME=S")))?;
+            let g = self.find(name.trim()).ok_or_else(|| {
+                bad(format!("no light group {:?} (the volume has {})", name.trim(), self.names.join(", ")))
+            })?;
+            if std::mem::replace(&mut given[g], true) {
+                return Err(bad(format!("light group {:?} scaled twice", name.trim())));
+            }
+            let v: Vec<f64> = value
+                .split(',')
+                .map(|x| x.trim().parse::<f64>().ok().filter(|v| v.is_finite()))
+                .collect::<Option<_>>()
+                .ok_or_else(|| bad(format!("light group scale {value:?} is not a finite number")))?;
+            scales[g] = match v[..] {
+                [s] => [s; 3],
+                [r, g, b] => [r, g, b],
+                _ => return Err(bad(format!("light group scale {value:?} is not S or R,G,B"))),
+            };
+        }
+        Ok(scales)
+    }
+
+    /// The largest difference between the sum of the groups and the whole bake, relative to
+    /// the largest absolute coefficient of the whole bake (0 for an empty volume).
+    #[must_use]
+    pub fn sum_error(&self) -> f64 {
+        let scale = self.total.data().iter().fold(0.0f64, |m, &v| m.max(f64::from(v.abs())));
+        if scale == 0.0 {
+            return 0.0;
+        }
+        let worst = (0..self.total.data().len())
+            .map(|i| {
+                let s: f64 = self.layers.iter().map(|l| f64::from(l[i])).sum();
+                (s - f64::from(self.total.data()[i])).abs()
+            })
+            .fold(0.0f64, f64::max);
+        worst / scale
+    }
+
+    /// Bytes the groups add to the whole bake's coefficients (f32 values).
+    #[must_use]
+    pub fn layer_bytes(&self) -> usize {
+        self.layers.iter().map(|l| l.len() * 4).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GridSpec;
+
+    fn grouped() -> GroupedVolume {
+        let spec = GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+        let a: Vec<f32> = (0..8 * 27).map(|i| (i % 7) as f32 * 0.25).collect();
+        let b: Vec<f32> = (0..8 * 27).map(|i| (i % 5) as f32 * 0.5 - 0.5).collect();
+        let total: Vec<f32> = a.iter().zip(&b).map(|(x, y)| x + y).collect();
+        let vol = IrradianceVolume::new(spec, 9, total, vec![1.0; 8]).unwrap();
+        GroupedVolume::new(vol, vec!["day".into(), "lamps".into()], vec![a, b]).unwrap()
+    }
+
+    #[test]
+    fn relit_scales_each_group_and_unit_scales_give_the_total() {
+        let g = grouped();
+        // Quarters and halves: every sum here is exact in f32.
+        assert_eq!(g.relit(&[[1.0; 3], [1.0; 3]]).unwrap().data(), g.total().data());
+        assert_eq!(g.sum_error(), 0.0);
+        let r = g.relit(&[[2.0, 1.0, 0.0], [0.0; 3]]).unwrap();
+        for (i, (&x, &a)) in r.data().iter().zip(g.layer(0)).enumerate() {
+            assert_eq!(x, a * [2.0, 1.0, 0.0][i % 3]);
+        }
+        assert_eq!(g.group(1).data(), g.layer(1));
+        assert_eq!(g.group(1).weights(), g.total().weights());
+    }
+
+    #[test]
+    fn scales_parse_by_name_and_refuse_bad_input() {
+        let g = grouped();
+        assert_eq!(g.parse_scales("lamps=0.5").unwrap(), [[1.0; 3], [0.5; 3]]);
+        assert_eq!(g.parse_scales("day=1,0.5,0.25; lamps=0").unwrap(), [[1.0, 0.5, 0.25], [0.0; 3]]);
+        for (spec, says) in [
+            ("moon=1", "the volume has day, lamps"),
+            ("day", "not NAME=S"),
+            ("day=x", "not a finite"),
+            ("day=1,2", "not S or R,G,B"),
+            ("day=1;day=2", "twice"),
+            ("day=inf", "not a finite"),
+        ] {
+            let e = g.parse_scales(spec).unwrap_err().to_string();
+            assert!(e.contains(says), "{spec}: {e}");
+        }
+        assert!(g.relit(&[[1.0; 3]]).is_err());
+    }
+
+    #[test]
+    fn construction_checks_names_and_lengths() {
+        let g = grouped();
+        let t = g.total().clone();
+        let l = g.layer(0).to_vec();
+        assert!(GroupedVolume::new(t.clone(), vec![], vec![]).is_err());
+        assert!(
+            GroupedVolume::new(t.clone(), vec!["a".into(), "a".into()], vec![l.clone(), l.clone()]).is_err()
+        );
+        assert!(GroupedVolume::new(t.clone(), vec!["a\"b".into()], vec![l.clone()]).is_err());
+        assert!(GroupedVolume::new(t.clone(), vec!["a".into()], vec![l[1..].to_vec()]).is_err());
+        let mut nan = l;
+        nan[3] = f32::NAN;
+        assert!(GroupedVolume::new(t, vec!["a".into()], vec![nan]).is_err());
+    }
+}
