@@ -81,6 +81,15 @@ pub(crate) struct BakeArgs {
     /// Lights no pattern names form the group `other`. Uniform bakes with the average fit.
     #[arg(long, value_name = "each|NAME=PATTERN,...;...")]
     pub(crate) light_groups: Option<String>,
+    /// Also store each node's transfer from the sky's SH radiance of this order (2: 4
+    /// coefficients, 3: 9) to its own coefficients, every bounce included (a precomputed
+    /// radiance transfer volume, Sloan, Kautz & Snyder 2002), from the same paths: `lightvol
+    /// relight --sky R,G,B[:R,G,B] | --env FILE.exr` then relights the volume with any sky
+    /// without baking again, exactly for skies of that order and to the sky's band limit
+    /// otherwise. Stored as light groups `sky.sh00`, … after those of --light-groups (which
+    /// then must not name the sky; without it, the other lights form the group `other`).
+    #[arg(long, value_name = "ORDER", value_parser = clap::value_parser!(u32).range(2..=3))]
+    pub(crate) sky_transfer: Option<u32>,
     /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
     #[command(flatten)]
     pub(crate) adaptive: AdaptiveArgs,
@@ -243,7 +252,7 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         keep_accumulator: args.keep_accumulator,
         adaptive,
         noise: args.sampling.noise_target()?,
-        light_groups: args.light_groups.is_some(),
+        light_groups: args.light_groups.is_some() || args.sky_transfer.is_some(),
         target: Some(TargetSettings {
             lambda: args.target_lambda,
             ..TargetSettings::new(args.target, args.sampling.seed)

@@ -34,11 +34,15 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     }
     let started = Instant::now();
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
-    let groups = match &args.light_groups {
-        Some(spec) => Some(
+    let groups = match (&args.light_groups, args.sky_transfer) {
+        (spec, Some(order)) => Some(
+            LightGroups::with_sky_transfer(&loaded.scene, spec.as_deref(), (order * order) as usize)
+                .map_err(|e| anyhow::anyhow!("--sky-transfer: {e}"))?,
+        ),
+        (Some(spec), None) => Some(
             LightGroups::parse(&loaded.scene, spec).map_err(|e| anyhow::anyhow!("--light-groups: {e}"))?,
         ),
-        None => None,
+        (None, None) => None,
     };
     let grid = args.grid.grid_split(
         &loaded,

@@ -131,7 +131,7 @@ fn print_text(info: &Value) {
     if let Some(names) = info["light_groups"]["names"].as_array() {
         let names: Vec<&str> = names.iter().filter_map(Value::as_str).collect();
         println!(
-            "groups      {} light groups ({}), {} bytes; their sum differs from the whole by {:.1e} of the largest coefficient",
+            "groups      {} light groups ({}), {} bytes; relit as baked they differ from the whole by {:.1e} of the largest coefficient (f32 rounding, and a sky transfer's band limit)",
             names.len(),
             names.join(", "),
             info["light_groups"]["bytes"],

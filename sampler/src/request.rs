@@ -421,7 +421,7 @@ pub enum RequestError {
     #[error("--target cannot be combined with {0}")]
     Target(&'static str),
     /// Light groups with a setting they cannot go with (yet).
-    #[error("--light-groups cannot be combined with {0}")]
+    #[error("light groups (--light-groups, --sky-transfer) cannot be combined with {0}")]
     LightGroups(&'static str),
     /// Light groups asked for, but the transport splits by none.
     #[error("light groups were asked for, but the transport carries none (Transport::with_groups)")]
@@ -590,14 +590,22 @@ pub fn bake_uniform(
         }
     };
     let groups = match transport.groups().filter(|_| request.light_groups) {
-        Some(g) => Some(
-            lightvol_volume::GroupedVolume::new(
+        Some(g) => {
+            let err =
+                |e: lightvol_volume::VolumeError| UniformBakeError::Bake(BakeError::Volume(e.to_string()));
+            let grouped = lightvol_volume::GroupedVolume::new(
                 volume.clone(),
                 g.names().to_vec(),
                 output.accumulator.finalize_groups(),
             )
-            .map_err(|e| UniformBakeError::Bake(BakeError::Volume(e.to_string())))?,
-        ),
+            .map_err(err)?;
+            Some(match g.sky_transfer() {
+                Some((_, n)) => grouped
+                    .with_baked_sky(lightvol_scene::light_groups::sky_coefficients(&scene.environment, n))
+                    .map_err(err)?,
+                None => grouped,
+            })
+        }
         None => None,
     };
     Ok(UniformBake { output, volume, fill, gradients, least_squares, target, groups })

@@ -87,8 +87,9 @@ pub(crate) fn sample_terms(
         let first = (dir, l.map(|v| v / UNIFORM_SPHERE_PDF));
         if settings.light_sampling {
             let u = rng.next3();
-            if let Some((d, r, key)) = t.light_sample_keyed(x, UNIFORM_SPHERE_PDF, u, &mut stats.rays) {
-                grouped[at + g + groups.group_of(key)] = r;
+            if let Some((d, r, key, factor)) = t.light_sample_keyed(x, UNIFORM_SPHERE_PDF, u, &mut stats.rays)
+            {
+                t.split_light_sample(d, r, key, factor, &mut grouped[at + g..at + 2 * g]);
                 return ([first, (d, r)], 2);
             }
         }

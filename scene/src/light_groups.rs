@@ -71,6 +71,40 @@ pub fn scene_lights(scene: &Scene) -> Vec<SceneLight> {
     out
 }
 
+/// The SH coefficients `l_j = ∫ L(ω) Y_j(ω) dω` of `env`'s radiance over the whole sphere,
+/// per channel, for the first `coeffs` (4, 9 or 16) functions: the sky a sky transfer's
+/// groups are scaled by to relight with `env` (Sloan, Kautz & Snyder 2002, Eq. 3's
+/// projection). Integrated by a Gauss-Legendre product rule on each hemisphere, which is
+/// exact up to rounding for the uniform sky and ground (constant on each, times polynomials
+/// of degree ≤ 3); a map is integrated at 128 × 256 nodes per hemisphere, far finer than the
+/// band limit it is projected to.
+#[must_use]
+pub fn sky_coefficients(env: &Environment, coeffs: usize) -> Vec<[f64; 3]> {
+    use lightvol_sh::quadrature::SphereQuadrature;
+    let bands = (coeffs as f64).sqrt().round() as usize;
+    let (n_theta, n_phi) = match env {
+        Environment::Map(_) => (128, 256),
+        _ => (8, 16),
+    };
+    let upper = SphereQuadrature::hemisphere(n_theta, n_phi);
+    let mut out = vec![[0.0; 3]; coeffs];
+    let mut y = vec![0.0; coeffs];
+    for node in upper.nodes() {
+        for d in [node.dir, [node.dir[0], node.dir[1], -node.dir[2]]] {
+            // The horizon (z = 0) is no Gauss-Legendre node, so each node lies strictly on
+            // one side.
+            let l = env.radiance(glam::DVec3::from_array(d));
+            lightvol_sh::eval::eval_into(bands, d, &mut y);
+            for (o, &yj) in out.iter_mut().zip(&y) {
+                for c in 0..3 {
+                    o[c] += node.weight * l[c] * yj;
+                }
+            }
+        }
+    }
+    out
+}
+
 /// The name of the group that gathers the lights no pattern names.
 pub const OTHER_GROUP: &str = "other";
 
@@ -89,6 +123,38 @@ pub struct LightGroups {
     material: Vec<usize>,
     /// Per punctual light: its group.
     punctual: Vec<usize>,
+    /// A sky transfer: its first group and its SH coefficient count.
+    transfer: Option<(usize, usize)>,
+}
+
+/// The name prefix of a sky transfer's groups: `sky.sh00`, `sky.sh01`, ….
+pub const SKY_TRANSFER_PREFIX: &str = "sky.sh";
+
+/// Parses `NAME=PATTERN,PATTERN;NAME=…` (module docs).
+fn parse_spec(spec: &str) -> Result<Vec<(String, Vec<String>)>, String> {
+    let mut groups: Vec<(String, Vec<String>)> = Vec::new();
+    for part in spec.split(';').map(str::trim).filter(|p| !p.is_empty()) {
+        let Some((name, pats)) = part.split_once('=') else {
+            return Err(format!("light group '{part}' is not NAME=PATTERN,…"));
+        };
+        let name = name.trim();
+        if name.is_empty() || name == OTHER_GROUP || name.starts_with(SKY_TRANSFER_PREFIX) {
+            return Err(format!("light group name '{name}' is empty or reserved"));
+        }
+        if groups.iter().any(|g| g.0 == name) {
+            return Err(format!("light group '{name}' is named twice"));
+        }
+        let pats: Vec<String> =
+            pats.split(',').map(str::trim).filter(|p| !p.is_empty()).map(str::to_owned).collect();
+        if pats.is_empty() {
+            return Err(format!("light group '{name}' has no patterns"));
+        }
+        groups.push((name.to_owned(), pats));
+    }
+    if groups.is_empty() {
+        return Err("no light groups given (each, or NAME=PATTERN,…;NAME=…)".into());
+    }
+    Ok(groups)
 }
 
 /// Whether `name` matches `pattern`, where `*` matches any run of characters (also empty)
@@ -147,29 +213,49 @@ impl LightGroups {
         if spec.trim() == "each" {
             return Self::each(scene);
         }
-        let mut groups: Vec<(String, Vec<String>)> = Vec::new();
-        for part in spec.split(';').map(str::trim).filter(|p| !p.is_empty()) {
-            let Some((name, pats)) = part.split_once('=') else {
-                return Err(format!("light group '{part}' is not NAME=PATTERN,…"));
-            };
-            let name = name.trim();
-            if name.is_empty() || name == OTHER_GROUP {
-                return Err(format!("light group name '{name}' is empty or reserved"));
-            }
-            if groups.iter().any(|g| g.0 == name) {
-                return Err(format!("light group '{name}' is named twice"));
-            }
-            let pats: Vec<String> =
-                pats.split(',').map(str::trim).filter(|p| !p.is_empty()).map(str::to_owned).collect();
-            if pats.is_empty() {
-                return Err(format!("light group '{name}' has no patterns"));
-            }
-            groups.push((name.to_owned(), pats));
+        Self::from_patterns(scene, &parse_spec(spec)?)
+    }
+
+    /// Groups for a bake with a sky transfer (module docs): the lights other than the sky
+    /// grouped by `spec` (as [`Self::parse`]; `None`: all in `other`, if there are any),
+    /// then one group per SH coefficient of the sky's radiance, `sky.sh00` … (`coeffs`:
+    /// 4, 9 or 16), whose terms are the path's throughput times `Y_j` of the direction the
+    /// sky is seen in.
+    ///
+    /// # Errors
+    /// As [`Self::parse`], a pattern that names the sky, or an unsupported `coeffs`.
+    pub fn with_sky_transfer(scene: &Scene, spec: Option<&str>, coeffs: usize) -> Result<Self, String> {
+        if ![4, 9, 16].contains(&coeffs) {
+            return Err(format!("a sky transfer has 4, 9 or 16 SH coefficients, not {coeffs}"));
         }
-        if groups.is_empty() {
-            return Err("no light groups given (each, or NAME=PATTERN,…;NAME=…)".into());
+        let lights: Vec<SceneLight> =
+            scene_lights(scene).into_iter().filter(|l| l.key != LightKey::Sky).collect();
+        let groups = match spec.map(str::trim) {
+            None => Vec::new(),
+            Some("each") => lights.iter().map(|l| (l.name.clone(), vec![l.name.clone()])).collect(),
+            Some(s) => parse_spec(s)?,
+        };
+        if let Some(p) = groups
+            .iter()
+            .flat_map(|g| &g.1)
+            .find(|p| matches(p, "sky") && !lights.iter().any(|l| matches(p, &l.name)))
+        {
+            return Err(format!(
+                "light pattern '{p}' names the sky, which a sky transfer relights by itself; leave it out of the groups"
+            ));
         }
-        Self::from_patterns(scene, &groups)
+        let mut g = Self::partition(scene, lights, &groups)?;
+        let base = g.names.len();
+        g.names.extend((0..coeffs).map(|j| format!("{SKY_TRANSFER_PREFIX}{j:02}")));
+        if g.names.len() > MAX_GROUPS {
+            return Err(format!(
+                "{} light groups with the sky transfer; at most {MAX_GROUPS}",
+                g.names.len()
+            ));
+        }
+        g.sky = base;
+        g.transfer = Some((base, coeffs));
+        Ok(g)
     }
 
     fn from_patterns(scene: &Scene, groups: &[(String, Vec<String>)]) -> Result<Self, String> {
@@ -177,6 +263,14 @@ impl LightGroups {
         if lights.is_empty() {
             return Err(format!("scene '{}' has no lights to group", scene.name));
         }
+        Self::partition(scene, lights, groups)
+    }
+
+    fn partition(
+        scene: &Scene,
+        lights: Vec<SceneLight>,
+        groups: &[(String, Vec<String>)],
+    ) -> Result<Self, String> {
         let listing = || lights.iter().map(|l| l.name.as_str()).collect::<Vec<_>>().join(", ");
         let mut names: Vec<String> = groups.iter().map(|g| g.0.clone()).collect();
         let mut members = Vec::with_capacity(lights.len());
@@ -215,7 +309,7 @@ impl LightGroups {
         let sun = find(LightKey::Sun);
         let material = (0..scene.materials.len()).map(|i| find(LightKey::Emitter(i as u32))).collect();
         let punctual = (0..scene.punctual.len()).map(|i| find(LightKey::Punctual(i as u32))).collect();
-        Ok(Self { names, members, sky, sun, material, punctual })
+        Ok(Self { names, members, sky, sun, material, punctual, transfer: None })
     }
 
     /// The group names, in group order.
@@ -255,6 +349,12 @@ impl LightGroups {
         }
     }
 
+    /// The sky transfer, if any: its first group and its SH coefficient count.
+    #[must_use]
+    pub fn sky_transfer(&self) -> Option<(usize, usize)> {
+        self.transfer
+    }
+
     /// One line per group: its name and its lights.
     #[must_use]
     pub fn describe(&self) -> String {
@@ -262,7 +362,12 @@ impl LightGroups {
             .map(|g| {
                 let lights: Vec<&str> =
                     self.members.iter().filter(|m| m.1 == g).map(|m| m.0.name.as_str()).collect();
-                format!("{}: {}", self.names[g], lights.join(", "))
+                match self.transfer {
+                    Some((base, _)) if g >= base => {
+                        format!("{}: the sky's radiance along Y_{}", self.names[g], g - base)
+                    }
+                    _ => format!("{}: {}", self.names[g], lights.join(", ")),
+                }
             })
             .collect::<Vec<_>>()
             .join("\n")
@@ -400,6 +505,88 @@ mod tests {
         }
         // The test has teeth: the lamps light a good share of the paths.
         assert!(lamp_paths > 200, "{lamp_paths}");
+    }
+
+    /// The projection of a uniform sky and ground: `l_0 = √π (sky + ground)` (`Y_0 = 1/√(4π)`
+    /// over two hemispheres of 2π), `l_2 = √(3π)/2 · (sky − ground)` (`∫_upper Y_{1,0} =
+    /// √(3/4π) · π`), the other band-1 terms 0 by symmetry; and a sky equal to its ground is
+    /// `Y_0` alone.
+    #[test]
+    fn sky_coefficients_of_a_uniform_sky_are_closed_forms() {
+        let env = Environment::UniformSky { sky: [2.0, 1.0, 0.5], ground: Some([0.5, 0.25, 0.0]) };
+        let l = sky_coefficients(&env, 9);
+        let pi = std::f64::consts::PI;
+        for c in 0..3 {
+            let (s, g) = ([2.0, 1.0, 0.5][c], [0.5, 0.25, 0.0][c]);
+            // Sums of 2·8·16 products of rounded values: 1e-12.
+            assert!((l[0][c] - pi.sqrt() * (s + g)).abs() < 1e-12, "{:?}", l[0]);
+            assert!((l[2][c] - (3.0 * pi).sqrt() / 2.0 * (s - g)).abs() < 1e-12, "{:?}", l[2]);
+            for j in [1, 3, 4, 5, 7] {
+                assert!(l[j][c].abs() < 1e-12, "{j}: {:?}", l[j]);
+            }
+        }
+        let flat = sky_coefficients(&Environment::UniformSky { sky: [1.0; 3], ground: Some([1.0; 3]) }, 4);
+        assert!(
+            (flat[0][0] - (4.0 * pi).sqrt()).abs() < 1e-12 && flat[1..].iter().all(|v| v[0].abs() < 1e-12)
+        );
+    }
+
+    /// A sky transfer, path by path: with a sky equal to its ground (radiance `L`, exactly
+    /// `L √(4π) Y_0`), the sky groups scaled by the sky's coefficients plus the other group
+    /// give the path's radiance; and relit with another uniform colour, what a transport
+    /// of that sky gives on the same random numbers.
+    #[test]
+    fn sky_transfer_paths_relight_to_the_sky_they_are_given() {
+        use crate::transport::{PathRng, Transport, TransportSettings};
+        use crate::{RayCounts, Tracer};
+        let mut s = scene();
+        s.environment = Environment::UniformSky { sky: [1.0, 0.8, 0.6], ground: Some([1.0, 0.8, 0.6]) };
+        let g = LightGroups::with_sky_transfer(&s, None, 9).unwrap();
+        assert_eq!(g.names()[0], "other");
+        assert_eq!(g.names()[1], "sky.sh00");
+        assert_eq!(g.sky_transfer(), Some((1, 9)));
+        let tracer = Tracer::new(&s);
+        let t = Transport::new(&s, &tracer, TransportSettings::default()).with_groups(g);
+        let mut other = s.clone();
+        other.environment = Environment::UniformSky { sky: [0.2, 0.5, 3.0], ground: Some([0.2, 0.5, 3.0]) };
+        let t2 = Transport::new(&other, &tracer, TransportSettings::default());
+        let (baked, new) = (sky_coefficients(&s.environment, 9), sky_coefficients(&other.environment, 9));
+        let mut per = vec![[0.0; 3]; 10];
+        let mut rays = RayCounts::default();
+        let mut sky_paths = 0;
+        for i in 0..2000u64 {
+            let origin = DVec3::new(0.5, 0.5, 0.5);
+            let dir = DVec3::from_array(lightvol_sh::sampling::sample_uniform_sphere([
+                (i as f64 + 0.5) / 2000.0,
+                (i as f64 * 0.618_034) % 1.0,
+            ]));
+            let hit = tracer.closest_hit(origin, dir, 0.0, f64::INFINITY);
+            let total = t.radiance_from_hit_grouped(
+                dir,
+                hit,
+                Some(0.25),
+                &mut PathRng::new(3, 1, i),
+                &mut rays,
+                &mut per,
+            );
+            let fresh = t2.radiance_from_hit(dir, hit, Some(0.25), &mut PathRng::new(3, 1, i), &mut rays);
+            for c in 0..3 {
+                let relit = |l: &[[f64; 3]]| per[0][c] + (0..9).map(|j| l[j][c] * per[1 + j][c]).sum::<f64>();
+                // Sums of a few terms, each relit through nine products: 1e-12 relative.
+                let tol = 1e-12 * total[c].abs().max(fresh[c].abs()).max(1e-9);
+                assert!(
+                    (relit(&baked) - total[c]).abs() <= tol,
+                    "path {i}: {} vs {}",
+                    relit(&baked),
+                    total[c]
+                );
+                assert!((relit(&new) - fresh[c]).abs() <= tol, "path {i}: {} vs {}", relit(&new), fresh[c]);
+            }
+            sky_paths += usize::from(per[1][2] != 0.0);
+        }
+        assert!(sky_paths > 200, "{sky_paths}");
+        assert!(LightGroups::with_sky_transfer(&s, Some("a=sky"), 9).unwrap_err().contains("names the sky"));
+        assert!(LightGroups::with_sky_transfer(&s, None, 5).is_err());
     }
 
     #[test]

@@ -176,6 +176,11 @@ pub struct Transport<'a> {
 /// a weight, tagged with the light ([`crate::light_groups`]).
 trait Terms {
     fn add(&mut self, key: LightKey, radiance: [f64; 3], s: f64);
+    /// The sky's radiance `sky` seen along `dir` through `throughput`, weighted by `s`: the
+    /// term `throughput ⊙ sky · s`.
+    fn add_sky(&mut self, _dir: DVec3, throughput: [f64; 3], sky: [f64; 3], s: f64) {
+        self.add(LightKey::Sky, mul(throughput, sky), s);
+    }
 }
 
 /// The sum of every term: the path's radiance.
@@ -201,6 +206,31 @@ impl Terms for Grouped<'_> {
     fn add(&mut self, key: LightKey, radiance: [f64; 3], s: f64) {
         add_scaled(&mut self.total, radiance, s);
         add_scaled(&mut self.per_group[self.groups.group_of(key)], radiance, s);
+    }
+
+    /// With a sky transfer the sky's term goes to its SH groups instead: group `base + j`
+    /// gets `throughput · Y_j(dir) · s`, the term a sky of radiance `Y_j` (white) would give,
+    /// so that a sky `L = Σ_j l_j Y_j` gives `Σ_j l_j ⊙ group_j` (Sloan, Kautz & Snyder 2002).
+    #[inline]
+    fn add_sky(&mut self, dir: DVec3, throughput: [f64; 3], sky: [f64; 3], s: f64) {
+        let Some((base, coeffs)) = self.groups.sky_transfer() else {
+            return self.add(LightKey::Sky, mul(throughput, sky), s);
+        };
+        add_scaled(&mut self.total, mul(throughput, sky), s);
+        let mut y = [0.0; 16];
+        lightvol_sh::eval::eval_into(bands(coeffs), dir.to_array(), &mut y[..coeffs]);
+        for (j, &yj) in y[..coeffs].iter().enumerate() {
+            add_scaled(&mut self.per_group[base + j], throughput, yj * s);
+        }
+    }
+}
+
+/// SH bands of `coeffs` (4, 9 or 16) coefficients.
+fn bands(coeffs: usize) -> usize {
+    match coeffs {
+        4 => 2,
+        9 => 3,
+        _ => 4,
     }
 }
 
@@ -396,7 +426,7 @@ impl<'a> Transport<'a> {
         if direct.allows(LightSource::Environment) {
             let env = scene.environment.radiance(d);
             let w_env = prev_pdf.map_or(1.0, |p| power_heuristic(p, self.lights.pdf_env(scene, d)));
-            l.add(LightKey::Sky, mul(beta, env), w_env);
+            l.add_sky(d, beta, env, w_env);
         }
         if let Some(sun) = scene.sun
             && direct.allows(LightSource::Sun)
@@ -440,7 +470,11 @@ impl<'a> Transport<'a> {
         let w = if s.delta || !bsdf_follows { 1.0 } else { power_heuristic(s.pdf, cos / PI) };
         // f = albedo / π.
         let k = cos * w / (PI * s.pdf);
-        l.add(s.key, mul(mul(beta, albedo), s.radiance), k);
+        if s.key == LightKey::Sky {
+            l.add_sky(s.dir, mul(beta, albedo), s.radiance, k);
+        } else {
+            l.add(s.key, mul(mul(beta, albedo), s.radiance), k);
+        }
     }
 
     fn visible(&self, from: DVec3, s: &crate::light_sampler::LightSample, rays: &mut RayCounts) -> bool {
@@ -461,17 +495,47 @@ impl<'a> Transport<'a> {
         u: [f64; 3],
         rays: &mut RayCounts,
     ) -> Option<(DVec3, [f64; 3])> {
-        self.light_sample_keyed(x, dir_pdf, u, rays).map(|(d, r, _)| (d, r))
+        self.light_sample_keyed(x, dir_pdf, u, rays).map(|(d, r, _, _)| (d, r))
     }
 
-    /// [`Self::light_sample`] with the light the sample came from.
+    /// Writes a light sample's term (from [`Self::light_sample_keyed`]: direction, term,
+    /// light and factor) into `per_group` the way a path's terms are split: to its light's
+    /// group, or with a sky transfer and a sky sample, `Y_j(dir) · factor` to each of the
+    /// sky's SH groups.
+    ///
+    /// # Panics
+    /// If the engine has no groups or `per_group` has the wrong length.
+    pub fn split_light_sample(
+        &self,
+        dir: DVec3,
+        term: [f64; 3],
+        key: LightKey,
+        factor: f64,
+        per_group: &mut [[f64; 3]],
+    ) {
+        let groups = self.groups.as_ref().expect("a transport with light groups");
+        assert_eq!(per_group.len(), groups.len(), "one entry per light group");
+        match groups.sky_transfer() {
+            Some((base, coeffs)) if key == LightKey::Sky => {
+                let mut y = [0.0; 16];
+                lightvol_sh::eval::eval_into(bands(coeffs), dir.to_array(), &mut y[..coeffs]);
+                for (j, &yj) in y[..coeffs].iter().enumerate() {
+                    per_group[base + j] = [yj * factor; 3];
+                }
+            }
+            _ => per_group[groups.group_of(key)] = term,
+        }
+    }
+
+    /// [`Self::light_sample`] with the light the sample came from and the factor `w / pdf`
+    /// its radiance was scaled by (`radiance × factor` is the term returned).
     pub fn light_sample_keyed(
         &self,
         x: DVec3,
         dir_pdf: f64,
         u: [f64; 3],
         rays: &mut RayCounts,
-    ) -> Option<(DVec3, [f64; 3], LightKey)> {
+    ) -> Option<(DVec3, [f64; 3], LightKey, f64)> {
         let s = self.lights.sample(self.scene, x, u)?;
         // The receiver's own light sample is direct light.
         if !self.settings.direct.allows(s.source) || !self.visible(x, &s, rays) {
@@ -479,7 +543,7 @@ impl<'a> Transport<'a> {
         }
         let w = if s.delta { 1.0 } else { power_heuristic(s.pdf, dir_pdf) };
         let k = w / s.pdf;
-        Some((s.dir, s.radiance.map(|v| v * k), s.key))
+        Some((s.dir, s.radiance.map(|v| v * k), s.key, k))
     }
 
     /// One estimate of irradiance `E(x, n) = ∫ L cos θ dω` at a free-space point `x` for a

@@ -11,6 +11,17 @@
 //! no new rays. Every lookup is linear in the node values too, so a lookup of the relit
 //! volume equals the weighted sum of the groups' lookups.
 //!
+//! ## Sky transfer
+//! A bake with a sky transfer has, after the groups of its other lights, one group per SH
+//! coefficient of the sky's radiance, named `sky.sh00`, `sky.sh01`, …
+//! ([`SKY_TRANSFER_PREFIX`]): group `sky.shJJ` holds the volume a sky of radiance `Y_j`
+//! would give, every bounce included, so that a sky `L = Σ_j l_j Y_j` (per channel) gives
+//! `Σ_j l_j ⊙ c_{sky.j}` (Sloan, Kautz & Snyder 2002: the transfer vector of each node's
+//! coefficient, Eq. 3-4). [`GroupedVolume::sky_scales`] turns a sky's coefficients into
+//! the scales of [`GroupedVolume::relit`]; [`GroupedVolume::baked_sky`] keeps the
+//! coefficients of the sky the volume was baked with, so that relighting with them gives
+//! the whole bake up to the sky's band-limit error ([`GroupedVolume::sum_error`]).
+//!
 //! Each group is stored as coefficients only: the weights, validity, reach, grid and
 //! metadata are the whole bake's ([`GroupedVolume::total`]), which a group's volume
 //! ([`GroupedVolume::group`]) shares.
@@ -25,7 +36,12 @@ pub struct GroupedVolume {
     names: Vec<String>,
     /// Per group, coefficients in the total's layout `[node][coeff][rgb]`.
     layers: Vec<Vec<f32>>,
+    /// With a sky transfer: the SH coefficients of the sky the volume was baked with.
+    baked_sky: Option<Vec<[f64; 3]>>,
 }
+
+/// The name prefix of a sky transfer's groups (module docs).
+pub const SKY_TRANSFER_PREFIX: &str = "sky.sh";
 
 /// Checks a group name: not empty, at most 64 bytes, printable ASCII without `"` or `\`
 /// (it travels in file headers and generated shader code comments).
@@ -73,7 +89,73 @@ impl GroupedVolume {
             }
             crate::error::check_finite("light group coefficients", l)?;
         }
-        Ok(Self { total, names, layers })
+        let v = Self { total, names, layers, baked_sky: None };
+        if let Some((base, n)) = v.sky_transfer() {
+            let want: Vec<String> = (0..n).map(|j| format!("{SKY_TRANSFER_PREFIX}{j:02}")).collect();
+            if v.names[base..] != want[..] || ![4, 9, 16].contains(&n) {
+                return Err(VolumeError::InvalidData(format!(
+                    "sky transfer groups must be the last groups, {SKY_TRANSFER_PREFIX}00 to {SKY_TRANSFER_PREFIX}03, 08 or 15 in order"
+                )));
+            }
+        }
+        Ok(v)
+    }
+
+    /// The volume with the coefficients of the sky it was baked with (module docs); errors
+    /// without a sky transfer or with another count.
+    pub fn with_baked_sky(mut self, sky: Vec<[f64; 3]>) -> Result<Self, VolumeError> {
+        let n = self.sky_transfer().map(|t| t.1);
+        if n != Some(sky.len()) || sky.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(VolumeError::Mismatch(format!(
+                "{} finite sky coefficients for a sky transfer of {n:?}",
+                sky.len()
+            )));
+        }
+        self.baked_sky = Some(sky);
+        Ok(self)
+    }
+
+    /// The coefficients of the sky the volume was baked with, when it has a sky transfer
+    /// that records them.
+    #[must_use]
+    pub fn baked_sky(&self) -> Option<&[[f64; 3]]> {
+        self.baked_sky.as_deref()
+    }
+
+    /// The sky transfer, if any: its first group and its SH coefficient count (the groups
+    /// named with [`SKY_TRANSFER_PREFIX`], which come last).
+    #[must_use]
+    pub fn sky_transfer(&self) -> Option<(usize, usize)> {
+        let base = self.names.iter().position(|n| n.starts_with(SKY_TRANSFER_PREFIX))?;
+        Some((base, self.names.len() - base))
+    }
+
+    /// The scales that relight the volume with the sky of SH coefficients `sky` (per
+    /// channel), the other groups scaled by `others` (one per group before the transfer;
+    /// `None`: 1).
+    ///
+    /// # Errors
+    /// Without a sky transfer, or with a coefficient count other than the transfer's.
+    pub fn sky_scales(
+        &self,
+        sky: &[[f64; 3]],
+        others: Option<&[[f64; 3]]>,
+    ) -> Result<Vec<[f64; 3]>, VolumeError> {
+        let (base, n) = self.sky_transfer().ok_or_else(|| {
+            VolumeError::InvalidData("the volume has no sky transfer (bake it with --sky-transfer)".into())
+        })?;
+        if sky.len() != n {
+            return Err(VolumeError::Mismatch(format!(
+                "{} sky coefficients for a transfer of {n}",
+                sky.len()
+            )));
+        }
+        let mut scales = match others {
+            Some(o) if o.len() >= base => o[..base].to_vec(),
+            _ => vec![[1.0; 3]; base],
+        };
+        scales.extend_from_slice(sky);
+        Ok(scales)
     }
 
     /// The whole bake.
@@ -177,17 +259,29 @@ impl GroupedVolume {
         Ok(scales)
     }
 
-    /// The largest difference between the sum of the groups and the whole bake, relative to
-    /// the largest absolute coefficient of the whole bake (0 for an empty volume).
+    /// The largest difference between the groups relit as baked and the whole bake,
+    /// relative to the largest absolute coefficient of the whole bake (0 for an empty
+    /// volume): the plain groups at scale 1 and a sky transfer's groups at the baked sky's
+    /// coefficients (without those, the transfer is left out and the error is `NaN`). For
+    /// plain groups this is f32 rounding; with a sky transfer it adds the baked sky's
+    /// band-limit error.
     #[must_use]
     pub fn sum_error(&self) -> f64 {
         let scale = self.total.data().iter().fold(0.0f64, |m, &v| m.max(f64::from(v.abs())));
         if scale == 0.0 {
             return 0.0;
         }
+        let scales = match (self.sky_transfer(), &self.baked_sky) {
+            (None, _) => vec![[1.0; 3]; self.layers.len()],
+            (Some(_), Some(sky)) => match self.sky_scales(sky, None) {
+                Ok(s) => s,
+                Err(_) => return f64::NAN,
+            },
+            (Some(_), None) => return f64::NAN,
+        };
         let worst = (0..self.total.data().len())
             .map(|i| {
-                let s: f64 = self.layers.iter().map(|l| f64::from(l[i])).sum();
+                let s: f64 = self.layers.iter().zip(&scales).map(|(l, w)| w[i % 3] * f64::from(l[i])).sum();
                 (s - f64::from(self.total.data()[i])).abs()
             })
             .fold(0.0f64, f64::max);

@@ -9,7 +9,8 @@
 //!   the whole bake is stored as f16, so that the groups round-trip bit for bit).
 //! - The image attribute `lightvol.light_groups` (text, JSON): `names` (the groups in
 //!   order) and `checksum` (FNV-1a over the group count and every group value's f32 bits in
-//!   group, node, coefficient, channel order; hex).
+//!   group, node, coefficient, channel order; hex), and with a sky transfer `sky`, the
+//!   baked sky's SH coefficients (`[[r, g, b], …]`, exact JSON numbers).
 //! - `lightvol.version` is [`GROUPS_VERSION`], so readers older than the extension refuse
 //!   the file as newer rather than misread it. Readers of this crate read the whole bake
 //!   from it with [`crate::io::exr::read_exr`] (the group parts are skipped) and the
@@ -54,6 +55,9 @@ pub(crate) fn is_group_part(name: &str) -> bool {
 struct GroupsHeader {
     names: Vec<String>,
     checksum: String,
+    /// The baked sky's SH coefficients, with a sky transfer.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    sky: Option<Vec<[f64; 3]>>,
 }
 
 fn groups_checksum(layers: &[&[f32]]) -> u64 {
@@ -90,7 +94,11 @@ pub fn grouped_exr_to_bytes(vol: &GroupedVolume, options: &ExrOptions) -> Result
         }
     }
     let all: Vec<&[f32]> = (0..vol.names().len()).map(|g| vol.layer(g)).collect();
-    let header = GroupsHeader { names: vol.names().to_vec(), checksum: to_hex(groups_checksum(&all)) };
+    let header = GroupsHeader {
+        names: vol.names().to_vec(),
+        checksum: to_hex(groups_checksum(&all)),
+        sky: vol.baked_sky().map(<[_]>::to_vec),
+    };
     let json = serde_json::to_string(&header).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
     ia.other.insert(text(GROUPS_ATTRIBUTE)?, AttributeValue::Text(text(&json)?));
     ia.other.insert(text("lightvol.version")?, AttributeValue::I32(GROUPS_VERSION as i32));
@@ -157,7 +165,12 @@ pub fn grouped_exr_from_bytes(bytes: &[u8]) -> Result<GroupedVolume, VolumeError
     if from_hex(&h.checksum) != Some(groups_checksum(&all)) {
         return Err(VolumeError::malformed(F, "light group checksum mismatch"));
     }
-    GroupedVolume::new(total, h.names, layers).map_err(|e| VolumeError::malformed(F, e.to_string()))
+    let g =
+        GroupedVolume::new(total, h.names, layers).map_err(|e| VolumeError::malformed(F, e.to_string()))?;
+    match h.sky {
+        Some(sky) => g.with_baked_sky(sky).map_err(|e| VolumeError::malformed(F, e.to_string())),
+        None => Ok(g),
+    }
 }
 
 /// Whether the EXR volume in `bytes` carries light groups (reads the headers only).
