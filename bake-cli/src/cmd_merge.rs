@@ -99,7 +99,12 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
     }
     let (vol, fill) = (&merged.volume, merged.fill);
     match &merged.gradients {
-        None => write_exr(&args.output, vol, &ExrOptions::default()),
+        None => match &merged.groups {
+            Some(g) => {
+                lightvol_volume::io::groups::write_grouped_exr(&args.output, g, &ExrOptions::default())
+            }
+            None => write_exr(&args.output, vol, &ExrOptions::default()),
+        },
         Some((grads, rep)) => {
             eprintln!("gradients: {} nodes solved, {} singular", rep.solved, rep.singular);
             lightvol_volume::io::exr::write_exr_with_gradients(

@@ -98,7 +98,10 @@ pub(crate) fn bake_with_sink(
     let mut acc =
         Accumulator::new(grid.clone(), settings.coeffs).map_err(|e| BakeError::Volume(e.to_string()))?;
     if let Some(g) = transport.groups() {
-        acc.enable_groups(g.len());
+        let sky = g
+            .sky_transfer()
+            .map(|(_, n)| lightvol_scene::light_groups::sky_coefficients(&transport.scene().environment, n));
+        acc.enable_groups(lightvol_volume::accumulator::GroupLabels { names: g.names().to_vec(), sky });
     }
     let units = match settings.method {
         Method::Point | Method::DoiNode | Method::Doi => grid.node_count(),

@@ -545,11 +545,11 @@ fn light_groups_split_a_bake_and_sum_to_it() {
     {
         let a = bake(&plain, &grid, &s, &BakeControl::default()).unwrap();
         let b = bake(&split, &grid, &s, &BakeControl::default()).unwrap();
-        let layers = b.accumulator.finalize_groups();
         let (va, _) = a.finish();
-        let (vb, _) = b.finish();
+        let (vb, _) = b.accumulator.finalize();
         assert_eq!(va.data(), vb.data(), "{label}: the whole bake is the ungrouped one");
-        let g = lightvol_volume::GroupedVolume::new(vb, groups.names().to_vec(), layers).unwrap();
+        let g = b.accumulator.finalize_grouped(&vb).unwrap().unwrap();
+        assert_eq!(g.names(), groups.names());
         // Each group is rounded to f32 once and so is the whole bake (their exact sums
         // agree to 2^-64 per term): the sum of the groups is within (groups + 1) half-ulps
         // of the largest magnitude any of them holds.

@@ -217,6 +217,8 @@ pub struct MergedVolume {
     pub gradients: Option<(VolumeGradients, GradientReport)>,
     /// The least-squares fit's weight λ and solve, when the shards carry a mass matrix.
     pub least_squares: Option<(f64, FitReport)>,
+    /// The volume split by light group, when the shards carry groups.
+    pub groups: Option<lightvol_volume::GroupedVolume>,
 }
 
 /// Why merged sums could not be finalized.
@@ -234,6 +236,9 @@ pub enum MergeError {
     /// The basis-gradient systems.
     #[error("solving the basis-gradient systems")]
     Gradients(#[source] BakeError),
+    /// The light groups the shards carry.
+    #[error("finalizing the light groups")]
+    Groups(#[source] VolumeError),
 }
 
 /// Finalizes the merged sums of a whole shard set (the same bits as the unsharded bake
@@ -264,7 +269,8 @@ pub fn finish_merged(acc: &Accumulator, meta: BakeMetadata) -> Result<MergedVolu
         None => None,
         Some(g) => Some(g.finish(&volume).map_err(MergeError::Gradients)?),
     };
-    Ok(MergedVolume { volume, fill, gradients, least_squares })
+    let groups = acc.finalize_grouped(&volume).transpose().map_err(MergeError::Groups)?;
+    Ok(MergedVolume { volume, fill, gradients, least_squares, groups })
 }
 
 #[cfg(test)]

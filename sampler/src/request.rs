@@ -296,8 +296,6 @@ impl BakeRequest {
             let refused = [
                 (matches!(self.method, BakeMethod::Baseline(_)), "an engine baseline"),
                 (self.adaptive.is_some(), "an octree bake"),
-                (self.shard.is_some(), "shards"),
-                (self.keep_accumulator, "keeping the accumulator"),
                 (self.gradients.is_some(), "gradients"),
                 (fit != Fit::Average, "a fit other than the average"),
                 (self.effective_target().is_some(), "--target"),
@@ -589,23 +587,8 @@ pub fn bake_uniform(
             (fitted, Some(report))
         }
     };
-    let groups = match transport.groups().filter(|_| request.light_groups) {
-        Some(g) => {
-            let err =
-                |e: lightvol_volume::VolumeError| UniformBakeError::Bake(BakeError::Volume(e.to_string()));
-            let grouped = lightvol_volume::GroupedVolume::new(
-                volume.clone(),
-                g.names().to_vec(),
-                output.accumulator.finalize_groups(),
-            )
-            .map_err(err)?;
-            Some(match g.sky_transfer() {
-                Some((_, n)) => grouped
-                    .with_baked_sky(lightvol_scene::light_groups::sky_coefficients(&scene.environment, n))
-                    .map_err(err)?,
-                None => grouped,
-            })
-        }
+    let groups = match output.accumulator.finalize_grouped(&volume).filter(|_| request.light_groups) {
+        Some(g) => Some(g.map_err(|e| UniformBakeError::Bake(BakeError::Volume(e.to_string())))?),
         None => None,
     };
     Ok(UniformBake { output, volume, fill, gradients, least_squares, target, groups })

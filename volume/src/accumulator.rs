@@ -66,6 +66,20 @@ pub struct Accumulator {
     reach: Option<FixedSums>,
     /// Per light group, its share of the numerator (module docs).
     groups: Vec<FixedSums>,
+    /// The groups' names and a sky transfer's baked sky (module docs).
+    group_labels: Option<GroupLabels>,
+}
+
+/// What a bake split by light group records about its groups: their names, and with a sky
+/// transfer the SH coefficients of the sky it was baked with
+/// ([`crate::light_groups::GroupedVolume`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GroupLabels {
+    /// The group names, in group order.
+    pub names: Vec<String>,
+    /// A sky transfer's baked sky coefficients, per channel.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sky: Option<Vec<[f64; 3]>>,
 }
 
 /// A summary, not the sums themselves.
@@ -96,6 +110,7 @@ impl Accumulator {
             aux: None,
             reach: None,
             groups: Vec::new(),
+            group_labels: None,
         })
     }
 
@@ -141,9 +156,45 @@ impl Accumulator {
         Some(NodeReach::new(nodes).expect("decoded reaches are in [0, 1]"))
     }
 
-    /// Starts `count` empty light-group numerators (module docs), replacing any earlier ones.
-    pub fn enable_groups(&mut self, count: usize) {
-        self.groups = vec![FixedSums::zeros(self.numerator.len()); count];
+    /// Starts one empty numerator per light group of `labels` (module docs), replacing any
+    /// earlier ones.
+    pub fn enable_groups(&mut self, labels: GroupLabels) {
+        self.groups = vec![FixedSums::zeros(self.numerator.len()); labels.names.len()];
+        self.group_labels = Some(labels);
+    }
+
+    /// The light groups' labels, if the bake is split by group.
+    #[must_use]
+    pub fn group_labels(&self) -> Option<&GroupLabels> {
+        self.group_labels.as_ref()
+    }
+
+    /// Each light group's raw numerator sums, in group order (empty without groups).
+    #[must_use]
+    pub fn groups_raw(&self) -> Vec<&[i128]> {
+        self.groups.iter().map(FixedSums::raw).collect()
+    }
+
+    /// `total` (this accumulator's finalized volume, with its metadata) and the light
+    /// groups ([`Self::finalize_groups`]) as a [`GroupedVolume`](crate::GroupedVolume);
+    /// `None` without groups.
+    ///
+    /// # Errors
+    /// When the groups and `total` do not fit together.
+    pub fn finalize_grouped(
+        &self,
+        total: &IrradianceVolume,
+    ) -> Option<Result<crate::light_groups::GroupedVolume, VolumeError>> {
+        let labels = self.group_labels.as_ref()?;
+        let g = crate::light_groups::GroupedVolume::new(
+            total.clone(),
+            labels.names.clone(),
+            self.finalize_groups(),
+        );
+        Some(match (g, &labels.sky) {
+            (Ok(g), Some(sky)) => g.with_baked_sky(sky.clone()),
+            (g, _) => g,
+        })
     }
 
     /// The number of light-group numerators (0 for a bake not split by group).
@@ -233,12 +284,13 @@ impl Accumulator {
             aux: None,
             reach: None,
             groups: Vec::new(),
+            group_labels: None,
         })
     }
 
     /// Adds raw fixed-point value `v` to the sum at flat index `i` of the concatenation
-    /// numerator ‖ denominator ‖ outside ‖ auxiliary sums ‖ node reach (the shard-file order), and counts `contributions`
-    /// when `i` is the last index. Used to merge shard files as they stream in.
+    /// numerator ‖ denominator ‖ outside ‖ auxiliary sums ‖ node reach ‖ light-group
+    /// numerators (the shard-file order). Used to merge shard files as they stream in.
     ///
     /// # Panics
     /// If `i` is out of range.
@@ -254,8 +306,16 @@ impl Accumulator {
             aux.add_raw(i - a - b - c, v);
         } else {
             let d = self.aux.as_ref().map_or(0, |x| x.1.len());
-            let reach = self.reach.as_mut().expect("an index past the sums needs auxiliary sums or a reach");
-            reach.add_raw(i - a - b - c - d, v);
+            let r = self.reach.as_ref().map_or(0, FixedSums::len);
+            let at = i - a - b - c - d;
+            if at < r {
+                self.reach.as_mut().expect("r > 0 only with a reach").add_raw(at, v);
+            } else {
+                let g = (at - r) / a;
+                let group =
+                    self.groups.get_mut(g).expect("an index past the sums needs a reach or light groups");
+                group.add_raw((at - r) % a, v);
+            }
         }
     }
 
@@ -411,12 +471,10 @@ impl Accumulator {
                 ));
             }
         }
-        if self.groups.len() != other.groups.len() {
-            return Err(VolumeError::Mismatch(format!(
-                "cannot merge accumulators with {} and {} light groups",
-                self.groups.len(),
-                other.groups.len()
-            )));
+        if self.group_labels != other.group_labels || self.groups.len() != other.groups.len() {
+            return Err(VolumeError::Mismatch(
+                "cannot merge accumulators with different light groups (names, count or baked sky)".into(),
+            ));
         }
         for (a, b) in self.groups.iter_mut().zip(&other.groups) {
             a.merge(b);

@@ -4,12 +4,13 @@
 //! ## Format (little-endian)
 //! | bytes | content |
 //! | --- | --- |
-//! | 8 | magic `LVACC\0`, then the format version as u16 (2, or 3 with a node reach) |
+//! | 8 | magic `LVACC\0`, then the format version as u16 (2, 3 with a node reach, 4 with light groups) |
 //! | 4 | length `h` of the JSON header |
 //! | h | JSON header: grid (as in the sidecar), coefficient count, contribution count, bake metadata |
 //! | 16·(n·3c + 2n) | i128 fixed-point sums ([`crate::fixed`], units of 2^-64): numerator `[node][coeff][rgb]`, denominator `[node]`, outside `[node]` |
 //! | 16·a | the auxiliary sums the header names, if any |
 //! | 16·6n | the node reach's records ([`crate::accumulator`]), if the header says `"reach": true` (version 3) |
+//! | 16·g·n·3c | the light groups' numerators, group by group in the numerator's layout, if the header lists `"groups"` (version 4) |
 //! | 8 | FNV-1a 64 of every preceding byte |
 //!
 //! Version 1 stored the same sums as f64 (8 bytes each); it is still read, each sum rounded
@@ -23,7 +24,7 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::accumulator::Accumulator;
+use crate::accumulator::{Accumulator, GroupLabels};
 use crate::checksum::fnv1a;
 use crate::error::{FileFormat, VolumeError};
 use crate::grid::{GridSpec, Placement};
@@ -37,7 +38,9 @@ pub const ACC_MAGIC: &[u8; 6] = b"LVACC\0";
 /// The extension of an accumulator file (`.lvacc`), which bakes write beside their volume.
 pub const ACC_EXTENSION: &str = "lvacc";
 /// Current shard-file version.
-pub const ACC_VERSION: u16 = 3;
+pub const ACC_VERSION: u16 = 4;
+/// The version of shard files with a node reach and no light groups.
+const ACC_VERSION_REACH: u16 = 3;
 /// The version of shard files without a node reach (they are written as before it).
 const ACC_VERSION_PLAIN: u16 = 2;
 /// Largest JSON header accepted (1 MiB; real headers are well under 1 KiB).
@@ -56,6 +59,9 @@ struct AccHeader {
     /// Node reach records after the auxiliary sums (version 3).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     reach: bool,
+    /// Light groups' numerators after the reach (version 4).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    groups: Option<GroupLabels>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -122,6 +128,7 @@ pub fn accumulator_to_bytes(acc: &Accumulator, meta: &BakeMetadata) -> Result<Ve
         bake: meta.clone(),
         aux: acc.aux().map(|(name, s)| AuxHeader { name: name.to_owned(), len: s.len() as u64 }),
         reach: acc.has_reach(),
+        groups: acc.group_labels().cloned(),
     };
     let json = serde_json::to_vec(&header).expect("plain data");
     let parts = acc.fixed_parts().map_err(|(what, index)| VolumeError::NonFinite { what, index })?;
@@ -129,12 +136,22 @@ pub fn accumulator_to_bytes(acc: &Accumulator, meta: &BakeMetadata) -> Result<Ve
     if let Some(index) = aux.and_then(crate::fixed::FixedSums::first_poisoned) {
         return Err(VolumeError::NonFinite { what: "auxiliary sum", index });
     }
-    let arrays: Vec<&[i128]> =
-        parts.into_iter().chain(aux.map(crate::fixed::FixedSums::raw)).chain(acc.reach_raw()).collect();
+    let arrays: Vec<&[i128]> = parts
+        .into_iter()
+        .chain(aux.map(crate::fixed::FixedSums::raw))
+        .chain(acc.reach_raw())
+        .chain(acc.groups_raw())
+        .collect();
     let values: usize = arrays.iter().map(|a| a.len()).sum();
     let mut out = Vec::with_capacity(8 + 4 + json.len() + 16 * values + 8);
     out.extend_from_slice(ACC_MAGIC);
-    let version = if acc.has_reach() { ACC_VERSION } else { ACC_VERSION_PLAIN };
+    let version = if acc.group_labels().is_some() {
+        ACC_VERSION
+    } else if acc.has_reach() {
+        ACC_VERSION_REACH
+    } else {
+        ACC_VERSION_PLAIN
+    };
     out.extend_from_slice(&version.to_le_bytes());
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(&json);
@@ -168,7 +185,8 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
     let width: u64 = if version == 1 { 8 } else { 16 };
     let aux_len = check_aux(&header, n as u64).map_err(bad)?;
     let reach_len = check_reach(&header, version, n as u64).map_err(bad)?;
-    let need = width * (n as u64 * k as u64 + 2 * n as u64 + aux_len + reach_len);
+    let groups_len = check_groups(&header, version, n as u64 * k as u64).map_err(bad)?;
+    let need = width * (n as u64 * k as u64 + 2 * n as u64 + aux_len + reach_len + groups_len);
     if data.len() as u64 != need {
         return Err(bad(format!("{} data bytes, the grid needs {need}", data.len())));
     }
@@ -199,9 +217,12 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
         }
         if header.reach {
             acc.enable_reach();
-            for (i, v) in vals.enumerate() {
-                acc.add_raw_at(n * k + 2 * n + aux_len as usize + i, v);
-            }
+        }
+        if let Some(g) = &header.groups {
+            acc.enable_groups(g.clone());
+        }
+        for (i, v) in vals.enumerate() {
+            acc.add_raw_at(n * k + 2 * n + aux_len as usize + i, v);
         }
         acc
     };
@@ -211,14 +232,32 @@ pub fn accumulator_from_bytes(bytes: &[u8]) -> Result<(Accumulator, BakeMetadata
 /// The node reach records a header declares: 6 per node, or 0 without (a reach needs
 /// version 3).
 fn check_reach(header: &AccHeader, version: u16, nodes: u64) -> Result<u64, String> {
-    match (header.reach, version >= ACC_VERSION) {
+    match (header.reach, version >= ACC_VERSION_REACH) {
         (false, _) => Ok(0),
         (true, true) => Ok(6 * nodes),
         (true, false) => {
-            Err(format!("a node reach in a version {version} file (it needs version {ACC_VERSION})"))
+            Err(format!("a node reach in a version {version} file (it needs version {ACC_VERSION_REACH})"))
         }
     }
 }
+
+/// The light-group sums a header declares: one numerator (`numerator` sums) per group, or 0
+/// without (groups need version 4; at most [`MAX_GROUPS`] of them).
+fn check_groups(header: &AccHeader, version: u16, numerator: u64) -> Result<u64, String> {
+    match &header.groups {
+        None => Ok(0),
+        Some(_) if version < ACC_VERSION => {
+            Err(format!("light groups in a version {version} file (they need version {ACC_VERSION})"))
+        }
+        Some(g) if g.names.is_empty() || g.names.len() > MAX_GROUPS => {
+            Err(format!("{} light groups (1 to {MAX_GROUPS})", g.names.len()))
+        }
+        Some(g) => Ok(g.names.len() as u64 * numerator),
+    }
+}
+
+/// Most light groups a shard file may declare.
+const MAX_GROUPS: usize = 64;
 
 /// The auxiliary sum count a header declares (0 without), bounded per node.
 fn check_aux(header: &AccHeader, nodes: u64) -> Result<u64, String> {
@@ -266,7 +305,11 @@ pub fn merge_accumulator_file(
     let k = header.coeffs as u64 * 3;
     let width: u64 = if version == 1 { 8 } else { 16 };
     let aux_len = check_aux(&header, n).map_err(bad)?;
-    let total = n * k + 2 * n + aux_len + check_reach(&header, version, n).map_err(bad)?;
+    let total = n * k
+        + 2 * n
+        + aux_len
+        + check_reach(&header, version, n).map_err(bad)?
+        + check_groups(&header, version, n * k).map_err(bad)?;
     if len != 12 + h as u64 + width * total + 8 {
         return Err(bad(format!("{} data bytes, the grid needs {}", len - 12 - h as u64 - 8, width * total)));
     }
@@ -292,9 +335,17 @@ pub fn merge_accumulator_file(
             if header.reach {
                 a.enable_reach();
             }
+            if let Some(g) = &header.groups {
+                a.enable_groups(g.clone());
+            }
             a
         }
     };
+    if acc.group_labels() != header.groups.as_ref() {
+        return Err(VolumeError::Mismatch(
+            "cannot merge accumulators with different light groups (names, count or baked sky)".into(),
+        ));
+    }
     let same_aux = match (acc.aux(), &header.aux) {
         (None, None) => true,
         (Some((name, s)), Some(x)) => name == x.name && s.len() as u64 == x.len,
