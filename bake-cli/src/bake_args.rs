@@ -90,6 +90,14 @@ pub(crate) struct BakeArgs {
     /// then must not name the sky; without it, the other lights form the group `other`).
     #[arg(long, value_name = "ORDER", value_parser = clap::value_parser!(u32).range(2..=3))]
     pub(crate) sky_transfer: Option<u32>,
+    /// A lighting scenario, `NAME=LIGHTS` (give two or more): the bake is repeated under
+    /// each one's lights, over the scene's own and the options', into one file whose whole
+    /// bake is the first scenario's; `lightvol relight --blend NAME=W;NAME=W` blends them.
+    /// LIGHTS is `;`-separated: `sky:R,G,B[:R,G,B]` (sky and ground), `env:FILE.exr`,
+    /// `sun:DX,DY,DZ:INTENSITY[:ANGLE_DEG]` (as --sun), `no-sun`; for example
+    /// `--scenario noon=sun:0.3,1,0.2:6 --scenario "dusk=sun:1,0.08,0:2;sky:0.3,0.25,0.4"`.
+    #[arg(long, value_name = "NAME=LIGHTS")]
+    pub(crate) scenario: Vec<String>,
     /// Adaptive octree (Oat 2005, "Adaptive Octree Subdivision").
     #[command(flatten)]
     pub(crate) adaptive: AdaptiveArgs,
@@ -253,6 +261,7 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         adaptive,
         noise: args.sampling.noise_target()?,
         light_groups: args.light_groups.is_some() || args.sky_transfer.is_some(),
+        scenarios: !args.scenario.is_empty(),
         target: Some(TargetSettings {
             lambda: args.target_lambda,
             ..TargetSettings::new(args.target, args.sampling.seed)
@@ -314,6 +323,7 @@ fn request_error(e: RequestError) -> anyhow::Error {
         | RequestError::Target(_)
         | RequestError::Noise(_)
         | RequestError::LightGroups(_)
+        | RequestError::Scenarios(_)
         | RequestError::NoLightGroups) => e.into(),
         RequestError::BasisNeedsCells(_) => anyhow::anyhow!(
             "--gradients basis needs cell samples (--method prefilter or doi-paper); use --gradients central with point, doi or doi-node"

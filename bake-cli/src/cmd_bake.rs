@@ -10,6 +10,7 @@ use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::method::Baseline;
 use lightvol_sampler::report::{BakeReport, RunFigures};
 use lightvol_sampler::request::{BakeRequest, Provenance, bake_uniform};
+use lightvol_sampler::scenarios::bake_scenarios;
 use lightvol_scene::light_groups::LightGroups;
 use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::io::accumulator::write_accumulator;
@@ -31,6 +32,9 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     }
     if let BakeMethod::Baseline(b) = request.method {
         return run_baseline(args, &request, b);
+    }
+    if request.scenarios {
+        return run_scenarios(args, &request);
     }
     let started = Instant::now();
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
@@ -105,6 +109,42 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let report =
         BakeReport::uniform(&loaded, &grid, &request, &bake, run_figures(args, bvh_seconds, started));
     print_report(args, &report)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `lightvol bake --scenario …`: the bake once per lighting scenario
+/// ([`lightvol_sampler::scenarios`]), written as one grouped EXR; one report line per
+/// scenario (with `--json`, a JSON array of the reports).
+fn run_scenarios(args: &BakeArgs, request: &BakeRequest) -> anyhow::Result<ExitCode> {
+    let started = Instant::now();
+    let scenarios =
+        args.scenario.iter().map(|s| crate::setup::parse_scenario(s)).collect::<anyhow::Result<Vec<_>>>()?;
+    let mut loaded = args.scene.load_within(args.grid.memory_limit())?;
+    let grid = args.grid.grid(&loaded, request.records_node_reach())?;
+    let frame = loaded.frame;
+    let ((grouped, bakes), bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
+        let t0 = Instant::now();
+        let tracer = Tracer::new(&loaded.scene);
+        let bvh_seconds = t0.elapsed().as_secs_f64();
+        let out = with_bar(args.quiet, &args.method, |c| {
+            bake_scenarios(&mut loaded.scene, &tracer, frame, &grid, request, &scenarios, c)
+        })?;
+        Ok((out, bvh_seconds))
+    })??;
+    write_grouped_exr(&args.output, &grouped, &ExrOptions::default())
+        .with_context(|| format!("writing {}", args.output.display()))?;
+    let reports: Vec<BakeReport> = bakes
+        .iter()
+        .map(|b| BakeReport::uniform(&loaded, &grid, request, b, run_figures(args, bvh_seconds, started)))
+        .collect();
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&reports)?);
+    } else {
+        for (s, r) in scenarios.iter().zip(&reports) {
+            eprint!("scenario {}: ", s.name);
+            print_report(args, r)?;
+        }
+    }
     Ok(ExitCode::SUCCESS)
 }
 

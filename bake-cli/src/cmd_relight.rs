@@ -28,6 +28,10 @@ pub(crate) struct RelightArgs {
     /// projected to the volume's sky transfer order.
     #[arg(long, value_name = "FILE.exr")]
     pub(crate) env: Option<PathBuf>,
+    /// For a file of lighting scenarios: their blend, `NAME=W;NAME=W` (scenarios not named
+    /// weigh 0), for example `noon=0.25;dusk=0.75`.
+    #[arg(long, value_name = "NAME=W;...", conflicts_with_all = ["scale", "sky", "env"])]
+    pub(crate) blend: Option<String>,
     /// Write this group alone instead (its scale, if given, applies).
     #[arg(long, value_name = "NAME", conflicts_with = "list")]
     pub(crate) group: Option<String>,
@@ -69,7 +73,10 @@ pub(crate) fn run(args: &RelightArgs) -> anyhow::Result<ExitCode> {
         }
         return Ok(ExitCode::SUCCESS);
     }
-    let mut scales = grouped.parse_scales(&args.scale).context("--scale")?;
+    let mut scales = match &args.blend {
+        Some(b) => grouped.parse_blend(b).context("--blend")?,
+        None => grouped.parse_scales(&args.scale).context("--scale")?,
+    };
     if let Some(name) = &args.group {
         let g = grouped.find(name).ok_or_else(|| {
             anyhow::anyhow!(

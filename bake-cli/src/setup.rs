@@ -179,6 +179,40 @@ fn parse_rgb(what: &str, s: &str) -> anyhow::Result<[f64; 3]> {
 }
 
 /// Parses `DX,DY,DZ:INTENSITY[:ANGLE_DEG]`.
+/// Parses `--scenario NAME=LIGHTS` (LIGHTS: `sky:R,G,B[:R,G,B]`, `env:FILE.exr`,
+/// `sun:DX,DY,DZ:INTENSITY[:ANGLE_DEG]`, `no-sun`, separated by `;`).
+pub(crate) fn parse_scenario(spec: &str) -> anyhow::Result<lightvol_sampler::scenarios::Scenario> {
+    let (name, lights) =
+        spec.split_once('=').with_context(|| format!("--scenario: '{spec}' is not NAME=LIGHTS"))?;
+    let name = name.trim();
+    if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || "-_".contains(c)) {
+        bail!("--scenario: name '{name}' must be letters, digits, '-' or '_'");
+    }
+    let mut l = LightOverrides::default();
+    for item in lights.split(';').map(str::trim).filter(|i| !i.is_empty()) {
+        let (kind, value) = item.split_once(':').unwrap_or((item, ""));
+        match kind {
+            "sky" => {
+                let (sky, ground) = match value.split_once(':') {
+                    Some((s, g)) => {
+                        (parse_rgb("--scenario sky", s)?, Some(parse_rgb("--scenario ground", g)?))
+                    }
+                    None => (parse_rgb("--scenario sky", value)?, None),
+                };
+                l.sky = Some((sky, ground));
+            }
+            "env" => l.environment_map = Some(PathBuf::from(value)),
+            "sun" => l.sun = Some(parse_sun(value)?),
+            "no-sun" if value.is_empty() => l.no_sun = true,
+            _ => bail!("--scenario {name}: '{item}' is not sky:R,G,B[:R,G,B], env:FILE, sun:... or no-sun"),
+        }
+    }
+    if l.sun.is_some() && l.no_sun {
+        bail!("--scenario {name}: sun and no-sun together");
+    }
+    Ok(lightvol_sampler::scenarios::Scenario { name: name.to_owned(), lights: l })
+}
+
 fn parse_sun(s: &str) -> anyhow::Result<Sun> {
     let parts: Vec<&str> = s.split(':').collect();
     if !(2..=3).contains(&parts.len()) {

@@ -19,6 +19,7 @@ pub mod reach;
 pub mod relocate;
 pub mod report;
 pub mod request;
+pub mod scenarios;
 pub mod scene_setup;
 pub mod settings;
 pub mod stats;

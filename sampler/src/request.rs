@@ -78,6 +78,9 @@ pub struct BakeRequest {
     pub target: Option<TargetSettings>,
     /// Sample each unit until its estimate converges ([`crate::noise`]).
     pub noise: Option<NoiseTarget>,
+    /// Bake lighting scenarios ([`crate::scenarios`]): each a whole bake under its own
+    /// lights, into one file.
+    pub scenarios: bool,
     /// Also keep one volume per light group, from the same paths: the transport given to
     /// [`bake_uniform`] must carry the groups
     /// ([`Transport::with_groups`](lightvol_scene::transport::Transport::with_groups)).
@@ -103,6 +106,7 @@ impl BakeRequest {
             target: None,
             noise: None,
             light_groups: false,
+            scenarios: false,
         }
     }
 
@@ -304,6 +308,19 @@ impl BakeRequest {
                 return Err(RequestError::LightGroups(with));
             }
         }
+        if self.scenarios {
+            let refused = [
+                (matches!(self.method, BakeMethod::Baseline(_)), "an engine baseline"),
+                (self.adaptive.is_some(), "an octree bake"),
+                (self.shard.is_some(), "shards"),
+                (self.keep_accumulator, "keeping the accumulator"),
+                (self.gradients.is_some(), "gradients"),
+                (self.light_groups, "light groups or a sky transfer"),
+            ];
+            if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
+                return Err(RequestError::Scenarios(with));
+            }
+        }
         if let BakeMethod::Baseline(baseline) = self.method {
             let refused = [
                 (self.adaptive.is_some(), Conflict::Adaptive),
@@ -421,6 +438,9 @@ pub enum RequestError {
     /// Light groups with a setting they cannot go with (yet).
     #[error("light groups (--light-groups, --sky-transfer) cannot be combined with {0}")]
     LightGroups(&'static str),
+    /// Lighting scenarios with a setting they cannot go with (yet).
+    #[error("--scenario cannot be combined with {0}")]
+    Scenarios(&'static str),
     /// Light groups asked for, but the transport splits by none.
     #[error("light groups were asked for, but the transport carries none (Transport::with_groups)")]
     NoLightGroups,

@@ -52,6 +52,38 @@ pub struct LightOverrides {
     pub no_sun: bool,
 }
 
+/// Applies `lights` to `s`, whose file frame is `frame` (a sun's direction is given in it):
+/// a uniform sky, then an environment map, a sun, no sun; then, if the scene has no light at
+/// all, a uniform white sky (returns `true` when it did that).
+///
+/// # Errors
+/// [`SetupError::Environment`] for an unreadable map.
+pub fn apply_lights(s: &mut Scene, frame: UpAxis, lights: &LightOverrides) -> Result<bool, SetupError> {
+    if let Some((sky, ground)) = lights.sky {
+        s.environment = Environment::UniformSky { sky, ground };
+    }
+    if let Some(env) = &lights.environment_map {
+        let map =
+            EnvMap::from_exr(env).map_err(|source| SetupError::Environment { path: env.clone(), source })?;
+        s.environment = Environment::Map(map);
+    }
+    if let Some(sun) = &lights.sun {
+        let mut sun = *sun;
+        sun.direction = DVec3::from_array(frame.to_world(sun.direction.to_array()));
+        s.sun = Some(sun);
+    }
+    if lights.no_sun {
+        s.sun = None;
+    }
+    let has_emitter = s.materials.iter().any(|m| m.is_emissive());
+    if matches!(s.environment, Environment::Black) && s.sun.is_none() && s.punctual.is_empty() && !has_emitter
+    {
+        s.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
+        return Ok(true);
+    }
+    Ok(false)
+}
+
 /// A loaded scene with what a bake on it needs besides the geometry.
 pub struct LoadedScene {
     /// The scene with lights applied.
@@ -159,29 +191,7 @@ pub fn load(source: &SceneSource, limit: u128, lights: &LightOverrides) -> Resul
         }
         SceneSource::File { path, options } => load_file(path, options, limit)?,
     };
-    let s = &mut loaded.scene;
-    if let Some((sky, ground)) = lights.sky {
-        s.environment = Environment::UniformSky { sky, ground };
-    }
-    if let Some(env) = &lights.environment_map {
-        let map =
-            EnvMap::from_exr(env).map_err(|source| SetupError::Environment { path: env.clone(), source })?;
-        s.environment = Environment::Map(map);
-    }
-    if let Some(sun) = &lights.sun {
-        let mut sun = *sun;
-        sun.direction = DVec3::from_array(loaded.frame.to_world(sun.direction.to_array()));
-        s.sun = Some(sun);
-    }
-    if lights.no_sun {
-        s.sun = None;
-    }
-    let has_emitter = s.materials.iter().any(|m| m.is_emissive());
-    if matches!(s.environment, Environment::Black) && s.sun.is_none() && s.punctual.is_empty() && !has_emitter
-    {
-        s.environment = Environment::UniformSky { sky: [1.0; 3], ground: None };
-        loaded.defaulted_sky = true;
-    }
+    loaded.defaulted_sky = apply_lights(&mut loaded.scene, loaded.frame, lights)?;
     Ok(loaded)
 }
 

@@ -309,3 +309,55 @@ fn sky_transfer_relights_to_fresh_bakes_of_new_skies() {
         assert!(other_seed < 1.5 * noise, "{name}: {other_seed} vs noise {noise}");
     }
 }
+
+/// Lighting scenarios: each scenario of the file is the bake under its lights alone, bit for
+/// bit; the whole is the first; a blend is the weighted sum; bad requests are one line.
+#[test]
+fn scenarios_are_their_bakes_and_blend() {
+    let dir = tempfile::tempdir().unwrap();
+    let noon = "sun:0.3,0.2,1:6";
+    let dusk = "sun:1,0.1,0.08:2;sky:0.3,0.25,0.4:0.05,0.05,0.05";
+    let file = bake(
+        dir.path(),
+        "sc.exr",
+        &["--scenario", &format!("noon={noon}") as &str, "--scenario", &format!("dusk={dusk}") as &str],
+    );
+    let g = read_grouped_exr(&file).unwrap();
+    assert_eq!(g.names(), ["scenario.noon", "scenario.dusk"]);
+    let fresh_noon = read_exr(&bake(dir.path(), "noon.exr", &["--sun", "0.3,0.2,1:6"])).unwrap();
+    let fresh_dusk = read_exr(&bake(
+        dir.path(),
+        "dusk.exr",
+        &["--sun", "1,0.1,0.08:2", "--sky", "0.3,0.25,0.4", "--ground", "0.05,0.05,0.05"],
+    ))
+    .unwrap();
+    assert_eq!(g.layer(0), fresh_noon.data());
+    assert_eq!(g.layer(1), fresh_dusk.data());
+    assert_eq!(read_exr(&file).unwrap().data(), fresh_noon.data());
+    let blend = dir.path().join("blend.exr");
+    ok(&["relight", s(&file), "--blend", "noon=0.25;dusk=0.75", "-o", s(&blend)]);
+    let b = read_exr(&blend).unwrap();
+    for (i, &v) in b.data().iter().enumerate() {
+        let want = 0.25 * f64::from(fresh_noon.data()[i]) + 0.75 * f64::from(fresh_dusk.data()[i]);
+        // One f32 rounding of the f64 blend.
+        assert!((f64::from(v) - want).abs() <= want.abs() * f64::from(f32::EPSILON), "{i}");
+    }
+    let out = dir.path().join("x.exr");
+    for (args, says) in [
+        (vec!["--scenario", "a=sun:1,0,0:1"], "at least two"),
+        (vec!["--scenario", "a=moon", "--scenario", "b=no-sun"], "'moon' is not"),
+        (vec!["--scenario", "a=no-sun", "--scenario", "a=no-sun"], "given twice"),
+        (
+            vec!["--scenario", "a=no-sun", "--scenario", "b=no-sun", "--shard", "0/2"],
+            "--scenario cannot be combined with shards",
+        ),
+    ] {
+        let mut a = vec!["bake", SCENE, "--samples", "4", "--quiet", "-o", s(&out)];
+        a.extend_from_slice(&args);
+        let e = run(&a).unwrap_err();
+        assert!(e.contains(says), "{args:?}: {e}");
+        assert!(!out.exists(), "{args:?} wrote a file");
+    }
+    let e = run(&["relight", s(&file), "--blend", "noon=1;moon=0", "-o", s(&out)]).unwrap_err();
+    assert!(e.contains("the volume has noon, dusk"), "{e}");
+}

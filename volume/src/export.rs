@@ -147,6 +147,13 @@ pub const GROUP_CONVENTION: &str = "each group file holds the coefficients that 
      relit = sum over groups of scale_g * group_g (per colour channel); \
      with every scale 1 the sum is the whole file up to f16/f32 rounding";
 
+/// How a scenario export's files combine (the manifest's `convention` for lighting
+/// scenarios, [`crate::light_groups`]).
+pub const SCENARIO_CONVENTION: &str = "each group file is one lighting scenario's whole bake, \
+     in the whole file's layout and frame (weights, validity and reach are shared); \
+     a blend is sum over scenarios of w_s * scenario_s with weights summing to 1; \
+     the whole file is the first scenario";
+
 /// Writes a volume baked with light groups in `format`: the whole bake to `out` as
 /// [`export`] does, each group to [`group_export_path`] in the same format, and the
 /// manifest ([`GroupManifest`]) to [`group_manifest_path`]. Returns the report of the
@@ -176,7 +183,8 @@ pub fn export_grouped(
         };
         groups.push(GroupFile { name: group_name.clone(), file });
     }
-    let manifest = GroupManifest { convention: GROUP_CONVENTION.into(), whole: name(out), groups };
+    let convention = if grouped.is_scenarios() { SCENARIO_CONVENTION } else { GROUP_CONVENTION };
+    let manifest = GroupManifest { convention: convention.into(), whole: name(out), groups };
     let text =
         serde_json::to_string_pretty(&manifest).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
     let path = group_manifest_path(out);

@@ -22,6 +22,12 @@
 //! coefficients of the sky the volume was baked with, so that relighting with them gives
 //! the whole bake up to the sky's band-limit error ([`GroupedVolume::sum_error`]).
 //!
+//! ## Lighting scenarios
+//! A file of lighting scenarios holds one whole bake per lighting of the same geometry
+//! (groups named `scenario.NAME`, [`SCENARIO_PREFIX`]); the whole bake is the first
+//! scenario's. Blending scenarios `Σ_s w_s c_s` (weights summing to 1 for a blend) is
+//! [`GroupedVolume::relit`] with [`GroupedVolume::parse_blend`]'s scales.
+//!
 //! Each group is stored as coefficients only: the weights, validity, reach, grid and
 //! metadata are the whole bake's ([`GroupedVolume::total`]), which a group's volume
 //! ([`GroupedVolume::group`]) shares.
@@ -42,6 +48,9 @@ pub struct GroupedVolume {
 
 /// The name prefix of a sky transfer's groups (module docs).
 pub const SKY_TRANSFER_PREFIX: &str = "sky.sh";
+
+/// The name prefix of lighting scenarios (module docs).
+pub const SCENARIO_PREFIX: &str = "scenario.";
 
 /// Checks a group name: not empty, at most 64 bytes, printable ASCII without `"` or `\`
 /// (it travels in file headers and generated shader code comments).
@@ -99,6 +108,48 @@ impl GroupedVolume {
             }
         }
         Ok(v)
+    }
+
+    /// Whether the groups are lighting scenarios (module docs).
+    #[must_use]
+    pub fn is_scenarios(&self) -> bool {
+        self.names.iter().all(|n| n.starts_with(SCENARIO_PREFIX))
+    }
+
+    /// Scales that blend lighting scenarios: `NAME=W;NAME=W` (the names without the
+    /// `scenario.` prefix), the scenarios not named weighted 0.
+    ///
+    /// # Errors
+    /// A volume without scenarios, an unknown or repeated name, a weight that is not a
+    /// finite number.
+    pub fn parse_blend(&self, spec: &str) -> Result<Vec<[f64; 3]>, VolumeError> {
+        let bad = |m: String| VolumeError::InvalidData(m);
+        if !self.is_scenarios() {
+            return Err(bad("the volume has no lighting scenarios (bake it with --scenario)".into()));
+        }
+        let listing = || {
+            self.names.iter().map(|n| n.trim_start_matches(SCENARIO_PREFIX)).collect::<Vec<_>>().join(", ")
+        };
+        let mut scales = vec![[0.0; 3]; self.names.len()];
+        let mut given = vec![false; self.names.len()];
+        for item in spec.split(';').map(str::trim).filter(|s| !s.is_empty()) {
+            let (name, w) =
+                item.split_once('=').ok_or_else(|| bad(format!("scenario weight {item:?} is not NAME=W")))?;
+            let g = self.find(&format!("{SCENARIO_PREFIX}{}", name.trim())).ok_or_else(|| {
+                bad(format!("no scenario {:?} (the volume has {})", name.trim(), listing()))
+            })?;
+            if std::mem::replace(&mut given[g], true) {
+                return Err(bad(format!("scenario {:?} weighted twice", name.trim())));
+            }
+            let w: f64 = w
+                .trim()
+                .parse()
+                .ok()
+                .filter(|v: &f64| v.is_finite())
+                .ok_or_else(|| bad(format!("scenario weight {w:?} is not a finite number")))?;
+            scales[g] = [w; 3];
+        }
+        Ok(scales)
     }
 
     /// The volume with the coefficients of the sky it was baked with (module docs); errors
@@ -261,8 +312,8 @@ impl GroupedVolume {
 
     /// The largest difference between the groups relit as baked and the whole bake,
     /// relative to the largest absolute coefficient of the whole bake (0 for an empty
-    /// volume): the plain groups at scale 1 and a sky transfer's groups at the baked sky's
-    /// coefficients (without those, the transfer is left out and the error is `NaN`). For
+    /// volume): the plain groups at scale 1, lighting scenarios as the first alone, and a
+    /// sky transfer's groups at the baked sky's coefficients (without those, the transfer is left out and the error is `NaN`). For
     /// plain groups this is f32 rounding; with a sky transfer it adds the baked sky's
     /// band-limit error.
     #[must_use]
@@ -272,6 +323,11 @@ impl GroupedVolume {
             return 0.0;
         }
         let scales = match (self.sky_transfer(), &self.baked_sky) {
+            (None, _) if self.is_scenarios() => {
+                let mut s = vec![[0.0; 3]; self.layers.len()];
+                s[0] = [1.0; 3];
+                s
+            }
             (None, _) => vec![[1.0; 3]; self.layers.len()],
             (Some(_), Some(sky)) => match self.sky_scales(sky, None) {
                 Ok(s) => s,
