@@ -98,6 +98,11 @@ pub(crate) struct CompareArgs {
     /// `METHOD@WAY`, read from the same bakes.
     #[arg(long, value_delimiter = ',', default_value = "lightvol")]
     pub(crate) lookup: Vec<lightvol_eval::ReadAs>,
+    /// The sky `BASE+relit` entries are baked under (with a sky transfer) before they are
+    /// relit to the comparison's own lighting: `sky:R,G,B[:R,G,B]` or `env:FILE.exr`. The
+    /// other methods and the reference see the comparison's lighting (--sky, --env).
+    #[arg(long, value_name = "sky:R,G,B[:R,G,B]|env:FILE")]
+    pub(crate) relight_from: Option<String>,
     /// Output directory (created if missing).
     #[arg(short, long, default_value = "compare-out")]
     pub(crate) output: PathBuf,
@@ -196,6 +201,19 @@ pub(crate) fn flag_error(e: EvalError) -> anyhow::Error {
     }
 }
 
+/// The sky of `--relight-from`: `sky:R,G,B[:R,G,B]` or `env:FILE.exr`.
+fn relight_from(spec: &str) -> anyhow::Result<lightvol_scene::Environment> {
+    let s = crate::setup::parse_scenario(&format!("from={spec}")).context("--relight-from")?;
+    match (s.lights.sky, s.lights.environment_map, s.lights.sun.is_some() || s.lights.no_sun) {
+        (_, Some(path), false) => Ok(lightvol_scene::Environment::Map(
+            lightvol_scene::envmap::EnvMap::from_exr(&path)
+                .with_context(|| format!("reading {}", path.display()))?,
+        )),
+        (Some((sky, ground)), None, false) => Ok(lightvol_scene::Environment::UniformSky { sky, ground }),
+        _ => anyhow::bail!("--relight-from: give one sky: sky:R,G,B[:R,G,B] or env:FILE.exr"),
+    }
+}
+
 /// The evaluation's configuration from the options, for `grid`, the plate at `height` and
 /// the cameras `views`.
 #[must_use]
@@ -231,6 +249,7 @@ pub(crate) fn config(
         views: args.views.config(views),
         lookups: args.lookup.clone(),
         threads,
+        relight_from: None,
     }
 }
 
@@ -266,7 +285,8 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
     args.views.config(views.clone()).validate().map_err(flag_error)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;
     let threads = resolve_threads(args.sampling.threads)?;
-    let config = config(args, methods, grid, height, views, threads);
+    let mut config = config(args, methods, grid, height, views, threads);
+    config.relight_from = args.relight_from.as_deref().map(relight_from).transpose()?;
     let result =
         lightvol_eval::compare(&loaded.scene, &config, &ProgressBars::new(args.quiet)).map_err(flag_error)?;
     write_outputs(&args.output, &loaded, &config, &result, &args.views.cameras)

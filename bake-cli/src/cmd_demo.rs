@@ -98,6 +98,7 @@ fn scene_compare_args(
             engine_views: vec![lightvol_volume::EngineLookup::Three, lightvol_volume::EngineLookup::Bevy],
         },
         lookup: vec![lightvol_eval::ReadAs::default()],
+        relight_from: None,
         output: out,
         quiet: args.quiet,
     }

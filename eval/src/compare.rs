@@ -14,8 +14,8 @@ use crate::observer::Observer;
 use crate::plate::{Plate, PlateConfig};
 use crate::reads::{ReadAs, read_as};
 use crate::runs::{
-    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_bound, run_gradient, run_targeted,
-    run_uniform,
+    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_bound, run_gradient, run_relit,
+    run_targeted, run_uniform,
 };
 use crate::sweep::{SweepConfig, SweepReport, check_scales, memory_sweep};
 use crate::views::{ComparedView, ViewsConfig, check_cameras, compare_views};
@@ -69,6 +69,9 @@ pub struct CompareConfig {
     /// Worker threads; `None` runs on the caller's rayon pool (the global one, all cores,
     /// unless called inside `ThreadPool::install`).
     pub threads: Option<usize>,
+    /// The sky that `BASE+relit` entries are baked under before they are relit to the
+    /// scene's own ([`Entry::Relit`]).
+    pub relight_from: Option<lightvol_scene::Environment>,
 }
 
 impl CompareConfig {
@@ -94,6 +97,7 @@ impl CompareConfig {
             views: ViewsConfig::default(),
             lookups: vec![ReadAs::default()],
             threads: None,
+            relight_from: None,
         }
     }
 
@@ -229,6 +233,10 @@ fn compare_here(
             Entry::Baseline(b) => run_baseline(&ctx, grid, name, b, &plate)?,
             Entry::Targeted(method, lookup) => run_targeted(&ctx, grid, name, method, lookup, &plate)?,
             Entry::Bound(lookup) => run_bound(&ctx, grid, name, lookup, &plate)?,
+            Entry::Relit(method) => {
+                let from = config.relight_from.as_ref().ok_or(EvalError::NoRelightFrom)?;
+                run_relit(&ctx, grid, name, method, from, &plate)?
+            }
         };
         baked.push(run);
     }

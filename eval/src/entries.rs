@@ -13,6 +13,7 @@
 //! | `BASE+average`, `BASE+lsq`, `BASE+lsq:λ` | [`Entry::Fitted`] |
 //! | `BASE+taylor`, `BASE+gtrilinear`, `BASE+hermite` | [`Entry::Gradient`] |
 //! | `BASE+three`, `BASE+bevy`, `BASE+trilinear`, `BASE+apv` | [`Entry::Targeted`] |
+//! | `BASE+relit` | [`Entry::Relit`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
 //! | `point+validity`, `point+apv`, `point+vlm`, `point+ddgi` | [`Entry::Baseline`] |
 //! | `bound+three`, `bound+bevy`, `bound+trilinear`, `bound+apv`, `bound+lightvol` | [`Entry::Bound`] |
@@ -62,6 +63,10 @@ pub enum Entry {
     /// A uniform bake whose node values are then fitted for an engine's lookup
     /// ([`lightvol_sampler::target`]).
     Targeted(Method, EngineLookup),
+    /// A uniform bake with a sky transfer of 9 coefficients under the comparison's
+    /// `relight_from` sky, relit to the comparison's own sky ([`crate::runs::run_relit`]):
+    /// what relighting gives where a fresh bake would be made.
+    Relit(Method),
     /// Not a bake: the node values that fit the plate's path-traced reference best through
     /// this lookup ([`lightvol_sampler::target::best_for_points`]), so its plate error is
     /// the lowest any bake reaches on this grid read that way. Always read through its
@@ -94,7 +99,10 @@ impl Entry {
     pub fn records_node_reach(&self) -> bool {
         matches!(
             self,
-            Self::Uniform(Method::Doi) | Self::Gradient(Method::Doi, _) | Self::Fitted(Method::Doi, _)
+            Self::Uniform(Method::Doi)
+                | Self::Gradient(Method::Doi, _)
+                | Self::Fitted(Method::Doi, _)
+                | Self::Relit(Method::Doi)
         )
     }
 }
@@ -121,6 +129,9 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
         return EngineLookup::parse(l)
             .map(Entry::Bound)
             .ok_or_else(|| EvalError::UnknownEngineLookup(l.to_owned()));
+    }
+    if let Some(base) = s.strip_suffix("+relit") {
+        return Ok(Entry::Relit(parse_method(base)?));
     }
     match s.split_once('+') {
         None => Ok(Entry::Uniform(parse_method(s)?)),
@@ -156,6 +167,7 @@ impl fmt::Display for Entry {
             Self::Baseline(b) => f.write_str(b.name()),
             Self::Targeted(m, l) => write!(f, "{}+{l}", m.name()),
             Self::Bound(l) => write!(f, "bound+{l}"),
+            Self::Relit(m) => write!(f, "{}+relit", m.name()),
         }
     }
 }
@@ -268,6 +280,8 @@ mod tests {
         assert_eq!(parse_entry("point+validity").unwrap(), Entry::Baseline(Baseline::Validity));
         assert_eq!(parse_entry("point+apv").unwrap(), Entry::Baseline(Baseline::Apv));
         assert_eq!(parse_entry("doi+apv").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Apv));
+        assert_eq!(parse_entry("doi+relit").unwrap(), Entry::Relit(Method::Doi));
+        assert_eq!(Entry::Relit(Method::Point).to_string(), "point+relit");
         assert_eq!(parse_entry("doi+three").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Three));
         assert_eq!(parse_entry("bound+three").unwrap(), Entry::Bound(EngineLookup::Three));
         assert_eq!(parse_entry("bound+lightvol").unwrap(), Entry::Bound(EngineLookup::Lightvol));

@@ -14,6 +14,12 @@ use lightvol_view::ViewError;
 /// [`compare`]: crate::compare()
 #[derive(Debug, thiserror::Error)]
 pub enum EvalError {
+    /// A `BASE+relit` entry without the sky to bake it under.
+    #[error("BASE+relit entries need --relight-from (the sky they are baked under before they are relit)")]
+    NoRelightFrom,
+    /// A relit entry's groups or relighting failed.
+    #[error("relighting: {0}")]
+    Relight(String),
     /// An entry names no bake method (the message of [`Method`](lightvol_sampler::Method)'s parser).
     #[error("{0}")]
     UnknownMethod(String),

@@ -13,7 +13,7 @@ use crate::error::SceneError;
 
 /// A lat-long radiance map with a piecewise-constant sampling distribution proportional to
 /// luminance × sin θ (pbrt-v4's `PiecewiseConstant2D` over the map).
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct EnvMap {
     width: usize,
     height: usize,

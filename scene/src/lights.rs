@@ -9,7 +9,7 @@ use glam::DVec3;
 use crate::envmap::EnvMap;
 
 /// What a ray that leaves the scene sees.
-#[derive(Clone, Debug, Default)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub enum Environment {
     /// Nothing: black.
     #[default]

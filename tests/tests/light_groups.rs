@@ -361,3 +361,56 @@ fn scenarios_are_their_bakes_and_blend() {
     let e = run(&["relight", s(&file), "--blend", "noon=1;moon=0", "-o", s(&out)]).unwrap_err();
     assert!(e.contains("the volume has noon, dusk"), "{e}");
 }
+
+/// `compare BASE+relit`: baked under `--relight-from` and relit to the comparison's sky.
+/// Relit from the very sky the comparison uses (a sky equal to its ground, which order 3
+/// holds exactly) it measures what the fresh bake measures; relit from another sky it is
+/// measured against the same reference, and without `--relight-from` it is refused.
+#[test]
+fn compare_measures_relit_volumes_against_fresh_bakes() {
+    let report = |from: &str| -> serde_json::Value {
+        let dir = tempfile::tempdir().unwrap();
+        ok(&[
+            "compare",
+            "builtin:city",
+            "--samples",
+            "16",
+            "--plate-res",
+            "24",
+            "--reference-samples",
+            "64",
+            "--methods",
+            "doi,doi+relit",
+            "--sky",
+            "0.6,0.7,0.9",
+            "--ground",
+            "0.6,0.7,0.9",
+            "--relight-from",
+            from,
+            "--quiet",
+            "-o",
+            s(dir.path()),
+        ]);
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json")).unwrap()).unwrap()
+    };
+    let rmse = |r: &serde_json::Value, m: &str| r["methods"][m]["rel_rmse"].as_f64().unwrap();
+    let same = report("sky:0.6,0.7,0.9:0.6,0.7,0.9");
+    // The same paths and terms, rounded to f32 in another order.
+    assert!((rmse(&same, "doi+relit") - rmse(&same, "doi")).abs() < 1e-5, "{same}");
+    let other = report("sky:0.2,0.2,0.3");
+    assert!(rmse(&other, "doi+relit").is_finite() && rmse(&other, "doi+relit") > 0.0);
+    let dir = tempfile::tempdir().unwrap();
+    let e = run(&[
+        "compare",
+        "builtin:city",
+        "--samples",
+        "4",
+        "--methods",
+        "doi+relit",
+        "--quiet",
+        "-o",
+        s(dir.path()),
+    ])
+    .unwrap_err();
+    assert!(e.contains("--relight-from"), "{e}");
+}
