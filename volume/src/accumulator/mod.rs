@@ -42,6 +42,10 @@
 //! have no estimate. `finalize` fills them as documented in [`crate::fill`] and counts
 //! them in the [`FillReport`]; their weight stays 0.
 
+mod groups;
+
+pub use groups::GroupLabels;
+
 use crate::error::VolumeError;
 use crate::fill::{FillReport, fill_empty_nodes};
 use crate::fixed::FixedSums;
@@ -68,18 +72,6 @@ pub struct Accumulator {
     groups: Vec<FixedSums>,
     /// The groups' names and a sky transfer's baked sky (module docs).
     group_labels: Option<GroupLabels>,
-}
-
-/// What a bake split by light group records about its groups: their names, and with a sky
-/// transfer the SH coefficients of the sky it was baked with
-/// ([`crate::light_groups::GroupedVolume`]).
-#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
-pub struct GroupLabels {
-    /// The group names, in group order.
-    pub names: Vec<String>,
-    /// A sky transfer's baked sky coefficients, per channel.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sky: Option<Vec<[f64; 3]>>,
 }
 
 /// A summary, not the sums themselves.
@@ -154,92 +146,6 @@ impl Accumulator {
         };
         let nodes = raw.chunks_exact(6).map(|c| std::array::from_fn(|d| decode(c[d]))).collect();
         Some(NodeReach::new(nodes).expect("decoded reaches are in [0, 1]"))
-    }
-
-    /// Starts one empty numerator per light group of `labels` (module docs), replacing any
-    /// earlier ones.
-    pub fn enable_groups(&mut self, labels: GroupLabels) {
-        self.groups = vec![FixedSums::zeros(self.numerator.len()); labels.names.len()];
-        self.group_labels = Some(labels);
-    }
-
-    /// The light groups' labels, if the bake is split by group.
-    #[must_use]
-    pub fn group_labels(&self) -> Option<&GroupLabels> {
-        self.group_labels.as_ref()
-    }
-
-    /// Each light group's raw numerator sums, in group order (empty without groups).
-    #[must_use]
-    pub fn groups_raw(&self) -> Vec<&[i128]> {
-        self.groups.iter().map(FixedSums::raw).collect()
-    }
-
-    /// `total` (this accumulator's finalized volume, with its metadata) and the light
-    /// groups ([`Self::finalize_groups`]) as a [`GroupedVolume`](crate::GroupedVolume);
-    /// `None` without groups.
-    ///
-    /// # Errors
-    /// When the groups and `total` do not fit together.
-    pub fn finalize_grouped(
-        &self,
-        total: &IrradianceVolume,
-    ) -> Option<Result<crate::light_groups::GroupedVolume, VolumeError>> {
-        let labels = self.group_labels.as_ref()?;
-        let g = crate::light_groups::GroupedVolume::new(
-            total.clone(),
-            labels.names.clone(),
-            self.finalize_groups(),
-        );
-        Some(match (g, &labels.sky) {
-            (Ok(g), Some(sky)) => g.with_baked_sky(sky.clone()),
-            (g, _) => g,
-        })
-    }
-
-    /// The number of light-group numerators (0 for a bake not split by group).
-    #[must_use]
-    pub fn group_count(&self) -> usize {
-        self.groups.len()
-    }
-
-    /// Adds one sample's terms for light group `g` to node `node`: the numerator arithmetic
-    /// of [`Self::add`] on group `g`'s numerator only (the denominator is the whole bake's,
-    /// added by [`Self::add`] for the same sample).
-    ///
-    /// # Panics
-    /// If `g` or `node` is out of range or `basis.len() != coeffs`.
-    #[inline]
-    pub fn add_group(&mut self, g: usize, node: usize, b: f64, radiance_over_pdf: [f64; 3], basis: &[f64]) {
-        assert_eq!(basis.len(), self.coeffs, "basis length must equal coeffs");
-        let k = self.coeffs * 3;
-        add_terms(&mut self.groups[g], node * k, b, radiance_over_pdf, basis);
-    }
-
-    /// Each light group's coefficients (module docs), `[node][coeff][rgb]` as f32: Eq. 6's
-    /// division by the whole bake's denominators, then the fill and checks of
-    /// [`Self::volume_from`] with the whole bake's weights, so that the groups sum to
-    /// [`Self::finalize`]'s coefficients up to rounding.
-    #[must_use]
-    pub fn finalize_groups(&self) -> Vec<Vec<f32>> {
-        let (_, weights, _) = self.estimates();
-        let n = self.spec.node_count();
-        let k = self.coeffs * 3;
-        self.groups
-            .iter()
-            .map(|g| {
-                let mut values = vec![0.0f64; n * k];
-                for node in 0..n {
-                    let d = self.denominator.get(node);
-                    if d.is_finite() && d > 0.0 {
-                        for (i, out) in values[node * k..(node + 1) * k].iter_mut().enumerate() {
-                            *out = g.get(node * k + i) / d;
-                        }
-                    }
-                }
-                self.volume_from(values, &weights, 0).0.data().to_vec()
-            })
-            .collect()
     }
 
     /// Attaches auxiliary exact sums (named, e.g. `"mass"`); they are merged, saved and
