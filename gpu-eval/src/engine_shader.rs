@@ -23,6 +23,13 @@
 //!   corners whose node reach sees the test point `p + n · bias` (a `doi` volume's reach, six
 //!   f32 per node in a storage buffer; lightvol-volume's `reach`, its edge test and
 //!   tolerance; `bias` in the grid block, [`grid_words`]);
+//! - `lightvol_irradiance_groups`, `_groups_valid`, `_groups_reach`: the same three lookups
+//!   of a volume split by light group, relit by one RGB scale per group (a storage buffer
+//!   of `vec4`, its length the group count): `Σ_g s_g c_g` interpolated and shaded. The
+//!   groups' coefficients come from the export's stacked `STEM.groups.ktx2` (groups along
+//!   y: texel `(x, g·ny + y, j·nz + z)`) or from `[group][node][coeff][rgb]` f32 in a storage
+//!   buffer. A sky transfer's scales are the new sky's SH radiance coefficients, scenarios'
+//!   their blend weights (lightvol-volume's `light_groups`);
 //! - a compute entry point `main` that evaluates queries from buffers with the lookup a
 //!   selector names (the tests run it; an engine keeps the functions and drops it).
 //!
@@ -62,9 +69,9 @@ pub enum Language {
 pub const GRID_WORDS: usize = 24;
 
 /// Bindings of the sources' group 0: the grid block, the coefficients, the test entry
-/// point's points, normals and results, the validity mask, the node reach and the test
-/// entry point's lookup selector (module docs).
-pub const BINDINGS: u32 = 8;
+/// point's points, normals and results, the validity mask, the node reach, the test entry
+/// point's lookup selector, the light groups' coefficients and their scales (module docs).
+pub const BINDINGS: u32 = 10;
 
 /// The `LightvolGrid` block for `spec` with `coeffs` coefficients, as 4-byte words: rows of
 /// the world-to-grid map (identity when unplaced), grid minimum and the node reach's
@@ -129,166 +136,7 @@ fn constants() -> String {
 // the same recurrence and operation order, with the constants as generated literals instead
 // of the evaluator's uniform block (an engine binds no lightvol uniforms). The device tests
 // hold both against the CPU lookups (`tests/lookup.rs`, `tests/engine_shader.rs`).
-const CORE: &str = r"
-// One volume: world-to-grid rows, grid minimum (w: the node reach's test-point offset along
-// the normal, world units), (n - 1) / (max - min), node counts and the coefficient count
-// per channel (4, 9 or 16) in dims.w.
-struct LightvolGrid {
-    to_grid: array<vec4<f32>, 3>,
-    grid_min: vec4<f32>,
-    scale: vec4<f32>,
-    dims: vec4<u32>,
-}
-
-// World position -> continuous node coordinates, not clamped.
-fn lightvol_grid_coordinates(grid: LightvolGrid, p: vec3<f32>) -> vec3<f32> {
-    let g = vec3<f32>(dot(grid.to_grid[0], vec4<f32>(p, 1.0)), dot(grid.to_grid[1], vec4<f32>(p, 1.0)),
-        dot(grid.to_grid[2], vec4<f32>(p, 1.0)));
-    return (g - grid.grid_min.xyz) * grid.scale.xyz;
-}
-
-// World position -> continuous node coordinates in [0, n - 1] (clamped to the box).
-fn lightvol_grid_position(grid: LightvolGrid, p: vec3<f32>) -> vec3<f32> {
-    let top = vec3<f32>(grid.dims.xyz) - vec3<f32>(1.0);
-    return clamp(lightvol_grid_coordinates(grid, p), vec3<f32>(0.0), top);
-}
-
-// Real orthonormal SH, 4 bands, flat index l (l + 1) + m, no Condon-Shortley phase:
-// Q_l^m = a(l, m) z Q_{l-1}^m + b(l, m) Q_{l-2}^m, Q_m^m = diag[m],
-// Y_{l,+-m} = Q_l^m (Re | Im)(x + i y)^m.
-fn lightvol_sh_basis(n: vec3<f32>) -> array<f32, 16> {
-    var sh_a = LIGHTVOL_SH_A;
-    var sh_b = LIGHTVOL_SH_B;
-    var sh_diag = LIGHTVOL_SH_DIAG;
-    var y: array<f32, 16>;
-    var c = 1.0;
-    var s = 0.0;
-    for (var m = 0u; m < 4u; m++) {
-        if m > 0u {
-            let cn = n.x * c - n.y * s;
-            let sn = n.x * s + n.y * c;
-            c = cn;
-            s = sn;
-        }
-        var q_prev2 = 0.0;
-        var q_prev = sh_diag[m];
-        for (var l = m; l < 4u; l++) {
-            var q = q_prev;
-            if l > m {
-                let idx = l * (l + 1u) + m;
-                q = sh_a[idx] * n.z * q_prev + sh_b[idx] * q_prev2;
-                q_prev2 = q_prev;
-                q_prev = q;
-            }
-            let base = l * (l + 1u);
-            if m == 0u {
-                y[base] = q;
-            } else {
-                y[base + m] = q * c;
-                y[base - m] = q * s;
-            }
-        }
-    }
-    return y;
-}
-
-// The base corner of the cell that holds continuous node coordinates u (clamped).
-fn lightvol_cell(grid: LightvolGrid, u: vec3<f32>) -> vec3<f32> {
-    return min(floor(u), vec3<f32>(grid.dims.xyz) - vec3<f32>(2.0));
-}
-
-// Trilinear corner weights (Kontkanen & Laine 2006, Eq. 2) at fraction f of the cell,
-// corner k = dx + 2 dy + 4 dz.
-fn lightvol_corner_weights(f: vec3<f32>) -> array<f32, 8> {
-    var w: array<f32, 8>;
-    for (var k = 0u; k < 8u; k++) {
-        let d = vec3<u32>(k & 1u, (k >> 1u) & 1u, k >> 2u);
-        let t = select(vec3<f32>(1.0) - f, f, d == vec3<u32>(1u));
-        w[k] = t.x * t.y * t.z;
-    }
-    return w;
-}
-
-// sum_j A_l(j) Y_j(n) c_j (Eq. 3) for the coefficients c_j interpolated with the corner
-// weights w over the cell at c0.
-fn lightvol_shade(grid: LightvolGrid, c0: vec3<u32>, w: array<f32, 8>, n: vec3<f32>) -> vec3<f32> {
-    var y = lightvol_sh_basis(n);
-    var lobe = LIGHTVOL_COSINE_LOBE;
-    var weights = w;
-    var e = vec3<f32>(0.0);
-    for (var j = 0u; j < grid.dims.w; j++) {
-        var c = vec3<f32>(0.0);
-        for (var k = 0u; k < 8u; k++) {
-            let d = vec3<u32>(k & 1u, (k >> 1u) & 1u, k >> 2u);
-            c += weights[k] * lightvol_fetch(grid, c0 + d, j);
-        }
-        e += (lobe[j] * y[j]) * c;
-    }
-    return e;
-}
-
-// Irradiance at world position p for the unit world normal n (Kontkanen & Laine 2006,
-// Eq. 2-3): every coefficient interpolated trilinearly, then sum_j A_l(j) Y_j(n) c_j.
-fn lightvol_irradiance(grid: LightvolGrid, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let u = lightvol_grid_position(grid, p);
-    let cell = lightvol_cell(grid, u);
-    return lightvol_shade(grid, vec3<u32>(cell), lightvol_corner_weights(u - cell), n);
-}
-
-fn lightvol_node_index(grid: LightvolGrid, node: vec3<u32>) -> u32 {
-    return (node.z * grid.dims.y + node.y) * grid.dims.x + node.x;
-}
-
-// Validity (a point+apv volume's mask, the sidecar's `validity` decoded): one bit per node
-// in node order, node i at bit i % 32 of word i / 32, 1 = valid.
-@group(0) @binding(5) var<storage, read> lightvol_validity: array<u32>;
-
-// lightvol_irradiance with Unity APV's run-time validity weights: the invalid corners of the
-// cell left out and the others renormalised (lightvol-volume's validity module).
-fn lightvol_irradiance_valid(grid: LightvolGrid, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let u = lightvol_grid_position(grid, p);
-    let cell = lightvol_cell(grid, u);
-    let c0 = vec3<u32>(cell);
-    var keep: array<bool, 8>;
-    for (var k = 0u; k < 8u; k++) {
-        let i = lightvol_node_index(grid, c0 + vec3<u32>(k & 1u, (k >> 1u) & 1u, k >> 2u));
-        keep[k] = ((lightvol_validity[i >> 5u] >> (i & 31u)) & 1u) == 1u;
-    }
-    return lightvol_shade(grid, c0, lightvol_renormalise(lightvol_corner_weights(u - cell), keep), n);
-}
-
-// Node reach (a doi volume's, the sidecar's `reach` decoded): six f32 per node in node
-// order, +x, -x, +y, -y, +z, -z, each the free distance along that grid axis in cells,
-// capped at 1.
-@group(0) @binding(6) var<storage, read> lightvol_reach: array<f32>;
-
-// lightvol_irradiance with the node reach: a corner is left out when the test point
-// p + n grid_min.w lies beyond its reach on an axis whose cell edge both end nodes see
-// blocked (their reaches along it sum to at most LIGHTVOL_REACH_EDGE), and the others are
-// renormalised (lightvol-volume's reach module).
-fn lightvol_irradiance_reach(grid: LightvolGrid, p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
-    let u = lightvol_grid_position(grid, p);
-    let cell = lightvol_cell(grid, u);
-    let c0 = vec3<u32>(cell);
-    let f = lightvol_grid_coordinates(grid, p + n * grid.grid_min.w) - cell;
-    var keep: array<bool, 8>;
-    for (var k = 0u; k < 8u; k++) {
-        let d = vec3<u32>(k & 1u, (k >> 1u) & 1u, k >> 2u);
-        let here_node = 6u * lightvol_node_index(grid, c0 + d);
-        var sees = true;
-        for (var a = 0u; a < 3u; a++) {
-            let s = select(f[a], 1.0 - f[a], d[a] == 1u);
-            var across = d;
-            across[a] = 1u - d[a];
-            let here = lightvol_reach[here_node + 2u * a + d[a]];
-            let there = lightvol_reach[6u * lightvol_node_index(grid, c0 + across) + 2u * a + 1u - d[a]];
-            sees = sees && (s <= here || here + there > LIGHTVOL_REACH_EDGE);
-        }
-        keep[k] = sees;
-    }
-    return lightvol_shade(grid, c0, lightvol_renormalise(lightvol_corner_weights(u - cell), keep), n);
-}
-";
+const CORE: &str = include_str!("../shaders/engine.wgsl");
 
 /// `lightvol_renormalise`, shared with the Vulkan evaluator's lookup kernel.
 const WEIGHTS: &str = include_str!("../shaders/weights.wgsl");
@@ -300,6 +148,15 @@ const FETCH_TEXTURE: &str = r"
 fn lightvol_fetch(grid: LightvolGrid, node: vec3<u32>, j: u32) -> vec3<f32> {
     let t = vec3<i32>(i32(node.x), i32(node.y), i32(j * grid.dims.z + node.z));
     return textureLoad(lightvol_volume_texture, t, 0).rgb;
+}
+
+// The groups' KTX2 texture (export's STEM.groups.ktx2): RGBA16F, the groups stacked along y,
+// coefficient j of node (x, y, z) in group g at texel (x, g ny + y, j nz + z).
+@group(0) @binding(8) var lightvol_group_texture: texture_3d<f32>;
+
+fn lightvol_fetch_group(grid: LightvolGrid, node: vec3<u32>, j: u32, g: u32, groups: u32) -> vec3<f32> {
+    let t = vec3<i32>(i32(node.x), i32(g * grid.dims.y + node.y), i32(j * grid.dims.z + node.z));
+    return textureLoad(lightvol_group_texture, t, 0).rgb;
 }
 ";
 
@@ -314,6 +171,17 @@ fn lightvol_fetch(grid: LightvolGrid, node: vec3<u32>, j: u32) -> vec3<f32> {
     let ba = unpack2x16float(lightvol_volume_texels[2u * texel + 1u]);
     return vec3<f32>(rg.x, rg.y, ba.x);
 }
+
+// The groups' KTX2 texels as stored (groups stacked along y), decoded as the hardware does.
+@group(0) @binding(8) var<storage, read> lightvol_group_texels: array<u32>;
+
+fn lightvol_fetch_group(grid: LightvolGrid, node: vec3<u32>, j: u32, g: u32, groups: u32) -> vec3<f32> {
+    let z = j * grid.dims.z + node.z;
+    let texel = (z * groups * grid.dims.y + g * grid.dims.y + node.y) * grid.dims.x + node.x;
+    let rg = unpack2x16float(lightvol_group_texels[2u * texel]);
+    let ba = unpack2x16float(lightvol_group_texels[2u * texel + 1u]);
+    return vec3<f32>(rg.x, rg.y, ba.x);
+}
 ";
 
 const FETCH_NATIVE: &str = r"
@@ -325,12 +193,23 @@ fn lightvol_fetch(grid: LightvolGrid, node: vec3<u32>, j: u32) -> vec3<f32> {
     let at = 3u * (index * grid.dims.w + j);
     return vec3<f32>(lightvol_volume_coeffs[at], lightvol_volume_coeffs[at + 1u], lightvol_volume_coeffs[at + 2u]);
 }
+
+// The groups' coefficients in the native layout: [group][node][coeff][rgb] f32 (the EXR's
+// group parts in group order).
+@group(0) @binding(8) var<storage, read> lightvol_group_coeffs: array<f32>;
+
+fn lightvol_fetch_group(grid: LightvolGrid, node: vec3<u32>, j: u32, g: u32, groups: u32) -> vec3<f32> {
+    let nodes = grid.dims.x * grid.dims.y * grid.dims.z;
+    let index = (node.z * grid.dims.y + node.y) * grid.dims.x + node.x;
+    let at = 3u * ((g * nodes + index) * grid.dims.w + j);
+    return vec3<f32>(lightvol_group_coeffs[at], lightvol_group_coeffs[at + 1u], lightvol_group_coeffs[at + 2u]);
+}
 ";
 
 const ENTRY: &str = r"
 // Queries: packed xyz points and normals, packed RGB results; the count is the length of
 // the result array / 3; the lookup: 0 lightvol_irradiance, 1 lightvol_irradiance_valid,
-// 2 lightvol_irradiance_reach. (Tests run this; an engine calls the lookups directly.)
+// 2 lightvol_irradiance_reach, 3-5 the same of the light groups' relit volume. (Tests run this; an engine calls the lookups directly.)
 @group(0) @binding(0) var<storage, read> lightvol_grid: LightvolGrid;
 @group(0) @binding(2) var<storage, read> lightvol_points: array<f32>;
 @group(0) @binding(3) var<storage, read> lightvol_normals: array<f32>;
@@ -352,6 +231,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         case 2u: {
             e = lightvol_irradiance_reach(lightvol_grid, p, n);
+        }
+        case 3u: {
+            e = lightvol_irradiance_groups(lightvol_grid, p, n);
+        }
+        case 4u: {
+            e = lightvol_irradiance_groups_valid(lightvol_grid, p, n);
+        }
+        case 5u: {
+            e = lightvol_irradiance_groups_reach(lightvol_grid, p, n);
         }
         default: {
             e = lightvol_irradiance(lightvol_grid, p, n);
@@ -535,7 +423,13 @@ mod tests {
         for layout in [Layout::Ktx2, Layout::Native] {
             for lang in [Language::Wgsl, Language::Hlsl, Language::Glsl] {
                 let s = shader_source(lang, layout).unwrap_or_else(|e| panic!("{lang:?} {layout:?}: {e}"));
-                for f in ["lightvol_irradiance", "lightvol_irradiance_valid", "lightvol_irradiance_reach"] {
+                for f in [
+                    "lightvol_irradiance",
+                    "lightvol_irradiance_valid",
+                    "lightvol_irradiance_reach",
+                    "lightvol_irradiance_groups",
+                    "lightvol_irradiance_groups_reach",
+                ] {
                     assert!(s.contains(f), "{lang:?} {layout:?}: {f}");
                 }
             }

@@ -11,6 +11,11 @@
 //! `lightvol_irradiance_reach`) run on a volume with a random validity mask and a random
 //! node reach, against the CPU lookup of the same volume with the mask or the reach.
 //!
+//! The light-group lookups (`lightvol_irradiance_groups`, `_groups_valid`, `_groups_reach`)
+//! run on three random groups with mixed-sign RGB scales (as a sky transfer's are), from
+//! the native layout and from the stacked KTX2 texels, against the CPU lookup of the
+//! volume [`GroupedVolume::relit`] gives (from the f16-rounded layers for KTX2).
+//!
 //! Without Vulkan the tests say so in one line and pass, unless `LIGHTVOL_REQUIRE_GPU=1`.
 
 use lightvol_gpu::engine_shader::{BINDINGS, Layout, grid_words, selftest_spirv};
@@ -20,7 +25,8 @@ use lightvol_gpu::synthetic::{clear_of_reach_decisions, random_masks, random_que
 use lightvol_gpu::{ComputePipeline, GpuBuffer, GpuContext, gpu_or_skip};
 use lightvol_volume::io::ktx2::{ktx2_from_bytes, ktx2_to_bytes};
 use lightvol_volume::slab::slab_texels;
-use lightvol_volume::{GridSpec, Placement};
+use lightvol_volume::slab::{layers_from_stacked_texels, stacked_slab_texels};
+use lightvol_volume::{FileFormat, GridSpec, GroupedVolume, IrradianceVolume, Placement};
 
 /// Queries per configuration.
 const QUERIES: usize = 10_000;
@@ -37,13 +43,21 @@ const PLAIN: u32 = 0;
 const VALID: u32 = 1;
 const REACH: u32 = 2;
 
-/// The buffers of bindings 5-7: every node valid, every node reaching a cell (the plain
-/// lookup reads neither), and the lookup selector.
-fn unused_masks(ctx: &GpuContext, nodes: usize, lookup: u32) -> [GpuBuffer; 3] {
+/// The test entry point's light-group lookups: plain, validity-weighted, node reach.
+const GROUPS: u32 = 3;
+const GROUPS_VALID: u32 = 4;
+const GROUPS_REACH: u32 = 5;
+
+/// The buffers of bindings 5-9: every node valid, every node reaching a cell (the plain
+/// lookup reads neither), the lookup selector, and one light group of zeros at scale 0
+/// (read by the group lookups only).
+fn unused_masks(ctx: &GpuContext, nodes: usize, lookup: u32) -> [GpuBuffer; 5] {
     [
         ctx.upload(&vec![u32::MAX; nodes.div_ceil(32)]).unwrap(),
         ctx.upload(&vec![1.0f32; 6 * nodes]).unwrap(),
         ctx.upload(&[lookup]).unwrap(),
+        ctx.upload(&vec![0u32; 16 * 3 * nodes]).unwrap(),
+        ctx.upload(&[0.0f32; 4]).unwrap(),
     ]
 }
 
@@ -82,10 +96,10 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
             let p = ctx.upload(points.as_flattened()).unwrap();
             let n = ctx.upload(normals.as_flattened()).unwrap();
             let out = ctx.zeroed_buffer(12 * QUERIES as u64).unwrap();
-            let [valid, reach, lookup] = unused_masks(&ctx, spec.node_count(), PLAIN);
+            let [valid, reach, lookup, group_data, group_scales] = unused_masks(&ctx, spec.node_count(), PLAIN);
             pipeline
                 .dispatch(
-                    &[&grid, &texels, &p, &n, &out, &valid, &reach, &lookup],
+                    &[&grid, &texels, &p, &n, &out, &valid, &reach, &lookup, &group_data, &group_scales],
                     groups_for(QUERIES as u64, 65_535),
                     1,
                 )
@@ -116,7 +130,7 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
             let wrong = ctx.upload(&grid_words(&wrong_spec, coeffs)).unwrap();
             pipeline
                 .dispatch(
-                    &[&wrong, &texels, &p, &n, &out, &valid, &reach, &lookup],
+                    &[&wrong, &texels, &p, &n, &out, &valid, &reach, &lookup, &group_data, &group_scales],
                     groups_for(QUERIES as u64, 65_535),
                     1,
                 )
@@ -153,12 +167,13 @@ fn validity_and_reach_lookups_match_the_cpu_on_the_device() {
     let n = ctx.upload(normals.as_flattened()).unwrap();
     let valid = ctx.upload(&words).unwrap();
     let reach = ctx.upload(&reach_values).unwrap();
+    let [_, _, _, group_data, group_scales] = unused_masks(&ctx, nodes, PLAIN);
     let run = |lookup: u32| -> Vec<f32> {
         let out = ctx.zeroed_buffer(12 * QUERIES as u64).unwrap();
         let which = ctx.upload(&[lookup]).unwrap();
         pipeline
             .dispatch(
-                &[&grid, &texels, &p, &n, &out, &valid, &reach, &which],
+                &[&grid, &texels, &p, &n, &out, &valid, &reach, &which, &group_data, &group_scales],
                 groups_for(QUERIES as u64, 65_535),
                 1,
             )
@@ -196,5 +211,105 @@ fn validity_and_reach_lookups_match_the_cpu_on_the_device() {
         // The weights matter: a lookup that ignored them would match the plain one.
         assert!(changed > QUERIES / 10, "{name}: only {changed} queries changed");
         assert!(scale > 0.0 && rel < GPU_VS_CPU_REL, "{name}: {rel:e}");
+    }
+}
+
+/// GPU against the CPU for the relit lookups: `Σ_g s_g E_g` in f32 on the device against
+/// the f64 sum rounded once on the CPU, so the bound is [`GPU_VS_CPU_REL`] relative to
+/// `Σ_g |s_g| |E_g|` (the sum's conditioning with mixed-sign scales), not to `|E|`.
+fn relit_error(gpu: &[f32], want: &[[f32; 3]], conditioning: &[[f64; 3]], queries: &[usize]) -> f64 {
+    queries
+        .iter()
+        .flat_map(|&q| (0..3).map(move |c| (q, c)))
+        .map(|(q, c)| (f64::from(gpu[3 * q + c]) - f64::from(want[q][c])).abs() / conditioning[q][c])
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn light_group_lookups_match_the_cpu_relit_volume_on_the_device() {
+    let Some(ctx) = gpu_or_skip() else { return };
+    let spec =
+        GridSpec::new([-1.0, 0.0, 2.0], [3.0, 1.5, 5.0], [9, 6, 7]).unwrap().with_placement(placement());
+    let nodes = spec.node_count();
+    let (mask, node_reach) = random_masks(nodes, 7);
+    let total = smooth_random_volume(spec.clone(), 9, 8).unwrap();
+    let layers: Vec<Vec<f32>> =
+        (0..3).map(|g| smooth_random_volume(spec.clone(), 9, 10 + g).unwrap().data().to_vec()).collect();
+    let scales = [[0.5, 1.0, 2.0], [-0.3, 0.25, 0.7], [1.5, -0.2, 0.6]];
+    let (points, normals) = random_queries(&spec, QUERIES, 0.15, 9);
+    let grid = ctx.upload(&grid_words(&spec, 9)).unwrap();
+    let p = ctx.upload(points.as_flattened()).unwrap();
+    let n = ctx.upload(normals.as_flattened()).unwrap();
+    let valid = ctx.upload(&validity_words(mask.as_slice())).unwrap();
+    let reach_values: Vec<f32> = (0..nodes).flat_map(|i| node_reach.node(i)).collect();
+    let reach = ctx.upload(&reach_values).unwrap();
+    let scale_words = |s: &[[f64; 3]]| -> Vec<f32> {
+        s.iter().flat_map(|c| [c[0] as f32, c[1] as f32, c[2] as f32, 0.0]).collect()
+    };
+    for layout in [Layout::Native, Layout::Ktx2] {
+        let spirv = selftest_spirv(layout).unwrap();
+        let pipeline = ComputePipeline::new(&ctx, "engine_groups", &spirv, BINDINGS).unwrap();
+        let (whole, group_words, cpu_layers): (Vec<u32>, Vec<u32>, Vec<Vec<f32>>) = match layout {
+            Layout::Native => (
+                total.data().iter().map(|v| v.to_bits()).collect(),
+                layers.iter().flatten().map(|v| v.to_bits()).collect(),
+                layers.clone(),
+            ),
+            Layout::Ktx2 => {
+                let refs: Vec<&[f32]> = layers.iter().map(Vec::as_slice).collect();
+                let bytes = stacked_slab_texels(&total, &refs).unwrap();
+                let rounded = layers_from_stacked_texels(spec.res(), 9, 3, &bytes, FileFormat::Ktx2).unwrap();
+                let words = |b: &[u8]| -> Vec<u32> {
+                    b.chunks_exact(4).map(|c| u32::from_le_bytes(c.try_into().unwrap())).collect()
+                };
+                (words(&slab_texels(&total).unwrap()), words(&bytes), rounded)
+            }
+        };
+        let grouped =
+            GroupedVolume::new(total.clone(), vec!["a".into(), "b".into(), "c".into()], cpu_layers.clone()).unwrap();
+        let texels = ctx.upload(&whole).unwrap();
+        let group_data = ctx.upload(&group_words).unwrap();
+        let run = |lookup: u32, s: &[[f64; 3]]| -> Vec<f32> {
+            let out = ctx.zeroed_buffer(12 * QUERIES as u64).unwrap();
+            let which = ctx.upload(&[lookup]).unwrap();
+            let sc = ctx.upload(&scale_words(s)).unwrap();
+            pipeline
+                .dispatch(
+                    &[&grid, &texels, &p, &n, &out, &valid, &reach, &which, &group_data, &sc],
+                    groups_for(QUERIES as u64, 65_535),
+                    1,
+                )
+                .unwrap();
+            out.read(0, 3 * QUERIES).unwrap()
+        };
+        let relit = grouped.relit(&scales).unwrap();
+        for (lookup, name) in [(GROUPS, "groups"), (GROUPS_VALID, "groups+validity"), (GROUPS_REACH, "groups+reach")] {
+            let with = |v: IrradianceVolume| match lookup {
+                GROUPS_VALID => v.with_validity(mask.clone()).unwrap(),
+                GROUPS_REACH => v.with_reach(node_reach.clone()).unwrap(),
+                _ => v,
+            };
+            let cpu_relit = with(relit.clone());
+            let cpu_groups: Vec<IrradianceVolume> = (0..3).map(|g| with(grouped.group(g))).collect();
+            let queries: Vec<usize> = (0..QUERIES)
+                .filter(|&q| lookup != GROUPS_REACH || clear_of_reach_decisions(&spec, points[q], Some(normals[q])))
+                .collect();
+            assert!(queries.len() > QUERIES * 9 / 10, "{name}: only {} queries compared", queries.len());
+            let want: Vec<[f32; 3]> = (0..QUERIES).map(|q| cpu_relit.irradiance(points[q], normals[q])).collect();
+            let conditioning: Vec<[f64; 3]> = (0..QUERIES)
+                .map(|q| {
+                    let e: Vec<[f32; 3]> = cpu_groups.iter().map(|v| v.irradiance(points[q], normals[q])).collect();
+                    std::array::from_fn(|c| (0..3).map(|g| (scales[g][c] * f64::from(e[g][c])).abs()).sum())
+                })
+                .collect();
+            let gpu = run(lookup, &scales);
+            let rel = relit_error(&gpu, &want, &conditioning, &queries);
+            eprintln!("{layout:?} {name}: max |GPU − CPU| / Σ|s E| = {rel:.2e}");
+            assert!(rel < GPU_VS_CPU_REL, "{layout:?} {name}: {rel:e}");
+            // Negative control: the scales in another group order are another lighting.
+            let swapped = run(lookup, &[scales[1], scales[2], scales[0]]);
+            let off = relit_error(&swapped, &want, &conditioning, &queries);
+            assert!(off > 100.0 * GPU_VS_CPU_REL, "{layout:?} {name}: swapped scales give only {off:e}");
+        }
     }
 }

@@ -112,6 +112,13 @@ pub fn group_export_path(out: &Path, g: usize) -> std::path::PathBuf {
     out.with_file_name(name)
 }
 
+/// The stacked light-group texture beside a KTX2 export `out`: `STEM.groups.ktx2`.
+#[must_use]
+pub fn stacked_groups_path(out: &Path) -> std::path::PathBuf {
+    let stem = out.file_stem().map_or_else(|| "volume".into(), |s| s.to_string_lossy().into_owned());
+    out.with_file_name(format!("{stem}.groups.ktx2"))
+}
+
 /// The manifest of a grouped export beside `out`: `STEM.light_groups.json`.
 #[must_use]
 pub fn group_manifest_path(out: &Path) -> std::path::PathBuf {
@@ -130,6 +137,10 @@ pub struct GroupManifest {
     pub whole: String,
     /// Each group: its name and file (name only), in group order.
     pub groups: Vec<GroupFile>,
+    /// The KTX2 export's texture of every group stacked along y
+    /// ([`crate::io::ktx2_groups`]), which the generated sampling code relights from.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stacked: Option<String>,
 }
 
 /// One light group's exported file.
@@ -145,7 +156,9 @@ pub struct GroupFile {
 pub const GROUP_CONVENTION: &str = "each group file holds the coefficients that group's lights alone contribute, \
      in the whole file's layout and frame (weights, validity and reach are the whole bake's); \
      relit = sum over groups of scale_g * group_g (per colour channel); \
-     with every scale 1 the sum is the whole file up to f16/f32 rounding";
+     with every scale 1 the sum is the whole file up to f16/f32 rounding; \
+     groups sky.shJJ are a sky transfer: their scales are the new sky's SH radiance coefficients \
+     (lightvol's real SH, no Condon-Shortley phase) in the file's frame";
 
 /// How a scenario export's files combine (the manifest's `convention` for lighting
 /// scenarios, [`crate::light_groups`]).
@@ -156,7 +169,10 @@ pub const SCENARIO_CONVENTION: &str = "each group file is one lighting scenario'
 
 /// Writes a volume baked with light groups in `format`: the whole bake to `out` as
 /// [`export`] does, each group to [`group_export_path`] in the same format, and the
-/// manifest ([`GroupManifest`]) to [`group_manifest_path`]. Returns the report of the
+/// manifest ([`GroupManifest`]) to [`group_manifest_path`]; a KTX2 export also writes every
+/// group in one stacked texture ([`stacked_groups_path`], [`crate::io::ktx2_groups`]). In
+/// the engine formats a sky transfer's groups answer sky coefficients in the file's frame
+/// ([`crate::light_groups::GroupedVolume::sky_in_frame`]). Returns the report of the
 /// whole bake's export and the files written.
 ///
 /// # Errors
@@ -169,6 +185,13 @@ pub fn export_grouped(
     out: &Path,
 ) -> Result<(ExportReport, Vec<std::path::PathBuf>), ExportError> {
     let report = write_uniform(grouped.total(), source, format, out)?;
+    // The engine formats are in the scene file's frame: a sky transfer answers that frame's
+    // sky coefficients there. The JSON sidecar describes the native file, in lightvol's.
+    let framed = if format == ExportFormat::Json {
+        grouped.clone()
+    } else {
+        grouped.sky_in_frame(grouped.total().metadata().frame)?
+    };
     let name = |p: &Path| p.file_name().map_or_else(String::new, |n| n.to_string_lossy().into_owned());
     let mut files = vec![out.to_path_buf()];
     let mut groups = Vec::with_capacity(grouped.names().len());
@@ -177,14 +200,22 @@ pub fn export_grouped(
             name(source)
         } else {
             let path = group_export_path(out, g);
-            write_uniform(&grouped.group(g), source, format, &path)?;
+            write_uniform(&framed.group(g), source, format, &path)?;
             files.push(path.clone());
             name(&path)
         };
         groups.push(GroupFile { name: group_name.clone(), file });
     }
+    let stacked = if format == ExportFormat::Ktx2 {
+        let path = stacked_groups_path(out);
+        crate::io::ktx2_groups::write_groups_ktx2(&path, grouped)?;
+        files.push(path.clone());
+        Some(name(&path))
+    } else {
+        None
+    };
     let convention = if grouped.is_scenarios() { SCENARIO_CONVENTION } else { GROUP_CONVENTION };
-    let manifest = GroupManifest { convention: convention.into(), whole: name(out), groups };
+    let manifest = GroupManifest { convention: convention.into(), whole: name(out), groups, stacked };
     let text =
         serde_json::to_string_pretty(&manifest).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
     let path = group_manifest_path(out);

@@ -344,6 +344,56 @@ impl GroupedVolume {
         worst / scale
     }
 
+    /// The same volume with its sky transfer expressed for skies given in the file frame
+    /// `up` (the frame engine exports are in, [`crate::frame::to_file_frame`]): with `R`
+    /// the SH rotation from lightvol's frame to the file's (`l_file = R l`), the relit
+    /// volume `Σ_k l_k c_k = Σ_j l_file,j (Σ_k R_jk c_k)`, so the file-frame group `j` is
+    /// `Σ_k R_jk c_k` and the baked sky's coefficients become `R l` (Sloan, Kautz & Snyder
+    /// 2002, §5: a transfer vector rotates with its lighting). The layers stay in
+    /// lightvol's frame (the export rotates every layer's coefficients as it writes it);
+    /// only which sky coefficient each sky group answers changes. Without a sky transfer,
+    /// or for a z-up file, the volume is unchanged.
+    ///
+    /// # Errors
+    /// If a mixed coefficient is not finite.
+    pub fn sky_in_frame(&self, up: crate::up_axis::UpAxis) -> Result<Self, VolumeError> {
+        let Some((base, n)) = self.sky_transfer() else { return Ok(self.clone()) };
+        if up == crate::up_axis::UpAxis::Z {
+            return Ok(self.clone());
+        }
+        let bands = (n as f64).sqrt().round() as usize;
+        let r = glam::DMat3::from_cols_array_2d(&std::array::from_fn(|c| {
+            let e: [f64; 3] = std::array::from_fn(|i| f64::from(u8::from(i == c)));
+            up.to_file(e)
+        }));
+        let rot = lightvol_sh::rotate::ShRotation::from_mat3(bands, r);
+        // Column k of R: the rotation of the unit coefficient vector e_k.
+        let columns: Vec<Vec<f64>> = (0..n)
+            .map(|k| {
+                let mut e = vec![0.0f64; n];
+                e[k] = 1.0;
+                rot.apply_in_place(&mut e);
+                e
+            })
+            .collect();
+        let mut out = self.clone();
+        for j in 0..n {
+            let mixed: Vec<f32> = (0..self.total.data().len())
+                .map(|i| {
+                    (0..n).map(|k| columns[k][j] * f64::from(self.layers[base + k][i])).sum::<f64>() as f32
+                })
+                .collect();
+            crate::error::check_finite("rotated sky transfer", &mixed)?;
+            out.layers[base + j] = mixed;
+        }
+        out.baked_sky = self.baked_sky.as_ref().map(|sky| {
+            (0..n)
+                .map(|j| std::array::from_fn(|c| (0..n).map(|k| columns[k][j] * sky[k][c]).sum()))
+                .collect()
+        });
+        Ok(out)
+    }
+
     /// Bytes the groups add to the whole bake's coefficients (f32 values).
     #[must_use]
     pub fn layer_bytes(&self) -> usize {
@@ -412,5 +462,59 @@ mod tests {
         let mut nan = l;
         nan[3] = f32::NAN;
         assert!(GroupedVolume::new(t, vec!["a".into()], vec![nan]).is_err());
+    }
+
+    /// A sky given in a y-up file's frame relights the frame-mixed transfer as the same sky
+    /// in lightvol's frame relights the original: the rotation from `to_file` applied to the
+    /// sky (`l_file = R l`, lightvol-sh's rotation, tested there against quadrature) and the
+    /// mixing of [`GroupedVolume::sky_in_frame`] cancel.
+    #[test]
+    fn sky_transfer_in_a_file_frame_relights_the_same() {
+        use crate::up_axis::UpAxis;
+        let spec = GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+        let layer = |g: usize| -> Vec<f32> {
+            (0..8 * 27).map(|i| (((i * 7 + g * 13) % 11) as f32 - 5.0) * 0.125).collect()
+        };
+        let names: Vec<String> =
+            std::iter::once("lamp".to_string()).chain((0..9).map(|j| format!("sky.sh{j:02}"))).collect();
+        let layers: Vec<Vec<f32>> = (0..10).map(layer).collect();
+        let vol = IrradianceVolume::new(spec, 9, layer(99), vec![1.0; 8]).unwrap();
+        let sky: Vec<[f64; 3]> = (0..9).map(|j| [1.0 - 0.1 * j as f64, 0.3, 0.05 * j as f64]).collect();
+        let g = GroupedVolume::new(vol, names, layers).unwrap().with_baked_sky(sky.clone()).unwrap();
+        assert_eq!(g.sky_in_frame(UpAxis::Z).unwrap(), g);
+        let y = g.sky_in_frame(UpAxis::Y).unwrap();
+        assert_eq!(y.layer(0), g.layer(0), "other groups are untouched");
+        // The sky in the file frame, rotated as the file-frame conversion rotates SH.
+        let r = glam::DMat3::from_cols_array_2d(&std::array::from_fn(|c| {
+            let e: [f64; 3] = std::array::from_fn(|i| f64::from(u8::from(i == c)));
+            UpAxis::Y.to_file(e)
+        }));
+        let rot = lightvol_sh::rotate::ShRotation::from_mat3(3, r);
+        let file_sky: Vec<[f64; 3]> = {
+            let mut out = vec![[0.0; 3]; 9];
+            for c in 0..3 {
+                let mut v: Vec<f64> = sky.iter().map(|s| s[c]).collect();
+                rot.apply_in_place(&mut v);
+                for j in 0..9 {
+                    out[j][c] = v[j];
+                }
+            }
+            out
+        };
+        for (a, b) in y.baked_sky().unwrap().iter().zip(&file_sky) {
+            for c in 0..3 {
+                assert!((a[c] - b[c]).abs() < 1e-12, "baked sky rotated: {a:?} {b:?}");
+            }
+        }
+        let want = g.relit(&g.sky_scales(&sky, None).unwrap()).unwrap();
+        let got = y.relit(&y.sky_scales(&file_sky, None).unwrap()).unwrap();
+        // f32 layers mixed in f64 and rounded once more: a few ulps of the largest term.
+        const MIXING_ULPS: f32 = 1e-5;
+        for (a, b) in want.data().iter().zip(got.data()) {
+            assert!((a - b).abs() <= MIXING_ULPS, "{a} {b}");
+        }
+        // Negative control: the unrotated sky on the mixed groups is another lighting.
+        let wrong = y.relit(&y.sky_scales(&sky, None).unwrap()).unwrap();
+        assert!(want.data().iter().zip(wrong.data()).any(|(a, b)| (a - b).abs() > 0.01));
     }
 }
