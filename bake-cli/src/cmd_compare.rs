@@ -98,9 +98,10 @@ pub(crate) struct CompareArgs {
     /// `METHOD@WAY`, read from the same bakes.
     #[arg(long, value_delimiter = ',', default_value = "lightvol")]
     pub(crate) lookup: Vec<lightvol_eval::ReadAs>,
-    /// The sky `BASE+relit` entries are baked under (with a sky transfer) before they are
-    /// relit to the comparison's own lighting: `sky:R,G,B[:R,G,B]` or `env:FILE.exr`. The
-    /// other methods and the reference see the comparison's lighting (--sky, --env).
+    /// The sky `BASE+relit` entries (a sky transfer) and `BASE+skyocc` entries (Unity APV's
+    /// sky occlusion, the baseline) are baked under before they are relit to the
+    /// comparison's own lighting: `sky:R,G,B[:R,G,B]` or `env:FILE.exr`. The other methods
+    /// and the reference see the comparison's lighting (--sky, --env).
     #[arg(long, value_name = "sky:R,G,B[:R,G,B]|env:FILE")]
     pub(crate) relight_from: Option<String>,
     /// Output directory (created if missing).

@@ -14,7 +14,7 @@ use crate::observer::Observer;
 use crate::plate::{Plate, PlateConfig};
 use crate::reads::{ReadAs, read_as};
 use crate::runs::{
-    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_bound, run_gradient, run_relit,
+    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_bound, run_gradient,
     run_targeted, run_uniform,
 };
 use crate::sweep::{SweepConfig, SweepReport, check_scales, memory_sweep};
@@ -235,7 +235,11 @@ fn compare_here(
             Entry::Bound(lookup) => run_bound(&ctx, grid, name, lookup, &plate)?,
             Entry::Relit(method) => {
                 let from = config.relight_from.as_ref().ok_or(EvalError::NoRelightFrom)?;
-                run_relit(&ctx, grid, name, method, from, &plate)?
+                crate::relight::run_relit(&ctx, grid, name, method, from, &plate)?
+            }
+            Entry::SkyOcclusion(method) => {
+                let from = config.relight_from.as_ref().ok_or(EvalError::NoRelightFrom)?;
+                crate::relight::run_sky_occlusion(&ctx, grid, name, method, from, &plate)?
             }
         };
         baked.push(run);

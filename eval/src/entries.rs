@@ -14,6 +14,7 @@
 //! | `BASE+taylor`, `BASE+gtrilinear`, `BASE+hermite` | [`Entry::Gradient`] |
 //! | `BASE+three`, `BASE+bevy`, `BASE+trilinear`, `BASE+apv` | [`Entry::Targeted`] |
 //! | `BASE+relit` | [`Entry::Relit`] |
+//! | `BASE+skyocc` | [`Entry::SkyOcclusion`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
 //! | `point+validity`, `point+apv`, `point+vlm`, `point+ddgi` | [`Entry::Baseline`] |
 //! | `bound+three`, `bound+bevy`, `bound+trilinear`, `bound+apv`, `bound+lightvol` | [`Entry::Bound`] |
@@ -64,9 +65,13 @@ pub enum Entry {
     /// ([`lightvol_sampler::target`]).
     Targeted(Method, EngineLookup),
     /// A uniform bake with a sky transfer of 9 coefficients under the comparison's
-    /// `relight_from` sky, relit to the comparison's own sky ([`crate::runs::run_relit`]):
+    /// `relight_from` sky, relit to the comparison's own sky ([`crate::relight::run_relit`]):
     /// what relighting gives where a fresh bake would be made.
     Relit(Method),
+    /// Unity APV's sky occlusion with this method, baked under the comparison's
+    /// `relight_from` sky and relit to its own ([`crate::relight::run_sky_occlusion`]): the
+    /// baseline of `BASE+relit`.
+    SkyOcclusion(Method),
     /// Not a bake: the node values that fit the plate's path-traced reference best through
     /// this lookup ([`lightvol_sampler::target::best_for_points`]), so its plate error is
     /// the lowest any bake reaches on this grid read that way. Always read through its
@@ -103,6 +108,7 @@ impl Entry {
                 | Self::Gradient(Method::Doi, _)
                 | Self::Fitted(Method::Doi, _)
                 | Self::Relit(Method::Doi)
+                | Self::SkyOcclusion(Method::Doi)
         )
     }
 }
@@ -132,6 +138,9 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
     }
     if let Some(base) = s.strip_suffix("+relit") {
         return Ok(Entry::Relit(parse_method(base)?));
+    }
+    if let Some(base) = s.strip_suffix("+skyocc") {
+        return Ok(Entry::SkyOcclusion(parse_method(base)?));
     }
     match s.split_once('+') {
         None => Ok(Entry::Uniform(parse_method(s)?)),
@@ -168,6 +177,7 @@ impl fmt::Display for Entry {
             Self::Targeted(m, l) => write!(f, "{}+{l}", m.name()),
             Self::Bound(l) => write!(f, "bound+{l}"),
             Self::Relit(m) => write!(f, "{}+relit", m.name()),
+            Self::SkyOcclusion(m) => write!(f, "{}+skyocc", m.name()),
         }
     }
 }
@@ -282,6 +292,8 @@ mod tests {
         assert_eq!(parse_entry("doi+apv").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Apv));
         assert_eq!(parse_entry("doi+relit").unwrap(), Entry::Relit(Method::Doi));
         assert_eq!(Entry::Relit(Method::Point).to_string(), "point+relit");
+        assert_eq!(parse_entry("doi+skyocc").unwrap(), Entry::SkyOcclusion(Method::Doi));
+        assert_eq!(Entry::SkyOcclusion(Method::Point).to_string(), "point+skyocc");
         assert_eq!(parse_entry("doi+three").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Three));
         assert_eq!(parse_entry("bound+three").unwrap(), Entry::Bound(EngineLookup::Three));
         assert_eq!(parse_entry("bound+lightvol").unwrap(), Entry::Bound(EngineLookup::Lightvol));

@@ -10,6 +10,7 @@ pub mod metrics;
 pub mod observer;
 pub mod plate;
 pub mod reads;
+pub mod relight;
 pub mod report;
 pub mod runs;
 pub mod sweep;

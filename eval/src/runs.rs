@@ -144,7 +144,7 @@ pub struct MethodRun {
 
 impl MethodRun {
     #[allow(clippy::too_many_arguments, reason = "every field of the run but its name")]
-    fn new(
+    pub(crate) fn new(
         name: &str,
         samples: Samples,
         rays: RayCounts,
@@ -218,63 +218,6 @@ pub fn run_bound(
             .map_err(EvalError::at("fitting the plate's reference"))?;
         Ok((vol, 0))
     })
-}
-
-/// Bakes `method` on `grid` with a sky transfer of 9 coefficients under the sky `from`
-/// (the scene's other lights as they are), relights it to the scene's own sky
-/// ([`lightvol_volume::GroupedVolume::sky_scales`]) and measures it on the plate (stage
-/// `name`): the error a relit volume carries against a fresh bake's. Its rays are the
-/// transfer bake's.
-///
-/// # Errors
-/// The bake's, and groups that cannot be made for the scene.
-pub fn run_relit(
-    ctx: &BakeContext<'_>,
-    grid: &GridSpec,
-    name: &str,
-    method: Method,
-    from: &lightvol_scene::Environment,
-    plate: &Plate,
-) -> Result<MethodRun, EvalError> {
-    use lightvol_scene::light_groups::{LightGroups, sky_coefficients};
-    const COEFFS: usize = 9;
-    let scene = ctx.transport.scene();
-    let mut baked_under = scene.clone();
-    baked_under.environment = from.clone();
-    let groups = LightGroups::with_sky_transfer(&baked_under, None, COEFFS).map_err(EvalError::Relight)?;
-    let transport =
-        Transport::new(&baked_under, ctx.transport.tracer(), *ctx.transport.settings()).with_groups(groups);
-    let settings = ctx.settings(method);
-    let out = ctx
-        .stage(name, |c| lightvol_sampler::bake(&transport, grid, &settings, c))
-        .map_err(EvalError::at("baking"))?;
-    let t0 = Instant::now();
-    let (whole, _) = out.accumulator.finalize();
-    let grouped = out
-        .accumulator
-        .finalize_grouped(&whole)
-        .expect("a grouped transport")
-        .map_err(|e| EvalError::Relight(e.to_string()))?;
-    let scales = grouped
-        .sky_scales(&sky_coefficients(&scene.environment, COEFFS), None)
-        .map_err(|e| EvalError::Relight(e.to_string()))?;
-    let vol = grouped.relit(&scales).map_err(|e| EvalError::Relight(e.to_string()))?;
-    let stats = out.stats;
-    let estimate = plate.evaluate(&vol);
-    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
-        + vol.reach().map_or(0, lightvol_volume::NodeReach::memory_bytes);
-    Ok(MethodRun::new(
-        name,
-        ctx.samples,
-        stats.rays,
-        stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64(),
-        plate,
-        estimate,
-        memory,
-        grid.node_count(),
-        RunDetail::Uniform,
-        RunVolume::Uniform(Arc::new(vol)),
-    ))
 }
 
 /// Bakes `method` on `grid` (stage `name`), sets its node values with `set` (given the

@@ -22,6 +22,7 @@ pub mod request;
 pub mod scenarios;
 pub mod scene_setup;
 pub mod settings;
+pub mod sky_occlusion;
 pub mod stats;
 pub mod target;
 mod unit;
