@@ -46,6 +46,13 @@ const REAL_INTERIOR: (&str, &[u8], &str) = (
     include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/scenes/occlusion_room/LICENSE.txt")),
 );
 
+/// The sky change's sunset ([`demo::RELIGHT_SCENE`]): a lat-long EXR and its licence (CC0),
+/// embedded like the real interior.
+const SUNSET: (&[u8], &str) = (
+    include_bytes!(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/env/sunset/sunset.exr")),
+    include_str!(concat!(env!("CARGO_MANIFEST_DIR"), "/../data/env/sunset/LICENSE.txt")),
+);
+
 /// The comparison of built-in scene `scene`.
 fn compare_args(scene: &str, out: PathBuf, level: &DemoLevel, args: &DemoArgs) -> CompareArgs {
     scene_compare_args(scene, format!("builtin:{scene}"), "z", out, level, args)
@@ -154,6 +161,7 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     ca.sampling.path.light = "sky+indirect".into();
     ca.methods = demo::REAL_ENTRIES.iter().map(|m| (*m).to_owned()).collect();
     reports.push((name.to_owned(), compare(&ca).with_context(|| format!("comparing on {name}"))?));
+    reports.push(relight(args, level, &file)?);
     let mut sweeps = Vec::new();
     for scene in demo::MEMORY_SWEEP_SCENES {
         let path = args.output.join(scene).join("memory_sweep.json");
@@ -165,4 +173,30 @@ pub(crate) fn run(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     write_atomic(&args.output.join("index.html"), index_html(&reports, &sweeps, args.quick).as_bytes())?;
     eprintln!("wrote {}", args.output.join("index.html").display());
     Ok(ExitCode::SUCCESS)
+}
+
+/// The sky change ([`demo::RELIGHT_SCENE`]): the real interior at `room` under the embedded
+/// sunset, a fresh bake against the volumes relit from the white sky.
+fn relight(
+    args: &DemoArgs,
+    level: &DemoLevel,
+    room: &std::path::Path,
+) -> anyhow::Result<(String, lightvol_eval::report::CompareReport)> {
+    let name = demo::RELIGHT_SCENE;
+    if !args.quiet {
+        eprintln!("== {name}");
+    }
+    let dir = args.output.join(name);
+    std::fs::create_dir_all(&dir).with_context(|| format!("creating {}", dir.display()))?;
+    let (bytes, licence) = SUNSET;
+    let sunset = dir.join("sunset.exr");
+    write_atomic(&sunset, bytes)?;
+    write_atomic(&dir.join("LICENSE-sunset.txt"), licence.as_bytes())?;
+    let mut ca = scene_compare_args(demo::REAL_INTERIOR, room.display().to_string(), "y", dir, level, args);
+    ca.scene.env = Some(sunset);
+    ca.sampling.path.light = "sky+indirect".into();
+    ca.methods = demo::RELIGHT_ENTRIES.iter().map(|m| (*m).to_owned()).collect();
+    ca.views.engine_views.clear();
+    ca.relight_from = Some(demo::RELIGHT_FROM.to_owned());
+    Ok((name.to_owned(), compare(&ca).with_context(|| format!("comparing on {name}"))?))
 }

@@ -82,6 +82,19 @@ pub const REAL_INTERIOR: &str = "occlusion_room";
 pub const REAL_ENTRIES: [&str; 7] =
     ["point", "doi-paper", "doi", "point+validity", "point+apv", "point+vlm", "point+ddgi"];
 
+/// The sky change of the demo: the real interior under a photographed sunset (the
+/// repository's `data/env/sunset`), reported under this name.
+pub const RELIGHT_SCENE: &str = "occlusion_room_sunset";
+
+/// The sky change's entries: a fresh bake of the sunset, the sky transfer baked under the
+/// demo's white sky ([`RELIGHT_FROM`]) and relit to the sunset, and Unity APV's sky
+/// occlusion baked and relit the same way.
+pub const RELIGHT_ENTRIES: [&str; 3] = ["doi", "doi+relit", "doi+skyocc"];
+
+/// The sky the relit entries of the sky change are baked under: the real interior's white
+/// sky, above and below the horizon.
+pub const RELIGHT_FROM: &str = "sky:1,1,1:1,1,1";
+
 /// The scenes of the error-against-memory study.
 pub const MEMORY_SWEEP_SCENES: [&str; 2] = ["city", "interior"];
 

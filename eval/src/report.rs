@@ -456,6 +456,8 @@ fn views_html(s: &mut String, scene: &str, r: &CompareReport) {
             ("doi", "lightvol (doi)"),
             ("doi@three", "three.js, same volume"),
             ("doi@bevy", "Bevy, same volume"),
+            ("doi+relit", "doi baked under a white sky, relit by its sky transfer"),
+            ("doi+skyocc", "doi with Unity APV's sky occlusion, relit"),
         ];
         for (m, label) in engines.into_iter().chain([("point", "point sampling")]) {
             if let Some(e) = rel(m) {
@@ -527,6 +529,9 @@ pub fn index_html(reports: &[(String, CompareReport)], sweeps: &[(String, Value)
     );
     for (scene, r) in reports {
         let _ = writeln!(s, "<h2>{scene}</h2>");
+        if scene == crate::demo::RELIGHT_SCENE {
+            s.push_str("<p>A change of sky: the real interior under a photographed sunset. The fresh bake sees the sunset; the relit volume was baked once under the white sky above and relit with the sunset's SH coefficients by its sky transfer, bounces included (Sloan, Kautz &amp; Snyder 2002); Unity APV's sky occlusion, baked and relit the same way, multiplies an L1 visibility by the sky's colour in one direction per probe.</p>\n");
+        }
         views_html(&mut s, scene, r);
         short_table_html(&mut s, r);
         let _ = writeln!(

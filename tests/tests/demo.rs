@@ -69,6 +69,19 @@ fn demo_quick_writes_everything() {
     for m in ["point", "doi-paper", "doi", "point+validity", "point+apv", "point+vlm", "point+ddgi"] {
         assert!(r["methods"][m]["rel_rmse"].as_f64().is_some_and(f64::is_finite), "occlusion_room: {m}");
     }
+    // The sky change: the real interior under the embedded sunset (written beside its
+    // results with its licence), a fresh bake against the volumes relit from the white sky
+    // by the sky transfer and by APV's sky occlusion, each drawn.
+    let sunset = out.join("occlusion_room_sunset");
+    assert!(sunset.join("sunset.exr").metadata().unwrap().len() > 10_000);
+    assert!(std::fs::read_to_string(sunset.join("LICENSE-sunset.txt")).unwrap().contains("CC0"));
+    let r: Value = serde_json::from_str(&std::fs::read_to_string(sunset.join("report.json")).unwrap()).unwrap();
+    let label = r["views"][0]["camera"].as_str().expect("a view of the sky change");
+    for m in ["doi", "doi+relit", "doi+skyocc"] {
+        assert!(r["methods"][m]["rel_rmse"].as_f64().is_some_and(f64::is_finite), "sky change: {m}");
+        let f = format!("occlusion_room_sunset/view_{label}_{m}.png");
+        assert!(index.contains(&f), "index.html shows {f}");
+    }
     // Every scene has a view: the path-traced reference, point, the best engine baseline
     // by the view's relative RMSE, doi, and doi's volume as three.js and Bevy read it, each
     // shown in index.html.
