@@ -14,8 +14,8 @@ use crate::observer::Observer;
 use crate::plate::{Plate, PlateConfig};
 use crate::reads::{ReadAs, read_as};
 use crate::runs::{
-    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_bound, run_gradient,
-    run_targeted, run_uniform,
+    BakeContext, GradientCache, MethodRun, run_adaptive, run_baseline, run_bound, run_gradient, run_targeted,
+    run_uniform,
 };
 use crate::sweep::{SweepConfig, SweepReport, check_scales, memory_sweep};
 use crate::views::{ComparedView, ViewsConfig, check_cameras, compare_views};

@@ -15,7 +15,9 @@ use lightvol_view::ViewError;
 #[derive(Debug, thiserror::Error)]
 pub enum EvalError {
     /// A `BASE+relit` entry without the sky to bake it under.
-    #[error("BASE+relit and BASE+skyocc entries need --relight-from (the sky they are baked under before they are relit)")]
+    #[error(
+        "BASE+relit and BASE+skyocc entries need --relight-from (the sky they are baked under before they are relit)"
+    )]
     NoRelightFrom,
     /// A relit entry's groups or relighting failed.
     #[error("relighting: {0}")]

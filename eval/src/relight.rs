@@ -108,7 +108,9 @@ pub fn run_sky_occlusion(
     let occ_scene = occlusion_scene(scene, mean_albedo(scene));
     let occ_transport = Transport::new(&occ_scene, ctx.transport.tracer(), *ctx.transport.settings());
     let occ = ctx
-        .stage(&format!("{name} (sky occlusion)"), |c| lightvol_sampler::bake(&occ_transport, grid, &settings, c))
+        .stage(&format!("{name} (sky occlusion)"), |c| {
+            lightvol_sampler::bake(&occ_transport, grid, &settings, c)
+        })
         .map_err(EvalError::at("baking the sky occlusion"))?;
     let t0 = Instant::now();
     let (whole, _) = out.accumulator.finalize();
@@ -119,7 +121,8 @@ pub fn run_sky_occlusion(
         .map_err(|e| EvalError::Relight(e.to_string()))?;
     let (base, _) = grouped.sky_transfer().expect("a sky transfer");
     let (occ_vol, _) = occ.accumulator.finalize();
-    let mut data = relight_occlusion(occ_vol.data(), whole.coeffs(), &sky_coefficients(&scene.environment, COEFFS));
+    let mut data =
+        relight_occlusion(occ_vol.data(), whole.coeffs(), &sky_coefficients(&scene.environment, COEFFS));
     for g in 0..base {
         for (d, &v) in data.iter_mut().zip(grouped.layer(g)) {
             *d += v;

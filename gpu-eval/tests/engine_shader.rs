@@ -96,7 +96,8 @@ fn engine_sampling_code_matches_the_cpu_lookup_on_the_device() {
             let p = ctx.upload(points.as_flattened()).unwrap();
             let n = ctx.upload(normals.as_flattened()).unwrap();
             let out = ctx.zeroed_buffer(12 * QUERIES as u64).unwrap();
-            let [valid, reach, lookup, group_data, group_scales] = unused_masks(&ctx, spec.node_count(), PLAIN);
+            let [valid, reach, lookup, group_data, group_scales] =
+                unused_masks(&ctx, spec.node_count(), PLAIN);
             pipeline
                 .dispatch(
                     &[&grid, &texels, &p, &n, &out, &valid, &reach, &lookup, &group_data, &group_scales],
@@ -266,7 +267,8 @@ fn light_group_lookups_match_the_cpu_relit_volume_on_the_device() {
             }
         };
         let grouped =
-            GroupedVolume::new(total.clone(), vec!["a".into(), "b".into(), "c".into()], cpu_layers.clone()).unwrap();
+            GroupedVolume::new(total.clone(), vec!["a".into(), "b".into(), "c".into()], cpu_layers.clone())
+                .unwrap();
         let texels = ctx.upload(&whole).unwrap();
         let group_data = ctx.upload(&group_words).unwrap();
         let run = |lookup: u32, s: &[[f64; 3]]| -> Vec<f32> {
@@ -283,7 +285,9 @@ fn light_group_lookups_match_the_cpu_relit_volume_on_the_device() {
             out.read(0, 3 * QUERIES).unwrap()
         };
         let relit = grouped.relit(&scales).unwrap();
-        for (lookup, name) in [(GROUPS, "groups"), (GROUPS_VALID, "groups+validity"), (GROUPS_REACH, "groups+reach")] {
+        for (lookup, name) in
+            [(GROUPS, "groups"), (GROUPS_VALID, "groups+validity"), (GROUPS_REACH, "groups+reach")]
+        {
             let with = |v: IrradianceVolume| match lookup {
                 GROUPS_VALID => v.with_validity(mask.clone()).unwrap(),
                 GROUPS_REACH => v.with_reach(node_reach.clone()).unwrap(),
@@ -292,13 +296,17 @@ fn light_group_lookups_match_the_cpu_relit_volume_on_the_device() {
             let cpu_relit = with(relit.clone());
             let cpu_groups: Vec<IrradianceVolume> = (0..3).map(|g| with(grouped.group(g))).collect();
             let queries: Vec<usize> = (0..QUERIES)
-                .filter(|&q| lookup != GROUPS_REACH || clear_of_reach_decisions(&spec, points[q], Some(normals[q])))
+                .filter(|&q| {
+                    lookup != GROUPS_REACH || clear_of_reach_decisions(&spec, points[q], Some(normals[q]))
+                })
                 .collect();
             assert!(queries.len() > QUERIES * 9 / 10, "{name}: only {} queries compared", queries.len());
-            let want: Vec<[f32; 3]> = (0..QUERIES).map(|q| cpu_relit.irradiance(points[q], normals[q])).collect();
+            let want: Vec<[f32; 3]> =
+                (0..QUERIES).map(|q| cpu_relit.irradiance(points[q], normals[q])).collect();
             let conditioning: Vec<[f64; 3]> = (0..QUERIES)
                 .map(|q| {
-                    let e: Vec<[f32; 3]> = cpu_groups.iter().map(|v| v.irradiance(points[q], normals[q])).collect();
+                    let e: Vec<[f32; 3]> =
+                        cpu_groups.iter().map(|v| v.irradiance(points[q], normals[q])).collect();
                     std::array::from_fn(|c| (0..3).map(|g| (scales[g][c] * f64::from(e[g][c])).abs()).sum())
                 })
                 .collect();

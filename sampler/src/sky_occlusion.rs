@@ -112,7 +112,7 @@ pub fn sky_irradiance(sky: &[[f64; 3]], d: [f64; 3]) -> [f64; 3] {
 /// If `coeffs < 4` or `occlusion` is not a whole number of nodes.
 #[must_use]
 pub fn relight_occlusion(occlusion: &[f32], coeffs: usize, sky: &[[f64; 3]]) -> Vec<f32> {
-    assert!(coeffs >= OCCLUSION_COEFFS && occlusion.len() % (3 * coeffs) == 0, "occlusion layout");
+    assert!(coeffs >= OCCLUSION_COEFFS && occlusion.len().is_multiple_of(3 * coeffs), "occlusion layout");
     let mut out = vec![0.0f32; occlusion.len()];
     for (o, c) in occlusion.chunks_exact(3 * coeffs).zip(out.chunks_exact_mut(3 * coeffs)) {
         // The white sky is grey: the channels' occlusions differ only by rounding; the

@@ -75,7 +75,8 @@ fn demo_quick_writes_everything() {
     let sunset = out.join("occlusion_room_sunset");
     assert!(sunset.join("sunset.exr").metadata().unwrap().len() > 10_000);
     assert!(std::fs::read_to_string(sunset.join("LICENSE-sunset.txt")).unwrap().contains("CC0"));
-    let r: Value = serde_json::from_str(&std::fs::read_to_string(sunset.join("report.json")).unwrap()).unwrap();
+    let r: Value =
+        serde_json::from_str(&std::fs::read_to_string(sunset.join("report.json")).unwrap()).unwrap();
     let label = r["views"][0]["camera"].as_str().expect("a view of the sky change");
     for m in ["doi", "doi+relit", "doi+skyocc"] {
         assert!(r["methods"][m]["rel_rmse"].as_f64().is_some_and(f64::is_finite), "sky change: {m}");

@@ -387,9 +387,7 @@ impl GroupedVolume {
             out.layers[base + j] = mixed;
         }
         out.baked_sky = self.baked_sky.as_ref().map(|sky| {
-            (0..n)
-                .map(|j| std::array::from_fn(|c| (0..n).map(|k| columns[k][j] * sky[k][c]).sum()))
-                .collect()
+            (0..n).map(|j| std::array::from_fn(|c| (0..n).map(|k| columns[k][j] * sky[k][c]).sum())).collect()
         });
         Ok(out)
     }

@@ -132,7 +132,10 @@ pub fn layers_from_stacked_texels(
     if Some(data.len()) != n.checked_mul(coeffs * groups * TEXEL_BYTES) {
         return Err(VolumeError::malformed(
             format,
-            format!("{} texel bytes, {groups} groups of {n} nodes x {coeffs} coefficients do not fit", data.len()),
+            format!(
+                "{} texel bytes, {groups} groups of {n} nodes x {coeffs} coefficients do not fit",
+                data.len()
+            ),
         ));
     }
     let k = 3 * coeffs;
@@ -145,7 +148,8 @@ pub fn layers_from_stacked_texels(
         let (z, j) = (slab % nz, slab / nz);
         let node = (z * ny + y) * nx + x;
         for ch in 0..3 {
-            layers[g][node * k + 3 * j + ch] = half::f16::from_le_bytes([px[2 * ch], px[2 * ch + 1]]).to_f32();
+            layers[g][node * k + 3 * j + ch] =
+                half::f16::from_le_bytes([px[2 * ch], px[2 * ch + 1]]).to_f32();
         }
     }
     Ok(layers)

@@ -13,7 +13,7 @@ use std::path::Path;
 
 use crate::encode::Encoding;
 use crate::error::{FileFormat, VolumeError};
-use crate::io::ktx2::{KTX2_SIDECAR_KEY, KTX2_WRITER, kvd_value, ktx2_rgba16f_bytes, parse_ktx2_rgba16f};
+use crate::io::ktx2::{KTX2_SIDECAR_KEY, KTX2_WRITER, ktx2_rgba16f_bytes, kvd_value, parse_ktx2_rgba16f};
 use crate::io::sidecar::Sidecar;
 use crate::io::util::{guard, read_bounded, write_atomic};
 use crate::light_groups::GroupedVolume;
@@ -58,7 +58,8 @@ pub fn groups_ktx2_to_bytes(grouped: &GroupedVolume) -> Result<Vec<u8>, VolumeEr
         &format!("KTX2 R16G16B16A16_SFLOAT 3D texture of light groups; {STACKED_LAYOUT}"),
     )
     .in_frame(frame);
-    let groups = StackedGroups { names: framed.names().to_vec(), baked_sky: framed.baked_sky().map(<[_]>::to_vec) };
+    let groups =
+        StackedGroups { names: framed.names().to_vec(), baked_sky: framed.baked_sky().map(<[_]>::to_vec) };
     let groups_json = serde_json::to_string(&groups).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
     Ok(ktx2_rgba16f_bytes(
         [nx, height, depth],
@@ -104,7 +105,11 @@ pub fn groups_ktx2_from_bytes(bytes: &[u8]) -> Result<(Sidecar, StackedGroups, V
         {
             return Err(VolumeError::malformed(
                 f,
-                format!("texture is {dims:?}, {g} groups of the sidecar's grid [{nx}, {ny}, {nz}] need [{nx}, {}, {}]", g * ny as usize, coeffs * nz as usize),
+                format!(
+                    "texture is {dims:?}, {g} groups of the sidecar's grid [{nx}, {ny}, {nz}] need [{nx}, {}, {}]",
+                    g * ny as usize,
+                    coeffs * nz as usize
+                ),
             ));
         }
         let layers = layers_from_stacked_texels(spec.res(), coeffs, g, &data, f)?;
