@@ -82,13 +82,13 @@ pub(crate) struct BakeArgs {
     #[arg(long, value_name = "each|NAME=PATTERN,...;...")]
     pub(crate) light_groups: Option<String>,
     /// Also store each node's transfer from the sky's SH radiance of this order (2: 4
-    /// coefficients, 3: 9) to its own coefficients, every bounce included (a precomputed
+    /// coefficients, 3: 9, 4: 16) to its own coefficients, every bounce included (a precomputed
     /// radiance transfer volume, Sloan, Kautz & Snyder 2002), from the same paths: `lightvol
     /// relight --sky R,G,B[:R,G,B] | --env FILE.exr` then relights the volume with any sky
     /// without baking again, exactly for skies of that order and to the sky's band limit
     /// otherwise. Stored as light groups `sky.sh00`, … after those of --light-groups (which
     /// then must not name the sky; without it, the other lights form the group `other`).
-    #[arg(long, value_name = "ORDER", value_parser = clap::value_parser!(u32).range(2..=3))]
+    #[arg(long, value_name = "ORDER", value_parser = clap::value_parser!(u32).range(2..=4))]
     pub(crate) sky_transfer: Option<u32>,
     /// A lighting scenario, `NAME=LIGHTS` (give two or more): the bake is repeated under
     /// each one's lights, over the scene's own and the options', into one file whose whole

@@ -10,7 +10,7 @@ use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::method::Baseline;
 use lightvol_sampler::report::{BakeReport, RunFigures};
 use lightvol_sampler::request::{BakeRequest, Provenance, bake_uniform};
-use lightvol_sampler::scenarios::bake_scenarios;
+use lightvol_sampler::scenarios::{bake_scenarios, scenario_accumulator};
 use lightvol_scene::light_groups::LightGroups;
 use lightvol_scene::{Tracer, Transport};
 use lightvol_volume::io::accumulator::write_accumulator;
@@ -120,7 +120,9 @@ fn run_scenarios(args: &BakeArgs, request: &BakeRequest) -> anyhow::Result<ExitC
     let scenarios =
         args.scenario.iter().map(|s| crate::setup::parse_scenario(s)).collect::<anyhow::Result<Vec<_>>>()?;
     let mut loaded = args.scene.load_within(args.grid.memory_limit())?;
-    let grid = args.grid.grid(&loaded, request.records_node_reach())?;
+    // Every scenario's sums stay in memory until the file is written: one light group's
+    // worth each.
+    let grid = args.grid.grid_split(&loaded, request.records_node_reach(), scenarios.len())?;
     let frame = loaded.frame;
     let ((grouped, bakes), bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
@@ -131,6 +133,15 @@ fn run_scenarios(args: &BakeArgs, request: &BakeRequest) -> anyhow::Result<ExitC
         })?;
         Ok((out, bvh_seconds))
     })??;
+    if request.writes_accumulator() {
+        let acc = scenario_accumulator(&scenarios, &bakes)?;
+        let acc_path = accumulator_path(&args.output);
+        write_accumulator(&acc_path, &acc, grouped.total().metadata())
+            .with_context(|| format!("writing {}", acc_path.display()))?;
+        if !args.json {
+            eprintln!("wrote {}", acc_path.display());
+        }
+    }
     write_grouped_exr(&args.output, &grouped, &ExrOptions::default())
         .with_context(|| format!("writing {}", args.output.display()))?;
     let reports: Vec<BakeReport> = bakes

@@ -233,9 +233,9 @@ fn compare_here(
             Entry::Baseline(b) => run_baseline(&ctx, grid, name, b, &plate)?,
             Entry::Targeted(method, lookup) => run_targeted(&ctx, grid, name, method, lookup, &plate)?,
             Entry::Bound(lookup) => run_bound(&ctx, grid, name, lookup, &plate)?,
-            Entry::Relit(method) => {
+            Entry::Relit(method, order) => {
                 let from = config.relight_from.as_ref().ok_or(EvalError::NoRelightFrom)?;
-                crate::relight::run_relit(&ctx, grid, name, method, from, &plate)?
+                crate::relight::run_relit(&ctx, grid, name, method, order, from, &plate)?
             }
             Entry::SkyOcclusion(method) => {
                 let from = config.relight_from.as_ref().ok_or(EvalError::NoRelightFrom)?;

@@ -13,7 +13,7 @@
 //! | `BASE+average`, `BASE+lsq`, `BASE+lsq:λ` | [`Entry::Fitted`] |
 //! | `BASE+taylor`, `BASE+gtrilinear`, `BASE+hermite` | [`Entry::Gradient`] |
 //! | `BASE+three`, `BASE+bevy`, `BASE+trilinear`, `BASE+apv` | [`Entry::Targeted`] |
-//! | `BASE+relit` | [`Entry::Relit`] |
+//! | `BASE+relit`, `BASE+relit2`, `BASE+relit4` | [`Entry::Relit`] |
 //! | `BASE+skyocc` | [`Entry::SkyOcclusion`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
 //! | `point+validity`, `point+apv`, `point+vlm`, `point+ddgi` | [`Entry::Baseline`] |
@@ -64,10 +64,11 @@ pub enum Entry {
     /// A uniform bake whose node values are then fitted for an engine's lookup
     /// ([`lightvol_sampler::target`]).
     Targeted(Method, EngineLookup),
-    /// A uniform bake with a sky transfer of 9 coefficients under the comparison's
-    /// `relight_from` sky, relit to the comparison's own sky ([`crate::relight::run_relit`]):
-    /// what relighting gives where a fresh bake would be made.
-    Relit(Method),
+    /// A uniform bake with a sky transfer of this SH order (2-4; `BASE+relit` is order 3,
+    /// `BASE+relitN` order N) under the comparison's `relight_from` sky, relit to the
+    /// comparison's own sky ([`crate::relight::run_relit`]): what relighting gives where a
+    /// fresh bake would be made.
+    Relit(Method, u32),
     /// Unity APV's sky occlusion with this method, baked under the comparison's
     /// `relight_from` sky and relit to its own ([`crate::relight::run_sky_occlusion`]): the
     /// baseline of `BASE+relit`.
@@ -78,6 +79,9 @@ pub enum Entry {
     /// own lookup.
     Bound(EngineLookup),
 }
+
+/// The sky transfer's SH order of `BASE+relit` (9 coefficients).
+pub const DEFAULT_RELIT_ORDER: u32 = 3;
 
 /// Level 0 of the `adaptive` entry: the compared grid's cell counts times this.
 pub const ADAPTIVE_BASE_SCALE: f64 = 0.5;
@@ -107,7 +111,7 @@ impl Entry {
             Self::Uniform(Method::Doi)
                 | Self::Gradient(Method::Doi, _)
                 | Self::Fitted(Method::Doi, _)
-                | Self::Relit(Method::Doi)
+                | Self::Relit(Method::Doi, _)
                 | Self::SkyOcclusion(Method::Doi)
         )
     }
@@ -136,8 +140,15 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
             .map(Entry::Bound)
             .ok_or_else(|| EvalError::UnknownEngineLookup(l.to_owned()));
     }
-    if let Some(base) = s.strip_suffix("+relit") {
-        return Ok(Entry::Relit(parse_method(base)?));
+    if let Some((base, order)) = s.rsplit_once("+relit") {
+        let order = match order {
+            "" => DEFAULT_RELIT_ORDER,
+            "2" => 2,
+            "3" => 3,
+            "4" => 4,
+            _ => return Err(EvalError::UnknownMethod(s.to_owned())),
+        };
+        return Ok(Entry::Relit(parse_method(base)?, order));
     }
     if let Some(base) = s.strip_suffix("+skyocc") {
         return Ok(Entry::SkyOcclusion(parse_method(base)?));
@@ -176,7 +187,8 @@ impl fmt::Display for Entry {
             Self::Baseline(b) => f.write_str(b.name()),
             Self::Targeted(m, l) => write!(f, "{}+{l}", m.name()),
             Self::Bound(l) => write!(f, "bound+{l}"),
-            Self::Relit(m) => write!(f, "{}+relit", m.name()),
+            Self::Relit(m, DEFAULT_RELIT_ORDER) => write!(f, "{}+relit", m.name()),
+            Self::Relit(m, order) => write!(f, "{}+relit{order}", m.name()),
             Self::SkyOcclusion(m) => write!(f, "{}+skyocc", m.name()),
         }
     }
@@ -290,8 +302,11 @@ mod tests {
         assert_eq!(parse_entry("point+validity").unwrap(), Entry::Baseline(Baseline::Validity));
         assert_eq!(parse_entry("point+apv").unwrap(), Entry::Baseline(Baseline::Apv));
         assert_eq!(parse_entry("doi+apv").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Apv));
-        assert_eq!(parse_entry("doi+relit").unwrap(), Entry::Relit(Method::Doi));
-        assert_eq!(Entry::Relit(Method::Point).to_string(), "point+relit");
+        assert_eq!(parse_entry("doi+relit").unwrap(), Entry::Relit(Method::Doi, 3));
+        assert_eq!(parse_entry("doi+relit4").unwrap(), Entry::Relit(Method::Doi, 4));
+        assert_eq!(Entry::Relit(Method::Point, 3).to_string(), "point+relit");
+        assert_eq!(Entry::Relit(Method::Doi, 2).to_string(), "doi+relit2");
+        assert!(parse_entry("doi+relit5").is_err());
         assert_eq!(parse_entry("doi+skyocc").unwrap(), Entry::SkyOcclusion(Method::Doi));
         assert_eq!(Entry::SkyOcclusion(Method::Point).to_string(), "point+skyocc");
         assert_eq!(parse_entry("doi+three").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Three));

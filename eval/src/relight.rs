@@ -18,7 +18,8 @@ use crate::error::EvalError;
 use crate::plate::Plate;
 use crate::runs::{BakeContext, MethodRun, RunDetail};
 
-/// Bakes `method` on `grid` with a sky transfer of 9 coefficients under the sky `from`
+/// Bakes `method` on `grid` with a sky transfer of SH order `order` (`order²` coefficients
+/// of the sky's radiance) under the sky `from`
 /// (the scene's other lights as they are), relights it to the scene's own sky
 /// ([`lightvol_volume::GroupedVolume::sky_scales`]) and measures it on the plate (stage
 /// `name`): the error a relit volume carries against a fresh bake's. Its rays are the
@@ -31,14 +32,15 @@ pub fn run_relit(
     grid: &GridSpec,
     name: &str,
     method: Method,
+    order: u32,
     from: &lightvol_scene::Environment,
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
-    const COEFFS: usize = 9;
+    let coeffs = (order * order) as usize;
     let scene = ctx.transport.scene();
     let mut baked_under = scene.clone();
     baked_under.environment = from.clone();
-    let groups = LightGroups::with_sky_transfer(&baked_under, None, COEFFS).map_err(EvalError::Relight)?;
+    let groups = LightGroups::with_sky_transfer(&baked_under, None, coeffs).map_err(EvalError::Relight)?;
     let transport =
         Transport::new(&baked_under, ctx.transport.tracer(), *ctx.transport.settings()).with_groups(groups);
     let settings = ctx.settings(method);
@@ -53,7 +55,7 @@ pub fn run_relit(
         .expect("a grouped transport")
         .map_err(|e| EvalError::Relight(e.to_string()))?;
     let scales = grouped
-        .sky_scales(&sky_coefficients(&scene.environment, COEFFS), None)
+        .sky_scales(&sky_coefficients(&scene.environment, coeffs), None)
         .map_err(|e| EvalError::Relight(e.to_string()))?;
     let vol = grouped.relit(&scales).map_err(|e| EvalError::Relight(e.to_string()))?;
     let stats = out.stats;

@@ -309,13 +309,17 @@ impl BakeRequest {
             }
         }
         if self.scenarios {
+            let fit = self.effective_fit();
             let refused = [
                 (matches!(self.method, BakeMethod::Baseline(_)), "an engine baseline"),
                 (self.adaptive.is_some(), "an octree bake"),
-                (self.shard.is_some(), "shards"),
-                (self.keep_accumulator, "keeping the accumulator"),
                 (self.gradients.is_some(), "gradients"),
                 (self.light_groups, "light groups or a sky transfer"),
+                (
+                    self.writes_accumulator()
+                        && (fit != Fit::Average || self.effective_target().is_some() || self.noise.is_some()),
+                    "shards or a kept accumulator with a fit other than the average, --target or --noise",
+                ),
             ];
             if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
                 return Err(RequestError::Scenarios(with));

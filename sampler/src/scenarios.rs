@@ -7,6 +7,8 @@
 //! the same nodes.
 
 use lightvol_core::progress::BakeControl;
+use lightvol_volume::Accumulator;
+use lightvol_volume::accumulator::GroupLabels;
 use lightvol_scene::{Scene, Tracer, Transport, UpAxis};
 use lightvol_volume::light_groups::SCENARIO_PREFIX;
 use lightvol_volume::{GridSpec, GroupedVolume};
@@ -88,4 +90,26 @@ pub fn bake_scenarios(
     })();
     (scene.environment, scene.sun, scene.punctual) = saved;
     result
+}
+
+/// The scenarios' exact sums as one accumulator, for a shard's `.lvacc` file: the first
+/// scenario's bake with one light group per scenario (`scenario.NAME`) whose numerator is
+/// that scenario's ([`Accumulator::set_group_from`]). `merge` adds the shards' files and
+/// writes the grouped file, whose scenarios are then, bit for bit, the unsharded bake's:
+/// every scenario shares the first's denominators (the light moves no sample), and a group
+/// finalizes exactly as its own bake does.
+///
+/// # Errors
+/// [`ScenarioError::Volume`] when a scenario's sums do not fit the first's.
+pub fn scenario_accumulator(scenarios: &[Scenario], bakes: &[UniformBake]) -> Result<Accumulator, ScenarioError> {
+    let first = bakes.first().ok_or_else(|| ScenarioError::Names("no scenario was baked".into()))?;
+    let mut acc = first.output.accumulator.clone();
+    acc.enable_groups(GroupLabels {
+        names: scenarios.iter().map(|s| format!("{SCENARIO_PREFIX}{}", s.name)).collect(),
+        sky: None,
+    });
+    for (g, b) in bakes.iter().enumerate() {
+        acc.set_group_from(g, &b.output.accumulator).map_err(|e| ScenarioError::Volume(Box::new(e)))?;
+    }
+    Ok(acc)
 }

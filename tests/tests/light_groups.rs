@@ -362,8 +362,8 @@ fn scenarios_are_their_bakes_and_blend() {
         (vec!["--scenario", "a=moon", "--scenario", "b=no-sun"], "'moon' is not"),
         (vec!["--scenario", "a=no-sun", "--scenario", "a=no-sun"], "given twice"),
         (
-            vec!["--scenario", "a=no-sun", "--scenario", "b=no-sun", "--shard", "0/2"],
-            "--scenario cannot be combined with shards",
+            vec!["--scenario", "a=no-sun", "--scenario", "b=no-sun", "--shard", "0/2", "--fit", "lsq"],
+            "--scenario cannot be combined with shards or a kept accumulator with a fit other than the average",
         ),
     ] {
         let mut a = vec!["bake", SCENE, "--samples", "4", "--quiet", "-o", s(&out)];
@@ -374,6 +374,28 @@ fn scenarios_are_their_bakes_and_blend() {
     }
     let e = run(&["relight", s(&file), "--blend", "noon=1;moon=0", "-o", s(&out)]).unwrap_err();
     assert!(e.contains("the volume has noon, dusk"), "{e}");
+
+    // Shards of the scenario bake merge, in any order, into the whole file byte for byte.
+    let shards: Vec<std::path::PathBuf> = (0..3)
+        .map(|k| {
+            let shard = format!("{k}/3");
+            bake(
+                dir.path(),
+                &format!("sc{k}.exr"),
+                &[
+                    "--scenario",
+                    &format!("noon={noon}") as &str,
+                    "--scenario",
+                    &format!("dusk={dusk}") as &str,
+                    "--shard",
+                    &shard as &str,
+                ],
+            )
+        })
+        .collect();
+    let merged = dir.path().join("sc-merged.exr");
+    ok(&["merge", s(&shards[1]), s(&shards[2]), s(&shards[0]), "-o", s(&merged)]);
+    assert_eq!(std::fs::read(&merged).unwrap(), std::fs::read(&file).unwrap());
 }
 
 /// `compare BASE+relit`: baked under `--relight-from` and relit to the comparison's sky.

@@ -105,3 +105,65 @@ impl Accumulator {
             .collect()
     }
 }
+
+impl Accumulator {
+    /// Makes light group `g`'s numerator `other`'s whole numerator: a lighting scenario
+    /// baked separately over the same samples ([`GroupLabels`] named `scenario.NAME`).
+    /// Its coefficients then finalize ([`Self::finalize_groups`]) to exactly what `other`
+    /// finalizes to, which is why the two must agree on everything the light does not
+    /// change: grid, coefficients, denominators and outside sums.
+    ///
+    /// # Errors
+    /// [`VolumeError::Mismatch`] when `g` is not a group, or the grids, coefficient counts,
+    /// denominators or outside sums differ (a different geometry, grid or sample set).
+    pub fn set_group_from(&mut self, g: usize, other: &Accumulator) -> Result<(), VolumeError> {
+        if g >= self.groups.len() {
+            return Err(VolumeError::Mismatch(format!("group {g} of {}", self.groups.len())));
+        }
+        if other.spec != self.spec
+            || other.coeffs != self.coeffs
+            || other.denominator != self.denominator
+            || other.outside != self.outside
+        {
+            return Err(VolumeError::Mismatch(
+                "a scenario's samples differ from the first scenario's (grid, coefficients or domain weights)"
+                    .into(),
+            ));
+        }
+        self.groups[g] = other.numerator.clone();
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GridSpec;
+
+    fn acc(radiance: f64, at: [f64; 3]) -> Accumulator {
+        let spec = GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+        let mut a = Accumulator::new(spec, 4).unwrap();
+        a.add_sample(at, [radiance, 2.0 * radiance, 0.5], &[1.0, 0.25, -0.5, 0.125]);
+        a
+    }
+
+    /// A scenario's numerator becomes a group that finalizes exactly as its own bake does;
+    /// a scenario over other samples is refused.
+    #[test]
+    fn a_scenario_group_finalizes_as_its_own_bake() {
+        let at = [0.3, 0.6, 0.2];
+        let mut first = acc(1.0, at);
+        let second = acc(3.0, at);
+        first.enable_groups(GroupLabels { names: vec!["scenario.a".into(), "scenario.b".into()], sky: None });
+        let own = [first.clone(), second.clone()];
+        for (g, a) in own.iter().enumerate() {
+            first.set_group_from(g, a).unwrap();
+        }
+        let groups = first.finalize_groups();
+        for (g, a) in own.iter().enumerate() {
+            assert_eq!(groups[g], a.finalize().0.data(), "scenario {g}");
+        }
+        assert!(first.set_group_from(0, &acc(1.0, [0.9, 0.1, 0.5])).is_err(), "other samples");
+        assert!(first.set_group_from(2, &second).is_err(), "no group 2");
+    }
+}
