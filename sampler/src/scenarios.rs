@@ -7,9 +7,9 @@
 //! the same nodes.
 
 use lightvol_core::progress::BakeControl;
+use lightvol_scene::{Scene, Tracer, Transport, UpAxis};
 use lightvol_volume::Accumulator;
 use lightvol_volume::accumulator::GroupLabels;
-use lightvol_scene::{Scene, Tracer, Transport, UpAxis};
 use lightvol_volume::light_groups::SCENARIO_PREFIX;
 use lightvol_volume::{GridSpec, GroupedVolume};
 
@@ -101,7 +101,10 @@ pub fn bake_scenarios(
 ///
 /// # Errors
 /// [`ScenarioError::Volume`] when a scenario's sums do not fit the first's.
-pub fn scenario_accumulator(scenarios: &[Scenario], bakes: &[UniformBake]) -> Result<Accumulator, ScenarioError> {
+pub fn scenario_accumulator(
+    scenarios: &[Scenario],
+    bakes: &[UniformBake],
+) -> Result<Accumulator, ScenarioError> {
     let first = bakes.first().ok_or_else(|| ScenarioError::Names("no scenario was baked".into()))?;
     let mut acc = first.output.accumulator.clone();
     acc.enable_groups(GroupLabels {
