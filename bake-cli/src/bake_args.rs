@@ -48,6 +48,19 @@ pub(crate) struct BakeArgs {
     /// against the Slurm array or `LIGHTVOL_SHARD` where those give it).
     #[arg(long, value_name = "N")]
     pub(crate) shards: Option<u32>,
+    /// Bake in pieces (--checkpoint-pieces) and save the exact sums to this directory after
+    /// each one, so that a bake that is killed can be finished with --resume: the resumed
+    /// bake traces only the pieces not yet done and writes the same bytes as an
+    /// uninterrupted bake. The directory's checkpoint files are removed when the bake is
+    /// done. Uniform bakes, not combined with --shard.
+    #[arg(long, value_name = "DIR")]
+    pub(crate) checkpoint: Option<PathBuf>,
+    /// Finish the bake checkpointed in --checkpoint DIR (the same scene, grid and settings).
+    #[arg(long, requires = "checkpoint")]
+    pub(crate) resume: bool,
+    /// Pieces of a checkpointed bake: a kill loses at most one piece's work.
+    #[arg(long, value_name = "N", requires = "checkpoint", default_value_t = lightvol_sampler::checkpoint::DEFAULT_PIECES)]
+    pub(crate) checkpoint_pieces: u32,
     /// Also write the exact accumulator (`<stem>.lvacc`) of an unsharded bake: its Eq. 6
     /// sums as `merge` reads them (for example to finalize it again with `merge`).
     #[arg(long)]

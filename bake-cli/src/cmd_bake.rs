@@ -58,6 +58,12 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     }
     let key = request.key(&loaded.scene, &grid);
     let provenance = Provenance { frame: loaded.frame, key: &key };
+    if let Some(dir) = &args.checkpoint {
+        if request.shard.is_some() {
+            bail!("--checkpoint cannot be combined with --shard (a checkpointed bake is its own shards)");
+        }
+        return run_checkpointed(args, &request, &loaded, &grid, groups, provenance, dir, started);
+    }
     let (bake, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
         let t0 = Instant::now();
         let tracer = Tracer::new(&loaded.scene);
@@ -109,6 +115,91 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let report =
         BakeReport::uniform(&loaded, &grid, &request, &bake, run_figures(args, bvh_seconds, started));
     print_report(args, &report)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// `lightvol bake --checkpoint DIR [--resume]`: the bake in pieces, checkpointed after each
+/// ([`lightvol_sampler::checkpoint`]), written as `merge` writes a whole shard set.
+#[allow(clippy::too_many_arguments, reason = "the bake's set-up, passed on from `run`")]
+fn run_checkpointed(
+    args: &BakeArgs,
+    request: &BakeRequest,
+    loaded: &lightvol_sampler::scene_setup::LoadedScene,
+    grid: &lightvol_volume::GridSpec,
+    groups: Option<LightGroups>,
+    provenance: Provenance<'_>,
+    dir: &std::path::Path,
+    started: Instant,
+) -> anyhow::Result<ExitCode> {
+    use lightvol_sampler::checkpoint::bake_checkpointed;
+    let pieces = args.checkpoint_pieces;
+    let (done, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
+        let t0 = Instant::now();
+        let tracer = Tracer::new(&loaded.scene);
+        let bvh_seconds = t0.elapsed().as_secs_f64();
+        let mut transport = Transport::new(&loaded.scene, &tracer, request.transport);
+        if let Some(g) = groups {
+            transport = transport.with_groups(g);
+        }
+        let quiet = args.quiet || args.json;
+        let done = with_bar(args.quiet, &args.method, |c| {
+            bake_checkpointed(
+                &transport,
+                &loaded.scene,
+                grid,
+                request,
+                provenance,
+                dir,
+                pieces,
+                args.resume,
+                c,
+                |k, n| {
+                    if !quiet {
+                        eprintln!("checkpoint: {k} of {n} pieces done ({})", dir.display());
+                    }
+                },
+            )
+        })?;
+        Ok((done, bvh_seconds))
+    })??;
+    if request.keep_accumulator {
+        let acc_path = accumulator_path(&args.output);
+        write_accumulator(&acc_path, &done.accumulator, &done.metadata)
+            .with_context(|| format!("writing {}", acc_path.display()))?;
+    }
+    let merged = &done.merged;
+    match (&merged.gradients, &merged.groups) {
+        (_, Some(g)) => write_grouped_exr(&args.output, g, &ExrOptions::default()),
+        (None, None) => write_exr(&args.output, &merged.volume, &ExrOptions::default()),
+        (Some((g, _)), None) => {
+            write_exr_with_gradients(&args.output, &merged.volume, g, &ExrOptions::default())
+        }
+    }
+    .with_context(|| format!("writing {}", args.output.display()))?;
+    let report = serde_json::json!({
+        "scene": loaded.scene.name,
+        "output": args.output.display().to_string(),
+        "grid": { "res": grid.res() },
+        "pieces": pieces,
+        "resumed_pieces": done.resumed,
+        "rays_this_run": done.rays_this_run.total(),
+        "rays_total": done.rays_total,
+        "bvh_seconds": bvh_seconds,
+        "total_seconds": started.elapsed().as_secs_f64(),
+    });
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        eprintln!(
+            "baked {} in {pieces} pieces ({} resumed from {}): {} rays this run, {} in all; wrote {}",
+            loaded.scene.name,
+            done.resumed.len(),
+            dir.display(),
+            done.rays_this_run.total(),
+            done.rays_total,
+            args.output.display()
+        );
+    }
     Ok(ExitCode::SUCCESS)
 }
 

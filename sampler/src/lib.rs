@@ -4,6 +4,7 @@ pub mod adaptive;
 pub mod adaptive_shard;
 pub mod bake;
 pub mod baselines;
+pub mod checkpoint;
 pub mod cluster;
 pub mod domain;
 pub mod error;
