@@ -48,10 +48,12 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         ),
         (None, None) => None,
     };
+    // A checkpointed bake holds a piece's sums beside the running total: about one more
+    // light group's worth.
     let grid = args.grid.grid_split(
         &loaded,
         request.records_node_reach(),
-        groups.as_ref().map_or(0, LightGroups::len),
+        groups.as_ref().map_or(0, LightGroups::len) + usize::from(args.checkpoint.is_some()),
     )?;
     if let (Some(g), false) = (&groups, args.quiet || args.json) {
         eprintln!("light groups:\n{}", g.describe());
