@@ -10,6 +10,11 @@
 //! Two workloads, as in a bake: closest hit with origins uniform in the scene bounds and
 //! uniform directions, and occlusion toward one direction (a sun). Results are compared ray
 //! by ray: hit/miss agreement and, where both hit, the relative distance difference.
+//!
+//! Embree runs at its best: with the kernels it picks for this CPU at run time (the report
+//! names them, read from Embree's own device report, [`chosen_isa`]) and flush-to-zero and
+//! denormals-are-zero set on every thread, as Embree asks; a forced-SSE2 Embree row (one
+//! thread) stands beside it for reference, the ISA lightvol's portable build compiles for.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -53,7 +58,35 @@ fn build_harness(dir: &Path) -> anyhow::Result<PathBuf> {
     Ok(exe)
 }
 
-/// One workload through Embree: `(best seconds, build seconds, per-ray results)`.
+/// The ISA target Embree runs, from its device report (`verbose=1`): the widest target
+/// that is both supported by the CPU and compiled into the library, which is the one Embree
+/// dispatches to. The report's `Config` block lists them on two lines:
+/// `Targets : SSE SSE2 … AVX2 AVX512  (supported)` and
+/// `SSE2 SSE4.2 AVX AVX2 AVX512  (compile time enabled)`.
+fn chosen_isa(report: &str) -> Option<String> {
+    let lines: Vec<&str> = report.lines().collect();
+    let i = lines.iter().rposition(|l| l.contains("(supported)"))?;
+    let words = |l: &str| -> Vec<String> {
+        let l = l.split('(').next().unwrap_or("");
+        let l = l.split_once(':').map_or(l, |(_, r)| r);
+        l.split_whitespace().map(str::to_owned).collect()
+    };
+    let supported = words(lines[i]);
+    let enabled = lines.get(i + 1).filter(|l| l.contains("(compile time enabled)")).map(|l| words(l))?;
+    enabled.into_iter().rev().find(|t| supported.contains(t))
+}
+
+/// Which Embree kernels a run uses.
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum EmbreeIsa {
+    /// The kernels Embree picks for this CPU.
+    Native,
+    /// SSE2, forced (`isa=sse2`).
+    Sse2,
+}
+
+/// One workload through Embree: `(best seconds, build seconds, per-ray results, the ISA
+/// target it ran)`.
 fn run_embree(
     exe: &Path,
     dir: &Path,
@@ -61,12 +94,13 @@ fn run_embree(
     rays: &[(DVec3, DVec3)],
     occlusion: bool,
     threads: u32,
-) -> anyhow::Result<(f64, f64, Vec<f32>)> {
+    isa: EmbreeIsa,
+) -> anyhow::Result<(f64, f64, Vec<f32>, String)> {
     // Embree gets the triangles written out in the world frame (one level).
     let n = scene.triangle_count();
     let mut input = Vec::with_capacity(24 + n * 36 + rays.len() * 24);
     input.extend_from_slice(b"LVEB");
-    for v in [u32::from(occlusion), threads, REPEATS, n as u32] {
+    for v in [u32::from(occlusion), threads, REPEATS, u32::from(isa == EmbreeIsa::Sse2), n as u32] {
         input.extend_from_slice(&v.to_le_bytes());
     }
     for t in scene.world_triangles() {
@@ -95,7 +129,8 @@ fn run_embree(
     }
     let f64_at = |i: usize| f64::from_le_bytes(b[i..i + 8].try_into().expect("8 bytes"));
     let res = b[16..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
-    Ok((f64_at(0), f64_at(8), res))
+    let isa = chosen_isa(&String::from_utf8_lossy(&st.stdout)).unwrap_or_else(|| "unknown".to_owned());
+    Ok((f64_at(0), f64_at(8), res, isa))
 }
 
 /// One workload through lightvol's tracer on `threads` threads: `(best seconds, results)`
@@ -253,10 +288,12 @@ pub(crate) fn compare(
         let mut entry = json!({});
         for threads in [1u32, 2] {
             let (le, lres) = run_lightvol(&tracer, rays, occ, threads as usize)?;
-            let (ee, build, eres) = run_embree(&exe, dir.path(), scene, rays, occ, threads)?;
+            let (ee, build, eres, isa) =
+                run_embree(&exe, dir.path(), scene, rays, occ, threads, EmbreeIsa::Native)?;
             if threads == 1 && !occ {
                 out["build_seconds"]["embree_1_thread"] = json!(build);
             }
+            out["embree_isa"] = json!(isa);
             let (lm, em) = (count as f64 / le / 1e6, count as f64 / ee / 1e6);
             entry[format!("{threads}_thread")] = json!({
                 "lightvol_mrays_per_second": lm,
@@ -264,6 +301,16 @@ pub(crate) fn compare(
                 "lightvol_over_embree": lm / em,
                 "agreement": agreement(&lres, &eres, occ),
             });
+            if threads == 1 {
+                let (se, _, sres, sisa) = run_embree(&exe, dir.path(), scene, rays, occ, 1, EmbreeIsa::Sse2)?;
+                let sm = count as f64 / se / 1e6;
+                entry["1_thread_embree_sse2"] = json!({
+                    "embree_isa": sisa,
+                    "embree_mrays_per_second": sm,
+                    "lightvol_over_embree": lm / sm,
+                    "agreement": agreement(&lres, &sres, occ),
+                });
+            }
         }
         out[name] = entry;
     }
@@ -274,4 +321,22 @@ pub(crate) fn compare(
 fn pool_build(scene: &Scene, quality: BuildQuality, levels: Levels) -> anyhow::Result<Tracer> {
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().context("thread pool")?;
     Ok(pool.install(|| Tracer::build(scene, quality, levels)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The `Config` block of Embree 3.13.5's device report on an AVX-512 machine, with and
+    /// without `isa=sse2`: the widest target both supported and compiled in.
+    #[test]
+    fn the_isa_embree_runs_is_read_from_its_report() {
+        let native = "  Config\n    Threads : default\n    ISA     : XMM YMM ZMM SSE SSE2 AVX2 AVX512F\n    Targets : SSE SSE2 SSE3 SSSE3 SSE4.1 SSE4.2 AVX AVXI AVX2 AVX512  (supported)\n              SSE2 SSE4.2 AVX AVX2 AVX512  (compile time enabled)\n    Features: raymasks\n";
+        assert_eq!(chosen_isa(native).as_deref(), Some("AVX512"));
+        let sse2 = "    Targets : SSE SSE2  (supported)\n              SSE2 SSE4.2 AVX AVX2 AVX512  (compile time enabled)\n";
+        assert_eq!(chosen_isa(sse2).as_deref(), Some("SSE2"));
+        let avx2 = "    Targets : SSE SSE2 SSE3 SSSE3 SSE4.1 SSE4.2 AVX AVXI AVX2  (supported)\n              SSE2 SSE4.2 AVX AVX2 AVX512  (compile time enabled)\n";
+        assert_eq!(chosen_isa(avx2).as_deref(), Some("AVX2"));
+        assert_eq!(chosen_isa("no report"), None);
+    }
 }

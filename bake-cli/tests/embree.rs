@@ -1,7 +1,7 @@
 //! The Embree baseline of `lightvol bench --embree` (Debian's `libembree-dev`, compiled at
 //! run time): on a vendored real scene it runs, reports both throughputs and their ratio
-//! for closest hit and occlusion on 1 and 2 threads, and lightvol's tracer and Embree agree
-//! ray by ray. Throughput itself is measured, not asserted.
+//! for closest hit and occlusion on 1 and 2 threads with the ISA Embree picked, and beside
+//! a forced-SSE2 Embree, and lightvol's tracer and Embree agree ray by ray. Throughput itself is measured, not asserted.
 //!
 //! Without Embree (no `embree3/rtcore.h` or no C compiler) the test says so in one loud line
 //! and passes, unless `LIGHTVOL_REQUIRE_EMBREE=1` (set by `.ci/run`).
@@ -31,6 +31,16 @@ fn embree_baseline_runs_and_agrees() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let r: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(r["triangles"], 63_720);
+    // Embree runs the kernels it picks for this CPU (named from its own report), and a
+    // forced-SSE2 row stands beside them.
+    let isa = r["embree_isa"].as_str().unwrap();
+    assert!(["SSE2", "SSE4.2", "AVX", "AVX2", "AVX512"].contains(&isa), "Embree's ISA: {isa}");
+    for w in ["closest_hit", "occlusion"] {
+        let sse2 = &r[w]["1_thread_embree_sse2"];
+        assert_eq!(sse2["embree_isa"], "SSE2", "{w}: the forced row runs SSE2");
+        assert!(sse2["embree_mrays_per_second"].as_f64().unwrap() > 0.0);
+        assert!(sse2["agreement"]["hit_or_miss_agree"].as_f64().unwrap() >= 0.9999, "{w}: SSE2 agreement");
+    }
     for w in ["closest_hit", "occlusion"] {
         for t in ["1_thread", "2_thread"] {
             let e = &r[w][t];
