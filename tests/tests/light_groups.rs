@@ -136,6 +136,9 @@ fn grouped_exports_carry_every_group() {
     for (g, layer) in layers.iter().enumerate() {
         assert_eq!(layer.as_slice(), groups[g].data(), "group {g}");
     }
+    // Opened as a volume, it says what it is in one line.
+    let e = run(&["info", s(&dir.path().join("room.groups.ktx2"))]).unwrap_err();
+    assert!(e.contains("stacked light-group texture") && e.contains("day, light"), "{e}");
 }
 
 /// Shards of a bake with light groups and a sky transfer merge into the whole bake's file,

@@ -185,6 +185,17 @@ pub fn ktx2_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
     let f = FileFormat::Ktx2;
     guard(f, || {
         let (dims, kvd, data) = parse_ktx2_rgba16f(bytes, f)?;
+        if let Ok(groups) = kvd_value(&kvd, crate::io::ktx2_groups::GROUPS_KEY, f) {
+            let names = serde_json::from_slice::<crate::io::ktx2_groups::StackedGroups>(groups)
+                .map(|g| g.names.join(", "))
+                .unwrap_or_default();
+            return Err(VolumeError::unsupported(
+                f,
+                format!(
+                    "this is the stacked light-group texture of a grouped export (groups {names}), which the generated sampling code reads; open the whole volume or a group's file (the export's STEM.light_groups.json names them)"
+                ),
+            ));
+        }
         let sidecar = sidecar_of(&kvd)?;
         if sidecar.encoding != Encoding::F16 {
             return Err(VolumeError::malformed(f, "sidecar encoding is not f16"));
