@@ -151,6 +151,17 @@ fn extra(run: &MethodRun) -> Map<String, Value> {
     m
 }
 
+/// The fresh bake a relit entry is measured against (`report.json`'s `vs_fresh`): for
+/// `BASE+relit`, `BASE+relitN` and `BASE+skyocc` (read any way, `@WAY`) the entry `BASE`
+/// read the same way, the bake of the comparison's own lighting.
+fn fresh_of(name: &str) -> Option<String> {
+    let (entry, way) = name.split_once('@').map_or((name, None), |(e, w)| (e, Some(w)));
+    let (base, kind) = entry.rsplit_once('+')?;
+    let relit = kind == "skyocc"
+        || kind.strip_prefix("relit").is_some_and(|o| o.is_empty() || o.chars().all(|c| c.is_ascii_digit()));
+    relit.then(|| way.map_or_else(|| base.to_owned(), |w| format!("{base}@{w}")))
+}
+
 /// A file's path, relative to the output directory, and its bytes.
 pub type FileBytes = (PathBuf, Vec<u8>);
 
@@ -204,6 +215,22 @@ pub fn compare_files(
             m.extend(extra(r));
         }
         methods.insert(r.name.clone(), v);
+    }
+    for r in &result.methods {
+        let Some(fresh) = fresh_of(&r.name) else { continue };
+        let Some(f) = result.methods.iter().find(|m| m.name == fresh) else { continue };
+        let points: Vec<super::PlatePoint> = (0..plate.truth.len())
+            .map(|k| super::PlatePoint {
+                estimate: luminance(r.estimate[k]),
+                truth: luminance(f.estimate[k]),
+                valid: plate.valid[k],
+                near: plate.near[k],
+            })
+            .collect();
+        let m = crate::metrics::compute(&points);
+        if let Some(Value::Object(o)) = methods.get_mut(&r.name) {
+            o.insert("vs_fresh".into(), json!({ "method": fresh, "rel_rmse": m.rel_rmse, "bias": m.bias }));
+        }
     }
     let report = CompareReport {
         scene: scene.to_owned(),
@@ -575,4 +602,20 @@ pub fn index_html(reports: &[(String, CompareReport)], sweeps: &[(String, Value)
     memory_html(&mut s, sweeps);
     s.push_str("</details>\n</body></html>\n");
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::fresh_of;
+
+    /// Relit entries name their fresh bake, read the same way; others have none.
+    #[test]
+    fn relit_entries_name_their_fresh_bake() {
+        assert_eq!(fresh_of("doi+relit").as_deref(), Some("doi"));
+        assert_eq!(fresh_of("point+relit4").as_deref(), Some("point"));
+        assert_eq!(fresh_of("doi+skyocc@three").as_deref(), Some("doi@three"));
+        assert_eq!(fresh_of("doi"), None);
+        assert_eq!(fresh_of("point+apv"), None);
+        assert_eq!(fresh_of("doi+relitx"), None);
+    }
 }

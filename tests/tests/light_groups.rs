@@ -440,6 +440,14 @@ fn compare_measures_relit_volumes_against_fresh_bakes() {
     // and L1 stand in for the bounced light.
     let occ = rmse(&same, "doi+skyocc");
     assert!(occ.is_finite() && (occ - rmse(&same, "doi")).abs() > 1e-4, "{same}");
+    // Each relit entry is also measured against the fresh bake of the comparison's sky.
+    let vs_fresh = |r: &serde_json::Value, m: &str| {
+        assert_eq!(r["methods"][m]["vs_fresh"]["method"], "doi", "{m}");
+        r["methods"][m]["vs_fresh"]["rel_rmse"].as_f64().unwrap()
+    };
+    assert!(vs_fresh(&same, "doi+relit") < 1e-5, "{same}");
+    assert!(vs_fresh(&same, "doi+skyocc") > 1e-3, "{same}");
+    assert!(same["methods"]["doi"].get("vs_fresh").is_none());
     let other = report("sky:0.2,0.2,0.3");
     assert!(rmse(&other, "doi+relit").is_finite() && rmse(&other, "doi+relit") > 0.0);
     let dir = tempfile::tempdir().unwrap();
