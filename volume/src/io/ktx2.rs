@@ -28,6 +28,9 @@ use crate::volume::IrradianceVolume;
 
 /// Key of the embedded JSON sidecar in the KTX2 key/value data.
 pub const KTX2_SIDECAR_KEY: &str = "lightvol.sidecar";
+/// Key of a light-group texture's description ([`crate::io::ktx2_groups`]): a texture that
+/// carries it holds light groups stacked, not one volume.
+pub const KTX2_GROUPS_KEY: &str = "lightvol.light_groups";
 /// Value of the `KTXwriter` key.
 pub const KTX2_WRITER: &str = concat!("lightvol-volume ", env!("CARGO_PKG_VERSION"));
 use crate::slab::TEXEL_BYTES;
@@ -185,9 +188,14 @@ pub fn ktx2_from_bytes(bytes: &[u8]) -> Result<IrradianceVolume, VolumeError> {
     let f = FileFormat::Ktx2;
     guard(f, || {
         let (dims, kvd, data) = parse_ktx2_rgba16f(bytes, f)?;
-        if let Ok(groups) = kvd_value(&kvd, crate::io::ktx2_groups::GROUPS_KEY, f) {
-            let names = serde_json::from_slice::<crate::io::ktx2_groups::StackedGroups>(groups)
-                .map(|g| g.names.join(", "))
+        if let Ok(groups) = kvd_value(&kvd, KTX2_GROUPS_KEY, f) {
+            let names = serde_json::from_slice::<serde_json::Value>(groups)
+                .ok()
+                .and_then(|g| {
+                    g["names"]
+                        .as_array()
+                        .map(|n| n.iter().filter_map(|x| x.as_str()).collect::<Vec<_>>().join(", "))
+                })
                 .unwrap_or_default();
             return Err(VolumeError::unsupported(
                 f,

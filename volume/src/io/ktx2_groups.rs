@@ -20,7 +20,7 @@ use crate::light_groups::GroupedVolume;
 use crate::slab::{STACKED_LAYOUT, layers_from_stacked_texels, stacked_slab_texels};
 
 /// Key of the groups' description in the key/value data.
-pub const GROUPS_KEY: &str = "lightvol.light_groups";
+pub const GROUPS_KEY: &str = crate::io::ktx2::KTX2_GROUPS_KEY;
 
 /// The groups' description ([`GROUPS_KEY`]).
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
