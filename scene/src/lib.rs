@@ -24,6 +24,7 @@ pub mod scene_summary;
 pub mod stats;
 pub mod transport;
 pub mod triangle;
+pub mod watertight;
 
 pub use builder::SceneBuilder;
 pub use builtin::{BuiltinScene, builtin};
