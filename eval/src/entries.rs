@@ -87,11 +87,14 @@ pub const DEFAULT_RELIT_ORDER: u32 = 3;
 pub const ADAPTIVE_BASE_SCALE: f64 = 0.5;
 
 /// Finest level of the `adaptive` entry: level 1 has the compared grid's cell size, level 2
-/// half of it. Measured with the memory sweep (128 samples per cell, 64-point plate): at
-/// every memory from 35 kB to 1.5 MB the level-2 octree has the lowest error on both
-/// `city` (e.g. rel_rmse 0.1826 against the uniform grid's 0.1862 at 193.5 kB) and
-/// `interior` (0.5884 against 0.8273 at 587 kB), while `adaptive1` ties with the uniform
-/// grid on `city` (0.1864) and is barely better on `interior` (0.8248).
+/// half of it. Measured with the memory sweep (128 samples per cell, 64-point plate, the
+/// octree then baked with doi-paper): at every memory from 35 kB to 1.5 MB the level-2
+/// octree has the lowest error on both `city` (e.g. rel_rmse 0.1826 against the uniform
+/// grid's 0.1862 at 193.5 kB) and `interior` (0.5884 against 0.8273 at 587 kB), while
+/// `adaptive1` ties with the uniform grid on `city` (0.1864) and is barely better on
+/// `interior` (0.8248). Baked with doi (now), `city` at plate height 1.0, 128 samples:
+/// 0.1464 / 0.1441 (seeds 1 / 2) against uniform doi's 0.1712 / 0.1708 at 193.5 kB
+/// against doi's 236.5 kB.
 pub const ADAPTIVE_MAX_LEVEL: u32 = 2;
 
 /// Largest `L` accepted in `adaptiveL`.

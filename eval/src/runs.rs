@@ -435,7 +435,7 @@ pub fn adaptive_volume(
 ) -> Result<(AdaptiveVolume, AdaptiveStats, usize), EvalError> {
     let budget = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false);
     let base = scaled_grid(grid, ADAPTIVE_BASE_SCALE)?;
-    let settings = ctx.settings(Method::DoiPaper);
+    let settings = ctx.settings(Method::Doi);
     let adaptive = AdaptiveSettings { max_level, memory_budget: Some(budget), ..AdaptiveSettings::default() };
     let (vol, stats) = ctx
         .stage(label, |c| bake_adaptive(&ctx.transport, &base, &settings, &adaptive, c))

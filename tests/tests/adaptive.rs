@@ -204,11 +204,11 @@ fn bad_adaptive_options_are_refused() {
 /// count includes its base weights, keys and split bitmaps, which the uniform count leaves
 /// out.
 ///
-/// The margin on city is small: measured rel_rmse 0.1925 (adaptive) against 0.1967 (doi),
-/// about 2%; at 128 samples and a 64-point plate 0.1826 against 0.1862. The plate's
-/// irradiance varies almost everywhere near the ground (building shadows), so refinement
-/// has little room to save; on `interior` the same construction gives 0.5884 against
-/// 0.8273 (`compare --memory-sweep`, lightvol README).
+/// The octree is baked with `doi` at every level. Measured here: rel_rmse 0.1548 (adaptive)
+/// against 0.1967 (doi-paper); at 128 samples, plate height 1.0 and 512 reference samples,
+/// 0.1464 / 0.1441 against uniform doi's 0.1712 / 0.1708 (seeds 1 / 2), 14.5% and 15.6%
+/// lower. Baked with doi-paper instead (as this entry was until it followed its own
+/// documentation), the margin was about 2%.
 #[test]
 fn city_adaptive_beats_uniform_at_equal_memory() {
     let dir = tempfile::tempdir().unwrap();
@@ -223,7 +223,7 @@ fn city_adaptive_beats_uniform_at_equal_memory() {
         "--reference-samples",
         "128",
         "--methods",
-        "doi-paper,adaptive",
+        "doi-paper,doi,adaptive",
         "--quiet",
         "-o",
         s(&out),
@@ -248,5 +248,9 @@ fn city_adaptive_beats_uniform_at_equal_memory() {
         rmse("adaptive"),
         rmse("doi-paper")
     );
+    // The octree is baked with doi, the default method, and beats the uniform doi grid too,
+    // whose node reach costs it more memory still.
+    assert!(mem("doi") > mem("doi-paper"), "doi's reach is counted");
+    assert!(rmse("adaptive") < rmse("doi"), "adaptive {} vs doi {}", rmse("adaptive"), rmse("doi"));
     assert_eq!(m["adaptive"]["base_res"], serde_json::json!([9, 9, 4]));
 }
