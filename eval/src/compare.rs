@@ -406,7 +406,12 @@ pub(crate) mod tests {
             m("doi-paper+hermite").detail,
             RunDetail::Gradient { lookup: GradientLookup::Hermite, estimator: GradientEstimator::Basis, .. }
         ));
-        assert!(m("adaptive1").memory_bytes <= m("doi-paper").memory_bytes);
+        // The octree's budget is the uniform doi grid's: coefficients and node reach.
+        assert!(
+            m("adaptive1").memory_bytes <= crate::entries::uniform_doi_memory_bytes(&maze.grid, 3)
+                && crate::entries::uniform_doi_memory_bytes(&maze.grid, 3)
+                    == m("doi-paper").memory_bytes + maze.grid.node_count() * 24
+        );
         assert!(m("point+validity").rays.total() > m("point").rays.total());
         let sweep = r.memory_sweep.unwrap();
         assert_eq!(sweep.points.len(), 6);

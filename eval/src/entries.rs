@@ -30,9 +30,11 @@
 //! cell at every level) with level 0 on the compared grid with its cell counts scaled by
 //! [`ADAPTIVE_BASE_SCALE`], down to level `L` (`adaptive` is [`ADAPTIVE_MAX_LEVEL`] = 2;
 //! level 1 has the compared grid's cell size, level 2 half of it), the sampler's default
-//! heuristics and culling, under a memory budget equal to the uniform entry's bytes. The
-//! octree's own count includes its weights and index, which the uniform count leaves out,
-//! so the octree never gets more memory than the uniform grid it is compared with.
+//! heuristics and culling, under a memory budget equal to the uniform `doi` entry's bytes
+//! (its coefficients and node reach, [`uniform_doi_memory_bytes`]; in the memory sweep, the
+//! uniform series' bytes). The octree's own count includes its weights and index, which the
+//! uniform count leaves out, so the octree never gets more memory than the uniform grid it
+//! is compared with.
 
 use std::fmt;
 use std::str::FromStr;
@@ -92,9 +94,9 @@ pub const ADAPTIVE_BASE_SCALE: f64 = 0.5;
 /// octree has the lowest error on both `city` (e.g. rel_rmse 0.1826 against the uniform
 /// grid's 0.1862 at 193.5 kB) and `interior` (0.5884 against 0.8273 at 587 kB), while
 /// `adaptive1` ties with the uniform grid on `city` (0.1864) and is barely better on
-/// `interior` (0.8248). Baked with doi (now), `city` at plate height 1.0, 128 samples:
-/// 0.1464 / 0.1441 (seeds 1 / 2) against uniform doi's 0.1712 / 0.1708 at 193.5 kB
-/// against doi's 236.5 kB.
+/// `interior` (0.8248). Baked with doi within the uniform doi grid's bytes (now), `city`
+/// at plate height 1.0, 128 samples: 0.1347 / 0.1322 (seeds 1 / 2) against uniform doi's
+/// 0.1712 / 0.1708, both at 236.5 kB.
 pub const ADAPTIVE_MAX_LEVEL: u32 = 2;
 
 /// Largest `L` accepted in `adaptiveL`.
@@ -276,6 +278,13 @@ pub fn bands_of_coeffs(coeffs: usize) -> usize {
 #[must_use]
 pub fn uniform_memory_bytes(grid: &GridSpec, bands: usize, gradients: bool) -> usize {
     lightvol_volume::gradient::sample_bytes(grid.node_count(), bands, gradients)
+}
+
+/// Run-time bytes of the uniform `doi` entry on `grid`: [`uniform_memory_bytes`] and its
+/// node reach, six f32 per node (`NodeReach::memory_bytes`); the `adaptive` entry's budget.
+#[must_use]
+pub fn uniform_doi_memory_bytes(grid: &GridSpec, bands: usize) -> usize {
+    uniform_memory_bytes(grid, bands, false) + grid.node_count() * size_of::<[f32; 6]>()
 }
 
 #[cfg(test)]

@@ -421,9 +421,9 @@ pub fn scaled_grid(base: &GridSpec, scale: f64) -> Result<GridSpec, EvalError> {
     Ok(GridSpec::new(min, max, res)?)
 }
 
-/// An adaptive `doi` bake with finest level `max_level` at the memory of the uniform grid
-/// `grid` (module `entries`); stage `label`. Returns the volume, its statistics and the
-/// budget in bytes.
+/// An adaptive `doi` bake with finest level `max_level` over the grid `grid` (module
+/// `entries`) within `budget` bytes; stage `label`. Returns the volume, its statistics and
+/// the budget.
 ///
 /// # Errors
 /// The bake's.
@@ -432,8 +432,8 @@ pub fn adaptive_volume(
     grid: &GridSpec,
     max_level: u32,
     label: &str,
+    budget: usize,
 ) -> Result<(AdaptiveVolume, AdaptiveStats, usize), EvalError> {
-    let budget = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false);
     let base = scaled_grid(grid, ADAPTIVE_BASE_SCALE)?;
     let settings = ctx.settings(Method::Doi);
     let adaptive = AdaptiveSettings { max_level, memory_budget: Some(budget), ..AdaptiveSettings::default() };
@@ -454,7 +454,8 @@ pub fn evaluate_adaptive(vol: &AdaptiveVolume, plate: &Plate) -> Vec<[f64; 3]> {
         .collect()
 }
 
-/// The `adaptive[L]` entry at the memory of the uniform grid `grid`.
+/// The `adaptive[L]` entry at the memory of the uniform `doi` grid `grid` (coefficients and
+/// node reach).
 ///
 /// # Errors
 /// The bake's.
@@ -465,7 +466,8 @@ pub fn run_adaptive(
     max_level: u32,
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
-    let (vol, stats, budget) = adaptive_volume(ctx, grid, max_level, name)?;
+    let budget = crate::entries::uniform_doi_memory_bytes(grid, bands_of_coeffs(ctx.coeffs));
+    let (vol, stats, budget) = adaptive_volume(ctx, grid, max_level, name, budget)?;
     let estimate = evaluate_adaptive(&vol, plate);
     Ok(MethodRun::new(
         name,

@@ -143,7 +143,9 @@ pub fn memory_sweep(
             );
         }
         for (series, levels) in ADAPTIVE_SERIES {
-            let (av, stats, _) = adaptive_volume(ctx, &grid, levels, &format!("{series} x{scale}"))?;
+            // At the uniform series' memory (doi-paper's coefficients, no node reach).
+            let budget = uniform_memory_bytes(&grid, bands, false);
+            let (av, stats, _) = adaptive_volume(ctx, &grid, levels, &format!("{series} x{scale}"), budget)?;
             let m = plate.metrics(&evaluate_adaptive(&av, plate));
             let point = SweepPoint {
                 series: series.into(),
