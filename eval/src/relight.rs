@@ -4,19 +4,49 @@
 //! occlusion ([`lightvol_sampler::sky_occlusion`]), the baseline the transfer is measured
 //! against.
 
-use std::sync::Arc;
 use std::time::Instant;
 
+use lightvol_sampler::BakeStats;
 use lightvol_sampler::method::Method;
 use lightvol_scene::light_groups::{LightGroups, sky_coefficients};
 use lightvol_scene::transport::Transport;
-use lightvol_volume::GridSpec;
+use lightvol_volume::{GridSpec, GroupedVolume};
 
-use crate::baked::RunVolume;
-use crate::entries::{bands_of_coeffs, uniform_memory_bytes};
 use crate::error::EvalError;
 use crate::plate::Plate;
-use crate::runs::{BakeContext, MethodRun, RunDetail};
+use crate::runs::{BakeContext, MethodRun, uniform_run};
+
+/// Bakes `method` on `grid` under the sky `from` (the scene's other lights as they are)
+/// with a sky transfer of `coeffs` coefficients (stage `name`): the whole bake split into
+/// the other lights' groups and the transfer's, and the bake's statistics.
+fn bake_transfer_under(
+    ctx: &BakeContext<'_>,
+    grid: &GridSpec,
+    name: &str,
+    method: Method,
+    from: &lightvol_scene::Environment,
+    coeffs: usize,
+) -> Result<(GroupedVolume, BakeStats), EvalError> {
+    let mut baked_under = ctx.transport.scene().clone();
+    baked_under.environment = from.clone();
+    let groups = LightGroups::with_sky_transfer(&baked_under, None, coeffs).map_err(EvalError::Relight)?;
+    let transport =
+        Transport::new(&baked_under, ctx.transport.tracer(), *ctx.transport.settings()).with_groups(groups);
+    let settings = ctx.settings(method);
+    let out = ctx
+        .stage(name, |c| lightvol_sampler::bake(&transport, grid, &settings, c))
+        .map_err(EvalError::at("baking"))?;
+    let t0 = Instant::now();
+    let (whole, _) = out.accumulator.finalize();
+    let grouped = out
+        .accumulator
+        .finalize_grouped(&whole)
+        .expect("a grouped transport")
+        .map_err(|e| EvalError::Relight(e.to_string()))?;
+    let mut stats = out.stats;
+    stats.wall_time += t0.elapsed();
+    Ok((grouped, stats))
+}
 
 /// Bakes `method` on `grid` with a sky transfer of SH order `order` (`order²` coefficients
 /// of the sky's radiance) under the sky `from`
@@ -37,43 +67,14 @@ pub fn run_relit(
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
     let coeffs = (order * order) as usize;
-    let scene = ctx.transport.scene();
-    let mut baked_under = scene.clone();
-    baked_under.environment = from.clone();
-    let groups = LightGroups::with_sky_transfer(&baked_under, None, coeffs).map_err(EvalError::Relight)?;
-    let transport =
-        Transport::new(&baked_under, ctx.transport.tracer(), *ctx.transport.settings()).with_groups(groups);
-    let settings = ctx.settings(method);
-    let out = ctx
-        .stage(name, |c| lightvol_sampler::bake(&transport, grid, &settings, c))
-        .map_err(EvalError::at("baking"))?;
+    let (grouped, stats) = bake_transfer_under(ctx, grid, name, method, from, coeffs)?;
     let t0 = Instant::now();
-    let (whole, _) = out.accumulator.finalize();
-    let grouped = out
-        .accumulator
-        .finalize_grouped(&whole)
-        .expect("a grouped transport")
-        .map_err(|e| EvalError::Relight(e.to_string()))?;
     let scales = grouped
-        .sky_scales(&sky_coefficients(&scene.environment, coeffs), None)
+        .sky_scales(&sky_coefficients(&ctx.transport.scene().environment, coeffs), None)
         .map_err(|e| EvalError::Relight(e.to_string()))?;
     let vol = grouped.relit(&scales).map_err(|e| EvalError::Relight(e.to_string()))?;
-    let stats = out.stats;
-    let estimate = plate.evaluate(&vol);
-    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
-        + vol.reach().map_or(0, lightvol_volume::NodeReach::memory_bytes);
-    Ok(MethodRun::new(
-        name,
-        ctx.samples,
-        stats.rays,
-        stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64(),
-        plate,
-        estimate,
-        memory,
-        grid.node_count(),
-        RunDetail::Uniform,
-        RunVolume::Uniform(Arc::new(vol)),
-    ))
+    let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
+    Ok(uniform_run(ctx, grid, name, plate, vol, stats.rays, seconds))
 }
 
 /// Bakes `method` on `grid` under the sky `from` with the sky's light split from the
@@ -96,31 +97,19 @@ pub fn run_sky_occlusion(
     use lightvol_sampler::sky_occlusion::{mean_albedo, occlusion_scene, relight_occlusion};
     const COEFFS: usize = 9;
     let scene = ctx.transport.scene();
-    let mut baked_under = scene.clone();
-    baked_under.environment = from.clone();
-    let settings = ctx.settings(method);
     // The other lights as baked: a sky transfer's groups before the sky's, from the same
     // paths as the sky's light (which is then dropped).
-    let groups = LightGroups::with_sky_transfer(&baked_under, None, COEFFS).map_err(EvalError::Relight)?;
-    let transport =
-        Transport::new(&baked_under, ctx.transport.tracer(), *ctx.transport.settings()).with_groups(groups);
-    let out = ctx
-        .stage(name, |c| lightvol_sampler::bake(&transport, grid, &settings, c))
-        .map_err(EvalError::at("baking"))?;
+    let (grouped, stats) = bake_transfer_under(ctx, grid, name, method, from, COEFFS)?;
     let occ_scene = occlusion_scene(scene, mean_albedo(scene));
     let occ_transport = Transport::new(&occ_scene, ctx.transport.tracer(), *ctx.transport.settings());
+    let settings = ctx.settings(method);
     let occ = ctx
         .stage(&format!("{name} (sky occlusion)"), |c| {
             lightvol_sampler::bake(&occ_transport, grid, &settings, c)
         })
         .map_err(EvalError::at("baking the sky occlusion"))?;
     let t0 = Instant::now();
-    let (whole, _) = out.accumulator.finalize();
-    let grouped = out
-        .accumulator
-        .finalize_grouped(&whole)
-        .expect("a grouped transport")
-        .map_err(|e| EvalError::Relight(e.to_string()))?;
+    let whole = grouped.total();
     let (base, _) = grouped.sky_transfer().expect("a sky transfer");
     let (occ_vol, _) = occ.accumulator.finalize();
     let mut data =
@@ -131,21 +120,9 @@ pub fn run_sky_occlusion(
         }
     }
     let vol = whole.with_data(data).map_err(|e| EvalError::Relight(e.to_string()))?;
-    let estimate = plate.evaluate(&vol);
-    let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
-        + vol.reach().map_or(0, lightvol_volume::NodeReach::memory_bytes);
-    let mut rays = out.stats.rays;
+    let mut rays = stats.rays;
     rays.add(&occ.stats.rays);
-    Ok(MethodRun::new(
-        name,
-        ctx.samples,
-        rays,
-        out.stats.wall_time.as_secs_f64() + occ.stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64(),
-        plate,
-        estimate,
-        memory,
-        grid.node_count(),
-        RunDetail::Uniform,
-        RunVolume::Uniform(Arc::new(vol)),
-    ))
+    let seconds =
+        stats.wall_time.as_secs_f64() + occ.stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
+    Ok(uniform_run(ctx, grid, name, plate, vol, rays, seconds))
 }

@@ -277,21 +277,36 @@ pub fn run_uniform(
     let (vol, stats, _) = ctx
         .stage(name, |c| bake_fitted(&ctx.transport, grid, &settings, c, fit))
         .map_err(EvalError::at("baking"))?;
+    Ok(uniform_run(ctx, grid, name, plate, vol, stats.rays, stats.wall_time.as_secs_f64()))
+}
+
+/// The run of a uniform volume `vol` on `grid` read through lightvol's lookup: its plate
+/// estimate and its memory (the coefficients and, for doi, the node reach), with the rays
+/// and seconds it took.
+pub(crate) fn uniform_run(
+    ctx: &BakeContext<'_>,
+    grid: &GridSpec,
+    name: &str,
+    plate: &Plate,
+    vol: IrradianceVolume,
+    rays: RayCounts,
+    seconds: f64,
+) -> MethodRun {
     let estimate = plate.evaluate(&vol);
     let memory = uniform_memory_bytes(grid, bands_of_coeffs(ctx.coeffs), false)
         + vol.reach().map_or(0, lightvol_volume::NodeReach::memory_bytes);
-    Ok(MethodRun::new(
+    MethodRun::new(
         name,
         ctx.samples,
-        stats.rays,
-        stats.wall_time.as_secs_f64(),
+        rays,
+        seconds,
         plate,
         estimate,
         memory,
         grid.node_count(),
         RunDetail::Uniform,
         RunVolume::Uniform(Arc::new(vol)),
-    ))
+    )
 }
 
 /// Bakes `base` with gradients on `grid` by `estimator`, or the estimator that fits the
