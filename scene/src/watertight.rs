@@ -218,28 +218,15 @@ mod tests {
         assert_eq!(escaped, 0, "{escaped} of {rays} rays slipped through the closed mesh");
     }
 
-    /// Möller-Trumbore in f32, as a ray tracer without the watertight test intersects.
+    /// Möller-Trumbore in f32 as the tracer intersects today (obvhs' `RtTriangle`, the test
+    /// `bvh` runs inside its traversal): the distance, or `None` for a miss.
     fn moller_trumbore_f32(v: &[[f32; 3]; 3], o: [f32; 3], d: [f32; 3]) -> Option<f32> {
-        let (v0, v1, v2) = (glam::Vec3::from(v[0]), glam::Vec3::from(v[1]), glam::Vec3::from(v[2]));
-        let (o, d) = (glam::Vec3::from(o), glam::Vec3::from(d));
-        let (e1, e2) = (v1 - v0, v2 - v0);
-        let p = d.cross(e2);
-        let det = e1.dot(p);
-        if det == 0.0 {
-            return None;
-        }
-        let inv = 1.0 / det;
-        let s = o - v0;
-        let u = s.dot(p) * inv;
-        if !(0.0..=1.0).contains(&u) {
-            return None;
-        }
-        let q = s.cross(e1);
-        let w = d.dot(q) * inv;
-        if w < 0.0 || u + w > 1.0 {
-            return None;
-        }
-        Some(e2.dot(q) * inv)
+        use glam::Vec3A;
+        let tri =
+            obvhs::triangle::Triangle { v0: Vec3A::from(v[0]), v1: Vec3A::from(v[1]), v2: Vec3A::from(v[2]) };
+        let ray = obvhs::ray::Ray::new(Vec3A::from(o), Vec3A::from(d), f32::NEG_INFINITY, f32::INFINITY);
+        let t = obvhs::rt_triangle::RtTriangle::from(&tri).intersect(&ray);
+        t.is_finite().then_some(t)
     }
 
     /// Away from edges and grazing incidence the watertight test agrees with the f64
