@@ -66,19 +66,11 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         }
         return run_checkpointed(args, &request, &loaded, &grid, groups, provenance, dir, started);
     }
-    let (bake, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
-        let t0 = Instant::now();
-        let tracer = Tracer::new(&loaded.scene);
-        let bvh_seconds = t0.elapsed().as_secs_f64();
-        let mut transport = Transport::new(&loaded.scene, &tracer, request.transport);
-        if let Some(g) = groups {
-            transport = transport.with_groups(g);
-        }
-        let bake = with_bar(args.quiet, &args.method, |c| {
-            bake_uniform(&transport, &loaded.scene, &grid, &request, provenance, c)
-        })?;
-        Ok((bake, bvh_seconds))
-    })??;
+    let (bake, bvh_seconds) = with_transport(args, &loaded, &request, groups, |transport| {
+        Ok(with_bar(args.quiet, &args.method, |c| {
+            bake_uniform(transport, &loaded.scene, &grid, &request, provenance, c)
+        })?)
+    })?;
     if request.writes_accumulator() {
         let acc_path = accumulator_path(&args.output);
         write_accumulator(&acc_path, &bake.output.accumulator, bake.volume.metadata())
@@ -120,6 +112,30 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
+/// Runs `bake` on `args`' threads with the light transport over `loaded` (split by
+/// `groups` when given), returning its result and the ray tracer's build time.
+fn with_transport<T>(
+    args: &BakeArgs,
+    loaded: &lightvol_sampler::scene_setup::LoadedScene,
+    request: &BakeRequest,
+    groups: Option<LightGroups>,
+    bake: impl FnOnce(&Transport<'_>) -> anyhow::Result<T> + Send,
+) -> anyhow::Result<(T, f64)>
+where
+    T: Send,
+{
+    with_threads(args.sampling.threads, || -> anyhow::Result<_> {
+        let t0 = Instant::now();
+        let tracer = Tracer::new(&loaded.scene);
+        let bvh_seconds = t0.elapsed().as_secs_f64();
+        let mut transport = Transport::new(&loaded.scene, &tracer, request.transport);
+        if let Some(g) = groups {
+            transport = transport.with_groups(g);
+        }
+        Ok((bake(&transport)?, bvh_seconds))
+    })?
+}
+
 /// `lightvol bake --checkpoint DIR [--resume]`: the bake in pieces, checkpointed after each
 /// ([`lightvol_sampler::checkpoint`]), written as `merge` writes a whole shard set.
 #[allow(clippy::too_many_arguments, reason = "the bake's set-up, passed on from `run`")]
@@ -135,18 +151,11 @@ fn run_checkpointed(
 ) -> anyhow::Result<ExitCode> {
     use lightvol_sampler::checkpoint::bake_checkpointed;
     let pieces = args.checkpoint_pieces;
-    let (done, bvh_seconds) = with_threads(args.sampling.threads, || -> anyhow::Result<_> {
-        let t0 = Instant::now();
-        let tracer = Tracer::new(&loaded.scene);
-        let bvh_seconds = t0.elapsed().as_secs_f64();
-        let mut transport = Transport::new(&loaded.scene, &tracer, request.transport);
-        if let Some(g) = groups {
-            transport = transport.with_groups(g);
-        }
-        let quiet = args.quiet || args.json;
-        let done = with_bar(args.quiet, &args.method, |c| {
+    let quiet = args.quiet || args.json;
+    let (done, bvh_seconds) = with_transport(args, loaded, request, groups, |transport| {
+        Ok(with_bar(args.quiet, &args.method, |c| {
             bake_checkpointed(
-                &transport,
+                transport,
                 &loaded.scene,
                 grid,
                 request,
@@ -161,9 +170,8 @@ fn run_checkpointed(
                     }
                 },
             )
-        })?;
-        Ok((done, bvh_seconds))
-    })??;
+        })?)
+    })?;
     if request.keep_accumulator {
         let acc_path = accumulator_path(&args.output);
         write_accumulator(&acc_path, &done.accumulator, &done.metadata)
