@@ -100,6 +100,10 @@ pub(crate) enum ExportFormat {
     Three,
     /// The JSON sidecar alone (grid transform, SH convention, encoding, units).
     Json,
+    /// Adaptive volumes: sparse bricks of probes behind an indirection texture, stored by
+    /// stream cell (an RGBA16F KTX2 atlas, STEM.indirection.ktx2 and a JSON description
+    /// with the map from the file's positions and normals).
+    Bricks,
 }
 
 /// `lightvol export`.
@@ -122,6 +126,15 @@ pub(crate) struct ExportArgs {
     /// half the memory, as Bevy's example volume; negative values clamp to 0).
     #[arg(long, value_enum, default_value = "rgba16f")]
     pub(crate) bevy_format: BevyFormatArg,
+    /// `--format bricks`: cells per brick and axis (2 to 8; a brick stores one more probe
+    /// per axis).
+    #[arg(long, default_value_t = 4, value_name = "N")]
+    pub(crate) brick_cells: u32,
+    /// `--format bricks`: the most memory the bricks' probes may take, in MiB; sibling
+    /// bricks are merged into their parent, least useful first, until they fit, and the
+    /// export says what was dropped.
+    #[arg(long, value_name = "MIB")]
+    pub(crate) max_probe_memory: Option<f64>,
 }
 
 /// `--bevy-format`.

@@ -1,10 +1,11 @@
 //! `lightvol export`: engine formats (lightvol-volume's `export`; JSON describes an
-//! octree, KTX2, DDS and Bevy resample it to a uniform grid).
+//! octree, KTX2, DDS and Bevy resample it to a uniform grid, bricks resample it sparsely).
 
 use std::process::ExitCode;
 
 use anyhow::{Context, bail};
 use lightvol_volume::AnyVolume;
+use lightvol_volume::bricks::BrickParams;
 use lightvol_volume::export::{ExportError, ExportFormat, export};
 use lightvol_volume::io::bevy::BevyFormat;
 use lightvol_volume::io::sidecar::sidecar_path;
@@ -23,6 +24,14 @@ fn parse_res(s: &str) -> anyhow::Result<[u32; 3]> {
     }
 }
 
+/// MiB (`--max-probe-memory`) as bytes: finite and positive.
+fn mib_to_bytes(mib: f64) -> anyhow::Result<usize> {
+    if !(mib.is_finite() && mib > 0.0 && mib < 1e9) {
+        bail!("--max-probe-memory: expected a positive number of MiB below 1e9, got {mib}");
+    }
+    Ok((mib * 1024.0 * 1024.0) as usize)
+}
+
 /// Runs `lightvol export`.
 pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
     let res = args.res.as_deref().map(parse_res).transpose()?;
@@ -38,10 +47,20 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             BevyFormatArg::Rgba16f => BevyFormat::Rgba16f,
             BevyFormatArg::Rgb9e5 => BevyFormat::Rgb9e5,
         }),
+        CliFormat::Bricks => ExportFormat::Bricks(BrickParams {
+            cells: args.brick_cells,
+            max_probe_bytes: args.max_probe_memory.map(mib_to_bytes).transpose()?,
+            ..BrickParams::default()
+        }),
     };
+    if args.format != CliFormat::Bricks && (args.max_probe_memory.is_some() || args.brick_cells != 4) {
+        bail!("--brick-cells and --max-probe-memory apply to --format bricks");
+    }
     let grouped = grouped_volume(&args.volume)?;
     let exported = match &grouped {
-        Some(g) if res.is_none() => lightvol_volume::export::export_grouped(g, &args.volume, format, out),
+        Some(g) if res.is_none() && args.format != CliFormat::Bricks => {
+            lightvol_volume::export::export_grouped(g, &args.volume, format, out)
+        }
         _ => export(&opened, &args.volume, format, res, out).map(|r| (r, Vec::new())),
     };
     let (report, group_files) = exported.map_err(|e| match e {
@@ -54,7 +73,7 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
         ExportError::ResolutionForJson => anyhow::anyhow!(
             "--res applies to KTX2, DDS, Bevy and three.js exports; the JSON export describes the octree itself"
         ),
-        e @ ExportError::Resample(_) => e.into(),
+        e @ (ExportError::Resample(_) | ExportError::BricksNeedOctree(_)) => e.into(),
         ExportError::Volume(e) => anyhow::Error::new(e).context(format!("writing {}", out.display())),
     })?;
     if let (Some((used, finest)), AnyVolume::Adaptive(vol)) = (report.resampled, &opened) {
@@ -66,6 +85,10 @@ pub(crate) fn run(args: &ExportArgs) -> anyhow::Result<ExitCode> {
             used[2],
             if finest { " (its finest level)" } else { "" }
         );
+    }
+    if let Some(b) = &report.bricks {
+        eprintln!("{}", b.summary());
+        eprintln!("wrote {}", lightvol_volume::io::bricks::indirection_path(out).display());
     }
     // The engine whose export drops what it cannot read, and its `render --lookup` name.
     let (engine, lookup) =

@@ -68,7 +68,41 @@ fn f(v: &Value) -> f64 {
     v.as_f64().unwrap_or(f64::NAN)
 }
 
+/// The text form of a brick volume's description.
+fn print_bricks(info: &Value) {
+    let n = |k: &str| info[k].as_u64().unwrap_or(0);
+    let mib = |k: &str| n(k) as f64 / 1048576.0;
+    println!("volume      {}", info["file"].as_str().unwrap_or("?"));
+    println!(
+        "bricks      {} bricks of {}^3 probes ({} cells per axis), per level {}, finest level {}",
+        n("bricks"),
+        n("brick_probes"),
+        n("brick_cells"),
+        info["bricks_per_level"],
+        n("finest_level")
+    );
+    println!("indirection {} texels, {} stream cells", info["indirection_res"], n("stream_cells"));
+    println!("SH          {} coefficients per channel, RGB radiance", n("coeffs"));
+    println!(
+        "memory      {:.3} MiB of probes (RGBA16F), {:.3} MiB of indirection (RGBA8)",
+        mib("probe_bytes"),
+        mib("indirection_bytes")
+    );
+    let m = &info["metadata"];
+    println!(
+        "bake        method {}, {} samples, seed {}, {} frame",
+        m["method"].as_str().unwrap_or("?"),
+        m["samples"],
+        m["seed"],
+        m["frame"].as_str().unwrap_or("?")
+    );
+}
+
 fn print_text(info: &Value) {
+    if info["kind"] == "bricks" {
+        print_bricks(info);
+        return;
+    }
     let g = &info["grid"];
     let res = |i: usize| g["res"][i].as_u64().unwrap_or(0);
     let b = |k: usize, i: usize| f(&g["bounds"][k][i]);

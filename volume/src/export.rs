@@ -16,7 +16,7 @@ use crate::validity::ValidityMask;
 use crate::volume::IrradianceVolume;
 
 /// An engine format.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ExportFormat {
     /// KTX2 3D textures ([`crate::io::ktx2`]).
     Ktx2,
@@ -28,6 +28,9 @@ pub enum ExportFormat {
     Three,
     /// The JSON sidecar describing the native file (and an octree's levels).
     Json,
+    /// An octree resampled into bricks behind an indirection texture
+    /// ([`crate::bricks`], [`crate::io::bricks`]).
+    Bricks(crate::bricks::BrickParams),
 }
 
 /// What an export did.
@@ -40,6 +43,8 @@ pub struct ExportReport {
     pub dropped_mask_nodes: Option<usize>,
     /// Limited nodes of a node reach the format cannot carry (Bevy, three.js).
     pub dropped_reach_nodes: Option<usize>,
+    /// What the brick export made and what its budget dropped.
+    pub bricks: Option<crate::bricks::BrickReport>,
 }
 
 /// Why an export was refused.
@@ -53,6 +58,11 @@ pub enum ExportError {
         "the JSON export describes the octree itself; a resampling resolution applies to KTX2, DDS and Bevy"
     )]
     ResolutionForJson,
+    /// Bricks were asked of a volume that is not an octree.
+    #[error(
+        "the brick export resamples an adaptive volume (bake with --adaptive); this volume is {0}, which the KTX2 export writes whole"
+    )]
+    BricksNeedOctree(&'static str),
     /// Resampling the octree failed.
     #[error("resampling the adaptive volume")]
     Resample(#[source] VolumeError),
@@ -73,7 +83,19 @@ pub fn export(
     res: Option<[u32; 3]>,
     out: &Path,
 ) -> Result<ExportReport, ExportError> {
+    if let ExportFormat::Bricks(params) = format {
+        if res.is_some() {
+            return Err(ExportError::ResolutionForUniform);
+        }
+        let AnyVolume::Adaptive(oct) = vol else { return Err(ExportError::BricksNeedOctree(vol.kind())) };
+        let (bricks, report) = crate::bricks::bricks_from_octree(oct, &params)?;
+        crate::io::bricks::write_bricks(out, &bricks)?;
+        return Ok(ExportReport { bricks: Some(report), ..ExportReport::default() });
+    }
     match vol {
+        AnyVolume::Bricks(_) => Err(ExportError::Volume(VolumeError::InvalidData(
+            "a brick volume is already an engine export; export the octree it was made from".into(),
+        ))),
         AnyVolume::Uniform(v) | AnyVolume::Gradient(GradientField { volume: v, .. }) => {
             if res.is_some() {
                 return Err(ExportError::ResolutionForUniform);
@@ -242,6 +264,9 @@ fn write_uniform(
             // Both engines interpolate their probes plainly.
             report.dropped_mask_nodes = vol.validity().map(ValidityMask::invalid_count);
             report.dropped_reach_nodes = vol.reach().map(NodeReach::limited_count);
+        }
+        ExportFormat::Bricks(_) => {
+            return Err(VolumeError::InvalidData("the brick export resamples an adaptive volume".into()));
         }
         ExportFormat::Json => {
             let file = crate::info::described_file_name(source);

@@ -11,6 +11,7 @@
 use std::path::Path;
 
 use crate::adaptive::AdaptiveVolume;
+use crate::bricks::BrickVolume;
 use crate::error::VolumeError;
 use crate::gradient::{GradientLookup, VolumeGradients};
 use crate::grid::GridSpec;
@@ -134,6 +135,36 @@ impl VolumeField for AdaptiveVolume {
     }
 }
 
+impl VolumeField for BrickVolume {
+    fn grid(&self) -> &GridSpec {
+        self.spec()
+    }
+    fn coeffs(&self) -> usize {
+        BrickVolume::coeffs(self)
+    }
+    fn metadata(&self) -> &BakeMetadata {
+        BrickVolume::metadata(self)
+    }
+    /// The brick lookup's f32 fast path ([`BrickVolume::coeffs_at`]).
+    fn coeffs_at(&self, p: [f64; 3]) -> Result<Vec<f64>, VolumeError> {
+        let mut out = vec![0.0f32; self.coeffs() * 3];
+        BrickVolume::coeffs_at(self, f32x3(p), &mut out);
+        Ok(out.into_iter().map(f64::from).collect())
+    }
+    /// The brick lookup's f32 fast path ([`BrickVolume::irradiance`]).
+    fn irradiance(&self, p: [f64; 3], n: [f64; 3]) -> Result<[f64; 3], VolumeError> {
+        Ok(BrickVolume::irradiance(self, f32x3(p), f32x3(n)).map(f64::from))
+    }
+    /// The brick lookup's f32 fast path ([`BrickVolume::radiance`]).
+    fn radiance(&self, p: [f64; 3], dir: [f64; 3]) -> Result<[f64; 3], VolumeError> {
+        Ok(BrickVolume::radiance(self, f32x3(p), f32x3(dir)).map(f64::from))
+    }
+    /// The probes in the atlas plus the indirection texture.
+    fn memory_bytes(&self) -> usize {
+        self.probe_bytes() + self.indirection_bytes()
+    }
+}
+
 /// A uniform grid with per-node gradients, read through one of \[Oat05\]'s lookups.
 #[derive(Clone, Debug)]
 pub struct GradientField {
@@ -178,6 +209,8 @@ pub enum AnyVolume {
     Gradient(GradientField),
     /// An adaptive octree.
     Adaptive(AdaptiveVolume),
+    /// An octree resampled into bricks (the brick export, [`crate::io::bricks`]).
+    Bricks(BrickVolume),
 }
 
 /// The lookup [`open`] gives a file with gradients: tricubic Hermite, the smoothest of
@@ -185,13 +218,14 @@ pub enum AnyVolume {
 pub const GRADIENT_FILE_LOOKUP: GradientLookup = GradientLookup::Hermite;
 
 impl AnyVolume {
-    /// The kind as a word: `uniform`, `gradient`, `adaptive`.
+    /// The kind as a word: `uniform`, `gradient`, `adaptive`, `bricks`.
     #[must_use]
     pub fn kind(&self) -> &'static str {
         match self {
             Self::Uniform(_) => "uniform",
             Self::Gradient(_) => "gradient",
             Self::Adaptive(_) => "adaptive",
+            Self::Bricks(_) => "bricks",
         }
     }
 
@@ -202,6 +236,7 @@ impl AnyVolume {
             Self::Uniform(v) => v,
             Self::Gradient(v) => v,
             Self::Adaptive(v) => v,
+            Self::Bricks(v) => v,
         }
     }
 
@@ -213,23 +248,24 @@ impl AnyVolume {
             Self::Uniform(v) => v,
             Self::Gradient(g) => &g.volume,
             Self::Adaptive(v) => v,
+            Self::Bricks(v) => v,
         }
     }
 
-    /// The uniform grid of a uniform or gradient file (`None` for an octree).
+    /// The uniform grid of a uniform or gradient file (`None` for an octree or bricks).
     #[must_use]
     pub fn uniform(&self) -> Option<&IrradianceVolume> {
         match self {
             Self::Uniform(v) => Some(v),
             Self::Gradient(g) => Some(&g.volume),
-            Self::Adaptive(_) => None,
+            Self::Adaptive(_) | Self::Bricks(_) => None,
         }
     }
 }
 
 /// Reads a volume file of any kind. `.ktx2` and `.dds` files (lightvol's engine exports,
 /// `crate::io::ktx2`, `crate::io::three`, `crate::io::dds`) are uniform grids, returned in
-/// the internal frame like the native file; anything else is read as a native
+/// the internal frame like the native file, or a brick atlas (`crate::io::bricks`); anything else is read as a native
 /// EXR file: an adaptive octree (`crate::io::adaptive::is_adaptive_exr`), a uniform grid with
 /// gradients, or a plain uniform grid. A file whose header cannot be read as an octree's is
 /// read as a uniform grid, so that the uniform reader names the problem.
@@ -240,7 +276,9 @@ pub fn open(path: &Path) -> Result<AnyVolume, VolumeError> {
     match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
         Some("ktx2") => {
             let bytes = crate::io::util::read_bounded(path)?;
-            return if crate::io::three::is_three(&bytes) {
+            return if crate::io::bricks::is_bricks(&bytes) {
+                crate::io::bricks::read_bricks(path).map(AnyVolume::Bricks)
+            } else if crate::io::three::is_three(&bytes) {
                 crate::io::three::three_from_bytes(&bytes).map(|(_, v)| AnyVolume::Uniform(v))
             } else {
                 crate::io::ktx2::ktx2_from_bytes(&bytes).map(AnyVolume::Uniform)

@@ -79,13 +79,33 @@ pub fn octree_json(vol: &AdaptiveVolume) -> Value {
     })
 }
 
-/// The description of `vol`, read from `path` (`"kind"`: `uniform` or `adaptive`).
+/// The description of a brick volume: its layout and memory ([`crate::bricks`]).
+fn describe_bricks(vol: &crate::bricks::BrickVolume, path: &Path) -> Value {
+    json!({
+        "kind": "bricks",
+        "file": described_file_name(path),
+        "coeffs": vol.coeffs(),
+        "brick_cells": vol.brick_cells(),
+        "brick_probes": vol.brick_probes(),
+        "finest_level": vol.finest_level(),
+        "bricks": vol.bricks().len(),
+        "bricks_per_level": vol.bricks_per_level(),
+        "stream_cells": vol.stream_cells().len(),
+        "indirection_res": vol.indirection_res(),
+        "probe_bytes": vol.probe_bytes(),
+        "indirection_bytes": vol.indirection_bytes(),
+        "metadata": vol.metadata(),
+    })
+}
+
+/// The description of `vol`, read from `path` (`"kind"`: `uniform`, `adaptive` or `bricks`).
 ///
 /// # Errors
 /// [`VolumeError`] when the grid cannot be expressed in the file's frame.
 pub fn describe(vol: &AnyVolume, path: &Path) -> Result<Value, VolumeError> {
     let (vol, grads) = match vol {
         AnyVolume::Adaptive(vol) => return describe_adaptive(vol, path),
+        AnyVolume::Bricks(vol) => return Ok(describe_bricks(vol, path)),
         AnyVolume::Uniform(vol) => (vol, None),
         AnyVolume::Gradient(g) => (&g.volume, Some(&g.gradients)),
     };

@@ -2,6 +2,7 @@
 
 pub mod accumulator;
 pub mod adaptive;
+pub mod bricks;
 pub mod checksum;
 pub mod encode;
 pub mod engine_lookup;

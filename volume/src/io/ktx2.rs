@@ -35,9 +35,20 @@ pub const KTX2_GROUPS_KEY: &str = "lightvol.light_groups";
 pub const KTX2_WRITER: &str = concat!("lightvol-volume ", env!("CARGO_PKG_VERSION"));
 use crate::slab::TEXEL_BYTES;
 
-/// Bytes per texel of the uncompressed formats lightvol writes (RGBA16F 8, RGB9E5 4).
+/// Bytes per texel of the uncompressed formats lightvol writes (RGBA16F 8, RGB9E5 and the
+/// brick indirection's RGBA8 unsigned 4).
 pub(crate) fn texel_bytes(format: Format) -> usize {
-    if format == Format::E5B9G9R9_UFLOAT_PACK32 { 4 } else { TEXEL_BYTES }
+    if format == Format::E5B9G9R9_UFLOAT_PACK32 || format == Format::R8G8B8A8_UINT { 4 } else { TEXEL_BYTES }
+}
+
+/// The KTX2 `typeSize` of the formats lightvol writes (the size of one component, or of
+/// the packed word).
+fn type_size(format: Format) -> u32 {
+    match format {
+        Format::E5B9G9R9_UFLOAT_PACK32 => 4,
+        Format::R8G8B8A8_UINT => 1,
+        _ => 2,
+    }
 }
 
 /// Assembles a single-level, uncompressed RGBA16F 3D KTX2 file. `texels` is the level data
@@ -79,7 +90,7 @@ pub(crate) fn parse_ktx2(
             format!("pixel format {:?} (expected one of {formats:?})", h.format),
         ));
     };
-    let type_size = if format == Format::E5B9G9R9_UFLOAT_PACK32 { 4 } else { 2 };
+    let type_size = type_size(format);
     if h.type_size != type_size {
         return Err(bad(format!("type size {} ({format:?} needs {type_size})", h.type_size)));
     }

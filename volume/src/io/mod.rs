@@ -6,6 +6,7 @@
 pub mod accumulator;
 pub mod adaptive;
 pub mod bevy;
+pub mod bricks;
 pub mod dds;
 pub mod exr;
 pub mod groups;
