@@ -1,11 +1,13 @@
 //! `lightvol shader`: the sampling code for engines (lightvol-gpu's `engine_shader`), in
-//! WGSL, HLSL or GLSL, for the KTX2 export's texture or the native f32 layout.
+//! WGSL, HLSL or GLSL, for the KTX2 export's texture, the native f32 layout or the brick
+//! export (lightvol-gpu's `brick_shader`).
 
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::Context;
 use clap::{Args, ValueEnum};
+use lightvol_gpu::brick_shader::brick_shader_source;
 use lightvol_gpu::engine_shader::{Language, Layout, shader_source};
 
 /// `--lang`.
@@ -26,6 +28,9 @@ pub(crate) enum LayoutArg {
     Ktx2,
     /// The native `[node][coeff][rgb]` f32 array, in a storage buffer.
     Native,
+    /// The brick export (`export --format bricks`): the RGBA16F atlas and its RGBA8
+    /// indirection texture.
+    Bricks,
 }
 
 /// `lightvol shader`.
@@ -49,11 +54,12 @@ pub(crate) fn run(args: &ShaderArgs) -> anyhow::Result<ExitCode> {
         LangArg::Hlsl => Language::Hlsl,
         LangArg::Glsl => Language::Glsl,
     };
-    let layout = match args.layout {
-        LayoutArg::Ktx2 => Layout::Ktx2,
-        LayoutArg::Native => Layout::Native,
-    };
-    let src = shader_source(lang, layout).context("generating the sampling code")?;
+    let src = match args.layout {
+        LayoutArg::Ktx2 => shader_source(lang, Layout::Ktx2),
+        LayoutArg::Native => shader_source(lang, Layout::Native),
+        LayoutArg::Bricks => brick_shader_source(lang),
+    }
+    .context("generating the sampling code")?;
     match &args.output {
         None => print!("{src}"),
         Some(p) => {

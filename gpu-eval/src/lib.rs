@@ -4,6 +4,7 @@
     reason = "Vulkan through ash is FFI: every unsafe block carries a SAFETY comment and every unsafe fn a Safety section"
 )]
 
+pub mod brick_shader;
 pub mod buffer;
 pub mod context;
 pub mod engine_shader;

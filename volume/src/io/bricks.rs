@@ -174,14 +174,14 @@ fn slot_of(slots: [u32; 3], i: usize) -> [u32; 3] {
     [i % slots[0], (i / slots[0]) % slots[1], i / (slots[0] * slots[1])]
 }
 
-/// The atlas and indirection textures of `vol`, as KTX2 bytes.
+/// The atlas's texels as the KTX2 level stores them (RGBA16F, little-endian; module docs),
+/// its dimensions, and the indirection's texels (RGBA8 unsigned): what an engine uploads.
 ///
 /// # Errors
 /// An atlas with more than 256 slots along an axis (the indirection's 8-bit slot
-/// coordinates) or a texture dimension beyond u32.
-pub fn bricks_to_bytes(vol: &BrickVolume) -> Result<(Vec<u8>, Vec<u8>), VolumeError> {
-    let sidecar = describe(vol);
-    let slots = sidecar.atlas_slots;
+/// coordinates).
+pub fn brick_texels(vol: &BrickVolume) -> Result<([u32; 3], Vec<u8>, Vec<u8>), VolumeError> {
+    let slots = atlas_slots(vol.bricks().len());
     if slots.iter().any(|&s| s > 256) {
         return Err(VolumeError::InvalidData(format!(
             "{} bricks need {slots:?} atlas slots, more than the 256 per axis the indirection texture addresses; raise the brick size or lower the finest level",
@@ -217,7 +217,21 @@ pub fn bricks_to_bytes(vol: &BrickVolume) -> Result<(Vec<u8>, Vec<u8>), VolumeEr
             }
         }
     }
-    let json = serde_json::to_string(&sidecar).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
+    let mut ind = Vec::with_capacity(vol.indirection().len() * INDIRECTION_TEXEL_BYTES);
+    for &b in vol.indirection() {
+        let s = slot_of(slots, b as usize);
+        ind.extend([s[0] as u8, s[1] as u8, s[2] as u8, vol.bricks()[b as usize].level as u8]);
+    }
+    Ok((dims, atlas, ind))
+}
+
+/// The atlas and indirection textures of `vol`, as KTX2 files in memory.
+///
+/// # Errors
+/// As [`brick_texels`].
+pub fn bricks_to_bytes(vol: &BrickVolume) -> Result<(Vec<u8>, Vec<u8>), VolumeError> {
+    let (dims, atlas, ind) = brick_texels(vol)?;
+    let json = serde_json::to_string(&describe(vol)).map_err(|e| VolumeError::InvalidData(e.to_string()))?;
     let atlas = lightvol_core::ktx2::container_bytes(
         Format::R16G16B16A16_SFLOAT,
         dims,
@@ -225,11 +239,6 @@ pub fn bricks_to_bytes(vol: &BrickVolume) -> Result<(Vec<u8>, Vec<u8>), VolumeEr
         &[("KTXwriter", KTX2_WRITER), (BRICKS_KEY, &json)],
         8,
     );
-    let mut ind = Vec::with_capacity(vol.indirection().len() * INDIRECTION_TEXEL_BYTES);
-    for &b in vol.indirection() {
-        let s = slot_of(slots, b as usize);
-        ind.extend([s[0] as u8, s[1] as u8, s[2] as u8, vol.bricks()[b as usize].level as u8]);
-    }
     let indirection = lightvol_core::ktx2::container_bytes(
         Format::R8G8B8A8_UINT,
         vol.indirection_res(),
@@ -309,7 +318,10 @@ pub fn bricks_from_bytes(bytes: &[u8]) -> Result<BrickVolume, VolumeError> {
             Some(m) => g.with_placement(Placement::new(m)?),
             None => g,
         };
-        if !s.bricks.len().is_multiple_of(4) || s.coeffs > 16 || !crate::bricks::BRICK_CELLS.contains(&s.brick_cells) {
+        if !s.bricks.len().is_multiple_of(4)
+            || s.coeffs > 16
+            || !crate::bricks::BRICK_CELLS.contains(&s.brick_cells)
+        {
             return Err(VolumeError::malformed(f, "brick list, coefficient count or brick size"));
         }
         let bricks: Vec<Brick> =
