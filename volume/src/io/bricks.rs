@@ -174,13 +174,16 @@ fn slot_of(slots: [u32; 3], i: usize) -> [u32; 3] {
     [i % slots[0], (i / slots[0]) % slots[1], i / (slots[0] * slots[1])]
 }
 
+/// `(atlas dimensions, atlas texels, indirection texels)` ([`brick_texels`]).
+pub type BrickTexels = ([u32; 3], Vec<u8>, Vec<u8>);
+
 /// The atlas's texels as the KTX2 level stores them (RGBA16F, little-endian; module docs),
 /// its dimensions, and the indirection's texels (RGBA8 unsigned): what an engine uploads.
 ///
 /// # Errors
 /// An atlas with more than 256 slots along an axis (the indirection's 8-bit slot
 /// coordinates).
-pub fn brick_texels(vol: &BrickVolume) -> Result<([u32; 3], Vec<u8>, Vec<u8>), VolumeError> {
+pub fn brick_texels(vol: &BrickVolume) -> Result<BrickTexels, VolumeError> {
     let slots = atlas_slots(vol.bricks().len());
     if slots.iter().any(|&s| s > 256) {
         return Err(VolumeError::InvalidData(format!(
