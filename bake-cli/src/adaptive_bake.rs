@@ -44,12 +44,21 @@ fn load_inputs(files: &[PathBuf], hash: &str, method: &str) -> anyhow::Result<Sh
 pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let a = &args.adaptive;
     let coeffs = args.grid.coeffs();
-    let adaptive = a.settings(coeffs)?;
-    let request = request(
+    let mut adaptive = a.settings(coeffs)?;
+    let mut request = request(
         args,
-        Some(AdaptiveRequest { settings: adaptive, level: a.level, from_shards: !a.from_shards.is_empty() }),
+        Some(AdaptiveRequest {
+            settings: adaptive.clone(),
+            level: a.level,
+            from_shards: !a.from_shards.is_empty(),
+        }),
     )?;
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
+    // The placement boxes are given in the scene file's frame.
+    adaptive.regions = a.regions(adaptive.max_level, loaded.frame)?;
+    if let Some(r) = request.adaptive.as_mut() {
+        r.settings.regions.clone_from(&adaptive.regions);
+    }
     let grid = args.grid.grid(&loaded, request.records_node_reach())?;
     let settings = BakeSettings { shard: (0, 1), ..request.settings() };
     let ts = request.transport;

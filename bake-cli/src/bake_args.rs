@@ -9,6 +9,8 @@ use lightvol_sampler::adaptive::{AdaptiveSettings, node_budget_bytes};
 use lightvol_sampler::method::BakeMethod;
 use lightvol_sampler::request::{AdaptiveRequest, BakeRequest, Conflict, GradientChoice, RequestError};
 use lightvol_sampler::target::TargetSettings;
+use lightvol_volume::up_axis::UpAxis;
+use lightvol_volume::{OctreeRegion, RegionKind};
 
 use crate::gradient_args::GradientEstimatorArg;
 use crate::setup::{GridArgs, SampleArgs, SceneArgs, shard_option};
@@ -165,6 +167,18 @@ pub(crate) struct AdaptiveArgs {
     /// N × (3·coeffs + 1) × 4 bytes, the bytes of N uniform nodes with their weights.
     #[arg(long, value_name = "N")]
     node_budget: Option<u64>,
+    /// A density volume `X0,Y0,Z0,X1,Y1,Z1[:LEVEL]` (a box in the scene file's frame):
+    /// cells that overlap it are split down to LEVEL (default --max-level) and keep their
+    /// nodes. Repeatable.
+    #[arg(long, value_name = "BOX[:LEVEL]", allow_hyphen_values = true)]
+    density: Vec<String>,
+    /// An exclusion volume `X0,Y0,Z0,X1,Y1,Z1`: cells inside it are not split. Repeatable.
+    #[arg(long, value_name = "BOX", allow_hyphen_values = true)]
+    exclude: Vec<String>,
+    /// Where the player can go, `X0,Y0,Z0,X1,Y1,Z1`: with one or more, only cells that
+    /// overlap one are split (density volumes still apply). Repeatable.
+    #[arg(long, value_name = "BOX", allow_hyphen_values = true)]
+    walkable: Vec<String>,
     /// With --shard: bake shard K/N of refinement level L (1..=--max-level) from the
     /// complete shard sets of the levels below (--from-shards), writing `<stem>.lvref`.
     /// Without --level, --shard bakes level 0 (the base grid) and writes `<stem>.lvacc`.
@@ -204,6 +218,9 @@ impl AdaptiveArgs {
             ("--cull-tolerance", self.cull_tolerance.is_some()),
             ("--node-budget", self.node_budget.is_some()),
             ("--level", self.level.is_some()),
+            ("--density", !self.density.is_empty()),
+            ("--exclude", !self.exclude.is_empty()),
+            ("--walkable", !self.walkable.is_empty()),
             ("--from-shards", !self.from_shards.is_empty()),
         ];
         if self.adaptive { Vec::new() } else { given.iter().filter(|g| g.1).map(|g| g.0).collect() }
@@ -249,9 +266,59 @@ impl AdaptiveArgs {
             depth_rays,
             cull_tolerance,
             memory_budget,
+            regions: Vec::new(),
         };
         s.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+        // Checked now (before the scene loads), placed in the file's frame once it has.
+        self.regions(max_level, UpAxis::INTERNAL)?;
         Ok(s)
+    }
+
+    /// The placement boxes (`--density`, `--exclude`, `--walkable`), given in the frame
+    /// `up` of the scene file, in lightvol's internal frame.
+    pub(crate) fn regions(&self, max_level: u32, up: UpAxis) -> anyhow::Result<Vec<OctreeRegion>> {
+        let mut out = Vec::new();
+        let parse_box = |name: &str, s: &str| -> anyhow::Result<([f64; 3], [f64; 3])> {
+            let v: Vec<f64> = s
+                .split(',')
+                .map(|t| t.trim().parse::<f64>().with_context(|| format!("{name}: '{t}' is not a number")))
+                .collect::<anyhow::Result<_>>()?;
+            let [x0, y0, z0, x1, y1, z1] = v[..] else {
+                bail!("{name}: expected X0,Y0,Z0,X1,Y1,Z1 (six numbers), got '{s}'")
+            };
+            let (lo, hi) = ([x0, y0, z0], [x1, y1, z1]);
+            if lo.iter().chain(&hi).any(|x| !x.is_finite()) || (0..3).any(|a| lo[a] >= hi[a]) {
+                bail!("{name}: '{s}' is not a box (finite, each minimum below its maximum)");
+            }
+            Ok(up.box_to_world(lo, hi))
+        };
+        for d in &self.density {
+            let (b, level) = match d.split_once(':') {
+                Some((b, l)) => {
+                    let l: u32 = l
+                        .trim()
+                        .parse()
+                        .with_context(|| format!("--density: level '{l}' is not a whole number"))?;
+                    if l == 0 || l > max_level {
+                        bail!("--density: level {l} must be between 1 and --max-level {max_level}");
+                    }
+                    (b, l)
+                }
+                None => (d.as_str(), max_level),
+            };
+            let (min, max) = parse_box("--density", b)?;
+            out.push(OctreeRegion { kind: RegionKind::Density(level), min, max });
+        }
+        for (name, list, kind) in [
+            ("--exclude", &self.exclude, RegionKind::Exclude),
+            ("--walkable", &self.walkable, RegionKind::Walkable),
+        ] {
+            for b in list {
+                let (min, max) = parse_box(name, b)?;
+                out.push(OctreeRegion { kind, min, max });
+            }
+        }
+        Ok(out)
     }
 }
 

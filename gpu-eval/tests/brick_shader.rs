@@ -37,7 +37,9 @@ fn field(x: [f64; 3], q: usize) -> f64 {
     let c = [1.2, 0.7, 3.1];
     let r2: f64 = (0..3).map(|a| (x[a] - c[a]).powi(2)).sum();
     let smooth = 1.0 + 0.3 * (x[0] * 1.3).sin() + 0.2 * x[2];
-    (smooth + 2.0 * (-r2 / 0.05).exp()) * (1.0 + 0.05 * q as f64) * if q.is_multiple_of(3) { 1.0 } else { 0.3 }
+    (smooth + 2.0 * (-r2 / 0.05).exp())
+        * (1.0 + 0.05 * q as f64)
+        * if q.is_multiple_of(3) { 1.0 } else { 0.3 }
 }
 
 fn octree(coeffs: usize) -> AdaptiveVolume {

@@ -115,7 +115,7 @@ pub enum CheckpointError {
 /// very same bake resumes it.
 #[must_use]
 pub fn checkpoint_key(bake_key: &str, request: &BakeRequest, transport: &Transport<'_>) -> String {
-    let whole = BakeRequest { shard: None, keep_accumulator: false, ..*request };
+    let whole = BakeRequest { shard: None, keep_accumulator: false, ..request.clone() };
     let groups = transport.groups().map(|g| g.names().join(",")).unwrap_or_default();
     let settings = lightvol_core::hash::fnv1a(format!("{whole:?}|{groups}").as_bytes());
     format!("{bake_key} settings={settings:016x}")
@@ -200,7 +200,7 @@ pub fn bake_checkpointed(
         if state.done.contains(&k) {
             continue;
         }
-        let piece = BakeRequest { shard: Some((k, pieces)), keep_accumulator: false, ..*request };
+        let piece = BakeRequest { shard: Some((k, pieces)), keep_accumulator: false, ..request.clone() };
         let bake = bake_uniform(transport, scene, grid, &piece, provenance, control)
             .map_err(|e| CheckpointError::Bake(k, Box::new(e)))?;
         rays_this_run.add(&bake.output.stats.rays);

@@ -506,7 +506,7 @@ mod tests {
         let t = Transport::new(&loaded.scene, &tracer, Default::default());
         let settings = AdaptiveSettings { max_level: 1, ..AdaptiveSettings::default() };
         let request = BakeRequest {
-            adaptive: Some(AdaptiveRequest { settings, level: None, from_shards: false }),
+            adaptive: Some(AdaptiveRequest { settings: settings.clone(), level: None, from_shards: false }),
             ..BakeRequest::new(BakeMethod::Grid(Method::Doi), samples(4))
         };
         let (vol, stats) =

@@ -38,7 +38,7 @@ pub enum GradientChoice {
 }
 
 /// The octree part of a request (Oat 2005, "Adaptive Octree Subdivision").
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct AdaptiveRequest {
     /// Levels, heuristics and culling.
     pub settings: AdaptiveSettings,
@@ -50,7 +50,7 @@ pub struct AdaptiveRequest {
 }
 
 /// A whole volume bake.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct BakeRequest {
     /// A grid method or an engine baseline.
     pub method: BakeMethod,
@@ -187,7 +187,7 @@ impl BakeRequest {
             bounces: self.transport.bounces,
             russian_roulette: self.transport.russian_roulette,
             direct_light: self.transport.direct.name().to_owned(),
-            octree: self.adaptive.map(|a| a.settings),
+            octree: self.adaptive.as_ref().map(|a| a.settings.clone()),
             target: self
                 .effective_target()
                 .map(|t| TargetRecord { lookup: t.lookup.name().to_owned(), lambda: t.lambda }),
@@ -202,7 +202,7 @@ impl BakeRequest {
     /// them and the octree's assembly recognises them.
     #[must_use]
     pub fn file_label(&self) -> String {
-        match (self.adaptive, self.shard) {
+        match (&self.adaptive, self.shard) {
             (Some(AdaptiveRequest { level: None | Some(0), .. }), Some(_)) => base_label(&self.label()),
             _ => self.label(),
         }
@@ -212,7 +212,7 @@ impl BakeRequest {
     /// [`Self::label`]: every level and shard of one bake shares it).
     #[must_use]
     pub fn key(&self, scene: &Scene, grid: &GridSpec) -> String {
-        let adaptive = self.adaptive.map(|a| a.settings);
+        let adaptive = self.adaptive.as_ref().map(|a| a.settings.clone());
         provenance::bake_key(
             scene,
             grid,

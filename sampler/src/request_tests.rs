@@ -119,9 +119,12 @@ fn incompatible_requests_are_refused() {
     );
     let adaptive =
         Some(AdaptiveRequest { settings: AdaptiveSettings::default(), level: Some(1), from_shards: false });
-    assert_eq!(err(BakeRequest { adaptive, ..grid(Method::Doi) }), RequestError::LevelNeedsShard);
     assert_eq!(
-        err(BakeRequest { adaptive, shard: Some((0, 2)), ..grid(Method::Doi) }),
+        err(BakeRequest { adaptive: adaptive.clone(), ..grid(Method::Doi) }),
+        RequestError::LevelNeedsShard
+    );
+    assert_eq!(
+        err(BakeRequest { adaptive: adaptive.clone(), shard: Some((0, 2)), ..grid(Method::Doi) }),
         RequestError::LevelNeedsShards(1)
     );
     assert_eq!(

@@ -257,3 +257,74 @@ fn city_adaptive_beats_uniform_at_equal_memory() {
     assert!(rmse("adaptive") < rmse("doi"), "adaptive {} vs doi {}", rmse("adaptive"), rmse("doi"));
     assert_eq!(m["adaptive"]["base_res"], serde_json::json!([9, 9, 4]));
 }
+
+/// The brick export through the CLI: `export --format bricks` writes the atlas, the
+/// indirection texture and the description, `open` reads back the bricks the library makes
+/// of the octree (bit for bit); a probe budget drops bricks and keeps within it, a budget
+/// below the coarsest bricks is refused in one line with nothing written, and a uniform
+/// volume is refused. A density box given on the command line (in the scene file's frame)
+/// adds refinement.
+#[test]
+fn brick_export_budget_and_density_through_the_cli() {
+    use lightvol_volume::AnyVolume;
+    use lightvol_volume::bricks::{BrickParams, bricks_from_octree};
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let vol_path = d.join("city.exr");
+    let mut a = vec!["bake", "builtin:city", "-o", s(&vol_path)];
+    a.extend_from_slice(&BAKE);
+    ok(&a);
+    let oct = read_adaptive_exr(&vol_path).unwrap();
+    let out = d.join("city.ktx2");
+    ok(&["export", s(&vol_path), "--format", "bricks", "-o", s(&out)]);
+    for f in ["city.ktx2", "city.indirection.ktx2", "city.ktx2.json"] {
+        assert!(d.join(f).is_file(), "{f}");
+    }
+    let AnyVolume::Bricks(b) = lightvol_volume::open(&out).unwrap() else { panic!("not bricks") };
+    let (want, report) = bricks_from_octree(&oct, &BrickParams::default()).unwrap();
+    assert!(b == want);
+    assert_eq!(report.dropped_bricks, 0);
+    // Half the probe memory.
+    let mib = b.probe_bytes() as f64 / 2.0 / 1048576.0;
+    let half = d.join("half.ktx2");
+    ok(&[
+        "export",
+        s(&vol_path),
+        "--format",
+        "bricks",
+        "--max-probe-memory",
+        &format!("{mib}"),
+        "-o",
+        s(&half),
+    ]);
+    let AnyVolume::Bricks(h) = lightvol_volume::open(&half).unwrap() else { panic!("not bricks") };
+    assert!(h.bricks().len() < b.bricks().len() && h.probe_bytes() as f64 <= mib * 1048576.0);
+    // Below the coarsest bricks: one line, no files.
+    let tiny = d.join("tiny.ktx2");
+    let err =
+        run(&["export", s(&vol_path), "--format", "bricks", "--max-probe-memory", "0.0001", "-o", s(&tiny)])
+            .unwrap_err();
+    assert!(err.contains("below") && !err.contains('\n'), "{err}");
+    assert!(!tiny.exists() && !d.join("tiny.indirection.ktx2").exists());
+    // Options that belong to the brick export, and volumes it cannot take.
+    let err =
+        run(&["export", s(&vol_path), "--format", "ktx2", "--brick-cells", "3", "-o", s(&tiny)]).unwrap_err();
+    assert!(err.contains("--format bricks"), "{err}");
+    let uniform = d.join("u.exr");
+    ok(&["bake", "builtin:maze", "-o", s(&uniform), "--samples", "4", "--res", "4,4,3", "--quiet"]);
+    let err = run(&["export", s(&uniform), "--format", "bricks", "-o", s(&tiny)]).unwrap_err();
+    assert!(err.contains("adaptive"), "{err}");
+    // A density box over the city's open sky (file frame: +Y up) adds stored nodes.
+    let dense = d.join("dense.exr");
+    let mut a = vec!["bake", "builtin:city", "-o", s(&dense), "--density", "-10,6,-10,0,9,0:2"];
+    a.extend_from_slice(&BAKE);
+    ok(&a);
+    let v = read_adaptive_exr(&dense).unwrap();
+    assert!(v.stored_nodes() > oct.stored_nodes(), "{} vs {}", v.stored_nodes(), oct.stored_nodes());
+    for bad in ["1,2,3", "0,0,0,1,1,1:9", "0,0,0,-1,1,1", "a,0,0,1,1,1"] {
+        let mut a = vec!["bake", "builtin:city", "-o", s(&dense), "--density", bad];
+        a.extend_from_slice(&BAKE);
+        let err = run(&a).unwrap_err();
+        assert!(err.contains("--density") && !err.contains('\n'), "{bad}: {err}");
+    }
+}

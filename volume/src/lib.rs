@@ -38,7 +38,9 @@ pub use fill::FillReport;
 pub use gradient::{GradientLookup, VolumeGradients};
 pub use grid::{GridSpec, Placement};
 pub use light_groups::GroupedVolume;
-pub use metadata::{BakeMetadata, BakeRecord, FitRecord, NoiseRecord, TargetRecord};
+pub use metadata::{
+    BakeMetadata, BakeRecord, FitRecord, NoiseRecord, OctreeRegion, RegionKind, TargetRecord,
+};
 pub use reach::NodeReach;
 pub use validity::ValidityMask;
 pub use volume::IrradianceVolume;

@@ -132,7 +132,7 @@ impl Default for BakeMetadata {
 
 /// Settings of an adaptive bake (\[Oat05\], "Adaptive Subdivision": "Specify a Min and Max
 /// level of subdivision", "Allow thresholds to be specified for each subdivision heuristic").
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OctreeSettings {
     /// Every cell of the levels below is split.
     pub min_level: u32,
@@ -151,6 +151,36 @@ pub struct OctreeSettings {
     pub cull_tolerance: f64,
     /// Cap on the volume's `memory_bytes` (bytes).
     pub memory_budget: Option<usize>,
+    /// Where the user wants more, fewer or no refinement: boxes in lightvol's internal frame
+    /// (world units), applied in order after the heuristics ([`OctreeRegion`]).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub regions: Vec<OctreeRegion>,
+}
+
+/// What a placement box asks of an adaptive bake.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RegionKind {
+    /// A density volume: every cell that overlaps the box is split down to this level
+    /// (at most the bake's finest), and the nodes those splits create are never culled.
+    Density(u32),
+    /// An exclusion volume: cells inside the box are not split (the heuristics are ignored
+    /// there; a density volume still applies).
+    Exclude,
+    /// Where the player can go: when there are walkable boxes, only cells that overlap one
+    /// are split (density volumes still apply elsewhere).
+    Walkable,
+}
+
+/// A placement box of an adaptive bake ([`OctreeSettings::regions`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OctreeRegion {
+    /// What the box asks for.
+    pub kind: RegionKind,
+    /// The box's minimum corner (internal frame, world units).
+    pub min: [f64; 3],
+    /// The box's maximum corner.
+    pub max: [f64; 3],
 }
 
 impl Default for OctreeSettings {
@@ -164,6 +194,7 @@ impl Default for OctreeSettings {
             depth_rays: 32,
             cull_tolerance: 0.01,
             memory_budget: None,
+            regions: Vec::new(),
         }
     }
 }

@@ -5,7 +5,8 @@
 //! callbacks.
 //!
 //! - `score(&Candidates)`: for each leaf cell of the current level, a score; a cell with
-//!   score `≥ 1` asks to be split. The caller evaluates its heuristics there (lightvol-
+//!   score `≥ 1` asks to be split, and a score of `+∞` forces the split and keeps the nodes
+//!   it creates from culling, as `min_level` does (a density volume). The caller evaluates its heuristics there (lightvol-
 //!   sampler: gradient, geometry inside the cell, harmonic mean depth); the built-in
 //!   [`Candidates::corner_change`] measures the change of the field across the cell.
 //! - `bake(level, nodes)`: the baked values of the listed nodes of `level` (sorted packed-key
@@ -230,6 +231,8 @@ pub fn build_adaptive<E>(
         stats.clone(),
     )?;
     let mut baked: Vec<Baked> = vec![Vec::new(); ml as usize];
+    // Per level `l + 1`: the nodes created by forced splits of level `l`.
+    let mut forced: Vec<BTreeSet<u64>> = vec![BTreeSet::new(); ml as usize];
 
     for l in 0..ml {
         let grid = level_grid(&spec0, l)?;
@@ -270,6 +273,11 @@ pub fn build_adaptive<E>(
             .iter()
             .flat_map(|&key| child_nodes(crate::adaptive::unpack_key(key)).map(pack_key))
             .collect();
+        // Nodes of forced splits (score +∞) are kept whatever their surplus.
+        forced[l as usize] = (0..cand.len())
+            .filter(|&i| scores[i] == f64::INFINITY)
+            .flat_map(|i| child_nodes(cand[i]).map(pack_key))
+            .collect();
         let nodes: Vec<[u32; 3]> = new.iter().map(|&key| crate::adaptive::unpack_key(key)).collect();
         let level_baked: Baked = if nodes.is_empty() {
             Vec::new()
@@ -306,7 +314,14 @@ pub fn build_adaptive<E>(
         vol.split[l as usize] = split_l;
         // Surpluses of the new level at the requested tolerance; the field they give
         // feeds the next level's candidates.
-        let (table, values) = level_surpluses(&vol, l + 1, &level_baked, params.cull_tolerance * scale, 0.0);
+        let (table, values) = level_surpluses(
+            &vol,
+            l + 1,
+            &level_baked,
+            &forced[l as usize],
+            params.cull_tolerance * scale,
+            0.0,
+        );
         vol.tables[l as usize] = table;
         field = values;
         baked[l as usize] = level_baked;
@@ -319,7 +334,8 @@ pub fn build_adaptive<E>(
     }
     let mut params = *params;
     if let Some(b) = params.memory_budget {
-        params.budget_tolerance = fit_budget(&mut vol, &baked, b, params.cull_tolerance * scale)? / scale;
+        params.budget_tolerance =
+            fit_budget(&mut vol, &baked, &forced, b, params.cull_tolerance * scale)? / scale;
     }
     for l in 1..=ml as usize {
         let st = &mut stats[l];
@@ -340,12 +356,13 @@ fn l2_weight(level: u32) -> f64 {
 
 /// The surplus table of `level` from its baked values, against the tables of the coarser
 /// levels already in `vol`, and the field values at the level's nodes. A node is culled
-/// (never at or below `min_level`) when `max |s| ≤ cull_abs` or
-/// `max |s| · 2^(-3l/2) ≤ l2_abs`.
+/// (never at or below `min_level`, nor one of the `forced` nodes) when `max |s| ≤ cull_abs`
+/// or `max |s| · 2^(-3l/2) ≤ l2_abs`.
 fn level_surpluses(
     vol: &AdaptiveVolume,
     level: u32,
     baked: &Baked,
+    forced: &BTreeSet<u64>,
     cull_abs: f64,
     l2_abs: f64,
 ) -> (LevelTable, NodeValues) {
@@ -365,7 +382,9 @@ fn level_surpluses(
             None => vec![0.0; k],
         };
         let m = crate::adaptive::surplus_measure(&sur);
-        let keep = level <= vol.params.min_level || (v.is_some() && m > cull_abs && m * w > l2_abs);
+        let keep = level <= vol.params.min_level
+            || forced.contains(key)
+            || (v.is_some() && m > cull_abs && m * w > l2_abs);
         values.keys.push(*key);
         if keep {
             values.vals.extend(interp.iter().zip(&sur).map(|(a, &b)| a + f64::from(b)));
@@ -380,9 +399,16 @@ fn level_surpluses(
 
 /// Rebuilds every level's surpluses with the absolute tolerances of [`level_surpluses`];
 /// returns the resulting memory.
-fn rebuild(vol: &mut AdaptiveVolume, baked: &[Baked], cull_abs: f64, l2_abs: f64) -> usize {
+fn rebuild(
+    vol: &mut AdaptiveVolume,
+    baked: &[Baked],
+    forced: &[BTreeSet<u64>],
+    cull_abs: f64,
+    l2_abs: f64,
+) -> usize {
     for l in 1..=vol.params.max_level {
-        let (table, _) = level_surpluses(vol, l, &baked[l as usize - 1], cull_abs, l2_abs);
+        let i = l as usize - 1;
+        let (table, _) = level_surpluses(vol, l, &baked[i], &forced[i], cull_abs, l2_abs);
         vol.tables[l as usize - 1] = table;
     }
     vol.memory_bytes()
@@ -401,6 +427,7 @@ const BUDGET_STEPS: u32 = 48;
 fn fit_budget(
     vol: &mut AdaptiveVolume,
     baked: &[Baked],
+    forced: &[BTreeSet<u64>],
     budget: usize,
     cull_abs: f64,
 ) -> Result<f64, VolumeError> {
@@ -416,9 +443,9 @@ fn fit_budget(
         .fold(0.0f64, |m, x| m.max(x.abs()))
         .max(vol.base.data().iter().fold(0.0f64, |m, x| m.max(f64::from(x.abs()))));
     let mut hi = 4.0 * big + f64::MIN_POSITIVE;
-    if rebuild(vol, baked, cull_abs, hi) > budget {
+    if rebuild(vol, baked, forced, cull_abs, hi) > budget {
         return Err(VolumeError::InvalidData(format!(
-            "memory budget of {budget} bytes is below the {} bytes that the base level and min_level {} require",
+            "memory budget of {budget} bytes is below the {} bytes that the base level, min_level {} and the density volumes require",
             vol.memory_bytes(),
             vol.params.min_level
         )));
@@ -426,12 +453,12 @@ fn fit_budget(
     let mut lo = hi * 1e-12;
     for _ in 0..BUDGET_STEPS {
         let mid = (lo * hi).sqrt();
-        if rebuild(vol, baked, cull_abs, mid) <= budget {
+        if rebuild(vol, baked, forced, cull_abs, mid) <= budget {
             hi = mid;
         } else {
             lo = mid;
         }
     }
-    rebuild(vol, baked, cull_abs, hi);
+    rebuild(vol, baked, forced, cull_abs, hi);
     Ok(hi)
 }
