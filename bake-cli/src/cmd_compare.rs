@@ -56,7 +56,10 @@ pub(crate) struct CompareArgs {
     /// first-order Taylor), `gtrilinear` (gradient-extrapolated corners, trilinear) or
     /// `hermite` (tricubic Hermite), e.g. `doi-paper+taylor,doi-paper+hermite`; `adaptive` for Oat's
     /// octree baked to the uniform grid's memory (finest level 2 below half the grid's
-    /// resolution; `adaptive1` stops one level earlier); `BASE+lsq[:λ]` or `BASE+average` for
+    /// resolution; `adaptive1` stops one level earlier); `bricks` for the engines' sparse
+    /// brick export of an octree (level 0 at a quarter of the grid's cell counts, finest at
+    /// the grid's), `bricksN` with its probes capped at 1/N of the uniform grid's in the same
+    /// texel format; `BASE+lsq[:λ]` or `BASE+average` for
     /// a bake finalized with that node fit instead of `--fit`'s; the engines' leak fixes
     /// `point+validity` (invalid probes dilated), `point+apv` (Unity APV, validity-weighted
     /// lookups), `point+vlm` (Unreal), `point+ddgi` (DDGI relocation); `BASE+ENGINE`
@@ -74,6 +77,7 @@ pub(crate) struct CompareArgs {
     pub(crate) gradient_estimator: Option<crate::gradient_args::GradientEstimatorArg>,
     /// Also run the error-vs-memory study on this plate: uniform doi-paper at several
     /// resolutions, the same bakes read through the Taylor and Hermite gradient lookups,
+    /// the adaptive octrees at their memory and the brick export of the finer one,
     /// writing `memory_sweep.json`, `.png` and `.svg`.
     #[arg(long)]
     pub(crate) memory_sweep: bool,

@@ -12,7 +12,7 @@ use lightvol_volume::gradient::{
 };
 use lightvol_volume::{
     AdaptiveVolume, BakeMetadata, EngineLookup, GridSpec, IrradianceVolume, VolumeError, VolumeField,
-    VolumeGradients,
+    VolumeGradients, bricks::BrickVolume,
 };
 
 use lightvol_sampler::gradient_estimator::GradientEstimator;
@@ -51,6 +51,8 @@ pub enum RunVolume {
     },
     /// \[Oat05\]'s octree, read by its f32 lookup.
     Adaptive(Arc<AdaptiveVolume>),
+    /// The octree's brick export, read by its f32 lookup.
+    Bricks(Arc<BrickVolume>),
     /// A uniform grid read by its f64 reference lookup
     /// ([`IrradianceVolume::irradiance_reference`], validity-weighted through the volume's
     /// mask): Unity APV, as its run reads the plate.
@@ -66,7 +68,7 @@ impl RunVolume {
     pub fn uniform(&self) -> Option<&Arc<IrradianceVolume>> {
         match self {
             Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => Some(v),
-            Self::Gradient { .. } | Self::Adaptive(_) => None,
+            Self::Gradient { .. } | Self::Adaptive(_) | Self::Bricks(_) => None,
         }
     }
 }
@@ -78,6 +80,7 @@ impl VolumeField for RunVolume {
             Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => v.spec(),
             Self::Gradient { bake, .. } => bake.volume.spec(),
             Self::Adaptive(v) => v.base().spec(),
+            Self::Bricks(v) => v.spec(),
         }
     }
     fn coeffs(&self) -> usize {
@@ -85,6 +88,7 @@ impl VolumeField for RunVolume {
             Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => v.coeffs(),
             Self::Gradient { bake, .. } => bake.volume.coeffs(),
             Self::Adaptive(v) => v.coeffs(),
+            Self::Bricks(v) => v.coeffs(),
         }
     }
     fn metadata(&self) -> &BakeMetadata {
@@ -92,6 +96,7 @@ impl VolumeField for RunVolume {
             Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => v.metadata(),
             Self::Gradient { bake, .. } => bake.volume.metadata(),
             Self::Adaptive(v) => v.metadata(),
+            Self::Bricks(v) => v.metadata(),
         }
     }
     fn coeffs_at(&self, p: [f64; 3]) -> Result<Vec<f64>, VolumeError> {
@@ -99,6 +104,7 @@ impl VolumeField for RunVolume {
             Self::Uniform(v) => VolumeField::coeffs_at(&**v, p),
             Self::Gradient { bake, lookup } => gradient_coeffs_at(&bake.volume, &bake.gradients, *lookup, p),
             Self::Adaptive(v) => VolumeField::coeffs_at(&**v, p),
+            Self::Bricks(v) => VolumeField::coeffs_at(&**v, p),
             Self::Reference(v) => Ok(v.coeffs_reference(p)),
             Self::Engine(v, lookup) => EngineField { volume: v, lookup: *lookup }.coeffs_at(p),
         }
@@ -110,6 +116,7 @@ impl VolumeField for RunVolume {
                 gradient_irradiance(&bake.volume, &bake.gradients, *lookup, p, n)
             }
             Self::Adaptive(v) => VolumeField::irradiance(&**v, p, n),
+            Self::Bricks(v) => VolumeField::irradiance(&**v, p, n),
             Self::Reference(v) => Ok(v.irradiance_reference(p, n)),
             Self::Engine(v, lookup) => Ok(v.engine_irradiance(*lookup, p, n, n)),
         }
@@ -125,6 +132,7 @@ impl VolumeField for RunVolume {
             Self::Uniform(v) | Self::Reference(v) | Self::Engine(v, _) => v.memory_bytes(),
             Self::Gradient { bake, .. } => bake.volume.memory_bytes() + bake.gradients.memory_bytes(),
             Self::Adaptive(v) => v.memory_bytes(),
+            Self::Bricks(v) => VolumeField::memory_bytes(&**v),
         }
     }
 }
@@ -139,6 +147,7 @@ impl fmt::Debug for RunVolume {
                 .field("lookup", lookup)
                 .finish(),
             Self::Adaptive(v) => f.debug_tuple("Adaptive").field(&v.stored_nodes()).finish(),
+            Self::Bricks(v) => f.debug_tuple("Bricks").field(&v.bricks().len()).finish(),
             Self::Reference(v) => f.debug_tuple("Reference").field(&v.spec().res()).finish(),
             Self::Engine(v, lookup) => f.debug_tuple("Engine").field(&v.spec().res()).field(lookup).finish(),
         }

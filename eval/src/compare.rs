@@ -230,6 +230,7 @@ fn compare_here(
                 run_gradient(gv, name, lookup, config.samples, &plate)?
             }
             Entry::Adaptive(levels) => run_adaptive(&ctx, grid, name, levels, &plate)?,
+            Entry::Bricks(divisor) => crate::runs::run_bricks(&ctx, grid, name, divisor, &plate)?,
             Entry::Baseline(b) => run_baseline(&ctx, grid, name, b, &plate)?,
             Entry::Targeted(method, lookup) => run_targeted(&ctx, grid, name, method, lookup, &plate)?,
             Entry::Bound(lookup) => run_bound(&ctx, grid, name, lookup, &plate)?,
@@ -414,7 +415,11 @@ pub(crate) mod tests {
         );
         assert!(m("point+validity").rays.total() > m("point").rays.total());
         let sweep = r.memory_sweep.unwrap();
-        assert_eq!(sweep.points.len(), 6);
+        // uniform, its three gradient lookups, the two octrees and the level-2 octree's bricks.
+        assert_eq!(sweep.points.len(), 7);
+        let bricks = sweep.points.iter().find(|p| p.series == "bricks").unwrap();
+        let octree = sweep.points.iter().find(|p| p.series == "adaptive").unwrap();
+        assert!(bricks.memory_bytes > 0 && bricks.rays == octree.rays);
         let uniform = sweep.points.iter().find(|p| p.series == "uniform").unwrap();
         assert_eq!(uniform.rel_rmse, m("doi-paper").metrics.rel_rmse);
     }

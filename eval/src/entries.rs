@@ -16,6 +16,7 @@
 //! | `BASE+relit`, `BASE+relit2`, `BASE+relit4` | [`Entry::Relit`] |
 //! | `BASE+skyocc` | [`Entry::SkyOcclusion`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
+//! | `bricks`, `bricksN` | [`Entry::Bricks`] |
 //! | `point+validity`, `point+apv`, `point+vlm`, `point+ddgi` | [`Entry::Baseline`] |
 //! | `bound+three`, `bound+bevy`, `bound+trilinear`, `bound+apv`, `bound+lightvol` | [`Entry::Bound`] |
 //!
@@ -24,7 +25,8 @@
 //! node, ×4 with gradients, f32, bake weights not counted ([`uniform_memory_bytes`]); for
 //! the octree `AdaptiveVolume::memory_bytes` (coefficients, base weights, an 8-byte key per
 //! fine node, split bitmaps); `point+apv` adds its validity mask, one byte per node
-//! (`ValidityMask::memory_bytes`).
+//! (`ValidityMask::memory_bytes`); the brick export its atlas's probes and indirection
+//! texture (`BrickVolume::probe_bytes`, `indirection_bytes`).
 //!
 //! **Equal memory.** The `adaptive[L]` entry is baked (doi, the comparison's samples per
 //! cell at every level) with level 0 on the compared grid with its cell counts scaled by
@@ -60,6 +62,12 @@ pub enum Entry {
     /// \[Oat05\]'s adaptive octree at the uniform grid's memory, with this finest level
     /// (module docs).
     Adaptive(u32),
+    /// An octree (doi, level 0 at [`BRICKS_BASE_SCALE`] of the grid's cell counts, finest
+    /// level [`BRICKS_MAX_LEVEL`], the `adaptive` entry's memory budget) resampled into the
+    /// brick export (`lightvol_volume::bricks`), with its probes' memory capped at `1/N` of the uniform
+    /// grid's in the same texel format ([`uniform_probe_bytes`]) when `N > 0`
+    /// (`bricksN`), by the default merge tolerance only when `N = 0` (`bricks`).
+    Bricks(u32),
     /// Point sampling with an engine's leak fix: validity and dilation, Unity APV, Unreal
     /// VLM or DDGI relocation ([`lightvol_sampler::baselines`]).
     Baseline(Baseline),
@@ -99,6 +107,19 @@ pub const ADAPTIVE_BASE_SCALE: f64 = 0.5;
 /// 0.1712 / 0.1708, both at 236.5 kB.
 pub const ADAPTIVE_MAX_LEVEL: u32 = 2;
 
+/// Level 0 of the `bricks` entry's octree: the compared grid's cell counts times this. The
+/// level-0 bricks alone hold `(B + 1)³ / B³ ≈ 2` times the probes of their grid (B = 4), so
+/// a base of half the grid's cell counts would take a quarter of its memory before any
+/// refinement; a quarter takes 3%.
+pub const BRICKS_BASE_SCALE: f64 = 0.25;
+
+/// Finest level of the `bricks` entry's octree: level 2 has the compared grid's cell size,
+/// so that the bricks refine to the uniform grid's resolution and coarsen from there.
+pub const BRICKS_MAX_LEVEL: u32 = 2;
+
+/// Largest `N` accepted in `bricksN`.
+pub const BRICKS_DIVISOR_MAX: u32 = 1024;
+
 /// Largest `L` accepted in `adaptiveL`.
 pub const ADAPTIVE_LEVELS_MAX: u32 = 3;
 
@@ -135,6 +156,17 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
         return match l.parse::<u32>() {
             Ok(l) if (1..=ADAPTIVE_LEVELS_MAX).contains(&l) => Ok(Entry::Adaptive(l)),
             _ => Err(EvalError::AdaptiveLevel { name: s.to_owned(), max: ADAPTIVE_LEVELS_MAX }),
+        };
+    }
+    if s == "bricks" {
+        return Ok(Entry::Bricks(0));
+    }
+    if let Some(n) = s.strip_prefix("bricks") {
+        return match n.parse::<u32>() {
+            Ok(n) if (1..=BRICKS_DIVISOR_MAX).contains(&n) => Ok(Entry::Bricks(n)),
+            _ => {
+                Err(EvalError::UnknownMethod(format!("{s} (bricksN needs N from 1 to {BRICKS_DIVISOR_MAX})")))
+            }
         };
     }
     if let Some(b) = Baseline::from_name(s) {
@@ -189,6 +221,8 @@ impl fmt::Display for Entry {
             Self::Fitted(m, fit) => write!(f, "{}+{fit}", m.name()),
             Self::Adaptive(ADAPTIVE_MAX_LEVEL) => f.write_str("adaptive"),
             Self::Adaptive(l) => write!(f, "adaptive{l}"),
+            Self::Bricks(0) => f.write_str("bricks"),
+            Self::Bricks(n) => write!(f, "bricks{n}"),
             Self::Baseline(b) => f.write_str(b.name()),
             Self::Targeted(m, l) => write!(f, "{}+{l}", m.name()),
             Self::Bound(l) => write!(f, "bound+{l}"),
@@ -280,6 +314,14 @@ pub fn uniform_memory_bytes(grid: &GridSpec, bands: usize, gradients: bool) -> u
     lightvol_volume::gradient::sample_bytes(grid.node_count(), bands, gradients)
 }
 
+/// Bytes of the uniform grid `grid`'s probes in the engine exports' texel format (one RGBA16F
+/// texel per coefficient, `lightvol_volume::bricks::ATLAS_TEXEL_BYTES`): what the brick
+/// export's probe memory is measured against.
+#[must_use]
+pub fn uniform_probe_bytes(grid: &GridSpec, coeffs: usize) -> usize {
+    grid.node_count() * coeffs * lightvol_volume::bricks::ATLAS_TEXEL_BYTES
+}
+
 /// Run-time bytes of the uniform `doi` entry on `grid`: [`uniform_memory_bytes`] and its
 /// node reach, six f32 per node (`NodeReach::memory_bytes`); the `adaptive` entry's budget.
 #[must_use]
@@ -330,6 +372,10 @@ mod tests {
         assert_eq!(parse_entry("point+vlm").unwrap(), Entry::Baseline(Baseline::Vlm));
         assert!(parse_entry("doi+lsq:-2").is_err());
         assert_eq!(parse_entry("adaptive1").unwrap(), Entry::Adaptive(1));
+        assert_eq!(parse_entry("bricks").unwrap(), Entry::Bricks(0));
+        assert_eq!(parse_entry("bricks8").unwrap(), Entry::Bricks(8));
+        assert_eq!(Entry::Bricks(8).to_string(), "bricks8");
+        assert!(parse_entry("bricks0").is_err() && parse_entry("bricksx").is_err());
         assert_eq!(parse_entry("adaptive2").unwrap(), Entry::Adaptive(2));
         assert!(parse_entry("adaptive0").is_err());
         assert!(parse_entry("adaptive9").is_err());

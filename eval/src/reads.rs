@@ -58,10 +58,11 @@ impl ReadAs {
     }
 
     /// Whether this way reads `entry` through an engine lookup that needs a uniform grid
-    /// (gradient and octree entries can be read only their own way).
+    /// (gradient, octree and brick entries can be read only their own way).
     #[must_use]
     pub fn needs_grid(self, entry: Entry) -> bool {
-        matches!(entry, Entry::Gradient(..) | Entry::Adaptive(_)) && self.lookup_for(entry).is_some()
+        matches!(entry, Entry::Gradient(..) | Entry::Adaptive(_) | Entry::Bricks(_))
+            && self.lookup_for(entry).is_some()
     }
 }
 

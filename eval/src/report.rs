@@ -143,6 +143,14 @@ fn extra(run: &MethodRun) -> Map<String, Value> {
             m.insert("levels".into(), json!(levels));
             m.insert("depth_rays".into(), json!(depth_rays));
         }
+        RunDetail::Bricks { probe_budget, report, octree_bytes } => {
+            m.insert("probe_budget".into(), json!(probe_budget));
+            m.insert("bricks_per_level".into(), json!(report.bricks_per_level));
+            m.insert("dropped_bricks".into(), json!(report.dropped_bricks));
+            m.insert("largest_dropped_error".into(), json!(report.largest_dropped_error));
+            m.insert("probe_bytes".into(), json!(report.probe_bytes));
+            m.insert("octree_bytes".into(), json!(octree_bytes));
+        }
         RunDetail::Baseline { invalid_nodes, moved_nodes } => {
             m.insert("invalid_nodes".into(), json!(invalid_nodes));
             m.insert("moved_nodes".into(), json!(moved_nodes));
@@ -339,7 +347,7 @@ pub fn sweep_plot(scene: &str, report: &SweepReport) -> Plot {
     }
     Plot {
         title: format!("{}: relative RMSE vs run-time memory", scene.trim_start_matches("builtin:")),
-        x_label: "log2 of memory in KiB (f32 SH [+ gradients] per node)".into(),
+        x_label: "log2 of memory in KiB (each series' own run-time bytes)".into(),
         y_label: "relative RMSE".into(),
         series,
     }

@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
 
+use lightvol_volume::bricks::{BrickParams, bricks_from_octree};
 use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
 use lightvol_volume::validity::ValidityMask;
 use lightvol_volume::{AdaptiveVolume, EngineLookup, GridSpec, IrradianceVolume, LevelStats};
@@ -105,6 +106,15 @@ pub enum RunDetail {
         levels: Vec<LevelStats>,
         /// Rays of the depth heuristic.
         depth_rays: u64,
+    },
+    /// The brick export of an octree.
+    Bricks {
+        /// The probe budget (`None`: the merge tolerance alone).
+        probe_budget: Option<usize>,
+        /// What the export made and dropped.
+        report: lightvol_volume::bricks::BrickReport,
+        /// The octree's memory (its budget is the uniform `doi` grid's bytes).
+        octree_bytes: usize,
     },
     /// An engine baseline.
     Baseline {
@@ -449,7 +459,22 @@ pub fn adaptive_volume(
     label: &str,
     budget: usize,
 ) -> Result<(AdaptiveVolume, AdaptiveStats, usize), EvalError> {
-    let base = scaled_grid(grid, ADAPTIVE_BASE_SCALE)?;
+    octree_volume(ctx, grid, ADAPTIVE_BASE_SCALE, max_level, label, budget)
+}
+
+/// [`adaptive_volume`] with level 0 on `grid`'s cell counts times `base_scale`.
+///
+/// # Errors
+/// The bake's.
+pub fn octree_volume(
+    ctx: &BakeContext<'_>,
+    grid: &GridSpec,
+    base_scale: f64,
+    max_level: u32,
+    label: &str,
+    budget: usize,
+) -> Result<(AdaptiveVolume, AdaptiveStats, usize), EvalError> {
+    let base = scaled_grid(grid, base_scale)?;
     let settings = ctx.settings(Method::Doi);
     let adaptive = AdaptiveSettings { max_level, memory_budget: Some(budget), ..AdaptiveSettings::default() };
     let (vol, stats) = ctx
@@ -501,6 +526,54 @@ pub fn run_adaptive(
             depth_rays: stats.depth_rays,
         },
         RunVolume::Adaptive(Arc::new(vol)),
+    ))
+}
+
+/// The `bricks[N]` entry: an octree (level 0 at [`crate::entries::BRICKS_BASE_SCALE`] of
+/// the grid's cell counts, finest level [`crate::entries::BRICKS_MAX_LEVEL`], at the uniform
+/// `doi` grid's memory) resampled into bricks, with a probe budget of `1/divisor` of the uniform grid's probes in the same texel
+/// format when `divisor > 0`; read by the brick lookup (f32), its memory the atlas's probes
+/// and the indirection texture.
+///
+/// # Errors
+/// The bake's, and a budget below the coarsest bricks.
+pub fn run_bricks(
+    ctx: &BakeContext<'_>,
+    grid: &GridSpec,
+    name: &str,
+    divisor: u32,
+    plate: &Plate,
+) -> Result<MethodRun, EvalError> {
+    let budget = crate::entries::uniform_doi_memory_bytes(grid, bands_of_coeffs(ctx.coeffs));
+    let (oct, stats, _) = octree_volume(
+        ctx,
+        grid,
+        crate::entries::BRICKS_BASE_SCALE,
+        crate::entries::BRICKS_MAX_LEVEL,
+        name,
+        budget,
+    )?;
+    let probe_budget =
+        (divisor > 0).then(|| crate::entries::uniform_probe_bytes(grid, ctx.coeffs) / divisor as usize);
+    let params = BrickParams { max_probe_bytes: probe_budget, ..BrickParams::default() };
+    let (vol, report) = bricks_from_octree(&oct, &params)?;
+    let estimate: Vec<[f64; 3]> = plate
+        .points
+        .par_iter()
+        .map(|p| vol.irradiance(p.as_vec3().to_array().map(|v| v as f32), [0.0, 0.0, 1.0]).map(f64::from))
+        .collect();
+    let probes = vol.bricks().len() * (vol.brick_probes() as usize).pow(3);
+    Ok(MethodRun::new(
+        name,
+        ctx.samples,
+        stats.rays,
+        stats.wall_time.as_secs_f64(),
+        plate,
+        estimate,
+        vol.probe_bytes() + vol.indirection_bytes(),
+        probes,
+        RunDetail::Bricks { probe_budget, report, octree_bytes: oct.memory_bytes() },
+        RunVolume::Bricks(Arc::new(vol)),
     ))
 }
 

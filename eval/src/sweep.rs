@@ -21,6 +21,7 @@
 //! on grids of the base grid's bounds and cell aspect with more or fewer nodes along x.
 
 use lightvol_volume::GridSpec;
+use lightvol_volume::bricks::{BrickParams, bricks_from_octree};
 use serde::Serialize;
 
 use crate::entries::{LOOKUPS, lookup_name, uniform_memory_bytes};
@@ -160,6 +161,33 @@ pub fn memory_sweep(
             };
             ctx.observer.sweep_point(&point, Some(av.base().spec().res()));
             points.push(point);
+            if levels == crate::entries::ADAPTIVE_MAX_LEVEL {
+                // The same octree as the engines' brick export (no extra rays).
+                let (bricks, _) = bricks_from_octree(&av, &BrickParams::default())?;
+                let est: Vec<[f64; 3]> = plate
+                    .points
+                    .iter()
+                    .map(|p| {
+                        bricks
+                            .irradiance(p.as_vec3().to_array().map(|v| v as f32), [0.0, 0.0, 1.0])
+                            .map(f64::from)
+                    })
+                    .collect();
+                let m = plate.metrics(&est);
+                let point = SweepPoint {
+                    series: "bricks".into(),
+                    res: av.finest_res(),
+                    nodes: bricks.bricks().len() * (bricks.brick_probes() as usize).pow(3),
+                    memory_bytes: bricks.probe_bytes() + bricks.indirection_bytes(),
+                    rel_rmse: m.rel_rmse,
+                    bias: m.bias,
+                    too_dark_near: m.too_dark_near,
+                    rays: stats.rays.total(),
+                    seconds: stats.wall_time.as_secs_f64(),
+                };
+                ctx.observer.sweep_point(&point, Some(av.base().spec().res()));
+                points.push(point);
+            }
         }
     }
     // Series by series, each by memory.
