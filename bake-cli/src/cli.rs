@@ -60,12 +60,16 @@ pub(crate) enum Command {
     /// instanced), objects, materials with alpha mode and sidedness, extensions and their
     /// treatment, lights, cameras, bounds in the file's and the internal frame, warnings.
     Inspect(crate::cmd_inspect::InspectArgs),
+    /// Repeat a glTF scene on a grid of tiles (instanced meshes, shared binary data): a
+    /// large world to bake and stream from one room.
+    Layout(crate::cmd_layout::LayoutArgs),
     /// A sharded bake as a Slurm job array plus a merge job that depends on it (afterok);
     /// --submit submits both, --wait waits for the merge and exits with its status.
     Slurm(crate::cmd_cluster::SlurmArgs),
     /// A sharded bake as a Kubernetes Indexed Job plus a merge Job (YAML files).
     K8s(crate::cmd_cluster::K8sArgs),
-    /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, JSON).
+    /// Export a volume to an engine format (KTX2, DDS, Bevy irradiance volume, three.js,
+    /// sparse bricks, JSON).
     Export(ExportArgs),
     /// Shader functions that sample a volume (world position to texel, trilinear, SH
     /// irradiance) in WGSL, HLSL or GLSL, for the KTX2 or the native layout.

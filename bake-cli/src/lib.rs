@@ -19,6 +19,7 @@ mod cmd_gpu;
 mod cmd_imse;
 mod cmd_info;
 mod cmd_inspect;
+mod cmd_layout;
 mod cmd_lint;
 mod cmd_merge;
 mod cmd_proxies;
@@ -94,6 +95,7 @@ fn run(args: cli::Cli) -> anyhow::Result<ExitCode> {
         cli::Command::Relight(a) => cmd_relight::run(&a),
         cli::Command::Table(a) => cmd_table::run(&a),
         cli::Command::Inspect(a) => cmd_inspect::run(&a),
+        cli::Command::Layout(a) => cmd_layout::run(&a),
         cli::Command::Lint(a) => cmd_lint::run(&a),
         cli::Command::Merge(a) => cmd_merge::run(&a),
         cli::Command::Proxies(a) => cmd_proxies::run(&a),
