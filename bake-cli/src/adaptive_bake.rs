@@ -56,6 +56,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     // The placement boxes are given in the scene file's frame.
     adaptive.regions = a.regions(adaptive.max_level, loaded.frame)?;
+    adaptive.regions.extend(a.mesh_regions(&loaded.scene, adaptive.max_level)?);
     if let Some(r) = request.adaptive.as_mut() {
         r.settings.regions.clone_from(&adaptive.regions);
     }

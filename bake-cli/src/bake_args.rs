@@ -179,6 +179,22 @@ pub(crate) struct AdaptiveArgs {
     /// overlap one are split (density volumes still apply). Repeatable.
     #[arg(long, value_name = "BOX", allow_hyphen_values = true)]
     walkable: Vec<String>,
+    /// A density volume from the scene: the bounds of every placement of the instanced mesh
+    /// NAME and of every triangle of the material NAME, split down to LEVEL (default
+    /// --max-level). Repeatable.
+    #[arg(long, value_name = "NAME[:LEVEL]")]
+    density_mesh: Vec<String>,
+    /// An exclusion volume from the scene's mesh or material NAME (its bounds, as
+    /// --density-mesh). Repeatable.
+    #[arg(long, value_name = "NAME")]
+    exclude_mesh: Vec<String>,
+    /// Where the player can go, from the scene: the mesh or material NAME (a floor), each
+    /// triangle's bounds raised by --walkable-height. Repeatable.
+    #[arg(long, value_name = "NAME")]
+    walkable_mesh: Vec<String>,
+    /// The height above a --walkable-mesh that the player occupies, in the scene's units.
+    #[arg(long, value_name = "H", default_value_t = 2.0)]
+    walkable_height: f64,
     /// With --shard: bake shard K/N of refinement level L (1..=--max-level) from the
     /// complete shard sets of the levels below (--from-shards), writing `<stem>.lvref`.
     /// Without --level, --shard bakes level 0 (the base grid) and writes `<stem>.lvacc`.
@@ -221,6 +237,9 @@ impl AdaptiveArgs {
             ("--density", !self.density.is_empty()),
             ("--exclude", !self.exclude.is_empty()),
             ("--walkable", !self.walkable.is_empty()),
+            ("--density-mesh", !self.density_mesh.is_empty()),
+            ("--exclude-mesh", !self.exclude_mesh.is_empty()),
+            ("--walkable-mesh", !self.walkable_mesh.is_empty()),
             ("--from-shards", !self.from_shards.is_empty()),
         ];
         if self.adaptive { Vec::new() } else { given.iter().filter(|g| g.1).map(|g| g.0).collect() }
@@ -272,6 +291,49 @@ impl AdaptiveArgs {
         // Checked now (before the scene loads), placed in the file's frame once it has.
         self.regions(max_level, UpAxis::INTERNAL)?;
         Ok(s)
+    }
+
+    /// The placement boxes named by mesh or material (`--density-mesh`, `--exclude-mesh`,
+    /// `--walkable-mesh`), from the loaded scene (internal frame).
+    pub(crate) fn mesh_regions(
+        &self,
+        scene: &lightvol_scene::Scene,
+        max_level: u32,
+    ) -> anyhow::Result<Vec<OctreeRegion>> {
+        if !(self.walkable_height.is_finite() && self.walkable_height >= 0.0) {
+            bail!("--walkable-height must be finite and >= 0, got {}", self.walkable_height);
+        }
+        let mut out = Vec::new();
+        let mut add = |flag: &str, name: &str, kind: RegionKind| -> anyhow::Result<()> {
+            let r = lightvol_sampler::adaptive_regions::mesh_regions(scene, name, kind, self.walkable_height)
+                .ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "{flag}: the scene has no instanced mesh or material named '{name}' (lightvol inspect lists the materials)"
+                    )
+                })?;
+            out.extend(r);
+            Ok(())
+        };
+        for d in &self.density_mesh {
+            let (name, level) = match d.rsplit_once(':') {
+                Some((n, l)) if l.trim().parse::<u32>().is_ok() => {
+                    let l: u32 = l.trim().parse()?;
+                    if l == 0 || l > max_level {
+                        bail!("--density-mesh: level {l} must be between 1 and --max-level {max_level}");
+                    }
+                    (n, l)
+                }
+                _ => (d.as_str(), max_level),
+            };
+            add("--density-mesh", name, RegionKind::Density(level))?;
+        }
+        for n in &self.exclude_mesh {
+            add("--exclude-mesh", n, RegionKind::Exclude)?;
+        }
+        for n in &self.walkable_mesh {
+            add("--walkable-mesh", n, RegionKind::Walkable)?;
+        }
+        Ok(out)
     }
 
     /// The placement boxes (`--density`, `--exclude`, `--walkable`), given in the frame

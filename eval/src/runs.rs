@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Instant;
 
-use lightvol_volume::bricks::{BrickParams, bricks_from_octree};
+use lightvol_volume::bricks::{BrickParams, BrickVolume, bricks_from_octree};
 use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
 use lightvol_volume::validity::ValidityMask;
 use lightvol_volume::{AdaptiveVolume, EngineLookup, GridSpec, IrradianceVolume, LevelStats};
@@ -494,6 +494,16 @@ pub fn evaluate_adaptive(vol: &AdaptiveVolume, plate: &Plate) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// Irradiance (normal up) of a brick volume at every plate point (its f32 lookup).
+#[must_use]
+pub fn evaluate_bricks(vol: &BrickVolume, plate: &Plate) -> Vec<[f64; 3]> {
+    plate
+        .points
+        .par_iter()
+        .map(|p| vol.irradiance(p.as_vec3().to_array(), [0.0, 0.0, 1.0]).map(f64::from))
+        .collect()
+}
+
 /// The `adaptive[L]` entry at the memory of the uniform `doi` grid `grid` (coefficients and
 /// node reach).
 ///
@@ -557,11 +567,7 @@ pub fn run_bricks(
         (divisor > 0).then(|| crate::entries::uniform_probe_bytes(grid, ctx.coeffs) / divisor as usize);
     let params = BrickParams { max_probe_bytes: probe_budget, ..BrickParams::default() };
     let (vol, report) = bricks_from_octree(&oct, &params)?;
-    let estimate: Vec<[f64; 3]> = plate
-        .points
-        .par_iter()
-        .map(|p| vol.irradiance(p.as_vec3().to_array().map(|v| v as f32), [0.0, 0.0, 1.0]).map(f64::from))
-        .collect();
+    let estimate = evaluate_bricks(&vol, plate);
     let probes = vol.bricks().len() * (vol.brick_probes() as usize).pow(3);
     Ok(MethodRun::new(
         name,

@@ -29,7 +29,8 @@ use crate::error::EvalError;
 use crate::metrics::{Metrics, SweepPoint};
 use crate::plate::Plate;
 use crate::runs::{
-    BakeContext, adaptive_volume, evaluate_adaptive, gradient_volume, run_uniform, scaled_grid,
+    BakeContext, adaptive_volume, evaluate_adaptive, evaluate_bricks, gradient_volume, run_uniform,
+    scaled_grid,
 };
 use lightvol_sampler::gradient_estimator::GradientEstimator;
 use lightvol_sampler::method::Method;
@@ -164,15 +165,7 @@ pub fn memory_sweep(
             if levels == crate::entries::ADAPTIVE_MAX_LEVEL {
                 // The same octree as the engines' brick export (no extra rays).
                 let (bricks, _) = bricks_from_octree(&av, &BrickParams::default())?;
-                let est: Vec<[f64; 3]> = plate
-                    .points
-                    .iter()
-                    .map(|p| {
-                        bricks
-                            .irradiance(p.as_vec3().to_array().map(|v| v as f32), [0.0, 0.0, 1.0])
-                            .map(f64::from)
-                    })
-                    .collect();
+                let est = evaluate_bricks(&bricks, plate);
                 let m = plate.metrics(&est);
                 let point = SweepPoint {
                     series: "bricks".into(),

@@ -427,7 +427,7 @@ fn drive(
         levels: vec![BakeStats::default(); adaptive.max_level as usize],
         ..AdaptiveStats::default()
     };
-    let regions = GridRegions::new(base_grid, &adaptive.regions);
+    let mut regions = GridRegions::new(base_grid, &adaptive.regions);
     let mut votes = [0usize; 3];
     let mut depth_rays = 0u64;
 

@@ -517,3 +517,32 @@ fn placement_boxes_raise_stop_and_confine_refinement() {
         assert!((0..3).all(|a| clo[a] < whi[a] && chi[a] > wlo[a]), "cell {cl:?} outside the walkable box");
     }
 }
+
+/// Boxes from named geometry: a material's triangles (raised by the player's height when
+/// walkable) confine the splits to the cells the player can reach; unknown names give none.
+#[test]
+fn walkable_material_confines_splits_to_the_layer_above_it() {
+    use crate::adaptive_regions::mesh_regions;
+    use lightvol_volume::RegionKind;
+    let c = city();
+    assert!(mesh_regions(&c.scene, "no such name", RegionKind::Exclude, 0.0).is_none());
+    let facade = mesh_regions(&c.scene, "facade0", RegionKind::Exclude, 5.0).unwrap();
+    assert_eq!(facade.len(), 40);
+    // Only a walkable box is raised.
+    let ground = mesh_regions(&c.scene, "ground", RegionKind::Walkable, 2.5).unwrap();
+    assert_eq!(ground.len(), 2);
+    assert!(ground.iter().all(|r| r.min[2] == 0.0 && r.max[2] == 2.5), "{ground:?}");
+    let tracer = Tracer::new(&c.scene);
+    let t = Transport::new(&c.scene, &tracer, TransportSettings::default());
+    let grid = small_city_grid();
+    let (s, a) = tiny_settings();
+    let (plain, _) = bake_adaptive(&t, &grid, &s, &a, &BakeControl::default()).unwrap();
+    let walk = AdaptiveSettings { regions: ground, ..a };
+    let (v, _) = bake_adaptive(&t, &grid, &s, &walk, &BakeControl::default()).unwrap();
+    // Base cells are 4 units tall from z = -1: only the bottom layer reaches below 2.5.
+    let split: Vec<[u32; 3]> = v.split_cells(0).collect();
+    assert!(!split.is_empty() && split.iter().all(|c| c[2] == 0), "{split:?}");
+    assert!(plain.split_cells(0).any(|c| c[2] > 0));
+    // At level 1 (2-unit cells from -1), the cells below 2.5: z index 0 and 1.
+    assert!(v.split_cells(1).all(|c| c[2] <= 1));
+}

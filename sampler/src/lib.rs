@@ -1,7 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod adaptive;
-mod adaptive_regions;
+pub mod adaptive_regions;
 pub mod adaptive_shard;
 pub mod bake;
 pub mod baselines;

@@ -321,6 +321,18 @@ fn brick_export_budget_and_density_through_the_cli() {
     ok(&a);
     let v = read_adaptive_exr(&dense).unwrap();
     assert!(v.stored_nodes() > oct.stored_nodes(), "{} vs {}", v.stored_nodes(), oct.stored_nodes());
+    // Named geometry: the ground material as the walkable floor confines the splits.
+    let walk = d.join("walk.exr");
+    let mut a =
+        vec!["bake", "builtin:city", "-o", s(&walk), "--walkable-mesh", "ground", "--walkable-height", "2"];
+    a.extend_from_slice(&BAKE);
+    ok(&a);
+    let v = read_adaptive_exr(&walk).unwrap();
+    assert!(v.split_cells(0).count() < oct.split_cells(0).count());
+    let mut a = vec!["bake", "builtin:city", "-o", s(&walk), "--exclude-mesh", "no-such-mesh"];
+    a.extend_from_slice(&BAKE);
+    let err = run(&a).unwrap_err();
+    assert!(err.contains("no instanced mesh or material named 'no-such-mesh'"), "{err}");
     for bad in ["1,2,3", "0,0,0,1,1,1:9", "0,0,0,-1,1,1", "a,0,0,1,1,1"] {
         let mut a = vec!["bake", "builtin:city", "-o", s(&dense), "--density", bad];
         a.extend_from_slice(&BAKE);
