@@ -77,7 +77,7 @@ pub(crate) struct CompareArgs {
     pub(crate) gradient_estimator: Option<crate::gradient_args::GradientEstimatorArg>,
     /// Also run the error-vs-memory study on this plate: uniform doi-paper at several
     /// resolutions, the same bakes read through the Taylor and Hermite gradient lookups,
-    /// the adaptive octrees at their memory and the brick export of the finer one,
+    /// uniform doi, the adaptive octrees at their memory and the brick export of the finer one,
     /// writing `memory_sweep.json`, `.png` and `.svg`.
     #[arg(long)]
     pub(crate) memory_sweep: bool,

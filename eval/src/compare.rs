@@ -396,6 +396,7 @@ pub(crate) mod tests {
                 "adaptive1",
                 "point",
                 "sweep x1",
+                "doi x1",
                 "adaptive x1",
                 "adaptive1 x1"
             ]
@@ -415,8 +416,9 @@ pub(crate) mod tests {
         );
         assert!(m("point+validity").rays.total() > m("point").rays.total());
         let sweep = r.memory_sweep.unwrap();
-        // uniform, its three gradient lookups, the two octrees and the level-2 octree's bricks.
-        assert_eq!(sweep.points.len(), 7);
+        // uniform, its three gradient lookups, uniform doi, the two octrees and the level-2
+        // octree's bricks.
+        assert_eq!(sweep.points.len(), 8);
         let bricks = sweep.points.iter().find(|p| p.series == "bricks").unwrap();
         let octree = sweep.points.iter().find(|p| p.series == "adaptive").unwrap();
         assert!(bricks.memory_bytes > 0 && bricks.rays == octree.rays);

@@ -2,10 +2,12 @@
 //!
 //! **Error against memory** ([`memory_sweep`]): the relative RMSE of
 //!
-//! - `uniform`: a `doi` bake (\[KL06\] §5-6) read by trilinear interpolation (Eq. 2),
+//! - `uniform`: a `doi-paper` bake (\[KL06\] §5-6) read by trilinear interpolation (Eq. 2),
 //! - `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`: the same bake with per-node
 //!   SH gradients (\[Oat05\]; the `basis` estimator from the bake's own samples, or the one
 //!   the caller names) read by the gradient lookups,
+//! - `doi`: a uniform bake with the default method, `doi` (relocation, fill and node reach),
+//!   its memory counting the reach,
 //! - `adaptive`, `adaptive1`: \[Oat05\]'s octree baked to the memory of each uniform grid,
 //!   finest level 2 or 1 (the `adaptive[L]` entries, module `entries`; `res` is its finest
 //!   level's, `nodes` its stored nodes),
@@ -144,6 +146,21 @@ pub fn memory_sweep(
                 bake_seconds + gv.gradient_seconds,
             );
         }
+        // Uniform doi, the default method (with its node reach, which its memory counts).
+        let doi = run_uniform(ctx, &grid, &format!("doi x{scale}"), Method::Doi, Fit::Average, plate)?;
+        let point = SweepPoint {
+            series: "doi".into(),
+            res: grid.res(),
+            nodes: grid.node_count(),
+            memory_bytes: doi.memory_bytes,
+            rel_rmse: doi.metrics.rel_rmse,
+            bias: doi.metrics.bias,
+            too_dark_near: doi.metrics.too_dark_near,
+            rays: doi.rays.total(),
+            seconds: doi.seconds,
+        };
+        ctx.observer.sweep_point(&point, None);
+        points.push(point);
         for (series, levels) in ADAPTIVE_SERIES {
             // At the uniform series' memory (doi-paper's coefficients, no node reach).
             let budget = uniform_memory_bytes(&grid, bands, false);

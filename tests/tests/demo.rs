@@ -137,7 +137,9 @@ fn demo_quick_writes_everything() {
             std::fs::read_to_string(out.join(scene).join("memory_sweep.json")).expect("memory_sweep.json");
         let r: Value = serde_json::from_str(&text).expect("memory_sweep.json parses");
         let pts = r["points"].as_array().expect("points");
-        for series in ["uniform", "uniform+taylor", "uniform+hermite", "adaptive", "adaptive1", "bricks"] {
+        for series in
+            ["uniform", "uniform+taylor", "uniform+hermite", "doi", "adaptive", "adaptive1", "bricks"]
+        {
             let n = pts.iter().filter(|p| p["series"] == series).count();
             assert_eq!(n, r["scales"].as_array().unwrap().len(), "{scene}: {series} at every scale");
         }

@@ -181,8 +181,9 @@ fn compare_reports_gradient_lookups_with_memory() {
     let sweep: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("memory_sweep.json")).unwrap()).unwrap();
     let pts = sweep["points"].as_array().unwrap();
-    // 2 scales x (uniform + 3 lookups + adaptive + adaptive1 + the adaptive octree's bricks).
-    assert_eq!(pts.len(), 14);
+    // 2 scales x (uniform + 3 lookups + uniform doi + adaptive + adaptive1 + the adaptive
+    // octree's bricks).
+    assert_eq!(pts.len(), 16);
     let at = |series: &str, res0: u64| {
         pts.iter().find(|p| p["series"] == series && p["res"][0].as_u64() == Some(res0)).unwrap()
     };
