@@ -212,6 +212,7 @@ fn compare_here(
     let mean_truth = plate.mean_truth().ok_or(EvalError::NoValidPoints(plate.height))?;
     let mut baked = Vec::with_capacity(config.methods.len());
     let mut gradient_bakes = GradientCache::default();
+    let mut brick_octree = crate::runs::BrickOctree::default();
     for NamedEntry { name, entry } in &config.methods {
         let run = match *entry {
             // The comparison's fit is for the cell-sample bakes; the per-node ones (point,
@@ -230,7 +231,9 @@ fn compare_here(
                 run_gradient(gv, name, lookup, config.samples, &plate)?
             }
             Entry::Adaptive(levels) => run_adaptive(&ctx, grid, name, levels, &plate)?,
-            Entry::Bricks(divisor) => crate::runs::run_bricks(&ctx, grid, name, divisor, &plate)?,
+            Entry::Bricks(divisor) => {
+                crate::runs::run_bricks(&ctx, grid, name, divisor, &mut brick_octree, &plate)?
+            }
             Entry::Baseline(b) => run_baseline(&ctx, grid, name, b, &plate)?,
             Entry::Targeted(method, lookup) => run_targeted(&ctx, grid, name, method, lookup, &plate)?,
             Entry::Bound(lookup) => run_bound(&ctx, grid, name, lookup, &plate)?,
@@ -277,6 +280,15 @@ pub(crate) mod tests {
 
     /// The maze at reduced settings: its recommended grid (11 × 11 × 3), a 12-point plate
     /// (also the views' tests' fixture).
+    /// The stages a comparison starts, in order.
+    #[derive(Default)]
+    struct Log(Mutex<Vec<String>>);
+    impl Observer for Log {
+        fn stage_started(&self, label: &str) {
+            self.0.lock().unwrap().push(label.to_owned());
+        }
+    }
+
     pub(crate) fn maze_config() -> (builtin::BuiltinScene, CompareConfig) {
         let maze = builtin::maze();
         let plate = PlateConfig {
@@ -370,13 +382,6 @@ pub(crate) mod tests {
     /// scale-1 uniform point is the `doi-paper` entry itself; the observer sees every stage.
     #[test]
     fn entries_and_sweep() {
-        #[derive(Default)]
-        struct Log(Mutex<Vec<String>>);
-        impl Observer for Log {
-            fn stage_started(&self, label: &str) {
-                self.0.lock().unwrap().push(label.to_owned());
-            }
-        }
         let (maze, mut config) = maze_config();
         config.methods =
             ["doi-paper", "doi-paper+taylor", "doi-paper+hermite", "adaptive1", "point", "point+validity"]
@@ -424,6 +429,24 @@ pub(crate) mod tests {
         assert!(bricks.memory_bytes > 0 && bricks.rays == octree.rays);
         let uniform = sweep.points.iter().find(|p| p.series == "uniform").unwrap();
         assert_eq!(uniform.rel_rmse, m("doi-paper").metrics.rel_rmse);
+    }
+
+    /// The brick entries export one octree, baked once, each under its own budget.
+    #[test]
+    fn brick_entries_share_one_octree() {
+        let (maze, mut config) = maze_config();
+        config.methods = ["bricks", "bricks2"].iter().map(|s| NamedEntry::parse(s).unwrap()).collect();
+        let log = Log::default();
+        let r = compare(&maze.scene, &config, &log).unwrap();
+        assert_eq!(*log.0.lock().unwrap(), ["reference", "bricks"]);
+        let m = |name: &str| r.methods.iter().find(|m| m.name == name).unwrap();
+        assert_eq!(m("bricks").rays, m("bricks2").rays);
+        let probes = |name: &str| match &m(name).detail {
+            RunDetail::Bricks { report, .. } => report.probe_bytes,
+            d => panic!("{d:?}"),
+        };
+        let cap = crate::entries::uniform_probe_bytes(&maze.grid, config.coeffs) / 2;
+        assert!(probes("bricks2") <= cap && probes("bricks2") <= probes("bricks"));
     }
 
     #[test]

@@ -494,6 +494,41 @@ pub fn evaluate_adaptive(vol: &AdaptiveVolume, plate: &Plate) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// The octree of the `bricks[N]` entries, baked once per comparison: every brick entry
+/// exports the same octree under its own budget (and reports its rays).
+#[derive(Default)]
+pub struct BrickOctree {
+    baked: Option<(Arc<AdaptiveVolume>, AdaptiveStats)>,
+}
+
+impl BrickOctree {
+    /// The octree on `grid` (module docs of [`run_bricks`]), baked on first use under the
+    /// stage `label`. Every call on one cache must pass the same context and grid.
+    ///
+    /// # Errors
+    /// The bake's.
+    pub fn get(
+        &mut self,
+        ctx: &BakeContext<'_>,
+        grid: &GridSpec,
+        label: &str,
+    ) -> Result<&(Arc<AdaptiveVolume>, AdaptiveStats), EvalError> {
+        if self.baked.is_none() {
+            let budget = crate::entries::uniform_doi_memory_bytes(grid, bands_of_coeffs(ctx.coeffs));
+            let (oct, stats, _) = octree_volume(
+                ctx,
+                grid,
+                crate::entries::BRICKS_BASE_SCALE,
+                crate::entries::BRICKS_MAX_LEVEL,
+                label,
+                budget,
+            )?;
+            self.baked = Some((Arc::new(oct), stats));
+        }
+        Ok(self.baked.as_ref().expect("baked above"))
+    }
+}
+
 /// Irradiance (normal up) of a brick volume at every plate point (its f32 lookup).
 #[must_use]
 pub fn evaluate_bricks(vol: &BrickVolume, plate: &Plate) -> Vec<[f64; 3]> {
@@ -552,17 +587,11 @@ pub fn run_bricks(
     grid: &GridSpec,
     name: &str,
     divisor: u32,
+    octree: &mut BrickOctree,
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
-    let budget = crate::entries::uniform_doi_memory_bytes(grid, bands_of_coeffs(ctx.coeffs));
-    let (oct, stats, _) = octree_volume(
-        ctx,
-        grid,
-        crate::entries::BRICKS_BASE_SCALE,
-        crate::entries::BRICKS_MAX_LEVEL,
-        name,
-        budget,
-    )?;
+    let (oct, stats) = octree.get(ctx, grid, name)?;
+    let (oct, stats) = (Arc::clone(oct), stats.clone());
     let probe_budget =
         (divisor > 0).then(|| crate::entries::uniform_probe_bytes(grid, ctx.coeffs) / divisor as usize);
     let params = BrickParams { max_probe_bytes: probe_budget, ..BrickParams::default() };
