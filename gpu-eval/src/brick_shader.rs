@@ -22,7 +22,7 @@
 use lightvol_volume::bricks::BrickVolume;
 use lightvol_volume::io::bricks::{atlas_slots, describe};
 
-use crate::engine_shader::{COMMON, Language, constants, translate, validate_with};
+use crate::engine_shader::{COMMON, Language, constants, selftest_spirv_of, translate};
 use crate::error::GpuError;
 
 /// Words of the `LightvolBricks` block ([`brick_words`]).
@@ -161,19 +161,7 @@ pub fn brick_selftest_source(slots: [u32; 3]) -> String {
 /// # Errors
 /// As [`brick_shader_source`].
 pub fn brick_selftest_spirv(slots: [u32; 3]) -> Result<Vec<u32>, GpuError> {
-    let src = brick_selftest_source(slots);
-    let (module, info) = validate_with(
-        &src,
-        "lightvol brick self-test",
-        naga::valid::Capabilities::SHADER_FLOAT16_IN_FLOAT32,
-    )?;
-    let options = naga::back::spv::Options {
-        lang_version: (1, 0),
-        flags: naga::back::spv::WriterFlags::empty(),
-        ..naga::back::spv::Options::default()
-    };
-    naga::back::spv::write_vec(&module, &info, &options, None)
-        .map_err(|e| GpuError::Invalid(format!("SPIR-V backend: {e}")))
+    selftest_spirv_of(&brick_selftest_source(slots), "lightvol brick self-test")
 }
 
 #[cfg(test)]

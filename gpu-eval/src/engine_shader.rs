@@ -291,7 +291,7 @@ fn parse_and_validate(src: &str, what: &str) -> Result<(naga::Module, naga::vali
     validate_with(src, what, naga::valid::Capabilities::empty())
 }
 
-pub(crate) fn validate_with(
+fn validate_with(
     src: &str,
     what: &str,
     caps: naga::valid::Capabilities,
@@ -415,13 +415,14 @@ pub fn validate_glsl(src: &str) -> Result<(), GpuError> {
 /// # Errors
 /// As [`shader_source`].
 pub fn selftest_spirv(layout: Layout) -> Result<Vec<u32>, GpuError> {
-    let src = selftest_source(layout);
-    // `unpack2x16float` (the f16 decode of the KTX2 texels) is a float16-in-float32 operation.
-    let (module, info) = validate_with(
-        &src,
-        "lightvol sampling self-test",
-        naga::valid::Capabilities::SHADER_FLOAT16_IN_FLOAT32,
-    )?;
+    selftest_spirv_of(&selftest_source(layout), "lightvol sampling self-test")
+}
+
+/// SPIR-V 1.0 of a device-test source `src` (named `what` in errors), validated with the
+/// float16-in-float32 capability that `unpack2x16float` (the f16 decode of stored KTX2
+/// texels) needs.
+pub(crate) fn selftest_spirv_of(src: &str, what: &str) -> Result<Vec<u32>, GpuError> {
+    let (module, info) = validate_with(src, what, naga::valid::Capabilities::SHADER_FLOAT16_IN_FLOAT32)?;
     let options = naga::back::spv::Options {
         lang_version: (1, 0),
         flags: naga::back::spv::WriterFlags::empty(),
