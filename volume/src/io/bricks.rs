@@ -162,10 +162,21 @@ pub fn describe(vol: &BrickVolume) -> BrickSidecar {
     }
 }
 
-/// The atlas texel `(x, y, z)` (in a `dims` texture) of probe `q` of the brick in `slot`,
-/// coefficient `j`.
-fn atlas_texel(slots: [u32; 3], p: u32, slot: [u32; 3], q: [u32; 3], j: u32) -> [u32; 3] {
-    [slot[0] * p + q[0], slot[1] * p + q[1], j * slots[2] * p + slot[2] * p + q[2]]
+/// Where brick `i`'s values go in an atlas of `slots` slots of `p` probes per axis and
+/// `coeffs` coefficient slabs (module docs): for every probe (x fastest) and coefficient
+/// `j`, the index of the coefficient's RGB in the brick's values (`[probe][coeff][rgb]`)
+/// and the byte offset of its RGBA16F texel.
+fn atlas_offsets(slots: [u32; 3], p: u32, coeffs: u32, i: usize) -> impl Iterator<Item = (usize, usize)> {
+    let slot = slot_of(slots, i);
+    let dims = [slots[0] * p, slots[1] * p];
+    (0..p * p * p).flat_map(move |q| {
+        let (x, y, z) = (q % p, (q / p) % p, q / (p * p));
+        (0..coeffs).map(move |j| {
+            let t = [slot[0] * p + x, slot[1] * p + y, j * slots[2] * p + slot[2] * p + z];
+            let texel = t[0] as usize + dims[0] as usize * (t[1] as usize + dims[1] as usize * t[2] as usize);
+            ((q * coeffs + j) as usize * 3, texel * 8)
+        })
+    })
 }
 
 /// The slot of brick `i`.
@@ -196,36 +207,29 @@ pub fn brick_texels(vol: &BrickVolume) -> Result<BrickTexels, VolumeError> {
     let dims = [slots[0] * p, slots[1] * p, coeffs * slots[2] * p];
     let texels = dims.iter().map(|&d| d as usize).product::<usize>();
     let mut atlas = vec![0u8; texels * 8];
-    let k = vol.coeffs() * 3;
-    let at = |t: [u32; 3]| {
-        (t[0] as usize + dims[0] as usize * (t[1] as usize + dims[1] as usize * t[2] as usize)) * 8
-    };
     let one = half::f16::ONE.to_le_bytes();
     for i in 0..vol.bricks().len() {
-        let slot = slot_of(slots, i);
         let d = vol.brick_data(i);
-        for z in 0..p {
-            for y in 0..p {
-                for x in 0..p {
-                    let probe = (x + p * (y + p * z)) as usize * k;
-                    for j in 0..coeffs {
-                        let o = at(atlas_texel(slots, p, slot, [x, y, z], j));
-                        for ch in 0..3 {
-                            let v = half::f16::from_f32(d[probe + 3 * j as usize + ch]);
-                            atlas[o + 2 * ch..o + 2 * ch + 2].copy_from_slice(&v.to_le_bytes());
-                        }
-                        atlas[o + 6..o + 8].copy_from_slice(&one);
-                    }
-                }
+        for (v, o) in atlas_offsets(slots, p, coeffs, i) {
+            for ch in 0..3 {
+                atlas[o + 2 * ch..o + 2 * ch + 2]
+                    .copy_from_slice(&half::f16::from_f32(d[v + ch]).to_le_bytes());
             }
+            atlas[o + 6..o + 8].copy_from_slice(&one);
         }
     }
+    Ok((dims, atlas, indirection_texels(vol, slots)))
+}
+
+/// The indirection texture's texels (RGBA8 unsigned: the brick's slot in an atlas of
+/// `slots` slots, and its level).
+fn indirection_texels(vol: &BrickVolume, slots: [u32; 3]) -> Vec<u8> {
     let mut ind = Vec::with_capacity(vol.indirection().len() * INDIRECTION_TEXEL_BYTES);
     for &b in vol.indirection() {
         let s = slot_of(slots, b as usize);
         ind.extend([s[0] as u8, s[1] as u8, s[2] as u8, vol.bricks()[b as usize].level as u8]);
     }
-    Ok((dims, atlas, ind))
+    ind
 }
 
 /// The atlas and indirection textures of `vol`, as KTX2 files in memory.
@@ -287,8 +291,7 @@ pub fn read_bricks(path: &Path) -> Result<BrickVolume, VolumeError> {
         let f = FileFormat::Ktx2;
         let bytes = read_bounded(&ind)?;
         let (_, (dims, _, data)) = guard(f, || parse_ktx2(&bytes, f, &[Format::R8G8B8A8_UINT]))?;
-        let want = bricks_to_bytes(&vol)?.1;
-        let (_, (_, _, want)) = parse_ktx2(&want, f, &[Format::R8G8B8A8_UINT])?;
+        let want = indirection_texels(&vol, atlas_slots(vol.bricks().len()));
         if dims != vol.indirection_res() || data != want {
             return Err(VolumeError::malformed(
                 f,
@@ -343,23 +346,10 @@ pub fn bricks_from_bytes(bytes: &[u8]) -> Result<BrickVolume, VolumeError> {
         let k = s.coeffs * 3;
         let per = (p as usize).pow(3) * k;
         let mut values = vec![0.0f32; bricks.len() * per];
-        let at = |t: [u32; 3]| {
-            (t[0] as usize + dims[0] as usize * (t[1] as usize + dims[1] as usize * t[2] as usize)) * 8
-        };
         for (i, d) in values.chunks_exact_mut(per).enumerate() {
-            let slot = slot_of(slots, i);
-            for z in 0..p {
-                for y in 0..p {
-                    for x in 0..p {
-                        let probe = (x + p * (y + p * z)) as usize * k;
-                        for j in 0..coeffs {
-                            let o = at(atlas_texel(slots, p, slot, [x, y, z], j));
-                            for ch in 0..3 {
-                                let h = half::f16::from_le_bytes([data[o + 2 * ch], data[o + 2 * ch + 1]]);
-                                d[probe + 3 * j as usize + ch] = h.to_f32();
-                            }
-                        }
-                    }
+            for (v, o) in atlas_offsets(slots, p, coeffs, i) {
+                for ch in 0..3 {
+                    d[v + ch] = half::f16::from_le_bytes([data[o + 2 * ch], data[o + 2 * ch + 1]]).to_f32();
                 }
             }
         }
