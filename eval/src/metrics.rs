@@ -90,14 +90,14 @@ pub fn compute(points: &[PlatePoint]) -> Metrics {
 /// One (series, resolution) point of the error-against-memory study.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct SweepPoint {
-    /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`, `adaptive`,
-    /// `adaptive1`.
+    /// `uniform`, `uniform+taylor`, `uniform+gtrilinear`, `uniform+hermite`, `doi`,
+    /// `adaptive`, `adaptive1`, `bricks`.
     pub series: String,
     /// Grid nodes per axis (the octree's finest level).
     pub res: [u32; 3],
-    /// Stored nodes.
+    /// Stored nodes (a brick export's probes).
     pub nodes: usize,
-    /// Run-time bytes (\[Oat05\]'s accounting).
+    /// Run-time bytes (\[Oat05\]'s accounting; a brick export's atlas and indirection).
     pub memory_bytes: usize,
     /// Relative RMSE on the plate's valid points.
     pub rel_rmse: f64,

@@ -14,7 +14,7 @@ use std::time::Instant;
 use lightvol_volume::bricks::{BrickParams, BrickVolume, bricks_from_octree};
 use lightvol_volume::gradient::{GradientLookup, irradiance as gradient_irradiance};
 use lightvol_volume::validity::ValidityMask;
-use lightvol_volume::{AdaptiveVolume, EngineLookup, GridSpec, IrradianceVolume, LevelStats};
+use lightvol_volume::{AdaptiveVolume, EngineLookup, GridSpec, IrradianceVolume, LevelStats, VolumeField};
 use rayon::prelude::*;
 
 use crate::baked::{GradientVolume, RunVolume};
@@ -591,13 +591,11 @@ pub fn run_bricks(
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
     let (oct, stats) = octree.get(ctx, grid, name)?;
-    let (oct, stats) = (Arc::clone(oct), stats.clone());
     let probe_budget =
         (divisor > 0).then(|| crate::entries::uniform_probe_bytes(grid, ctx.coeffs) / divisor as usize);
     let params = BrickParams { max_probe_bytes: probe_budget, ..BrickParams::default() };
-    let (vol, report) = bricks_from_octree(&oct, &params)?;
+    let (vol, report) = bricks_from_octree(oct, &params)?;
     let estimate = evaluate_bricks(&vol, plate);
-    let probes = vol.bricks().len() * (vol.brick_probes() as usize).pow(3);
     Ok(MethodRun::new(
         name,
         ctx.samples,
@@ -605,8 +603,8 @@ pub fn run_bricks(
         stats.wall_time.as_secs_f64(),
         plate,
         estimate,
-        vol.probe_bytes() + vol.indirection_bytes(),
-        probes,
+        VolumeField::memory_bytes(&vol),
+        vol.probe_count(),
         RunDetail::Bricks { probe_budget, report, octree_bytes: oct.memory_bytes() },
         RunVolume::Bricks(Arc::new(vol)),
     ))

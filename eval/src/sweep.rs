@@ -22,8 +22,8 @@
 //! **Error against resolution** ([`resolution_sweep`]): uniform bakes of several methods
 //! on grids of the base grid's bounds and cell aspect with more or fewer nodes along x.
 
-use lightvol_volume::GridSpec;
 use lightvol_volume::bricks::{BrickParams, bricks_from_octree};
+use lightvol_volume::{GridSpec, VolumeField};
 use serde::Serialize;
 
 use crate::entries::{LOOKUPS, lookup_name, uniform_memory_bytes};
@@ -117,19 +117,9 @@ pub fn memory_sweep(
         let bands = gv.volume.bands();
         let mut push = |series: String, memory_bytes: usize, estimate: &[[f64; 3]], seconds: f64| {
             let m = plate.metrics(estimate);
-            let point = SweepPoint {
-                series,
-                res: grid.res(),
-                nodes: grid.node_count(),
-                memory_bytes,
-                rel_rmse: m.rel_rmse,
-                bias: m.bias,
-                too_dark_near: m.too_dark_near,
-                rays: bake_rays,
-                seconds,
-            };
-            ctx.observer.sweep_point(&point, None);
-            points.push(point);
+            let p = point(series, grid.res(), grid.node_count(), memory_bytes, &m, bake_rays, seconds);
+            ctx.observer.sweep_point(&p, None);
+            points.push(p);
         };
         push(
             "uniform".into(),
@@ -148,55 +138,44 @@ pub fn memory_sweep(
         }
         // Uniform doi, the default method (with its node reach, which its memory counts).
         let doi = run_uniform(ctx, &grid, &format!("doi x{scale}"), Method::Doi, Fit::Average, plate)?;
-        let point = SweepPoint {
-            series: "doi".into(),
-            res: grid.res(),
-            nodes: grid.node_count(),
-            memory_bytes: doi.memory_bytes,
-            rel_rmse: doi.metrics.rel_rmse,
-            bias: doi.metrics.bias,
-            too_dark_near: doi.metrics.too_dark_near,
-            rays: doi.rays.total(),
-            seconds: doi.seconds,
-        };
-        ctx.observer.sweep_point(&point, None);
-        points.push(point);
+        let p = point(
+            "doi".into(),
+            grid.res(),
+            grid.node_count(),
+            doi.memory_bytes,
+            &doi.metrics,
+            doi.rays.total(),
+            doi.seconds,
+        );
+        ctx.observer.sweep_point(&p, None);
+        points.push(p);
         for (series, levels) in ADAPTIVE_SERIES {
             // At the uniform series' memory (doi-paper's coefficients, no node reach).
             let budget = uniform_memory_bytes(&grid, bands, false);
             let (av, stats, _) = adaptive_volume(ctx, &grid, levels, &format!("{series} x{scale}"), budget)?;
+            let (rays, seconds) = (stats.rays.total(), stats.wall_time.as_secs_f64());
+            let base_res = Some(av.base().spec().res());
             let m = plate.metrics(&evaluate_adaptive(&av, plate));
-            let point = SweepPoint {
-                series: series.into(),
-                res: av.finest_res(),
-                nodes: av.stored_nodes(),
-                memory_bytes: av.memory_bytes(),
-                rel_rmse: m.rel_rmse,
-                bias: m.bias,
-                too_dark_near: m.too_dark_near,
-                rays: stats.rays.total(),
-                seconds: stats.wall_time.as_secs_f64(),
-            };
-            ctx.observer.sweep_point(&point, Some(av.base().spec().res()));
-            points.push(point);
+            let p = point(
+                series.into(),
+                av.finest_res(),
+                av.stored_nodes(),
+                av.memory_bytes(),
+                &m,
+                rays,
+                seconds,
+            );
+            ctx.observer.sweep_point(&p, base_res);
+            points.push(p);
             if levels == crate::entries::ADAPTIVE_MAX_LEVEL {
                 // The same octree as the engines' brick export (no extra rays).
                 let (bricks, _) = bricks_from_octree(&av, &BrickParams::default())?;
-                let est = evaluate_bricks(&bricks, plate);
-                let m = plate.metrics(&est);
-                let point = SweepPoint {
-                    series: "bricks".into(),
-                    res: av.finest_res(),
-                    nodes: bricks.bricks().len() * (bricks.brick_probes() as usize).pow(3),
-                    memory_bytes: bricks.probe_bytes() + bricks.indirection_bytes(),
-                    rel_rmse: m.rel_rmse,
-                    bias: m.bias,
-                    too_dark_near: m.too_dark_near,
-                    rays: stats.rays.total(),
-                    seconds: stats.wall_time.as_secs_f64(),
-                };
-                ctx.observer.sweep_point(&point, Some(av.base().spec().res()));
-                points.push(point);
+                let m = plate.metrics(&evaluate_bricks(&bricks, plate));
+                let memory = VolumeField::memory_bytes(&bricks);
+                let p =
+                    point("bricks".into(), av.finest_res(), bricks.probe_count(), memory, &m, rays, seconds);
+                ctx.observer.sweep_point(&p, base_res);
+                points.push(p);
             }
         }
     }
@@ -210,6 +189,29 @@ pub fn memory_sweep(
         scales: config.scales.clone(),
         points,
     })
+}
+
+/// A study point of `series` from its plate metrics `m`.
+fn point(
+    series: String,
+    res: [u32; 3],
+    nodes: usize,
+    memory_bytes: usize,
+    m: &Metrics,
+    rays: u64,
+    seconds: f64,
+) -> SweepPoint {
+    SweepPoint {
+        series,
+        res,
+        nodes,
+        memory_bytes,
+        rel_rmse: m.rel_rmse,
+        bias: m.bias,
+        too_dark_near: m.too_dark_near,
+        rays,
+        seconds,
+    }
 }
 
 /// One method's errors against grid resolution.

@@ -299,6 +299,12 @@ impl BrickVolume {
         n
     }
 
+    /// Probes stored: `bricks · (B + 1)³`.
+    #[must_use]
+    pub fn probe_count(&self) -> usize {
+        self.bricks.len() * (self.brick_probes() as usize).pow(3)
+    }
+
     /// Bytes of the bricks' probes: `bricks · (B + 1)³ · coeffs ·` [`ATLAS_TEXEL_BYTES`].
     #[must_use]
     pub fn probe_bytes(&self) -> usize {
