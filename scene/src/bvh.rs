@@ -1,4 +1,7 @@
-//! Ray tracing with `obvhs` 0.4: compressed-wide BVHs (CwBvh) over the scene's triangles.
+//! Ray tracing over the scene's triangles with lightvol's wide BVH ([`crate::wide`]): obvhs
+//! builds a binary BVH (PLOC, reinsertion, optional pre-splits), which is collapsed into
+//! 8-wide nodes with four-triangle leaves and traversed with the SIMD kernel the machine
+//! runs, chosen at run time ([`Isa`]).
 //!
 //! Two levels: one bottom-level BVH over the directly placed triangles and one per
 //! prototype, in the prototype's frame ([`crate::instance`]), and a top-level BVH over the
@@ -10,31 +13,21 @@
 //! `t` and barycentrics differ from a flattened copy's by f32 rounding of the transform
 //! (`instanced_and_flattened_agree` states by how much).
 //!
-//! Known obvhs 0.4 pitfalls handled here:
-//! - the BVH reorders primitives: `primitive_id` indexes `primitive_indices`, which maps
-//!   back to the scene's triangle order; we store the triangles in BVH order and keep the
-//!   map (`order`) so every [`Hit::triangle`] is a *scene* index;
-//! - `Triangle::compute_barycentric` is wrong in 0.4; we use
-//!   `RtTriangle::compute_barycentric` (checked against an f64 reference in the tests);
-//! - `ray_traverse_anyhit` visits *all* hits; shadow rays use `ray_traverse_miss`, which
-//!   stops at the first hit.
-//!
-//! Intersection runs in f32 (obvhs' Möller-Trumbore). Hit data returned to callers is f64,
-//! recomputed on the scene's f64 triangle where that is more accurate (normal, position).
+//! Intersection is the watertight test of Woop, Benthin & Wald 2013
+//! ([`crate::watertight`]) in f32: no ray slips through an edge two triangles share. The
+//! closest hit is the least `(t, triangle)` pair, so that ties between triangles at the
+//! same distance resolve the same way whatever the traversal order or kernel; every
+//! kernel returns the same hit as [`Tracer::closest_hit_brute_force`], bit for bit. Hit
+//! data returned to callers is f64, recomputed on the scene's f64 triangle where that is
+//! more accurate (normal, position).
 //!
 //! Alpha-tested and transparent materials are decided inside the traversal
 //! ([`crate::alpha`]): a candidate hit that is no surface is rejected before it can become
 //! the closest hit or block a shadow ray.
 
-use std::time::Duration;
-
 use glam::{DAffine3, DVec3, Vec3A};
 use obvhs::BvhBuildParams;
 use obvhs::aabb::Aabb;
-use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::builder::{build_cwbvh, build_cwbvh_from_tris};
-use obvhs::ray::{Ray, RayHit};
-use obvhs::rt_triangle::RtTriangle;
 use obvhs::triangle::Triangle as ObTriangle;
 use rayon::prelude::*;
 
@@ -42,6 +35,11 @@ use crate::alpha::{AlphaTable, ray_key};
 use crate::instance::place;
 use crate::scene::Scene;
 use crate::triangle::Triangle;
+use crate::watertight::{RawHit, intersect_raw};
+use crate::wide::dispatch::{Query, run};
+use crate::wide::kernel::{Kernel, RayK};
+use crate::wide::traverse::{Any, Best, Closest, Filter, Visit, walk};
+use crate::wide::{Isa, WideBvh, build};
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -63,13 +61,12 @@ pub struct Hit {
     pub single_sided: bool,
 }
 
-/// BVH build quality presets (obvhs' own presets).
+/// BVH build quality presets (obvhs' own presets for the binary tree).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BuildQuality {
     /// `BvhBuildParams::fast_build`.
     Fast,
-    /// `BvhBuildParams::medium_build` (the default: about Embree's build time, faster
-    /// traversal).
+    /// `BvhBuildParams::medium_build` (the default).
     #[default]
     Medium,
     /// `BvhBuildParams::slow_build` (spatial pre-splits).
@@ -78,11 +75,8 @@ pub enum BuildQuality {
 
 /// One bottom-level BVH: the directly placed triangles, or one prototype's.
 struct Blas {
-    bvh: CwBvh,
-    /// Triangles in BVH primitive order, in the BVH's own frame.
-    tris: Vec<RtTriangle>,
-    /// BVH primitive slot → triangle index within this geometry.
-    order: Vec<u32>,
+    /// Its primitives are triangle indices within this geometry.
+    bvh: WideBvh,
     /// Per triangle: unit normal in the BVH's frame.
     normals: Vec<DVec3>,
     /// Per triangle: back faces count (single-sided material).
@@ -134,11 +128,13 @@ pub struct Tracer {
     /// Ordered by `first`.
     placements: Vec<Placement>,
     /// Over `placements`; `None` when the only placement is the identity (one level).
-    tlas: Option<CwBvh>,
+    tlas: Option<WideBvh>,
     /// Scene triangles (instances included).
     count: usize,
     /// Alpha decisions for `MASK`/`BLEND` triangles.
     alpha: AlphaTable,
+    /// The traversal kernel.
+    isa: Isa,
 }
 
 impl std::fmt::Debug for Tracer {
@@ -148,6 +144,7 @@ impl std::fmt::Debug for Tracer {
             .field("unique_triangles", &self.unique_len())
             .field("placements", &self.placements.len())
             .field("nodes", &self.blas.iter().map(|b| b.bvh.nodes.len()).sum::<usize>())
+            .field("isa", &self.isa)
             .finish()
     }
 }
@@ -157,17 +154,15 @@ fn v3a(p: DVec3) -> Vec3A {
     Vec3A::new(p.x as f32, p.y as f32, p.z as f32)
 }
 
-/// An obvhs ray. Direction components equal to -0.0 are replaced by +0.0: obvhs 0.4 misses
-/// everything along e.g. `(-0.0, -0.0, -1.0)` (found by `barycentrics_and_ids_in_scene_order`;
-/// `x + 0.0` turns -0.0 into +0.0 and changes nothing else).
 #[inline]
-fn make_ray(origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Ray {
-    Ray::new(v3a(origin), v3a(dir) + Vec3A::ZERO, tmin as f32, tmax.min(f64::from(f32::MAX)) as f32)
+fn f32x3(p: DVec3) -> [f32; 3] {
+    [p.x as f32, p.y as f32, p.z as f32]
 }
 
-/// obvhs skips a BVH node whose box the ray leaves before `t = 1e-4` (`cwbvh::node::EPSILON`,
-/// a clamp of the box test's entry distance). Placement boxes are widened by this much, so
-/// that the top level never drops a hit that the placement's own BVH would find.
+/// Placement boxes are widened by this much: the top level tests a placement's world box
+/// with the world ray, the bottom level its own boxes with the ray carried into the
+/// prototype's frame in f64 and rounded to f32, and the two roundings must not drop a hit
+/// the bottom level would find.
 const TLAS_PAD: f64 = 1e-4;
 
 /// The f32 box of f64 bounds, widened by [`TLAS_PAD`] and one f32 step outward on each side
@@ -193,21 +188,16 @@ impl Blas {
     fn new(scene: &Scene, source: &[Triangle], stored_base: u32, quality: BuildQuality) -> Self {
         let ob: Vec<ObTriangle> =
             source.iter().map(|t| ObTriangle { v0: v3a(t.v[0]), v1: v3a(t.v[1]), v2: v3a(t.v[2]) }).collect();
-        let bvh = build_cwbvh_from_tris(&ob, build_params(quality), &mut Duration::default());
-        let order = bvh.primitive_indices.clone();
-        let tris = order.iter().map(|&i| RtTriangle::from(&ob[i as usize])).collect();
+        let bvh = build::from_triangles(&ob, build_params(quality));
         let normals = source.iter().map(Triangle::normal).collect();
         let single_sided =
             source.iter().map(|t| !scene.materials[t.material as usize].double_sided).collect();
-        Self {
-            bvh,
-            tris,
-            order,
-            normals,
-            single_sided,
-            source: source.iter().map(|t| t.v).collect(),
-            stored_base,
-        }
+        Self { bvh, normals, single_sided, source: source.iter().map(|t| t.v).collect(), stored_base }
+    }
+
+    /// Triangle `local` in the f32 frame the kernels test.
+    fn triangle_f32(&self, local: usize) -> [[f32; 3]; 3] {
+        self.source[local].map(f32x3)
     }
 }
 
@@ -219,15 +209,171 @@ impl Placement {
 
     /// The ray in this placement's BVH frame (the same `t` parametrises both).
     #[inline]
-    fn local_ray(&self, origin: DVec3, dir: DVec3, tmin: f32, tmax: f32) -> Ray {
+    fn local_ray(&self, origin: DVec3, dir: DVec3, tmin: f32, tmax: f32) -> RayK {
         match self.to_world {
-            None => Ray::new(v3a(origin), v3a(dir) + Vec3A::ZERO, tmin, tmax),
-            Some(_) => Ray::new(
-                v3a(self.to_local.transform_point3(origin)),
-                v3a(self.to_local.transform_vector3(dir)) + Vec3A::ZERO,
+            None => RayK::new(f32x3(origin), f32x3(dir), tmin, tmax),
+            Some(_) => RayK::new(
+                f32x3(self.to_local.transform_point3(origin)),
+                f32x3(self.to_local.transform_vector3(dir)),
                 tmin,
                 tmax,
             ),
+        }
+    }
+}
+
+/// Identifies and filters the triangles of one placement.
+struct PlacementFilter<'a> {
+    tracer: &'a Tracer,
+    blas: &'a Blas,
+    placement: &'a Placement,
+    key: u64,
+}
+
+impl Filter for PlacementFilter<'_> {
+    #[inline(always)]
+    fn id(&self, prim: u32) -> u32 {
+        self.placement.first + prim
+    }
+
+    #[inline(always)]
+    fn accept(&self, prim: u32, hit: &RawHit) -> bool {
+        let alpha = &self.tracer.alpha;
+        if alpha.is_empty() {
+            return true;
+        }
+        let stored = self.blas.stored_base + prim;
+        if !alpha.needs_test(stored) {
+            return true;
+        }
+        let [u, v] = hit.bary12();
+        alpha.is_surface(stored, self.placement.first + prim, f64::from(u), f64::from(v), self.key)
+    }
+}
+
+/// A ray query against the whole scene, in world space.
+struct SceneRay<'a> {
+    tracer: &'a Tracer,
+    origin: DVec3,
+    dir: DVec3,
+    tmin: f32,
+    tmax: f32,
+    key: u64,
+}
+
+impl<'a> SceneRay<'a> {
+    fn filter(&self, k: usize) -> PlacementFilter<'a> {
+        let placement = &self.tracer.placements[k];
+        PlacementFilter {
+            tracer: self.tracer,
+            blas: &self.tracer.blas[placement.blas as usize],
+            placement,
+            key: self.key,
+        }
+    }
+}
+
+/// The closest hit: `(scene triangle, hit)`.
+struct ClosestQuery<'a>(SceneRay<'a>);
+
+/// The top level of a closest-hit query: each placement met continues in its BVH.
+struct ClosestPlacements<'a, 'b> {
+    ray: &'b SceneRay<'a>,
+    best: Best,
+}
+
+impl Visit for ClosestPlacements<'_, '_> {
+    #[inline(always)]
+    fn tmax(&self) -> f32 {
+        self.best.t
+    }
+
+    #[inline(always)]
+    fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
+        for &k in bvh.leaf_prims(leaf) {
+            let filter = self.ray.filter(k as usize);
+            let local =
+                filter.placement.local_ray(self.ray.origin, self.ray.dir, self.ray.tmin, self.ray.tmax);
+            let mut v = Closest { ray: &local, best: &mut self.best, filter: &filter };
+            walk::<K, _, true>(&filter.blas.bvh, &local, &mut v);
+        }
+        false
+    }
+}
+
+impl Query for ClosestQuery<'_> {
+    type Out = Option<(u32, RawHit)>;
+
+    #[inline(always)]
+    fn run<K: Kernel>(&self) -> Self::Out {
+        let r = &self.0;
+        let best = match &r.tracer.tlas {
+            None => {
+                let filter = r.filter(0);
+                let ray = filter.placement.local_ray(r.origin, r.dir, r.tmin, r.tmax);
+                let mut best = Best::new(r.tmax);
+                walk::<K, _, true>(
+                    &filter.blas.bvh,
+                    &ray,
+                    &mut Closest { ray: &ray, best: &mut best, filter: &filter },
+                );
+                best
+            }
+            Some(tlas) => {
+                let ray = RayK::new(f32x3(r.origin), f32x3(r.dir), r.tmin, r.tmax);
+                let mut v = ClosestPlacements { ray: r, best: Best::new(r.tmax) };
+                walk::<K, _, true>(tlas, &ray, &mut v);
+                v.best
+            }
+        };
+        best.hit.map(|h| (best.id, h))
+    }
+}
+
+/// Whether anything blocks the ray.
+struct OcclusionQuery<'a>(SceneRay<'a>);
+
+/// The top level of an occlusion query.
+struct AnyPlacement<'a, 'b> {
+    ray: &'b SceneRay<'a>,
+}
+
+impl Visit for AnyPlacement<'_, '_> {
+    #[inline(always)]
+    fn tmax(&self) -> f32 {
+        self.ray.tmax
+    }
+
+    #[inline(always)]
+    fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
+        for &k in bvh.leaf_prims(leaf) {
+            let filter = self.ray.filter(k as usize);
+            let local =
+                filter.placement.local_ray(self.ray.origin, self.ray.dir, self.ray.tmin, self.ray.tmax);
+            if walk::<K, _, true>(&filter.blas.bvh, &local, &mut Any { ray: &local, filter: &filter }) {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+impl Query for OcclusionQuery<'_> {
+    type Out = bool;
+
+    #[inline(always)]
+    fn run<K: Kernel>(&self) -> bool {
+        let r = &self.0;
+        match &r.tracer.tlas {
+            None => {
+                let filter = r.filter(0);
+                let ray = filter.placement.local_ray(r.origin, r.dir, r.tmin, r.tmax);
+                walk::<K, _, true>(&filter.blas.bvh, &ray, &mut Any { ray: &ray, filter: &filter })
+            }
+            Some(tlas) => {
+                let ray = RayK::new(f32x3(r.origin), f32x3(r.dir), r.tmin, r.tmax);
+                walk::<K, _, true>(tlas, &ray, &mut AnyPlacement { ray: r })
+            }
         }
     }
 }
@@ -246,9 +392,12 @@ impl Tracer {
     }
 
     /// Builds the BVHs with the given preset and levels (bottom levels in parallel; each
-    /// build is deterministic, so the tracer is the same on any thread count).
+    /// build is deterministic, so the tracer is the same on any thread count). The kernel
+    /// is the fastest this machine runs, or the one [`crate::wide::ISA_ENV`]
+    /// names ([`Isa::from_env`]; an unusable name falls back to the fastest).
     #[must_use]
     pub fn build(scene: &Scene, quality: BuildQuality, levels: Levels) -> Self {
+        let isa = Isa::from_env().unwrap_or_else(|_| Isa::best());
         let one = match levels {
             Levels::Auto => scene.triangle_count() <= FLATTEN_AT_MOST,
             Levels::One => true,
@@ -262,6 +411,7 @@ impl Tracer {
                 tlas: None,
                 count: placed.len(),
                 alpha: AlphaTable::from_triangles(scene, placed.iter()),
+                isa,
             };
         }
         let mut sources: Vec<(&[Triangle], u32)> = vec![(&scene.triangles, 0)];
@@ -296,8 +446,31 @@ impl Tracer {
             boxes.push(outward_aabb(inst.bounds.0, inst.bounds.1));
         }
         let one_level = placements.len() == 1 && placements[0].to_world.is_none();
-        let tlas = (!one_level).then(|| build_cwbvh(&boxes, build_params(quality), &mut Duration::default()));
-        Self { blas, placements, tlas, count: scene.triangle_count(), alpha: AlphaTable::new(scene) }
+        let tlas = (!one_level).then(|| build::from_boxes(&boxes, build_params(quality)));
+        Self { blas, placements, tlas, count: scene.triangle_count(), alpha: AlphaTable::new(scene), isa }
+    }
+
+    /// The traversal kernel this tracer runs.
+    #[must_use]
+    pub fn isa(&self) -> Isa {
+        self.isa
+    }
+
+    /// Traverses with kernel `isa` from now on; an error (naming the kernels this machine
+    /// runs) where it cannot run here. Every kernel returns the same hits.
+    pub fn set_isa(&mut self, isa: Isa) -> Result<(), String> {
+        if !isa.is_available() {
+            let names: Vec<&str> = Isa::available().iter().map(|i| i.name()).collect();
+            return Err(format!("this machine cannot run the {isa} kernel (it runs {})", names.join(", ")));
+        }
+        self.isa = isa;
+        Ok(())
+    }
+
+    /// Bytes the BVHs occupy (nodes, leaves and triangle packs, both levels).
+    #[must_use]
+    pub fn bvh_bytes(&self) -> usize {
+        self.blas.iter().map(|b| b.bvh.bytes()).sum::<usize>() + self.tlas.as_ref().map_or(0, WideBvh::bytes)
     }
 
     /// Number of triangles whose hits need an alpha decision (`MASK` or `BLEND`), counted
@@ -313,24 +486,15 @@ impl Tracer {
         if self.alpha.is_empty() { 0 } else { ray_key(origin, dir) }
     }
 
-    /// The primitive test of BVH slot `slot` of placement `p`, with the alpha decision:
-    /// `f32::INFINITY` (no hit) for a candidate that is no surface.
-    #[inline]
-    fn intersect(&self, b: &Blas, p: &Placement, r: &Ray, slot: usize, key: u64) -> f32 {
-        let t = b.tris[slot].intersect(r);
-        if self.alpha.is_empty() || t == f32::INFINITY {
-            return t;
-        }
-        let local = b.order[slot];
-        let stored = b.stored_base + local;
-        if !self.alpha.needs_test(stored) {
-            return t;
-        }
-        let bc = b.tris[slot].compute_barycentric(r);
-        if self.alpha.is_surface(stored, p.first + local, f64::from(bc.x), f64::from(bc.y), key) {
-            t
-        } else {
-            f32::INFINITY
+    /// The query of the ray `origin + t·dir`, `t ∈ [tmin, tmax]`, in f32.
+    fn scene_ray(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> SceneRay<'_> {
+        SceneRay {
+            tracer: self,
+            origin,
+            dir,
+            tmin: tmin as f32,
+            tmax: tmax.min(f64::from(f32::MAX)) as f32,
+            key: self.key(origin, dir),
         }
     }
 
@@ -343,7 +507,7 @@ impl Tracer {
     /// Number of triangles stored in the BVHs (each prototype once).
     #[must_use]
     pub fn unique_len(&self) -> usize {
-        self.blas.iter().map(|b| b.tris.len()).sum()
+        self.blas.iter().map(|b| b.source.len()).sum()
     }
 
     /// Number of placements the top level holds (1 without instances).
@@ -406,100 +570,51 @@ impl Tracer {
         }
     }
 
+    /// The [`Hit`] of a kernel's result on scene triangle `tri`.
+    fn finish(&self, tri: u32, raw: &RawHit, dir: DVec3) -> Hit {
+        let (p, local) = self.locate(tri);
+        let [u, v] = raw.bary12();
+        self.make_hit(p, local, f64::from(raw.t), [f64::from(u), f64::from(v)], dir)
+    }
+
     /// Closest hit along `origin + t·dir`, `t ∈ [tmin, tmax]`; `dir` must be unit length.
     #[must_use]
     pub fn closest_hit(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
-        let ray = make_ray(origin, dir, tmin, tmax);
-        let key = self.key(origin, dir);
-        let Some(tlas) = &self.tlas else {
-            let (p, b) = (&self.placements[0], &self.blas[0]);
-            let mut hit = RayHit::none();
-            if !b.bvh.ray_traverse(ray, &mut hit, |r, id| self.intersect(b, p, r, id, key)) {
-                return None;
-            }
-            let slot = hit.primitive_id as usize;
-            let bc = b.tris[slot].compute_barycentric(&ray);
-            return Some(self.make_hit(
-                p,
-                b.order[slot],
-                f64::from(hit.t),
-                [f64::from(bc.x), f64::from(bc.y)],
-                dir,
-            ));
-        };
-        // (placement, slot, the ray in its frame)
-        let mut best: Option<(usize, usize, Ray)> = None;
-        let mut top = RayHit::none();
-        tlas.ray_traverse(ray, &mut top, |r, tslot| {
-            let k = tlas.primitive_indices[tslot] as usize;
-            let p = &self.placements[k];
-            let b = &self.blas[p.blas as usize];
-            let local = p.local_ray(origin, dir, r.tmin, r.tmax);
-            let mut hit = RayHit::none();
-            if b.bvh.ray_traverse(local, &mut hit, |lr, id| self.intersect(b, p, lr, id, key)) {
-                best = Some((k, hit.primitive_id as usize, local));
-                hit.t
-            } else {
-                f32::INFINITY
-            }
-        });
-        let (k, slot, local) = best?;
-        let p = &self.placements[k];
-        let b = &self.blas[p.blas as usize];
-        let bc = b.tris[slot].compute_barycentric(&local);
-        Some(self.make_hit(p, b.order[slot], f64::from(top.t), [f64::from(bc.x), f64::from(bc.y)], dir))
+        let (tri, raw) = run(self.isa, &ClosestQuery(self.scene_ray(origin, dir, tmin, tmax)))?;
+        Some(self.finish(tri, &raw, dir))
     }
 
     /// True when anything blocks `origin + t·dir` for `t ∈ [tmin, tmax]` (shadow rays).
     #[must_use]
     pub fn occluded(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> bool {
-        let ray = make_ray(origin, dir, tmin, tmax);
-        let key = self.key(origin, dir);
-        let Some(tlas) = &self.tlas else {
-            let (p, b) = (&self.placements[0], &self.blas[0]);
-            return !b.bvh.ray_traverse_miss(ray, |r, id| self.intersect(b, p, r, id, key));
-        };
-        !tlas.ray_traverse_miss(ray, |r, tslot| {
-            let p = &self.placements[tlas.primitive_indices[tslot] as usize];
-            let b = &self.blas[p.blas as usize];
-            let local = p.local_ray(origin, dir, r.tmin, r.tmax);
-            // Any value below tmax tells the top level that the ray is blocked.
-            if b.bvh.ray_traverse_miss(local, |lr, id| self.intersect(b, p, lr, id, key)) {
-                f32::INFINITY
-            } else {
-                f32::NEG_INFINITY
-            }
-        })
+        run(self.isa, &OcclusionQuery(self.scene_ray(origin, dir, tmin, tmax)))
     }
 
-    /// Reference closest hit: the same f32 primitive test (in each placement's frame) over
-    /// every triangle, no BVH (for tests and diagnostics).
+    /// Reference closest hit: the same f32 watertight test (in each placement's frame) over
+    /// every triangle, no BVH, the least `(t, triangle)` pair; every kernel's
+    /// [`Tracer::closest_hit`] equals it bit for bit.
     #[must_use]
     pub fn closest_hit_brute_force(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
-        let ray = make_ray(origin, dir, tmin, tmax);
-        // Same acceptance rule as `CwBvh::ray_traverse`: strictly closer than the current tmax.
-        let mut best: Option<(usize, usize, f32, Ray)> = None;
-        let key = self.key(origin, dir);
-        for (k, p) in self.placements.iter().enumerate() {
-            let b = &self.blas[p.blas as usize];
-            let local = p.local_ray(origin, dir, ray.tmin, ray.tmax);
-            for slot in 0..b.tris.len() {
-                let d = self.intersect(b, p, &local, slot, key);
-                if d < best.map_or(ray.tmax, |x| x.2) {
-                    best = Some((k, slot, d, local));
+        let r = self.scene_ray(origin, dir, tmin, tmax);
+        let mut best = Best::new(r.tmax);
+        for k in 0..self.placements.len() {
+            let filter = r.filter(k);
+            let local = filter.placement.local_ray(origin, dir, r.tmin, r.tmax);
+            for prim in 0..filter.blas.source.len() as u32 {
+                if let Some(hit) =
+                    intersect_raw(&local.shear, &filter.blas.triangle_f32(prim as usize), r.tmin, r.tmax)
+                {
+                    best.offer(filter.id(prim), hit, || filter.accept(prim, &hit));
                 }
             }
         }
-        let (k, slot, t, local) = best?;
-        let p = &self.placements[k];
-        let b = &self.blas[p.blas as usize];
-        let bc = b.tris[slot].compute_barycentric(&local);
-        Some(self.make_hit(p, b.order[slot], f64::from(t), [f64::from(bc.x), f64::from(bc.y)], dir))
+        let raw = best.hit?;
+        Some(self.finish(best.id, &raw, dir))
     }
 
-    /// Reference closest hit in f64 (Möller-Trumbore, independent of obvhs), in scene
-    /// order, on the triangles placed in the world frame. Edge cases within ~1e-9 of an
-    /// edge may differ from the f32 tracer.
+    /// Reference closest hit in f64 (Möller-Trumbore, independent of the f32 test), in
+    /// scene order, on the triangles placed in the world frame. Edge cases within ~1e-9 of
+    /// an edge may differ from the f32 tracer.
     #[must_use]
     pub fn closest_hit_f64(&self, origin: DVec3, dir: DVec3, tmin: f64, tmax: f64) -> Option<Hit> {
         let mut best: Option<(usize, u32, f64, [f64; 2])> = None;
@@ -578,32 +693,30 @@ mod tests {
         b.build().unwrap()
     }
 
-    /// The BVH agrees with a brute-force loop over all triangles on random
-    /// rays — hit/miss, triangle, t and the back-face flag.
+    /// Every kernel's traversal returns exactly the hit of a brute-force loop over all
+    /// triangles (the same watertight test, the least `(t, triangle)` pair), and both agree
+    /// with the f64 reference to f32 precision.
     #[test]
     fn bvh_matches_brute_force() {
         let scene = soup(2000, 1);
-        let tr = Tracer::new(&scene);
+        let mut tr = Tracer::new(&scene);
         let mut rng = SplitMix64::new(2);
         let (mut hits, mut back) = (0, 0);
         for _ in 0..3000 {
             let o = DVec3::new(rng.range(-14.0, 14.0), rng.range(-14.0, 14.0), rng.range(-14.0, 14.0));
             let d = DVec3::from_array(sample_uniform_sphere([rng.next_f64(), rng.next_f64()]));
-            let a = tr.closest_hit(o, d, 0.0, f64::INFINITY);
             let b = tr.closest_hit_brute_force(o, d, 0.0, f64::INFINITY);
+            for isa in Isa::available() {
+                tr.set_isa(isa).unwrap();
+                assert_eq!(tr.closest_hit(o, d, 0.0, f64::INFINITY), b, "{isa} at {o} {d}");
+                assert_eq!(tr.occluded(o, d, 0.0, f64::INFINITY), b.is_some(), "{isa} at {o} {d}");
+            }
             let c = tr.closest_hit_f64(o, d, 0.0, f64::INFINITY);
-            match (a, b, c) {
-                (None, None, None) => {}
-                (Some(a), Some(b), Some(c)) => {
+            match (b, c) {
+                (None, None) => {}
+                (Some(a), Some(c)) => {
                     hits += 1;
                     back += usize::from(a.back_face);
-                    // Same f32 primitive test: identical t; the triangle may differ only
-                    // on an exact tie (two triangles at the same t).
-                    assert_eq!(a.t, b.t);
-                    if a.triangle != b.triangle {
-                        continue;
-                    }
-                    assert_eq!((a.back_face, a.from_behind), (b.back_face, b.from_behind));
                     // f32 vs f64: t agrees to f32 precision of the scene scale (~30 units).
                     assert!((a.t - c.t).abs() < 1e-4 * (1.0 + c.t), "{} {}", a.t, c.t);
                     if a.triangle == c.triangle {

@@ -25,6 +25,7 @@ pub mod stats;
 pub mod transport;
 pub mod triangle;
 pub mod watertight;
+pub mod wide;
 
 pub use builder::SceneBuilder;
 pub use builtin::{BuiltinScene, builtin};
@@ -39,6 +40,7 @@ pub use scene::{ExtensionReport, LoadReport, Scene, SceneCamera, UpAxis};
 pub use stats::RayCounts;
 pub use transport::{PathRng, Transport, TransportSettings};
 pub use triangle::{MeshAttributes, Triangle, TriangleRef};
+pub use wide::{ISA_ENV, Isa};
 
 #[cfg(test)]
 mod cornell_tests {

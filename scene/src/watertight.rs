@@ -22,13 +22,38 @@ pub struct WatertightHit {
     pub bary: [f32; 3],
 }
 
+/// A watertight hit before the barycentric division: the distance and the scaled
+/// barycentrics `U`, `V`, `W` with their sum `det` (\[WBW13\] Fig. 2). The tracer's SIMD
+/// kernels return exactly these values for every lane they report.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawHit {
+    /// Distance along the ray, `T / det`.
+    pub t: f32,
+    /// Scaled weights of vertices 0, 1 and 2.
+    pub uvw: [f32; 3],
+    /// `U + V + W` (computed as `(U + V) + W`).
+    pub det: f32,
+}
+
+impl RawHit {
+    /// Weights `(u, v)` of vertices 1 and 2, `V / det` and `W / det`.
+    #[must_use]
+    #[inline]
+    pub fn bary12(&self) -> [f32; 2] {
+        [self.uvw[1] / self.det, self.uvw[2] / self.det]
+    }
+}
+
 /// The shear of one ray (\[WBW13\] §3.1): the axis permutation and the shear constants,
 /// computed once per ray.
 #[derive(Clone, Copy, Debug)]
 pub struct Shear {
-    k: [usize; 3],
-    s: [f32; 3],
-    origin: [f32; 3],
+    /// The permuted axes `kx`, `ky`, `kz`.
+    pub(crate) k: [usize; 3],
+    /// The shear constants `Sx = d[kx] / d[kz]`, `Sy = d[ky] / d[kz]`, `Sz = 1 / d[kz]`.
+    pub(crate) s: [f32; 3],
+    /// The ray's origin.
+    pub(crate) origin: [f32; 3],
 }
 
 impl Shear {
@@ -68,9 +93,9 @@ fn edge(a: [f32; 3], b: [f32; 3]) -> f32 {
 }
 
 /// The watertight test of the sheared ray `shear` against the triangle `v` for
-/// `t ∈ [tmin, tmax]` (module docs).
+/// `t ∈ [tmin, tmax]`, before the barycentric division (module docs).
 #[must_use]
-pub fn intersect(shear: &Shear, v: &[[f32; 3]; 3], tmin: f32, tmax: f32) -> Option<WatertightHit> {
+pub fn intersect_raw(shear: &Shear, v: &[[f32; 3]; 3], tmin: f32, tmax: f32) -> Option<RawHit> {
     let (a, b, c) = (shear.vertex(v[0]), shear.vertex(v[1]), shear.vertex(v[2]));
     // U is the weight of A (the edge B-C), V of B (C-A), W of C (A-B).
     let u = edge(b, c);
@@ -89,18 +114,25 @@ pub fn intersect(shear: &Shear, v: &[[f32; 3]; 3], tmin: f32, tmax: f32) -> Opti
     if !(t >= tmin && t <= tmax) {
         return None;
     }
-    Some(WatertightHit { t, bary: [u / det, w_v / det, w / det] })
+    Some(RawHit { t, uvw: [u, w_v, w], det })
+}
+
+/// The watertight test of the sheared ray `shear` against the triangle `v` for
+/// `t ∈ [tmin, tmax]` (module docs).
+#[must_use]
+pub fn intersect(shear: &Shear, v: &[[f32; 3]; 3], tmin: f32, tmax: f32) -> Option<WatertightHit> {
+    intersect_raw(shear, v, tmin, tmax).map(|h| WatertightHit { t: h.t, bary: h.uvw.map(|x| x / h.det) })
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use glam::DVec3;
     use lightvol_sh::lowdisc::SplitMix64;
 
     /// An icosahedron subdivided once (42 vertices, 80 faces) around the origin, outward
     /// winding: a closed mesh whose shared edges and vertices the rays below aim at.
-    fn closed_mesh() -> (Vec<[f32; 3]>, Vec<[usize; 3]>) {
+    pub(crate) fn closed_mesh() -> (Vec<[f32; 3]>, Vec<[usize; 3]>) {
         let p = (1.0 + 5f64.sqrt()) / 2.0;
         let mut verts: Vec<DVec3> = [
             [-1.0, p, 0.0],

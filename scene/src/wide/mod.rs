@@ -1,0 +1,133 @@
+//! The tracer's wide BVH: an 8-wide tree laid out for CPU SIMD, collapsed from obvhs'
+//! binary BVH, with leaves of up to four triangles stored side by side.
+//!
+//! obvhs builds the binary tree (PLOC, reinsertion, optional pre-splits); [`build`]
+//! collapses it into nodes of eight children whose boxes are stored as uncompressed f32
+//! planes in structure-of-arrays form (`lo_x[8] hi_x[8] lo_y[8] …`), the layout of
+//! Embree's BVH8 (Wald, Benthin & Boulos 2008; Áfra, Benthin, Wald & Munkberg 2016) and
+//! tinybvh's `BVH8_CPU`. A child subtree of at most [`LEAF_SIZE`] primitives becomes one
+//! leaf; a triangle leaf is one [`Tri4`] pack, its four triangles' vertices side by side, so
+//! that the watertight test ([`crate::watertight`], Woop, Benthin & Wald 2013) runs on all
+//! four at once.
+//!
+//! Traversal ([`traverse`]) is written once over a [`kernel::Kernel`], the box test of
+//! eight children and the triangle test of one pack, and instantiated for each kernel the
+//! machine can run ([`Isa`], chosen at run time in [`dispatch`]). Every kernel returns the
+//! same hits bit for bit: the triangle arithmetic is the scalar reference's, operation for
+//! operation (no fused multiply-adds), the box tests are conservative, and the closest hit
+//! is the least `(t, triangle)` pair, so neither traversal order nor kernel can change it.
+
+pub(crate) mod build;
+pub(crate) mod dispatch;
+pub(crate) mod kernel;
+#[cfg(target_arch = "x86_64")]
+mod simd;
+pub(crate) mod traverse;
+
+#[cfg(test)]
+mod tests;
+
+pub use dispatch::{ISA_ENV, Isa};
+
+/// Children per node.
+pub(crate) const WIDTH: usize = 8;
+
+/// Primitives per leaf pack: a child subtree with at most this many becomes a leaf.
+pub(crate) const LEAF_SIZE: usize = 4;
+
+/// An unused child slot, or an empty tree.
+pub(crate) const EMPTY: u32 = u32::MAX;
+
+/// Set in a child reference that names a leaf (its index in [`WideBvh::leaves`]).
+pub(crate) const LEAF_BIT: u32 = 1 << 31;
+
+/// One node: the boxes of eight children as planes (`planes[2·axis]` the low side,
+/// `planes[2·axis + 1]` the high side; an unused slot has the empty box `+∞ … −∞`, which no
+/// ray meets) and the child references (a node index, `LEAF_BIT | leaf`, or [`EMPTY`]).
+#[repr(C, align(32))]
+#[derive(Clone, Debug)]
+pub(crate) struct Node {
+    pub(crate) planes: [[f32; WIDTH]; 6],
+    pub(crate) child: [u32; WIDTH],
+}
+
+impl Node {
+    /// A node with no children.
+    fn empty() -> Self {
+        let mut planes = [[f32::INFINITY; WIDTH]; 6];
+        for axis in 0..3 {
+            planes[2 * axis + 1] = [f32::NEG_INFINITY; WIDTH];
+        }
+        Self { planes, child: [EMPTY; WIDTH] }
+    }
+}
+
+/// Four triangles side by side: `v[3·i + axis][lane]` is coordinate `axis` of vertex `i`
+/// of the triangle in `lane`. Unused lanes hold NaN vertices and the id [`EMPTY`].
+#[repr(C, align(16))]
+#[derive(Clone, Debug)]
+pub(crate) struct Tri4 {
+    pub(crate) v: [[f32; LEAF_SIZE]; 9],
+    pub(crate) id: [u32; LEAF_SIZE],
+}
+
+impl Tri4 {
+    /// The lanes that hold a triangle, as bits.
+    #[inline(always)]
+    pub(crate) fn valid(&self) -> u32 {
+        let mut m = 0;
+        for (lane, &id) in self.id.iter().enumerate() {
+            if id != EMPTY {
+                m |= 1 << lane;
+            }
+        }
+        m
+    }
+
+    /// The vertices of the triangle in `lane`.
+    #[inline(always)]
+    pub(crate) fn triangle(&self, lane: usize) -> [[f32; 3]; 3] {
+        std::array::from_fn(|i| std::array::from_fn(|axis| self.v[3 * i + axis][lane]))
+    }
+}
+
+/// A wide BVH over triangles (with [`Tri4`] packs) or over boxes (the top level over
+/// placements, whose leaves list placement indices).
+#[derive(Clone, Debug)]
+pub(crate) struct WideBvh {
+    /// The root reference: node 0, a single leaf, or [`EMPTY`] for no primitives.
+    pub(crate) root: u32,
+    pub(crate) nodes: Vec<Node>,
+    /// Per leaf: its first slot in `prims` (a multiple of [`LEAF_SIZE`]) and its count.
+    pub(crate) leaves: Vec<[u32; 2]>,
+    /// Primitive indices in leaf order; slots that pad a leaf to a multiple of
+    /// [`LEAF_SIZE`] hold [`EMPTY`].
+    pub(crate) prims: Vec<u32>,
+    /// Triangle trees only: pack `k` holds the triangles of `prims[4k .. 4k + 4]`.
+    pub(crate) packs: Vec<Tri4>,
+}
+
+impl WideBvh {
+    /// The packs of leaf `leaf` (triangle trees).
+    #[inline(always)]
+    pub(crate) fn leaf_packs(&self, leaf: u32) -> &[Tri4] {
+        let [first, count] = self.leaves[leaf as usize];
+        let a = first as usize / LEAF_SIZE;
+        &self.packs[a..a + (count as usize).div_ceil(LEAF_SIZE)]
+    }
+
+    /// The primitives of leaf `leaf` (box trees).
+    #[inline(always)]
+    pub(crate) fn leaf_prims(&self, leaf: u32) -> &[u32] {
+        let [first, count] = self.leaves[leaf as usize];
+        &self.prims[first as usize..(first + count) as usize]
+    }
+
+    /// Bytes the tree occupies (nodes, leaves, primitive slots and packs).
+    pub(crate) fn bytes(&self) -> usize {
+        self.nodes.len() * size_of::<Node>()
+            + self.leaves.len() * 8
+            + self.prims.len() * 4
+            + self.packs.len() * size_of::<Tri4>()
+    }
+}

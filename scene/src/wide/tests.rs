@@ -1,0 +1,168 @@
+use glam::DVec3;
+use lightvol_sh::lowdisc::SplitMix64;
+
+use super::build::BOX_PAD_REL;
+use super::kernel::{FAR_SCALE, Kernel, RayK, Scalar, TINY_DIR};
+use super::{Isa, LEAF_SIZE, Node, WIDTH};
+use crate::builder::SceneBuilder;
+use crate::material::Material;
+use crate::{DVec2, Tracer};
+
+/// `FAR_SCALE` is at least `1 + 2γ₃` (Ize 2013), `γₙ = nu/(1 − nu)` with `u = 2⁻²⁴`
+/// computed here in f64, and not more than twice that margin.
+#[test]
+fn far_scale_covers_the_slab_rounding() {
+    let u = 2f64.powi(-24);
+    let gamma3 = 3.0 * u / (1.0 - 3.0 * u);
+    let margin = f64::from(FAR_SCALE) - 1.0;
+    assert!(margin >= 2.0 * gamma3, "{margin} < {}", 2.0 * gamma3);
+    assert!(margin <= 4.0 * gamma3, "{margin}");
+    // The box margin is a few tens of ulps: 2^-20 = 16 · 2^-24.
+    assert_eq!(f64::from(BOX_PAD_REL) / u, 16.0);
+    // The clamp keeps 1/d finite with room to spare: (1e20)·(3e18) stays below f32::MAX.
+    assert!((1.0 / TINY_DIR).is_finite() && (1.0 / TINY_DIR) * 3e18 < f32::MAX);
+}
+
+/// Every kernel's box test gives the scalar kernel's mask and entry distances on random
+/// boxes and rays, including empty child slots and rays parallel to a slab.
+#[test]
+fn box_tests_agree_across_kernels() {
+    let mut rng = SplitMix64::new(3);
+    let mut r = |a: f64, b: f64| rng.range(a, b) as f32;
+    let mut hits = 0;
+    for case in 0..20_000 {
+        let mut node = Node::empty();
+        for lane in 0..WIDTH - (case % 3) {
+            for axis in 0..3 {
+                let (a, b) = (r(-5.0, 5.0), r(-5.0, 5.0));
+                node.planes[2 * axis][lane] = a.min(b);
+                node.planes[2 * axis + 1][lane] = a.max(b);
+            }
+            node.child[lane] = lane as u32;
+        }
+        let o = [r(-8.0, 8.0), r(-8.0, 8.0), r(-8.0, 8.0)];
+        let mut d = [r(-1.0, 1.0), r(-1.0, 1.0), r(-1.0, 1.0)];
+        if case % 5 == 0 {
+            d[case % 3] = 0.0;
+        }
+        if d == [0.0; 3] {
+            continue;
+        }
+        let ray = RayK::new(o, d, 0.0, f32::INFINITY);
+        let tmax = r(0.0, 20.0);
+        let mut want_t = [0f32; WIDTH];
+        let want = Scalar::boxes(&node, &ray, tmax, &mut want_t);
+        hits += want.count_ones();
+        assert_eq!(want & !0xff, 0);
+        check_kernels(&node, &ray, tmax, want, &want_t);
+    }
+    assert!(hits > 3_000, "{hits}");
+}
+
+#[cfg(target_arch = "x86_64")]
+fn check_kernels(node: &Node, ray: &RayK, tmax: f32, want: u32, want_t: &[f32; WIDTH]) {
+    use super::dispatch::{Query, run};
+    struct BoxQuery<'a>(&'a Node, &'a RayK, f32);
+    impl Query for BoxQuery<'_> {
+        type Out = (u32, [f32; WIDTH]);
+        #[inline(always)]
+        fn run<K: Kernel>(&self) -> Self::Out {
+            let mut t = [0f32; WIDTH];
+            (K::boxes(self.0, self.1, self.2, &mut t), t)
+        }
+    }
+    for isa in Isa::available() {
+        let (mask, t) = run(isa, &BoxQuery(node, ray, tmax));
+        assert_eq!(mask, want, "{isa}");
+        for lane in 0..WIDTH {
+            if want & (1 << lane) != 0 {
+                assert_eq!(t[lane].to_bits(), want_t[lane].to_bits(), "{isa} lane {lane}");
+            }
+        }
+    }
+}
+
+#[cfg(not(target_arch = "x86_64"))]
+fn check_kernels(_: &Node, _: &RayK, _: f32, _: u32, _: &[f32; WIDTH]) {}
+
+/// A closed mesh (a subdivided icosahedron, 80 faces) traced through the whole tracer with
+/// every kernel: rays from inside aimed at every vertex and at points on every shared edge
+/// all hit it (none slips through an edge, and no box test culls the hit).
+#[test]
+fn no_ray_escapes_a_closed_mesh_through_the_tracer() {
+    let (verts, faces) = crate::watertight::tests::closed_mesh();
+    let mut b = SceneBuilder::new("ball");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let v = |i: usize| DVec3::from(verts[i].map(f64::from));
+    for f in &faces {
+        b.add_triangle([v(f[0]), v(f[1]), v(f[2])], [DVec2::ZERO; 3], m).unwrap();
+    }
+    let scene = b.build().unwrap();
+    assert_eq!(scene.triangles.len(), 80);
+    let mut tr = Tracer::new(&scene);
+    let mut targets: Vec<DVec3> = (0..verts.len()).map(v).collect();
+    for f in &faces {
+        for e in 0..3 {
+            let (a, c) = (v(f[e]), v(f[(e + 1) % 3]));
+            for s in [0.5, 1e-7, 1.0 - 1e-7, 0.25, 0.75] {
+                targets.push(a + (c - a) * s);
+            }
+        }
+    }
+    let mut rng = SplitMix64::new(9);
+    let origins: Vec<DVec3> = (0..8)
+        .map(|_| DVec3::new(rng.range(-0.2, 0.2), rng.range(-0.2, 0.2), rng.range(-0.2, 0.2)))
+        .collect();
+    let mut rays = 0;
+    for isa in Isa::available() {
+        tr.set_isa(isa).unwrap();
+        for &o in &origins {
+            for &t in &targets {
+                let d = (t - o).normalize();
+                rays += 1;
+                assert!(
+                    tr.closest_hit(o, d, 0.0, f64::INFINITY).is_some(),
+                    "{isa}: escaped at {o} toward {t}"
+                );
+                assert!(tr.occluded(o, d, 0.0, f64::INFINITY), "{isa}: unoccluded at {o} toward {t}");
+            }
+        }
+    }
+    assert!(rays >= 8 * 600, "{rays}");
+}
+
+/// Leaves hold at most `LEAF_SIZE` triangles each, every triangle sits in a leaf, and the
+/// tree is smaller than the binary one it came from.
+#[test]
+fn collapse_keeps_every_triangle_once() {
+    use obvhs::triangle::Triangle as ObTriangle;
+    let mut rng = SplitMix64::new(4);
+    let tris: Vec<ObTriangle> = (0..5000)
+        .map(|_| {
+            let c = glam::Vec3A::new(
+                rng.range(-9.0, 9.0) as f32,
+                rng.range(-9.0, 9.0) as f32,
+                rng.range(-9.0, 9.0) as f32,
+            );
+            let mut p =
+                || c + glam::Vec3A::new(rng.next_f64() as f32, rng.next_f64() as f32, rng.next_f64() as f32);
+            ObTriangle { v0: p(), v1: p(), v2: p() }
+        })
+        .collect();
+    let bvh = super::build::from_triangles(&tris, obvhs::BvhBuildParams::medium_build());
+    let mut seen = vec![0u32; tris.len()];
+    for leaf in 0..bvh.leaves.len() as u32 {
+        let [first, count] = bvh.leaves[leaf as usize];
+        assert_eq!(first as usize % LEAF_SIZE, 0);
+        assert!((1..=LEAF_SIZE as u32).contains(&count), "{count}");
+        for &p in bvh.leaf_prims(leaf) {
+            seen[p as usize] += 1;
+        }
+        for pack in bvh.leaf_packs(leaf) {
+            assert_eq!(pack.valid().count_ones(), count);
+        }
+    }
+    assert!(seen.iter().all(|&n| n == 1));
+    // At most one node per 8-way split: far fewer nodes than the 2n − 1 of a binary tree.
+    assert!(bvh.nodes.len() < tris.len() / 4, "{}", bvh.nodes.len());
+}

@@ -1,0 +1,218 @@
+//! Traversal of a [`WideBvh`], written once over a [`Kernel`].
+//!
+//! A stack of `(child, entry distance)` pairs; a node's children that the ray meets are
+//! visited nearest first for closest hits (sorted by their box entry distance, the
+//! nearest taken at once and the others pushed), in slot order for occlusion, which stops
+//! at the first hit. A popped entry whose box starts beyond the best hit so far is
+//! skipped. The closest hit is the least `(t, id)` pair over every triangle the ray meets,
+//! so the order of visits cannot change it.
+
+use super::kernel::{Kernel, RayK, TriLanes};
+use super::{EMPTY, LEAF_BIT, WIDTH, WideBvh};
+use crate::watertight::RawHit;
+
+/// Stack entries kept inline; deeper traversals spill to the heap.
+const INLINE_STACK: usize = 64;
+
+/// The traversal stack.
+struct Stack {
+    items: [(u32, f32); INLINE_STACK],
+    len: usize,
+    spill: Vec<(u32, f32)>,
+}
+
+impl Stack {
+    #[inline(always)]
+    fn new() -> Self {
+        Self { items: [(0, 0.0); INLINE_STACK], len: 0, spill: Vec::new() }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, e: (u32, f32)) {
+        if self.len < INLINE_STACK {
+            self.items[self.len] = e;
+            self.len += 1;
+        } else {
+            self.spill.push(e);
+        }
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        if let Some(e) = self.spill.pop() {
+            return Some(e);
+        }
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        Some(self.items[self.len])
+    }
+}
+
+/// What a traversal does at a leaf.
+pub(crate) trait Visit {
+    /// The far end of the ray now: the best hit so far for closest hits.
+    fn tmax(&self) -> f32;
+
+    /// Visits leaf `leaf` of `bvh`; true stops the traversal.
+    fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool;
+}
+
+/// Walks `bvh` with `ray`, nearest child first when `ORDERED`; true when a leaf stopped it.
+#[inline(always)]
+pub(crate) fn walk<K: Kernel, V: Visit, const ORDERED: bool>(bvh: &WideBvh, ray: &RayK, v: &mut V) -> bool {
+    if bvh.root == EMPTY {
+        return false;
+    }
+    let mut stack = Stack::new();
+    let mut tnear = [0f32; WIDTH];
+    let mut next = Some((bvh.root, ray.tmin));
+    loop {
+        let (r, entry) = match next.take() {
+            Some(e) => e,
+            None => match stack.pop() {
+                Some(e) => e,
+                None => return false,
+            },
+        };
+        let tmax = v.tmax();
+        if entry > tmax {
+            continue;
+        }
+        if r & LEAF_BIT != 0 {
+            if v.leaf::<K>(bvh, r & !LEAF_BIT) {
+                return true;
+            }
+            continue;
+        }
+        let node = &bvh.nodes[r as usize];
+        let mut mask = K::boxes(node, ray, tmax, &mut tnear);
+        if !ORDERED {
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                stack.push((node.child[lane], tnear[lane]));
+            }
+            continue;
+        }
+        // Hit children sorted by entry distance, nearest first (insertion sort of ≤ 8).
+        let mut hits = [(0u32, 0f32); WIDTH];
+        let mut n = 0;
+        while mask != 0 {
+            let lane = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            let e = (node.child[lane], tnear[lane]);
+            let mut k = n;
+            while k > 0 && hits[k - 1].1 > e.1 {
+                hits[k] = hits[k - 1];
+                k -= 1;
+            }
+            hits[k] = e;
+            n += 1;
+        }
+        if n == 0 {
+            continue;
+        }
+        for &e in hits[1..n].iter().rev() {
+            stack.push(e);
+        }
+        next = Some(hits[0]);
+    }
+}
+
+/// How triangle hits are identified and filtered.
+pub(crate) trait Filter {
+    /// The id that breaks ties between hits at the same distance (the scene index).
+    fn id(&self, prim: u32) -> u32;
+
+    /// False for a candidate hit that is no surface (alpha).
+    fn accept(&self, prim: u32, hit: &RawHit) -> bool;
+}
+
+/// The best hit so far.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Best {
+    /// Its distance (the ray's `tmax` before any hit).
+    pub(crate) t: f32,
+    /// Its tie-breaking id ([`EMPTY`] before any hit).
+    pub(crate) id: u32,
+    /// The hit itself.
+    pub(crate) hit: Option<RawHit>,
+}
+
+impl Best {
+    /// No hit yet, on a ray ending at `tmax`.
+    #[inline(always)]
+    pub(crate) fn new(tmax: f32) -> Self {
+        Self { t: tmax, id: EMPTY, hit: None }
+    }
+
+    /// Takes `hit` with `id` when it is the lesser `(t, id)` pair and `accept` agrees.
+    #[inline(always)]
+    pub(crate) fn offer(&mut self, id: u32, hit: RawHit, accept: impl FnOnce() -> bool) {
+        if (hit.t < self.t || (hit.t == self.t && id < self.id)) && accept() {
+            *self = Self { t: hit.t, id, hit: Some(hit) };
+        }
+    }
+}
+
+/// Closest hit over a triangle tree.
+pub(crate) struct Closest<'a, F> {
+    pub(crate) ray: &'a RayK,
+    pub(crate) best: &'a mut Best,
+    pub(crate) filter: &'a F,
+}
+
+impl<F: Filter> Visit for Closest<'_, F> {
+    #[inline(always)]
+    fn tmax(&self) -> f32 {
+        self.best.t
+    }
+
+    #[inline(always)]
+    fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
+        let mut lanes = TriLanes::default();
+        for pack in bvh.leaf_packs(leaf) {
+            let mut mask = K::tris(pack, pack.valid(), self.ray, self.best.t, &mut lanes);
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let prim = pack.id[lane];
+                let hit = lanes.hit(lane);
+                let filter = self.filter;
+                self.best.offer(filter.id(prim), hit, || filter.accept(prim, &hit));
+            }
+        }
+        false
+    }
+}
+
+/// Any hit over a triangle tree (shadow rays).
+pub(crate) struct Any<'a, F> {
+    pub(crate) ray: &'a RayK,
+    pub(crate) filter: &'a F,
+}
+
+impl<F: Filter> Visit for Any<'_, F> {
+    #[inline(always)]
+    fn tmax(&self) -> f32 {
+        self.ray.tmax
+    }
+
+    #[inline(always)]
+    fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
+        let mut lanes = TriLanes::default();
+        for pack in bvh.leaf_packs(leaf) {
+            let mut mask = K::tris(pack, pack.valid(), self.ray, self.ray.tmax, &mut lanes);
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if self.filter.accept(pack.id[lane], &lanes.hit(lane)) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
+}
