@@ -14,14 +14,16 @@
 //! Embree runs at its best: with the kernels it picks for this CPU at run time (the report
 //! names them, read from Embree's own device report, [`chosen_isa`]) and flush-to-zero and
 //! denormals-are-zero set on every thread, as Embree asks; a forced-SSE2 Embree row (one
-//! thread) stands beside it for reference, the ISA lightvol's portable build compiles for.
+//! thread) stands beside it for reference. lightvol runs the kernel its tracer chose at run
+//! time (`lightvol_isa`: AVX2 where the CPU has it), with a row for its SSE2 kernel, the one
+//! every x86-64 machine runs.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use lightvol_scene::{BuildQuality, DVec3, Levels, Scene, Tracer};
+use lightvol_scene::{BuildQuality, DVec3, Isa, Levels, Scene, Tracer};
 use lightvol_sh::lowdisc::SplitMix64;
 use lightvol_sh::sampling::sample_uniform_sphere;
 use serde_json::{Value, json};
@@ -266,7 +268,8 @@ pub(crate) fn compare(
     let sun = DVec3::new(0.3, 0.2, 1.0).normalize();
     let shadow: Vec<(DVec3, DVec3)> = closest.iter().map(|(o, _)| (*o, sun)).collect();
     let t0 = Instant::now();
-    let tracer = pool_build(scene, quality, levels)?;
+    let mut tracer = pool_build(scene, quality, levels)?;
+    let native = tracer.isa();
     let lightvol_build = t0.elapsed().as_secs_f64();
     let mut out = json!({
         "triangles": scene.triangle_count(),
@@ -275,6 +278,7 @@ pub(crate) fn compare(
         "rays": count,
         "repeats_best_of": REPEATS,
         "lightvol_bvh_quality": format!("{quality:?}").to_lowercase(),
+        "lightvol_isa": native.name(),
         "lightvol_levels": if tracer.placements() > 1 { "two" } else { "one" },
         "build_seconds": { "lightvol_1_thread": lightvol_build },
     });
@@ -301,6 +305,18 @@ pub(crate) fn compare(
                 "lightvol_over_embree": lm / em,
                 "agreement": agreement(&lres, &eres, occ),
             });
+            if threads == 1 && native != Isa::Sse2 {
+                // lightvol's SSE2 kernel, the one every x86-64 runs, against Embree's choice.
+                tracer.set_isa(Isa::Sse2).map_err(anyhow::Error::msg)?;
+                let (se, _) = run_lightvol(&tracer, rays, occ, 1)?;
+                tracer.set_isa(native).map_err(anyhow::Error::msg)?;
+                let sm = count as f64 / se / 1e6;
+                entry["1_thread_lightvol_sse2"] = json!({
+                    "lightvol_isa": Isa::Sse2.name(),
+                    "lightvol_mrays_per_second": sm,
+                    "lightvol_over_embree": sm / em,
+                });
+            }
             if threads == 1 {
                 let (se, _, sres, sisa) = run_embree(&exe, dir.path(), scene, rays, occ, 1, EmbreeIsa::Sse2)?;
                 let sm = count as f64 / se / 1e6;

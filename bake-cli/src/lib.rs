@@ -73,6 +73,9 @@ where
             ));
         }
     };
+    // A kernel named in the environment that this machine cannot run is refused here, in
+    // one line, rather than silently replaced (results are the same on every kernel).
+    lightvol_scene::Isa::from_env().map_err(anyhow::Error::msg)?;
     match cli.command {
         cli::Command::Slurm(a) => cmd_cluster::run_slurm(&a, &argv),
         cli::Command::K8s(a) => cmd_cluster::run_k8s(&a, &argv),

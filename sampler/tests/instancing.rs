@@ -27,19 +27,21 @@ const EXTENT: f64 = 40.0;
 /// the flattened side in the world frame, after rounding the placed vertices to f32).
 const T_TOL: f64 = 16.0 * f32::EPSILON as f64 * EXTENT;
 
-/// Rays start here: obvhs skips BVH nodes whose box ends before `t = 1e-4` (its traversal
-/// epsilon), and the two scenes have different nodes, so hits nearer than that may differ.
+/// Rays start here: a hit within f32 rounding of the origin (about 1e-6 m, in two frames
+/// that round differently) may be found in one scene and not the other; 2e-4 m stays well
+/// clear of that.
 const TMIN: f64 = 2e-4;
 
 /// Normals agree to f64 rounding of the normal matrix (both sides normalise in f64).
 const NORMAL_TOL: f64 = 1e-9;
 
-/// A house: a closed box (single-sided, outward), a double-sided roof plane, an emissive
+/// A house: a box without a floor (single-sided, outward; the ground is its floor, so that
+/// no two surfaces coincide and every closest hit is well defined), a double-sided roof plane, an emissive
 /// lamp and a BLEND window pane, plus some loose triangles.
 fn house(b: &mut SceneBuilder, p: u32, mats: [u32; 4], rng: &mut SplitMix64) {
     let [wall, roof, lamp, pane] = mats;
     let uv = [DVec2::ZERO, DVec2::X, DVec2::ONE];
-    for q in box_faces(DVec3::new(-2.0, -1.5, 0.0), DVec3::new(2.0, 1.5, 3.0), true, false) {
+    for q in box_faces(DVec3::new(-2.0, -1.5, 0.0), DVec3::new(2.0, 1.5, 3.0), true, true) {
         b.add_prototype_triangle(p, [q[0], q[1], q[2]], uv, wall).unwrap();
         b.add_prototype_triangle(p, [q[0], q[2], q[3]], uv, wall).unwrap();
     }
@@ -142,8 +144,8 @@ fn the_town_is_instanced_as_built() {
     let s = town();
     let f = s.flattened();
     assert_eq!((s.triangles.len(), s.prototypes.len(), s.instances.len()), (2, 2, 9));
-    assert_eq!(s.unique_triangle_count(), 2 + (12 + 3 + 40) + 30);
-    assert_eq!(s.triangle_count(), 2 + 7 * 55 + 2 * 30);
+    assert_eq!(s.unique_triangle_count(), 2 + (10 + 3 + 40) + 30);
+    assert_eq!(s.triangle_count(), 2 + 7 * 53 + 2 * 30);
     assert_eq!((f.triangles.len(), f.instances.len()), (s.triangle_count(), 0));
     // The same triangles in the same order, and the same bounds.
     for i in 0..s.triangle_count() as u32 {
@@ -152,7 +154,7 @@ fn the_town_is_instanced_as_built() {
     }
     assert_eq!(s.bounds(), f.bounds());
     let tracer = two_level(&s);
-    assert_eq!((tracer.len(), tracer.unique_len(), tracer.placements()), (s.triangle_count(), 87, 10));
+    assert_eq!((tracer.len(), tracer.unique_len(), tracer.placements()), (s.triangle_count(), 85, 10));
     // Small enough to flatten: one level over the placed triangles.
     let auto = Tracer::new(&s);
     assert_eq!(
@@ -269,10 +271,12 @@ fn baked_with(scene: &Scene, threads: usize, levels: Levels) -> Vec<f32> {
 fn instanced_bake_equals_the_flattened_bake() {
     /// Normals are bit-identical, hit points move by f32 rounding of the transform (about
     /// 1e-6 m here), which moves the next ray's origin and the lights' falloff by as much.
-    /// Measured: 1.2e-7 of 3.5 (one f32 ulp of the coefficient); a grazing ray that hits
-    /// in one scene and misses in the other would add one sample's share, so the bound
-    /// leaves room for that.
-    const BAKE_REL_TOL: f64 = 1e-5;
+    /// The two scenes round differently, so a ray that grazes an edge can hit in one and
+    /// miss in the other (a ray-by-ray comparison of 400,000 rays leaving the town's
+    /// surfaces found 2: one at an edge two coplanar triangles share, one grazing back
+    /// into its own plane); such a ray moves one node's coefficient by its share of that
+    /// node's paths. Measured: 2.4e-4 of 3.5 (6.9e-5 relative); the bound is about 3×.
+    const BAKE_REL_TOL: f64 = 2e-4;
     let s = town();
     let a = baked(&s, 1);
     assert_eq!(a, baked(&s, 2));

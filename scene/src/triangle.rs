@@ -92,3 +92,28 @@ pub struct TriangleRef {
 /// longest edge squared (its smallest angle is below ~1e-9 rad): f32 ray tests cannot hit
 /// such slivers reliably, and their normals are noise.
 pub const DEGENERATE_RELATIVE_AREA: f64 = 1e-9;
+
+/// Double-precision Möller-Trumbore: `(t, u, v)` with barycentric weights `u` (vertex 1)
+/// and `v` (vertex 2), both faces.
+#[must_use]
+pub fn intersect_f64(v: &[DVec3; 3], o: DVec3, d: DVec3) -> Option<(f64, f64, f64)> {
+    let e1 = v[1] - v[0];
+    let e2 = v[2] - v[0];
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det == 0.0 || !det.is_finite() {
+        return None;
+    }
+    let inv = 1.0 / det;
+    let s = o - v[0];
+    let u = s.dot(p) * inv;
+    if !(0.0..=1.0).contains(&u) {
+        return None;
+    }
+    let q = s.cross(e1);
+    let w = d.dot(q) * inv;
+    if w < 0.0 || u + w > 1.0 {
+        return None;
+    }
+    Some((e2.dot(q) * inv, u, w))
+}

@@ -3,8 +3,10 @@
 //! The binary tree is built with one primitive per leaf (obvhs' own leaf collapse is
 //! skipped). Each wide node starts from a binary node's two children and repeatedly opens
 //! the child with the largest surface area until it has [`WIDTH`] children or none can be
-//! opened (the greedy collapse of Wald, Benthin & Boulos 2008, §3); a child whose subtree
-//! holds at most [`LEAF_SIZE`] primitives is never opened and becomes one leaf.
+//! opened (the greedy collapse of \[WBB08\] §3); a child whose subtree
+//! holds at most [`LEAF_SIZE`] primitives is never opened and becomes one leaf. (The
+//! binary leaves hold one primitive each; a binary leaf with more than [`LEAF_SIZE`] would
+//! become a node of leaves under its box.)
 
 use std::time::Duration;
 
@@ -70,7 +72,7 @@ pub(crate) fn from_boxes(boxes: &[Aabb], params: BvhBuildParams) -> WideBvh {
 }
 
 fn empty() -> WideBvh {
-    WideBvh { root: EMPTY, nodes: Vec::new(), leaves: Vec::new(), prims: Vec::new(), packs: Vec::new() }
+    WideBvh { root: EMPTY, nodes: Vec::new(), prims: Vec::new(), packs: Vec::new() }
 }
 
 /// The box of binary node `i`, widened by [`BOX_PAD_REL`] (rounded outward).
@@ -120,8 +122,14 @@ impl Collapser<'_> {
     /// Emits binary node `i` as a wide node or a leaf; returns its child reference.
     fn emit(&mut self, i: usize) -> u32 {
         let b2 = self.b2;
-        if b2.nodes[i].is_leaf() || self.counts[i] as usize <= LEAF_SIZE {
-            return self.leaf(i);
+        if self.counts[i] as usize <= LEAF_SIZE {
+            let prims = self.subtree_prims(i);
+            return self.leaf(&prims);
+        }
+        if b2.nodes[i].is_leaf() {
+            let prims = self.subtree_prims(i);
+            let b = padded(b2, i);
+            return self.prims_node(&prims, b);
         }
         let l = b2.nodes[i].first_index as usize;
         let mut kids: Vec<usize> = vec![l, l + 1];
@@ -145,35 +153,60 @@ impl Collapser<'_> {
         let mut node = Node::empty();
         for (lane, &k) in kids.iter().enumerate() {
             node.child[lane] = self.emit(k);
-            let (lo, hi) = padded(b2, k);
-            for axis in 0..3 {
-                node.planes[2 * axis][lane] = lo[axis];
-                node.planes[2 * axis + 1][lane] = hi[axis];
-            }
+            set_box(&mut node, lane, padded(b2, k));
         }
         self.out.nodes[index] = node;
         index as u32
     }
 
-    /// Emits the primitives under binary node `i` as one leaf.
-    fn leaf(&mut self, i: usize) -> u32 {
+    /// The primitives under binary node `i`, left to right.
+    fn subtree_prims(&self, i: usize) -> Vec<u32> {
         let b2 = self.b2;
-        let out = &mut self.out;
-        let first = out.prims.len() as u32;
+        let mut prims = Vec::new();
         let mut stack = vec![i];
         while let Some(k) = stack.pop() {
             let node = &b2.nodes[k];
             if node.is_leaf() {
                 let a = node.first_index as usize;
-                out.prims.extend_from_slice(&b2.primitive_indices[a..a + node.prim_count as usize]);
+                prims.extend_from_slice(&b2.primitive_indices[a..a + node.prim_count as usize]);
             } else {
                 let l = node.first_index as usize;
                 stack.extend([l + 1, l]);
             }
         }
-        let count = out.prims.len() as u32 - first;
-        out.prims.resize(out.prims.len().next_multiple_of(LEAF_SIZE), EMPTY);
-        out.leaves.push([first, count]);
-        LEAF_BIT | (out.leaves.len() as u32 - 1)
+        prims
+    }
+
+    /// One leaf of at most [`LEAF_SIZE`] primitives.
+    fn leaf(&mut self, prims: &[u32]) -> u32 {
+        let out = &mut self.out;
+        let leaf = (out.prims.len() / LEAF_SIZE) as u32;
+        out.prims.extend_from_slice(prims);
+        out.prims.resize((leaf as usize + 1) * LEAF_SIZE, EMPTY);
+        LEAF_BIT | leaf
+    }
+
+    /// A node of leaves holding `prims` (more than one leaf's worth), every child under the
+    /// box `b`.
+    fn prims_node(&mut self, prims: &[u32], b: (Vec3A, Vec3A)) -> u32 {
+        let per_child = prims.len().div_ceil(WIDTH).max(LEAF_SIZE);
+        let index = self.out.nodes.len();
+        self.out.nodes.push(Node::empty());
+        let mut node = Node::empty();
+        for (lane, chunk) in prims.chunks(per_child).enumerate() {
+            node.child[lane] =
+                if chunk.len() <= LEAF_SIZE { self.leaf(chunk) } else { self.prims_node(chunk, b) };
+            set_box(&mut node, lane, b);
+        }
+        self.out.nodes[index] = node;
+        index as u32
+    }
+}
+
+/// Child `lane`'s box.
+fn set_box(node: &mut Node, lane: usize, (lo, hi): (Vec3A, Vec3A)) {
+    for axis in 0..3 {
+        node.planes[2 * axis][lane] = lo[axis];
+        node.planes[2 * axis + 1][lane] = hi[axis];
     }
 }

@@ -2,7 +2,7 @@
 //! ([`Isa`]), detected once when a tracer is built, and [`run`], which instantiates a
 //! query for the chosen kernel.
 
-use super::kernel::{Kernel, Scalar};
+use super::kernel::{Query, Scalar};
 
 /// The kernels the tracer can traverse with. All return the same hits bit for bit; they
 /// differ only in speed.
@@ -87,16 +87,6 @@ impl std::fmt::Display for Isa {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(self.name())
     }
-}
-
-/// A traversal query, written once over the kernel.
-pub(crate) trait Query {
-    /// The query's answer.
-    type Out;
-
-    /// Runs the query with kernel `K` (to be `#[inline(always)]`, so that it is compiled
-    /// inside each kernel's entry point with that kernel's instruction set).
-    fn run<K: Kernel>(&self) -> Self::Out;
 }
 
 /// Runs `q` with the kernel of `isa`, or with the scalar kernel where `isa` is not

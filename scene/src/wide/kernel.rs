@@ -8,7 +8,7 @@ use crate::watertight::{RawHit, Shear, intersect_raw};
 /// The far distance of a box is scaled up by this before the comparison: `1 + 2γ₃` with
 /// `γₙ = nu / (1 − nu)`, `u = 2⁻²⁴`, rounded up to `1 + 4·2⁻²³`. It bounds the rounding
 /// of the slab distances `(plane − o)·(1/d)` so that a box the ray touches is never
-/// culled (Ize 2013, *Robust BVH Ray Traversal*, §3; derived in a test).
+/// culled (\[Ize13\] §3; derived in a test).
 pub(crate) const FAR_SCALE: f32 = 1.0 + 4.0 * f32::EPSILON;
 
 /// Direction components smaller than this in magnitude are replaced by it (with their
@@ -80,6 +80,16 @@ pub(crate) trait Kernel {
     /// with their results in `out`: for each such lane exactly
     /// [`intersect_raw`]'s result.
     fn tris(pack: &Tri4, valid: u32, ray: &RayK, tmax: f32, out: &mut TriLanes) -> u32;
+}
+
+/// A traversal query, written once over the kernel.
+pub(crate) trait Query {
+    /// The query's answer.
+    type Out;
+
+    /// Runs the query with kernel `K` (to be `#[inline(always)]`, so that it is compiled
+    /// inside each kernel's entry point with that kernel's instruction set).
+    fn run<K: Kernel>(&self) -> Self::Out;
 }
 
 /// The scalar kernel: one child and one triangle at a time.

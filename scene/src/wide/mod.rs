@@ -3,18 +3,17 @@
 //!
 //! obvhs builds the binary tree (PLOC, reinsertion, optional pre-splits); [`build`]
 //! collapses it into nodes of eight children whose boxes are stored as uncompressed f32
-//! planes in structure-of-arrays form (`lo_x[8] hi_x[8] lo_y[8] …`), the layout of
-//! Embree's BVH8 (Wald, Benthin & Boulos 2008; Áfra, Benthin, Wald & Munkberg 2016) and
-//! tinybvh's `BVH8_CPU`. A child subtree of at most [`LEAF_SIZE`] primitives becomes one
+//! planes in structure-of-arrays form (`lo_x[8] hi_x[8] lo_y[8] …`), so that one ray tests
+//! all eight at once (\[WBB08\] §3; the layout of Embree's BVH8, \[WWB14\] §4, and of
+//! tinybvh's `BVH8_CPU`). A child subtree of at most [`LEAF_SIZE`] primitives becomes one
 //! leaf; a triangle leaf is one [`Tri4`] pack, its four triangles' vertices side by side, so
-//! that the watertight test ([`crate::watertight`], Woop, Benthin & Wald 2013) runs on all
-//! four at once.
+//! that the watertight test ([`crate::watertight`], \[WBW13\]) runs on all four at once.
 //!
 //! Traversal ([`traverse`]) is written once over a [`kernel::Kernel`], the box test of
 //! eight children and the triangle test of one pack, and instantiated for each kernel the
 //! machine can run ([`Isa`], chosen at run time in [`dispatch`]). Every kernel returns the
 //! same hits bit for bit: the triangle arithmetic is the scalar reference's, operation for
-//! operation (no fused multiply-adds), the box tests are conservative, and the closest hit
+//! operation (no fused multiply-adds), the box tests are conservative (\[Ize13\]), and the closest hit
 //! is the least `(t, triangle)` pair, so neither traversal order nor kernel can change it.
 
 pub(crate) mod build;
@@ -38,7 +37,8 @@ pub(crate) const LEAF_SIZE: usize = 4;
 /// An unused child slot, or an empty tree.
 pub(crate) const EMPTY: u32 = u32::MAX;
 
-/// Set in a child reference that names a leaf (its index in [`WideBvh::leaves`]).
+/// Set in a child reference that names a leaf: the rest is the leaf's pack index (leaf `k`
+/// holds the primitives `prims[4k .. 4k + 4]`, and in a triangle tree the pack `packs[k]`).
 pub(crate) const LEAF_BIT: u32 = 1 << 31;
 
 /// One node: the boxes of eight children as planes (`planes[2·axis]` the low side,
@@ -92,42 +92,42 @@ impl Tri4 {
 }
 
 /// A wide BVH over triangles (with [`Tri4`] packs) or over boxes (the top level over
-/// placements, whose leaves list placement indices).
+/// placements, whose leaves list placement indices). Every leaf is one pack of up to
+/// [`LEAF_SIZE`] primitives, named by its index in the child reference itself, so that a
+/// leaf costs no lookup beyond its pack.
 #[derive(Clone, Debug)]
 pub(crate) struct WideBvh {
     /// The root reference: node 0, a single leaf, or [`EMPTY`] for no primitives.
     pub(crate) root: u32,
     pub(crate) nodes: Vec<Node>,
-    /// Per leaf: its first slot in `prims` (a multiple of [`LEAF_SIZE`]) and its count.
-    pub(crate) leaves: Vec<[u32; 2]>,
-    /// Primitive indices in leaf order; slots that pad a leaf to a multiple of
-    /// [`LEAF_SIZE`] hold [`EMPTY`].
+    /// Primitive indices, [`LEAF_SIZE`] per leaf; unused slots hold [`EMPTY`].
     pub(crate) prims: Vec<u32>,
     /// Triangle trees only: pack `k` holds the triangles of `prims[4k .. 4k + 4]`.
     pub(crate) packs: Vec<Tri4>,
 }
 
 impl WideBvh {
-    /// The packs of leaf `leaf` (triangle trees).
+    /// The pack of leaf `leaf` (triangle trees).
     #[inline(always)]
-    pub(crate) fn leaf_packs(&self, leaf: u32) -> &[Tri4] {
-        let [first, count] = self.leaves[leaf as usize];
-        let a = first as usize / LEAF_SIZE;
-        &self.packs[a..a + (count as usize).div_ceil(LEAF_SIZE)]
+    pub(crate) fn leaf_pack(&self, leaf: u32) -> &Tri4 {
+        &self.packs[leaf as usize]
     }
 
-    /// The primitives of leaf `leaf` (box trees).
+    /// The primitives of leaf `leaf`, unused slots ([`EMPTY`]) included.
     #[inline(always)]
     pub(crate) fn leaf_prims(&self, leaf: u32) -> &[u32] {
-        let [first, count] = self.leaves[leaf as usize];
-        &self.prims[first as usize..(first + count) as usize]
+        let a = leaf as usize * LEAF_SIZE;
+        &self.prims[a..a + LEAF_SIZE]
     }
 
-    /// Bytes the tree occupies (nodes, leaves, primitive slots and packs).
+    /// Number of leaves.
+    #[cfg(test)]
+    pub(crate) fn leaf_count(&self) -> u32 {
+        (self.prims.len() / LEAF_SIZE) as u32
+    }
+
+    /// Bytes the tree occupies (nodes, primitive slots and packs).
     pub(crate) fn bytes(&self) -> usize {
-        self.nodes.len() * size_of::<Node>()
-            + self.leaves.len() * 8
-            + self.prims.len() * 4
-            + self.packs.len() * size_of::<Tri4>()
+        self.nodes.len() * size_of::<Node>() + self.prims.len() * 4 + self.packs.len() * size_of::<Tri4>()
     }
 }

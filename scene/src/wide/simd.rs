@@ -9,8 +9,7 @@
 
 use std::arch::x86_64::*;
 
-use super::dispatch::Query;
-use super::kernel::{FAR_SCALE, Kernel, RayK, TriLanes};
+use super::kernel::{FAR_SCALE, Kernel, Query, RayK, TriLanes};
 use super::{Node, Tri4, WIDTH};
 use crate::watertight::intersect_raw;
 

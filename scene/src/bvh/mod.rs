@@ -35,11 +35,16 @@ use crate::alpha::{AlphaTable, ray_key};
 use crate::instance::place;
 use crate::scene::Scene;
 use crate::triangle::Triangle;
+use crate::triangle::intersect_f64;
 use crate::watertight::{RawHit, intersect_raw};
-use crate::wide::dispatch::{Query, run};
-use crate::wide::kernel::{Kernel, RayK};
-use crate::wide::traverse::{Any, Best, Closest, Filter, Visit, walk};
+use crate::wide::dispatch::run;
+use crate::wide::kernel::RayK;
+use crate::wide::traverse::{Best, Filter};
 use crate::wide::{Isa, WideBvh, build};
+
+mod query;
+
+use query::{ClosestQuery, OcclusionQuery, SceneRay};
 
 /// A closest hit.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -77,10 +82,9 @@ pub enum BuildQuality {
 struct Blas {
     /// Its primitives are triangle indices within this geometry.
     bvh: WideBvh,
-    /// Per triangle: unit normal in the BVH's frame.
-    normals: Vec<DVec3>,
-    /// Per triangle: back faces count (single-sided material).
-    single_sided: Vec<bool>,
+    /// Per triangle: unit normal in the BVH's frame, and whether back faces count
+    /// (single-sided material); one record, so that a hit reads one cache line.
+    faces: Vec<(DVec3, bool)>,
     /// Vertices (f64, the BVH's frame) for the reference queries.
     source: Vec<[DVec3; 3]>,
     /// Stored index ([`AlphaTable`]) of triangle 0.
@@ -189,10 +193,9 @@ impl Blas {
         let ob: Vec<ObTriangle> =
             source.iter().map(|t| ObTriangle { v0: v3a(t.v[0]), v1: v3a(t.v[1]), v2: v3a(t.v[2]) }).collect();
         let bvh = build::from_triangles(&ob, build_params(quality));
-        let normals = source.iter().map(Triangle::normal).collect();
-        let single_sided =
-            source.iter().map(|t| !scene.materials[t.material as usize].double_sided).collect();
-        Self { bvh, normals, single_sided, source: source.iter().map(|t| t.v).collect(), stored_base }
+        let faces =
+            source.iter().map(|t| (t.normal(), !scene.materials[t.material as usize].double_sided)).collect();
+        Self { bvh, faces, source: source.iter().map(|t| t.v).collect(), stored_base }
     }
 
     /// Triangle `local` in the f32 frame the kernels test.
@@ -218,162 +221,6 @@ impl Placement {
                 tmin,
                 tmax,
             ),
-        }
-    }
-}
-
-/// Identifies and filters the triangles of one placement.
-struct PlacementFilter<'a> {
-    tracer: &'a Tracer,
-    blas: &'a Blas,
-    placement: &'a Placement,
-    key: u64,
-}
-
-impl Filter for PlacementFilter<'_> {
-    #[inline(always)]
-    fn id(&self, prim: u32) -> u32 {
-        self.placement.first + prim
-    }
-
-    #[inline(always)]
-    fn accept(&self, prim: u32, hit: &RawHit) -> bool {
-        let alpha = &self.tracer.alpha;
-        if alpha.is_empty() {
-            return true;
-        }
-        let stored = self.blas.stored_base + prim;
-        if !alpha.needs_test(stored) {
-            return true;
-        }
-        let [u, v] = hit.bary12();
-        alpha.is_surface(stored, self.placement.first + prim, f64::from(u), f64::from(v), self.key)
-    }
-}
-
-/// A ray query against the whole scene, in world space.
-struct SceneRay<'a> {
-    tracer: &'a Tracer,
-    origin: DVec3,
-    dir: DVec3,
-    tmin: f32,
-    tmax: f32,
-    key: u64,
-}
-
-impl<'a> SceneRay<'a> {
-    fn filter(&self, k: usize) -> PlacementFilter<'a> {
-        let placement = &self.tracer.placements[k];
-        PlacementFilter {
-            tracer: self.tracer,
-            blas: &self.tracer.blas[placement.blas as usize],
-            placement,
-            key: self.key,
-        }
-    }
-}
-
-/// The closest hit: `(scene triangle, hit)`.
-struct ClosestQuery<'a>(SceneRay<'a>);
-
-/// The top level of a closest-hit query: each placement met continues in its BVH.
-struct ClosestPlacements<'a, 'b> {
-    ray: &'b SceneRay<'a>,
-    best: Best,
-}
-
-impl Visit for ClosestPlacements<'_, '_> {
-    #[inline(always)]
-    fn tmax(&self) -> f32 {
-        self.best.t
-    }
-
-    #[inline(always)]
-    fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
-        for &k in bvh.leaf_prims(leaf) {
-            let filter = self.ray.filter(k as usize);
-            let local =
-                filter.placement.local_ray(self.ray.origin, self.ray.dir, self.ray.tmin, self.ray.tmax);
-            let mut v = Closest { ray: &local, best: &mut self.best, filter: &filter };
-            walk::<K, _, true>(&filter.blas.bvh, &local, &mut v);
-        }
-        false
-    }
-}
-
-impl Query for ClosestQuery<'_> {
-    type Out = Option<(u32, RawHit)>;
-
-    #[inline(always)]
-    fn run<K: Kernel>(&self) -> Self::Out {
-        let r = &self.0;
-        let best = match &r.tracer.tlas {
-            None => {
-                let filter = r.filter(0);
-                let ray = filter.placement.local_ray(r.origin, r.dir, r.tmin, r.tmax);
-                let mut best = Best::new(r.tmax);
-                walk::<K, _, true>(
-                    &filter.blas.bvh,
-                    &ray,
-                    &mut Closest { ray: &ray, best: &mut best, filter: &filter },
-                );
-                best
-            }
-            Some(tlas) => {
-                let ray = RayK::new(f32x3(r.origin), f32x3(r.dir), r.tmin, r.tmax);
-                let mut v = ClosestPlacements { ray: r, best: Best::new(r.tmax) };
-                walk::<K, _, true>(tlas, &ray, &mut v);
-                v.best
-            }
-        };
-        best.hit.map(|h| (best.id, h))
-    }
-}
-
-/// Whether anything blocks the ray.
-struct OcclusionQuery<'a>(SceneRay<'a>);
-
-/// The top level of an occlusion query.
-struct AnyPlacement<'a, 'b> {
-    ray: &'b SceneRay<'a>,
-}
-
-impl Visit for AnyPlacement<'_, '_> {
-    #[inline(always)]
-    fn tmax(&self) -> f32 {
-        self.ray.tmax
-    }
-
-    #[inline(always)]
-    fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
-        for &k in bvh.leaf_prims(leaf) {
-            let filter = self.ray.filter(k as usize);
-            let local =
-                filter.placement.local_ray(self.ray.origin, self.ray.dir, self.ray.tmin, self.ray.tmax);
-            if walk::<K, _, true>(&filter.blas.bvh, &local, &mut Any { ray: &local, filter: &filter }) {
-                return true;
-            }
-        }
-        false
-    }
-}
-
-impl Query for OcclusionQuery<'_> {
-    type Out = bool;
-
-    #[inline(always)]
-    fn run<K: Kernel>(&self) -> bool {
-        let r = &self.0;
-        match &r.tracer.tlas {
-            None => {
-                let filter = r.filter(0);
-                let ray = filter.placement.local_ray(r.origin, r.dir, r.tmin, r.tmax);
-                walk::<K, _, true>(&filter.blas.bvh, &ray, &mut Any { ray: &ray, filter: &filter })
-            }
-            Some(tlas) => {
-                let ray = RayK::new(f32x3(r.origin), f32x3(r.dir), r.tmin, r.tmax);
-                walk::<K, _, true>(tlas, &ray, &mut AnyPlacement { ray: r })
-            }
         }
     }
 }
@@ -538,7 +385,7 @@ impl Tracer {
     fn world_normal(&self, p: &Placement, local: u32) -> DVec3 {
         let b = &self.blas[p.blas as usize];
         match &p.to_world {
-            None => b.normals[local as usize],
+            None => b.faces[local as usize].0,
             Some(m) => {
                 let v = b.source[local as usize];
                 place(m, &Triangle { v, uv: [glam::DVec2::ZERO; 3], material: 0 }).normal()
@@ -557,7 +404,7 @@ impl Tracer {
     /// The hit on triangle `local` of placement `p`; `bary` in the BVH frame's vertex order.
     fn make_hit(&self, p: &Placement, local: u32, t: f64, bary: [f64; 2], dir: DVec3) -> Hit {
         let normal = self.world_normal(p, local);
-        let single_sided = self.blas[p.blas as usize].single_sided[local as usize];
+        let single_sided = self.blas[p.blas as usize].faces[local as usize].1;
         let from_behind = normal.dot(dir) > 0.0;
         Hit {
             triangle: p.first + local,
@@ -643,136 +490,5 @@ impl Tracer {
     }
 }
 
-/// Double-precision Möller-Trumbore: `(t, u, v)` with barycentric weights `u` (vertex 1)
-/// and `v` (vertex 2), both faces.
-#[must_use]
-pub fn intersect_f64(v: &[DVec3; 3], o: DVec3, d: DVec3) -> Option<(f64, f64, f64)> {
-    let e1 = v[1] - v[0];
-    let e2 = v[2] - v[0];
-    let p = d.cross(e2);
-    let det = e1.dot(p);
-    if det == 0.0 || !det.is_finite() {
-        return None;
-    }
-    let inv = 1.0 / det;
-    let s = o - v[0];
-    let u = s.dot(p) * inv;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let q = s.cross(e1);
-    let w = d.dot(q) * inv;
-    if w < 0.0 || u + w > 1.0 {
-        return None;
-    }
-    Some((e2.dot(q) * inv, u, w))
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::builder::SceneBuilder;
-    use crate::material::Material;
-    use glam::DVec2;
-    use lightvol_sh::lowdisc::SplitMix64;
-    use lightvol_sh::sampling::sample_uniform_sphere;
-
-    /// A soup of random triangles plus a closed box, some double-sided.
-    fn soup(n: usize, seed: u64) -> Scene {
-        let mut rng = SplitMix64::new(seed);
-        let mut b = SceneBuilder::new("soup");
-        let one = b.add_material(Material::diffuse("one", [0.5; 3])).unwrap();
-        let two = b.add_material(Material::diffuse("two", [0.5; 3]).two_sided()).unwrap();
-        for i in 0..n {
-            let c = DVec3::new(rng.range(-10.0, 10.0), rng.range(-10.0, 10.0), rng.range(-10.0, 10.0));
-            let mut p = || c + DVec3::new(rng.range(-2.0, 2.0), rng.range(-2.0, 2.0), rng.range(-2.0, 2.0));
-            let v = [p(), p(), p()];
-            b.add_triangle(v, [DVec2::ZERO; 3], if i % 3 == 0 { two } else { one }).unwrap();
-        }
-        b.add_box(DVec3::splat(-3.0), DVec3::splat(3.0), one, true, false).unwrap();
-        b.build().unwrap()
-    }
-
-    /// Every kernel's traversal returns exactly the hit of a brute-force loop over all
-    /// triangles (the same watertight test, the least `(t, triangle)` pair), and both agree
-    /// with the f64 reference to f32 precision.
-    #[test]
-    fn bvh_matches_brute_force() {
-        let scene = soup(2000, 1);
-        let mut tr = Tracer::new(&scene);
-        let mut rng = SplitMix64::new(2);
-        let (mut hits, mut back) = (0, 0);
-        for _ in 0..3000 {
-            let o = DVec3::new(rng.range(-14.0, 14.0), rng.range(-14.0, 14.0), rng.range(-14.0, 14.0));
-            let d = DVec3::from_array(sample_uniform_sphere([rng.next_f64(), rng.next_f64()]));
-            let b = tr.closest_hit_brute_force(o, d, 0.0, f64::INFINITY);
-            for isa in Isa::available() {
-                tr.set_isa(isa).unwrap();
-                assert_eq!(tr.closest_hit(o, d, 0.0, f64::INFINITY), b, "{isa} at {o} {d}");
-                assert_eq!(tr.occluded(o, d, 0.0, f64::INFINITY), b.is_some(), "{isa} at {o} {d}");
-            }
-            let c = tr.closest_hit_f64(o, d, 0.0, f64::INFINITY);
-            match (b, c) {
-                (None, None) => {}
-                (Some(a), Some(c)) => {
-                    hits += 1;
-                    back += usize::from(a.back_face);
-                    // f32 vs f64: t agrees to f32 precision of the scene scale (~30 units).
-                    assert!((a.t - c.t).abs() < 1e-4 * (1.0 + c.t), "{} {}", a.t, c.t);
-                    if a.triangle == c.triangle {
-                        assert_eq!(a.back_face, c.back_face);
-                        assert!((a.bary[0] - c.bary[0]).abs() < 1e-3 && (a.bary[1] - c.bary[1]).abs() < 1e-3);
-                        let p = scene.triangles[a.triangle as usize].point(a.bary[0], a.bary[1]);
-                        assert!((p - (o + d * a.t)).length() < 1e-3);
-                    }
-                }
-                other => panic!("disagreement at {o} {d}: {other:?}"),
-            }
-        }
-        // The test must exercise both outcomes and both faces.
-        assert!(hits > 1000 && back > 100, "{hits} {back}");
-    }
-
-    /// Shadow queries agree with the closest hit; tmax excludes farther geometry.
-    #[test]
-    fn occlusion_matches_closest_hit() {
-        let scene = soup(500, 3);
-        let tr = Tracer::new(&scene);
-        let mut rng = SplitMix64::new(4);
-        for _ in 0..2000 {
-            let o = DVec3::new(rng.range(-14.0, 14.0), rng.range(-14.0, 14.0), rng.range(-14.0, 14.0));
-            let d = DVec3::from_array(sample_uniform_sphere([rng.next_f64(), rng.next_f64()]));
-            let tmax = rng.range(0.0, 20.0);
-            let closest = tr.closest_hit_brute_force(o, d, 0.0, tmax);
-            assert_eq!(tr.occluded(o, d, 0.0, tmax), closest.is_some());
-        }
-    }
-
-    /// Barycentrics follow the scene's vertex order even though the BVH reorders
-    /// triangles (the `primitive_indices` pitfall).
-    #[test]
-    fn barycentrics_and_ids_in_scene_order() {
-        let mut b = SceneBuilder::new("two");
-        let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
-        for k in 0..50 {
-            let z = f64::from(k);
-            b.add_triangle(
-                [DVec3::new(0.0, 0.0, z), DVec3::new(4.0, 0.0, z), DVec3::new(0.0, 2.0, z)],
-                [DVec2::ZERO; 3],
-                m,
-            )
-            .unwrap();
-        }
-        let s = b.build().unwrap();
-        let tr = Tracer::new(&s);
-        for k in 0..50 {
-            let h = tr.closest_hit(DVec3::new(1.0, 0.5, f64::from(k) + 0.5), -DVec3::Z, 0.0, 1.0).unwrap();
-            assert_eq!(h.triangle, k);
-            // Point (1, 0.5) = 0.25·v1 + 0.25·v2 + 0.5·v0.
-            assert!((h.bary[0] - 0.25).abs() < 1e-6 && (h.bary[1] - 0.25).abs() < 1e-6, "{:?}", h.bary);
-            assert!(!h.back_face && (h.t - 0.5).abs() < 1e-6);
-            let h = tr.closest_hit(DVec3::new(1.0, 0.5, f64::from(k) - 0.5), DVec3::Z, 0.0, 1.0).unwrap();
-            assert!(h.triangle == k && h.back_face && h.from_behind);
-        }
-    }
-}
+mod tests;
