@@ -254,7 +254,7 @@ mod tests {
         let tr = Tracer::new(&s);
         let cands = [
             (DVec3::new(-0.5, 0.4, 0.5), DVec3::new(-1.0, 0.0, 0.2).normalize()),
-            // Off the quads' diagonals: obvhs' f32 test is not watertight on shared edges.
+            // Off the quads' diagonals (a ray along one would meet two triangles at once).
             (DVec3::new(0.5, 0.3, 0.6), -DVec3::X),
         ];
         let right = classify_cell(&tr, 2, |i| cands[i as usize], Retest::QueryDirection);

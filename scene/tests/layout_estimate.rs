@@ -23,8 +23,9 @@ fn layout_estimate_counts_unique_triangles_and_instances() {
     // By the model, from the sizes of the types: a stored triangle is a 128-byte
     // `Triangle`; an instance is a 152-byte `Instance` (prototype u32, 12-f64 affine map,
     // first u32, f64 bounds) and the loader's 136-byte (mesh, 4x4 matrix) record. The
-    // tracer keeps 165 bytes per stored triangle (a 64-byte f32 triangle, its u32 order, an
-    // f64 normal, a flag, the f64 vertices) and the build 200 more; 432 per placement.
+    // tracer keeps 192 bytes per stored triangle (half of a 160-byte four-triangle leaf pack
+    // and its four u32 slots, an f64 normal with its flag in 32 bytes, the f64 vertices)
+    // and the build 200 more; 432 per placement.
     assert_eq!(instance_bytes(), 152 + 136);
     assert_eq!(m.geometry_bytes, unique * 128 + instances * 288);
     assert_eq!(
@@ -33,12 +34,12 @@ fn layout_estimate_counts_unique_triangles_and_instances() {
             + instances * TLAS_BYTES_PER_PLACEMENT
     );
     assert_eq!(m.texture_bytes, 0);
-    assert_eq!(tracer_bytes_per_triangle(), 64 + 4 + 24 + 1 + 72);
+    assert_eq!(tracer_bytes_per_triangle(), (160 + 16) / 2 + 32 + 72);
     assert_eq!(TLAS_BYTES_PER_PLACEMENT, 432);
-    // 42 MiB in all, from 65 M placed triangles:
-    // 63,720 × (128 + 165 + 200) + 17,408 × (288 + 432).
-    assert_eq!(m.total(), 63_720 * 493 + 17_408 * 720);
-    assert_eq!(m.total(), 43_947_720);
+    // 44 MiB in all, from 65 M placed triangles:
+    // 63,720 × (128 + 192 + 200) + 17,408 × (288 + 432).
+    assert_eq!(m.total(), 63_720 * 520 + 17_408 * 720);
+    assert_eq!(m.total(), 45_668_160);
     let flat = estimate_scene(&path, true).unwrap();
     assert_eq!(flat, SceneMemory::from_counts(1_024 * unique, flat.vertices, 0));
     assert!(flat.total() > 16 << 30, "{}", flat.total());

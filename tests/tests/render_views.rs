@@ -58,7 +58,7 @@ fn render_outputs_are_unchanged() {
         (
             "irradiance.exr",
             vec!["--volume", v, "--width", "36", "--quantity", "irradiance", "--camera=-8,-8,6:0,0,0.5:60"],
-            "39bd433c3e034815",
+            "9541327c5d2a654a",
         ),
         (
             "radiosity.png",
