@@ -253,8 +253,8 @@ pub(crate) mod tests {
         assert_eq!(escaped, 0, "{escaped} of {rays} rays slipped through the closed mesh");
     }
 
-    /// Möller-Trumbore in f32 as the tracer intersects today (obvhs' `RtTriangle`, the test
-    /// `bvh` runs inside its traversal): the distance, or `None` for a miss.
+    /// Möller-Trumbore in f32 as lightvol's tracer intersected before the watertight test
+    /// (obvhs' `RtTriangle`): the distance, or `None` for a miss.
     fn moller_trumbore_f32(v: &[[f32; 3]; 3], o: [f32; 3], d: [f32; 3]) -> Option<f32> {
         use glam::Vec3A;
         let tri =
