@@ -4,7 +4,7 @@
 //! skipped). Each wide node starts from a binary node's two children and repeatedly opens
 //! the child with the largest surface area until it has [`WIDTH`] children or none can be
 //! opened (the greedy collapse of \[WBB08\] §3); a child whose subtree
-//! holds at most [`LEAF_SIZE`] primitives is never opened and becomes one leaf. (The
+//! holds at most [`LEAF_PRIMS`] primitives is never opened and becomes one leaf. (The
 //! binary leaves hold one primitive each; a binary leaf with more than [`LEAF_SIZE`] would
 //! become a node of leaves under its box.)
 
@@ -17,7 +17,10 @@ use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::builder::{build_bvh2, build_bvh2_from_tris};
 use obvhs::triangle::Triangle as ObTriangle;
 
-use super::{EMPTY, LEAF_BIT, LEAF_SIZE, Node, Tri4, WIDTH, WideBvh};
+use super::{EMPTY, LEAF_BIT, LEAF_SIZE, MAX_LEAF_PACKS, Node, PACK_BITS, Tri4, WIDTH, WideBvh};
+
+/// Primitives per leaf at most: a subtree with at most this many becomes one leaf.
+const LEAF_PRIMS: usize = LEAF_SIZE * MAX_LEAF_PACKS;
 
 /// Child boxes are widened on each side by this fraction of their largest coordinate
 /// magnitude (or extent): 2⁻²⁰, about 16 f32 ulps. The watertight test and the slab test
@@ -122,7 +125,7 @@ impl Collapser<'_> {
     /// Emits binary node `i` as a wide node or a leaf; returns its child reference.
     fn emit(&mut self, i: usize) -> u32 {
         let b2 = self.b2;
-        if self.counts[i] as usize <= LEAF_SIZE {
+        if self.counts[i] as usize <= LEAF_PRIMS {
             let prims = self.subtree_prims(i);
             return self.leaf(&prims);
         }
@@ -137,7 +140,7 @@ impl Collapser<'_> {
             let open = kids
                 .iter()
                 .enumerate()
-                .filter(|&(_, &k)| !b2.nodes[k].is_leaf() && self.counts[k] as usize > LEAF_SIZE)
+                .filter(|&(_, &k)| !b2.nodes[k].is_leaf() && self.counts[k] as usize > LEAF_PRIMS)
                 .max_by(|a, b| {
                     let area = |k: usize| b2.nodes[k].aabb().half_area();
                     area(*a.1).total_cmp(&area(*b.1)).then(b.0.cmp(&a.0))
@@ -177,25 +180,26 @@ impl Collapser<'_> {
         prims
     }
 
-    /// One leaf of at most [`LEAF_SIZE`] primitives.
+    /// One leaf of at most [`LEAF_PRIMS`] primitives, in whole packs.
     fn leaf(&mut self, prims: &[u32]) -> u32 {
         let out = &mut self.out;
-        let leaf = (out.prims.len() / LEAF_SIZE) as u32;
+        let first = out.prims.len() / LEAF_SIZE;
+        let packs = prims.len().div_ceil(LEAF_SIZE);
         out.prims.extend_from_slice(prims);
-        out.prims.resize((leaf as usize + 1) * LEAF_SIZE, EMPTY);
-        LEAF_BIT | leaf
+        out.prims.resize((first + packs) * LEAF_SIZE, EMPTY);
+        LEAF_BIT | (first << PACK_BITS) as u32 | (packs - 1) as u32
     }
 
     /// A node of leaves holding `prims` (more than one leaf's worth), every child under the
     /// box `b`.
     fn prims_node(&mut self, prims: &[u32], b: (Vec3A, Vec3A)) -> u32 {
-        let per_child = prims.len().div_ceil(WIDTH).max(LEAF_SIZE);
+        let per_child = prims.len().div_ceil(WIDTH).max(LEAF_PRIMS);
         let index = self.out.nodes.len();
         self.out.nodes.push(Node::empty());
         let mut node = Node::empty();
         for (lane, chunk) in prims.chunks(per_child).enumerate() {
             node.child[lane] =
-                if chunk.len() <= LEAF_SIZE { self.leaf(chunk) } else { self.prims_node(chunk, b) };
+                if chunk.len() <= LEAF_PRIMS { self.leaf(chunk) } else { self.prims_node(chunk, b) };
             set_box(&mut node, lane, b);
         }
         self.out.nodes[index] = node;

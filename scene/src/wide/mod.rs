@@ -37,9 +37,18 @@ pub(crate) const LEAF_SIZE: usize = 4;
 /// An unused child slot, or an empty tree.
 pub(crate) const EMPTY: u32 = u32::MAX;
 
-/// Set in a child reference that names a leaf: the rest is the leaf's pack index (leaf `k`
-/// holds the primitives `prims[4k .. 4k + 4]`, and in a triangle tree the pack `packs[k]`).
+/// Set in a child reference that names a leaf: the rest is the leaf's first pack `k` and,
+/// in the low [`PACK_BITS`] bits, its number of packs less one (the leaf holds the
+/// primitives `prims[4k ..]`, and in a triangle tree the packs `packs[k ..]`).
 pub(crate) const LEAF_BIT: u32 = 1 << 31;
+
+/// Bits of a leaf reference that count its packs: 0, one pack per leaf. (Leaves of up to
+/// two packs, subtrees of up to eight triangles, measured no faster on the vendored scenes:
+/// fewer nodes, more triangle tests.)
+pub(crate) const PACK_BITS: u32 = 0;
+
+/// Packs per leaf at most.
+pub(crate) const MAX_LEAF_PACKS: usize = 1 << PACK_BITS;
 
 /// One node: the boxes of eight children as planes (`planes[2·axis]` the low side,
 /// `planes[2·axis + 1]` the high side; an unused slot has the empty box `+∞ … −∞`, which no
@@ -107,23 +116,43 @@ pub(crate) struct WideBvh {
 }
 
 impl WideBvh {
-    /// The pack of leaf `leaf` (triangle trees).
+    /// The first pack and the pack count of leaf `leaf` (a child reference less
+    /// [`LEAF_BIT`]).
     #[inline(always)]
-    pub(crate) fn leaf_pack(&self, leaf: u32) -> &Tri4 {
-        &self.packs[leaf as usize]
+    fn leaf_range(leaf: u32) -> (usize, usize) {
+        ((leaf >> PACK_BITS) as usize, (leaf & ((1u32 << PACK_BITS) - 1)) as usize + 1)
+    }
+
+    /// The packs of leaf `leaf` (triangle trees).
+    #[inline(always)]
+    pub(crate) fn leaf_packs(&self, leaf: u32) -> &[Tri4] {
+        let (first, n) = Self::leaf_range(leaf);
+        &self.packs[first..first + n]
     }
 
     /// The primitives of leaf `leaf`, unused slots ([`EMPTY`]) included.
     #[inline(always)]
     pub(crate) fn leaf_prims(&self, leaf: u32) -> &[u32] {
-        let a = leaf as usize * LEAF_SIZE;
-        &self.prims[a..a + LEAF_SIZE]
+        let (first, n) = Self::leaf_range(leaf);
+        &self.prims[first * LEAF_SIZE..(first + n) * LEAF_SIZE]
     }
 
-    /// Number of leaves.
+    /// Every leaf (as its reference less [`LEAF_BIT`]).
     #[cfg(test)]
-    pub(crate) fn leaf_count(&self) -> u32 {
-        (self.prims.len() / LEAF_SIZE) as u32
+    pub(crate) fn leaves(&self) -> Vec<u32> {
+        let mut out = Vec::new();
+        let mut stack = vec![self.root];
+        while let Some(r) = stack.pop() {
+            if r == EMPTY {
+                continue;
+            }
+            if r & LEAF_BIT != 0 {
+                out.push(r & !LEAF_BIT);
+            } else {
+                stack.extend(self.nodes[r as usize].child);
+            }
+        }
+        out
     }
 
     /// Bytes the tree occupies (nodes, primitive slots and packs).

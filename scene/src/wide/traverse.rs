@@ -173,15 +173,16 @@ impl<F: Filter> Visit for Closest<'_, F> {
     #[inline(always)]
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
         let mut lanes = TriLanes::default();
-        let pack = bvh.leaf_pack(leaf);
-        let mut mask = K::tris(pack, pack.valid(), self.ray, self.best.t, &mut lanes);
-        while mask != 0 {
-            let lane = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            let prim = pack.id[lane];
-            let hit = lanes.hit(lane);
-            let filter = self.filter;
-            self.best.offer(filter.id(prim), hit, || filter.accept(prim, &hit));
+        for pack in bvh.leaf_packs(leaf) {
+            let mut mask = K::tris(pack, pack.valid(), self.ray, self.best.t, &mut lanes);
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let prim = pack.id[lane];
+                let hit = lanes.hit(lane);
+                let filter = self.filter;
+                self.best.offer(filter.id(prim), hit, || filter.accept(prim, &hit));
+            }
         }
         false
     }
@@ -202,13 +203,14 @@ impl<F: Filter> Visit for Any<'_, F> {
     #[inline(always)]
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
         let mut lanes = TriLanes::default();
-        let pack = bvh.leaf_pack(leaf);
-        let mut mask = K::tris(pack, pack.valid(), self.ray, self.ray.tmax, &mut lanes);
-        while mask != 0 {
-            let lane = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
-            if self.filter.accept(pack.id[lane], &lanes.hit(lane)) {
-                return true;
+        for pack in bvh.leaf_packs(leaf) {
+            let mut mask = K::tris(pack, pack.valid(), self.ray, self.ray.tmax, &mut lanes);
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                if self.filter.accept(pack.id[lane], &lanes.hit(lane)) {
+                    return true;
+                }
             }
         }
         false
