@@ -1,17 +1,17 @@
 //! The tracer's wide BVH: an 8-wide tree laid out for CPU SIMD, collapsed from obvhs'
 //! binary BVH, with leaves of up to four triangles stored side by side.
 //!
-//! obvhs builds the binary tree (PLOC, reinsertion, optional pre-splits); [`build`]
+//! obvhs builds the binary tree (PLOC, reinsertion, optional pre-splits); `build`
 //! collapses it into nodes of eight children whose boxes are stored as uncompressed f32
 //! planes in structure-of-arrays form (`lo_x[8] hi_x[8] lo_y[8] …`), so that one ray tests
 //! all eight at once (\[WBB08\] §3; the layout of Embree's BVH8, \[WWB14\] §4, and of
-//! tinybvh's `BVH8_CPU`). A child subtree of at most [`LEAF_SIZE`] primitives becomes one
-//! leaf; a triangle leaf is one [`Tri4`] pack, its four triangles' vertices side by side, so
+//! tinybvh's `BVH8_CPU`). A child subtree of at most four primitives becomes one
+//! leaf; a triangle leaf is one `Tri4` pack, its four triangles' vertices side by side, so
 //! that the watertight test ([`crate::watertight`], \[WBW13\]) runs on all four at once.
 //!
-//! Traversal ([`traverse`]) is written once over a [`kernel::Kernel`], the box test of
+//! Traversal (`traverse`) is written once over a `kernel::Kernel`, the box test of
 //! eight children and the triangle test of one pack, and instantiated for each kernel the
-//! machine can run ([`Isa`], chosen at run time in [`dispatch`]). Every kernel returns the
+//! machine can run ([`Isa`], chosen at run time in `dispatch`). Every kernel returns the
 //! same hits bit for bit: the triangle arithmetic is the scalar reference's, operation for
 //! operation (no fused multiply-adds), the box tests are conservative (\[Ize13\]), and the closest hit
 //! is the least `(t, triangle)` pair, so neither traversal order nor kernel can change it.
