@@ -109,8 +109,8 @@ struct Placement {
 /// placed triangles ([`Levels::Auto`]): the tracer then takes about 350 bytes per placed
 /// triangle at its build peak (under 400 MB here, see [`crate::estimate`]), and one level is
 /// faster than two wherever instances overlap (measured on the Breakfast Room, 24 instances
-/// of 17 meshes, `lightvol bench --embree --levels one|two`: closest hits 1.2× and occlusion
-/// 1.4× faster in one level).
+/// of 17 meshes, `lightvol bench --embree --levels one|two --rays 300000`: closest hits
+/// 1.03× and occlusion 1.8× faster in one level).
 pub const FLATTEN_AT_MOST: usize = 1 << 20;
 
 /// How a [`Tracer`] arranges an instanced scene.
