@@ -14,7 +14,7 @@ fn bake_with(scene: &Scene, grid: &GridSpec, isa: Isa, levels: Levels) -> Vec<u3
     tracer.set_isa(isa).unwrap();
     assert_eq!(tracer.isa(), isa);
     let t = Transport::new(scene, &tracer, TransportSettings::default());
-    let s = BakeSettings { method: Method::Doi, samples: samples(16), seed: 3, ..Default::default() };
+    let s = BakeSettings { method: Method::Doi, samples: samples(64), seed: 3, ..Default::default() };
     let out = bake(&t, grid, &s, &BakeControl::default()).unwrap();
     out.finish().0.data().iter().map(|x| x.to_bits()).collect()
 }
