@@ -52,6 +52,18 @@ pub(super) struct SceneRay<'a> {
 }
 
 impl<'a> SceneRay<'a> {
+    /// The ray in the world frame (for the top level).
+    #[inline(always)]
+    fn world(&self) -> RayK {
+        RayK::new(f32x3(self.origin), f32x3(self.dir), self.tmin, self.tmax)
+    }
+
+    /// The ray in the frame of `filter`'s placement.
+    #[inline(always)]
+    fn local(&self, filter: &PlacementFilter<'_>) -> RayK {
+        filter.placement.local_ray(self.origin, self.dir, self.tmin, self.tmax)
+    }
+
     pub(super) fn filter(&self, k: usize) -> PlacementFilter<'a> {
         let placement = &self.tracer.placements[k];
         PlacementFilter {
@@ -82,10 +94,9 @@ impl Visit for ClosestPlacements<'_, '_> {
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
         for &k in bvh.leaf_prims(leaf).iter().filter(|&&k| k != EMPTY) {
             let filter = self.ray.filter(k as usize);
-            let local =
-                filter.placement.local_ray(self.ray.origin, self.ray.dir, self.ray.tmin, self.ray.tmax);
+            let local = self.ray.local(&filter);
             let mut v = Closest { ray: &local, best: &mut self.best, filter: &filter };
-            walk::<K, _, true>(&filter.blas.bvh, &local, &mut v);
+            walk::<K, _>(&filter.blas.bvh, &local, &mut v);
         }
         false
     }
@@ -100,9 +111,9 @@ impl Query for ClosestQuery<'_> {
         let best = match &r.tracer.tlas {
             None => {
                 let filter = r.filter(0);
-                let ray = filter.placement.local_ray(r.origin, r.dir, r.tmin, r.tmax);
+                let ray = r.local(&filter);
                 let mut best = Best::new(r.tmax);
-                walk::<K, _, true>(
+                walk::<K, _>(
                     &filter.blas.bvh,
                     &ray,
                     &mut Closest { ray: &ray, best: &mut best, filter: &filter },
@@ -110,9 +121,9 @@ impl Query for ClosestQuery<'_> {
                 best
             }
             Some(tlas) => {
-                let ray = RayK::new(f32x3(r.origin), f32x3(r.dir), r.tmin, r.tmax);
+                let ray = r.world();
                 let mut v = ClosestPlacements { ray: r, best: Best::new(r.tmax) };
-                walk::<K, _, true>(tlas, &ray, &mut v);
+                walk::<K, _>(tlas, &ray, &mut v);
                 v.best
             }
         };
@@ -138,9 +149,8 @@ impl Visit for AnyPlacement<'_, '_> {
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
         for &k in bvh.leaf_prims(leaf).iter().filter(|&&k| k != EMPTY) {
             let filter = self.ray.filter(k as usize);
-            let local =
-                filter.placement.local_ray(self.ray.origin, self.ray.dir, self.ray.tmin, self.ray.tmax);
-            if walk::<K, _, true>(&filter.blas.bvh, &local, &mut Any { ray: &local, filter: &filter }) {
+            let local = self.ray.local(&filter);
+            if walk::<K, _>(&filter.blas.bvh, &local, &mut Any { ray: &local, filter: &filter }) {
                 return true;
             }
         }
@@ -157,12 +167,12 @@ impl Query for OcclusionQuery<'_> {
         match &r.tracer.tlas {
             None => {
                 let filter = r.filter(0);
-                let ray = filter.placement.local_ray(r.origin, r.dir, r.tmin, r.tmax);
-                walk::<K, _, true>(&filter.blas.bvh, &ray, &mut Any { ray: &ray, filter: &filter })
+                let ray = r.local(&filter);
+                walk::<K, _>(&filter.blas.bvh, &ray, &mut Any { ray: &ray, filter: &filter })
             }
             Some(tlas) => {
-                let ray = RayK::new(f32x3(r.origin), f32x3(r.dir), r.tmin, r.tmax);
-                walk::<K, _, true>(tlas, &ray, &mut AnyPlacement { ray: r })
+                let ray = r.world();
+                walk::<K, _>(tlas, &ray, &mut AnyPlacement { ray: r })
             }
         }
     }

@@ -1,9 +1,9 @@
 //! Traversal of a [`WideBvh`], written once over a [`Kernel`].
 //!
 //! A stack of `(child, entry distance)` pairs; a node's children that the ray meets are
-//! visited nearest first for closest hits (sorted by their box entry distance, the
-//! nearest taken at once and the others pushed), in slot order for occlusion, which stops
-//! at the first hit. A popped entry whose box starts beyond the best hit so far is
+//! visited nearest first (sorted by their box entry distance, the nearest taken at once and
+//! the others pushed), for closest hits and for occlusion, which stops at the first hit
+//! (nearest first measured faster for shadow rays too than slot order). A popped entry whose box starts beyond the best hit so far is
 //! skipped. The closest hit is the least `(t, id)` pair over every triangle the ray meets,
 //! so the order of visits cannot change it.
 
@@ -59,9 +59,9 @@ pub(crate) trait Visit {
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool;
 }
 
-/// Walks `bvh` with `ray`, nearest child first when `ORDERED`; true when a leaf stopped it.
+/// Walks `bvh` with `ray`, nearest child first; true when a leaf stopped it.
 #[inline(always)]
-pub(crate) fn walk<K: Kernel, V: Visit, const ORDERED: bool>(bvh: &WideBvh, ray: &RayK, v: &mut V) -> bool {
+pub(crate) fn walk<K: Kernel, V: Visit>(bvh: &WideBvh, ray: &RayK, v: &mut V) -> bool {
     if bvh.root == EMPTY {
         return false;
     }
@@ -88,14 +88,6 @@ pub(crate) fn walk<K: Kernel, V: Visit, const ORDERED: bool>(bvh: &WideBvh, ray:
         }
         let node = &bvh.nodes[r as usize];
         let mut mask = K::boxes(node, ray, tmax, &mut tnear);
-        if !ORDERED {
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
-                stack.push((node.child[lane], tnear[lane]));
-            }
-            continue;
-        }
         // Hit children sorted by entry distance, nearest first (insertion sort of ≤ 8).
         let mut hits = [(0u32, 0f32); WIDTH];
         let mut n = 0;
