@@ -42,7 +42,12 @@ pub(crate) fn from_triangles(tris: &[ObTriangle], params: BvhBuildParams) -> Wid
         return empty();
     }
     let b2 = build_bvh2_from_tris(tris, binary_params(params), &mut Duration::default());
-    let mut bvh = collapse(&b2);
+    with_packs(collapse(&b2), tris)
+}
+
+/// `bvh` (over `tris`) with its triangle packs: pack `k` holds the triangles of
+/// `prims[4k .. 4k + 4]`, unused lanes NaN.
+pub(super) fn with_packs(mut bvh: WideBvh, tris: &[ObTriangle]) -> WideBvh {
     bvh.packs = bvh
         .prims
         .chunks(LEAF_SIZE)
@@ -93,7 +98,7 @@ struct Collapser<'a> {
 }
 
 /// The wide tree of a binary tree (module docs).
-fn collapse(b2: &Bvh2) -> WideBvh {
+pub(super) fn collapse(b2: &Bvh2) -> WideBvh {
     let n = b2.nodes.len();
     // Subtree primitive counts, children before parents (a pre-order, reversed).
     let mut order = Vec::with_capacity(n);

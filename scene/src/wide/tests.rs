@@ -165,3 +165,69 @@ fn collapse_keeps_every_triangle_once() {
     // At most one node per 8-way split: far fewer nodes than the 2n − 1 of a binary tree.
     assert!(bvh.nodes.len() < tris.len() / 4, "{}", bvh.nodes.len());
 }
+
+/// A binary tree whose leaves hold many triangles (obvhs' own SAH leaf collapse, pushed to
+/// large leaves) collapses into nodes of four-triangle leaves under each big leaf's box:
+/// every triangle sits in exactly one leaf, and the closest hits equal a loop over all
+/// triangles on 3,000 rays.
+#[test]
+fn big_binary_leaves_become_nodes_of_leaves() {
+    use super::traverse::{Best, Closest, Filter, walk};
+    use crate::watertight::{RawHit, intersect_raw};
+    use obvhs::triangle::Triangle as ObTriangle;
+    struct All;
+    impl Filter for All {
+        fn id(&self, prim: u32) -> u32 {
+            prim
+        }
+        fn accept(&self, _: u32, _: &RawHit) -> bool {
+            true
+        }
+    }
+    let mut rng = SplitMix64::new(8);
+    let mut r = |a: f64, b: f64| rng.range(a, b) as f32;
+    let tris: Vec<ObTriangle> = (0..3000)
+        .map(|_| {
+            let c = glam::Vec3A::new(r(-9.0, 9.0), r(-9.0, 9.0), r(-9.0, 9.0));
+            let mut p = || c + glam::Vec3A::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-1.0, 1.0));
+            ObTriangle { v0: p(), v1: p(), v2: p() }
+        })
+        .collect();
+    let mut params = obvhs::BvhBuildParams::medium_build();
+    params.max_prims_per_leaf = 40;
+    params.collapse_traversal_cost = 1000.0;
+    let b2 = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, params, &mut std::time::Duration::default());
+    let biggest = b2.nodes.iter().filter(|n| n.is_leaf()).map(|n| n.prim_count).max().unwrap();
+    assert!(biggest as usize > 4 * WIDTH, "the binary leaves must be big for this test: {biggest}");
+    let bvh = super::build::with_packs(super::build::collapse(&b2), &tris);
+    let mut seen = vec![0u32; tris.len()];
+    for leaf in bvh.leaves() {
+        for &p in bvh.leaf_prims(leaf).iter().filter(|&&p| p != super::EMPTY) {
+            seen[p as usize] += 1;
+        }
+    }
+    assert!(seen.iter().all(|&n| n == 1));
+    let verts = |t: &ObTriangle| [t.v0, t.v1, t.v2].map(|v| v.to_array());
+    let mut hits = 0;
+    for _ in 0..3000 {
+        let o = [r(-12.0, 12.0), r(-12.0, 12.0), r(-12.0, 12.0)];
+        let d = DVec3::from_array(lightvol_sh::sampling::sample_uniform_sphere([
+            f64::from(r(0.0, 1.0)),
+            f64::from(r(0.0, 1.0)),
+        ]))
+        .as_vec3()
+        .to_array();
+        let ray = RayK::new(o, d, 0.0, f32::MAX);
+        let mut got = Best::new(f32::MAX);
+        walk::<Scalar, _>(&bvh, &ray, &mut Closest { ray: &ray, best: &mut got, filter: &All });
+        let mut want = Best::new(f32::MAX);
+        for (i, t) in tris.iter().enumerate() {
+            if let Some(h) = intersect_raw(&ray.shear, &verts(t), 0.0, f32::MAX) {
+                want.offer(i as u32, h, || true);
+            }
+        }
+        assert_eq!((got.id, got.hit), (want.id, want.hit));
+        hits += usize::from(want.hit.is_some());
+    }
+    assert!(hits > 500, "{hits}");
+}
