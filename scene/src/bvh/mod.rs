@@ -307,8 +307,10 @@ impl Tracer {
     /// runs) where it cannot run here. Every kernel returns the same hits.
     pub fn set_isa(&mut self, isa: Isa) -> Result<(), String> {
         if !isa.is_available() {
-            let names: Vec<&str> = Isa::available().iter().map(|i| i.name()).collect();
-            return Err(format!("this machine cannot run the {isa} kernel (it runs {})", names.join(", ")));
+            return Err(format!(
+                "this machine cannot run the {isa} kernel (it runs {})",
+                Isa::available_names()
+            ));
         }
         self.isa = isa;
         Ok(())

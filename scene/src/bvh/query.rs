@@ -64,6 +64,20 @@ impl<'a> SceneRay<'a> {
         filter.placement.local_ray(self.origin, self.dir, self.tmin, self.tmax)
     }
 
+    /// The placements of top-level leaf `leaf`, each with the ray in its frame.
+    #[inline(always)]
+    fn placements<'b>(
+        &'b self,
+        bvh: &'b WideBvh,
+        leaf: u32,
+    ) -> impl Iterator<Item = (PlacementFilter<'a>, RayK)> + 'b {
+        bvh.leaf_prims(leaf).iter().filter(|&&k| k != EMPTY).map(move |&k| {
+            let filter = self.filter(k as usize);
+            let local = self.local(&filter);
+            (filter, local)
+        })
+    }
+
     pub(super) fn filter(&self, k: usize) -> PlacementFilter<'a> {
         let placement = &self.tracer.placements[k];
         PlacementFilter {
@@ -92,9 +106,7 @@ impl Visit for ClosestPlacements<'_, '_> {
 
     #[inline(always)]
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
-        for &k in bvh.leaf_prims(leaf).iter().filter(|&&k| k != EMPTY) {
-            let filter = self.ray.filter(k as usize);
-            let local = self.ray.local(&filter);
+        for (filter, local) in self.ray.placements(bvh, leaf) {
             let mut v = Closest { ray: &local, best: &mut self.best, filter: &filter };
             walk::<K, _>(&filter.blas.bvh, &local, &mut v);
         }
@@ -147,9 +159,7 @@ impl Visit for AnyPlacement<'_, '_> {
 
     #[inline(always)]
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
-        for &k in bvh.leaf_prims(leaf).iter().filter(|&&k| k != EMPTY) {
-            let filter = self.ray.filter(k as usize);
-            let local = self.ray.local(&filter);
+        for (filter, local) in self.ray.placements(bvh, leaf) {
             if walk::<K, _>(&filter.blas.bvh, &local, &mut Any { ray: &local, filter: &filter }) {
                 return true;
             }

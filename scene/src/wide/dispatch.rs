@@ -62,6 +62,12 @@ impl Isa {
         Self::ALL.into_iter().filter(|i| i.is_available()).collect()
     }
 
+    /// The names of the kernels this machine runs, for messages (`scalar, sse2, avx2`).
+    #[must_use]
+    pub fn available_names() -> String {
+        Self::available().iter().map(|i| i.name()).collect::<Vec<_>>().join(", ")
+    }
+
     /// The fastest kernel this machine runs.
     #[must_use]
     pub fn best() -> Self {
@@ -72,13 +78,17 @@ impl Isa {
     /// name or one this machine cannot run is an error that says which it can.
     pub fn from_env() -> Result<Self, String> {
         let Ok(name) = std::env::var(ISA_ENV) else { return Ok(Self::best()) };
-        let names = || Self::available().iter().map(|i| i.name()).collect::<Vec<_>>().join(", ");
         match Self::parse(&name) {
             Some(isa) if isa.is_available() => Ok(isa),
-            Some(isa) => {
-                Err(format!("{ISA_ENV}={}: this machine cannot run it (it runs {})", isa.name(), names()))
-            }
-            None => Err(format!("{ISA_ENV}={name}: no such kernel (this machine runs {})", names())),
+            Some(isa) => Err(format!(
+                "{ISA_ENV}={}: this machine cannot run it (it runs {})",
+                isa.name(),
+                Self::available_names()
+            )),
+            None => Err(format!(
+                "{ISA_ENV}={name}: no such kernel (this machine runs {})",
+                Self::available_names()
+            )),
         }
     }
 }

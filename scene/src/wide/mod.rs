@@ -50,6 +50,24 @@ pub(crate) const PACK_BITS: u32 = 0;
 /// Packs per leaf at most.
 pub(crate) const MAX_LEAF_PACKS: usize = 1 << PACK_BITS;
 
+/// The set bits of a lane mask, lowest first: the lanes a box or triangle test reported.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Lanes(pub(crate) u32);
+
+impl Iterator for Lanes {
+    type Item = usize;
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<usize> {
+        if self.0 == 0 {
+            return None;
+        }
+        let lane = self.0.trailing_zeros() as usize;
+        self.0 &= self.0 - 1;
+        Some(lane)
+    }
+}
+
 /// One node: the boxes of eight children as planes (`planes[2·axis]` the low side,
 /// `planes[2·axis + 1]` the high side; an unused slot has the empty box `+∞ … −∞`, which no
 /// ray meets) and the child references (a node index, `LEAF_BIT | leaf`, or [`EMPTY`]).

@@ -10,7 +10,7 @@
 use std::arch::x86_64::*;
 
 use super::kernel::{FAR_SCALE, Kernel, Query, RayK, TriLanes};
-use super::{Node, Tri4, WIDTH};
+use super::{Lanes, Node, Tri4, WIDTH};
 use crate::watertight::intersect_raw;
 
 /// True when the CPU runs AVX2 and FMA (detected once by the standard library, cached).
@@ -164,10 +164,7 @@ fn tris_sse(pack: &Tri4, valid: u32, ray: &RayK, tmax: f32, out: &mut TriLanes) 
     };
     mask &= valid & !zero_edges;
     // Lanes with an edge function exactly 0: the scalar reference re-evaluates it in f64.
-    let mut rest = zero_edges;
-    while rest != 0 {
-        let lane = rest.trailing_zeros() as usize;
-        rest &= rest - 1;
+    for lane in Lanes(zero_edges) {
         if let Some(h) = intersect_raw(sh, &pack.triangle(lane), ray.tmin, tmax) {
             out.set(lane, &h);
             mask |= 1 << lane;

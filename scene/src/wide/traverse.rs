@@ -8,7 +8,7 @@
 //! so the order of visits cannot change it.
 
 use super::kernel::{Kernel, RayK, TriLanes};
-use super::{EMPTY, LEAF_BIT, WIDTH, WideBvh};
+use super::{EMPTY, LEAF_BIT, Lanes, WIDTH, WideBvh};
 use crate::watertight::RawHit;
 
 /// Stack entries kept inline; deeper traversals spill to the heap.
@@ -87,13 +87,11 @@ pub(crate) fn walk<K: Kernel, V: Visit>(bvh: &WideBvh, ray: &RayK, v: &mut V) ->
             continue;
         }
         let node = &bvh.nodes[r as usize];
-        let mut mask = K::boxes(node, ray, tmax, &mut tnear);
+        let mask = K::boxes(node, ray, tmax, &mut tnear);
         // Hit children sorted by entry distance, nearest first (insertion sort of ≤ 8).
         let mut hits = [(0u32, 0f32); WIDTH];
         let mut n = 0;
-        while mask != 0 {
-            let lane = mask.trailing_zeros() as usize;
-            mask &= mask - 1;
+        for lane in Lanes(mask) {
             let e = (node.child[lane], tnear[lane]);
             let mut k = n;
             while k > 0 && hits[k - 1].1 > e.1 {
@@ -166,10 +164,8 @@ impl<F: Filter> Visit for Closest<'_, F> {
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
         let mut lanes = TriLanes::default();
         for pack in bvh.leaf_packs(leaf) {
-            let mut mask = K::tris(pack, pack.valid(), self.ray, self.best.t, &mut lanes);
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
+            let mask = K::tris(pack, pack.valid(), self.ray, self.best.t, &mut lanes);
+            for lane in Lanes(mask) {
                 let prim = pack.id[lane];
                 let hit = lanes.hit(lane);
                 let filter = self.filter;
@@ -196,10 +192,8 @@ impl<F: Filter> Visit for Any<'_, F> {
     fn leaf<K: Kernel>(&mut self, bvh: &WideBvh, leaf: u32) -> bool {
         let mut lanes = TriLanes::default();
         for pack in bvh.leaf_packs(leaf) {
-            let mut mask = K::tris(pack, pack.valid(), self.ray, self.ray.tmax, &mut lanes);
-            while mask != 0 {
-                let lane = mask.trailing_zeros() as usize;
-                mask &= mask - 1;
+            let mask = K::tris(pack, pack.valid(), self.ray, self.ray.tmax, &mut lanes);
+            for lane in Lanes(mask) {
                 if self.filter.accept(pack.id[lane], &lanes.hit(lane)) {
                     return true;
                 }
