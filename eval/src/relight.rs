@@ -8,13 +8,14 @@ use std::time::Instant;
 
 use lightvol_sampler::BakeStats;
 use lightvol_sampler::method::Method;
+use lightvol_scene::band_limit::irradiance_band_limit_error;
 use lightvol_scene::light_groups::{LightGroups, sky_coefficients};
 use lightvol_scene::transport::Transport;
 use lightvol_volume::{GridSpec, GroupedVolume};
 
 use crate::error::EvalError;
 use crate::plate::Plate;
-use crate::runs::{BakeContext, MethodRun, uniform_run};
+use crate::runs::{BakeContext, MethodRun, RunDetail, uniform_run};
 
 /// Bakes `method` on `grid` under the sky `from` (the scene's other lights as they are)
 /// with a sky transfer of `coeffs` coefficients (stage `name`): the whole bake split into
@@ -52,7 +53,8 @@ fn bake_transfer_under(
 /// of the sky's radiance) under the sky `from`
 /// (the scene's other lights as they are), relights it to the scene's own sky
 /// ([`lightvol_volume::GroupedVolume::sky_scales`]) and measures it on the plate (stage
-/// `name`): the error a relit volume carries against a fresh bake's. Its rays are the
+/// `name`): the error a relit volume carries against a fresh bake's, beside the new sky's
+/// open-sky band-limit error at that order ([`RunDetail::Relit`]). Its rays are the
 /// transfer bake's.
 ///
 /// # Errors
@@ -74,7 +76,10 @@ pub fn run_relit(
         .map_err(|e| EvalError::Relight(e.to_string()))?;
     let vol = grouped.relit(&scales).map_err(|e| EvalError::Relight(e.to_string()))?;
     let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
-    Ok(uniform_run(ctx, grid, name, plate, vol, stats.rays, seconds))
+    let mut run = uniform_run(ctx, grid, name, plate, vol, stats.rays, seconds);
+    let sky_band_limit = irradiance_band_limit_error(&ctx.transport.scene().environment, coeffs);
+    run.detail = RunDetail::Relit { order, sky_band_limit };
+    Ok(run)
 }
 
 /// Bakes `method` on `grid` under the sky `from` with the sky's light split from the

@@ -151,6 +151,10 @@ fn extra(run: &MethodRun) -> Map<String, Value> {
             m.insert("probe_bytes".into(), json!(report.probe_bytes));
             m.insert("octree_bytes".into(), json!(octree_bytes));
         }
+        RunDetail::Relit { order, sky_band_limit } => {
+            m.insert("sky_order".into(), json!(order));
+            m.insert("sky_band_limit".into(), json!(sky_band_limit));
+        }
         RunDetail::Baseline { invalid_nodes, moved_nodes } => {
             m.insert("invalid_nodes".into(), json!(invalid_nodes));
             m.insert("moved_nodes".into(), json!(moved_nodes));

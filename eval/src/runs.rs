@@ -116,6 +116,14 @@ pub enum RunDetail {
         /// The octree's memory (its budget is the uniform `doi` grid's bytes).
         octree_bytes: usize,
     },
+    /// A sky transfer relit to the comparison's sky.
+    Relit {
+        /// The transfer's SH order (`order²` coefficients of the sky's radiance).
+        order: u32,
+        /// The comparison's sky's open-sky irradiance band-limit error at that order
+        /// ([`lightvol_scene::band_limit`]).
+        sky_band_limit: f64,
+    },
     /// An engine baseline.
     Baseline {
         /// Nodes its validity test rejected.

@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 
 pub mod alpha;
+pub mod band_limit;
 pub mod base_color;
 pub mod builder;
 pub mod builtin;

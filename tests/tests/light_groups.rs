@@ -236,25 +236,52 @@ fn node_difference(a: &IrradianceVolume, b: &IrradianceVolume) -> f64 {
     (num / den).sqrt()
 }
 
-/// A latitude-longitude "sunset" map: a warm band low in the west fading to a deep blue
-/// zenith, a dark ground (+Z up, the internal frame the loader reads maps in).
-fn write_sunset_map(path: &Path) {
-    let (w, h) = (64usize, 32usize);
-    exr::prelude::write_rgb_file(path, w, h, |x, y| {
-        let theta = (y as f64 + 0.5) / h as f64 * std::f64::consts::PI;
-        let phi = (x as f64 + 0.5) / w as f64 * 2.0 * std::f64::consts::PI;
-        let z = theta.cos();
-        if z < 0.0 {
-            return (0.08, 0.07, 0.06);
+/// The repository's synthetic sunset sky (`data/env/gradient`): a warm band low in the
+/// west fading to a deep blue zenith, a dark ground (+Z up, the internal frame the loader
+/// reads maps in).
+const SUNSET_GRADIENT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/env/gradient/gradient.exr");
+/// The repository's CIE overcast sky (`data/env/overcast`).
+const OVERCAST: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../data/env/overcast/overcast.exr");
+
+/// Texel `(x, y)` of a 64 × 32 lat-long map of the formula its `SOURCE.txt` gives.
+fn generated_sky(overcast: bool, x: usize, y: usize) -> [f32; 3] {
+    let (w, h) = (64.0, 32.0);
+    let theta = (y as f64 + 0.5) / h * std::f64::consts::PI;
+    let phi = (x as f64 + 0.5) / w * 2.0 * std::f64::consts::PI;
+    let z = theta.cos();
+    let rgb = match (overcast, z < 0.0) {
+        (true, true) => [0.1; 3],
+        (true, false) => [(1.0 + 2.0 * z) / 3.0; 3],
+        (false, true) => [0.08, 0.07, 0.06],
+        (false, false) => {
+            let warm = (0.5 + 0.5 * phi.cos()).powi(3) * (1.0 - z).powi(4);
+            [0.15 + 2.5 * warm, 0.2 + 1.0 * warm, 0.6 * z + 0.2]
         }
-        let west = (0.5 + 0.5 * phi.cos()).powi(3);
-        let horizon = (1.0 - z).powi(4);
-        let r = 0.15 + 2.5 * west * horizon;
-        let g = 0.2 + 1.0 * west * horizon;
-        let b = 0.6 * z + 0.2;
-        (r as f32, g as f32, b as f32)
-    })
-    .unwrap();
+    };
+    rgb.map(|c| c as f32)
+}
+
+/// The generated skies the relighting is measured under are their formulas, texel for
+/// texel (so that a user can remake them).
+#[test]
+fn generated_skies_are_their_formulas() {
+    use exr::prelude::*;
+    for (path, overcast) in [(SUNSET_GRADIENT, false), (OVERCAST, true)] {
+        let img = read_first_rgba_layer_from_file(
+            path,
+            |r, _| (r.width(), vec![[0f32; 3]; r.width() * r.height()]),
+            |(w, px): &mut (usize, Vec<[f32; 3]>), p, (r, g, b, _): (f32, f32, f32, f32)| {
+                px[p.y() * *w + p.x()] = [r, g, b];
+            },
+        )
+        .unwrap();
+        let size = img.layer_data.size;
+        assert_eq!((size.width(), size.height()), (64, 32), "{path}");
+        let (w, px) = &img.layer_data.channel_data.pixels;
+        for (k, texel) in px.iter().enumerate() {
+            assert_eq!(*texel, generated_sky(overcast, k % w, k / w), "{path} texel {k}");
+        }
+    }
 }
 
 /// A sky transfer relit with a new sky against fresh bakes of that sky, sun off: two
@@ -263,14 +290,12 @@ fn write_sunset_map(path: &Path) {
 #[test]
 fn sky_transfer_relights_to_fresh_bakes_of_new_skies() {
     let dir = tempfile::tempdir().unwrap();
-    let map = dir.path().join("sunset.exr");
-    write_sunset_map(&map);
     let transfer = bake(dir.path(), "t.exr", &["--sky-transfer", "3", "--no-sun", "--seed", "1"]);
     for (name, sky) in [
         ("even", vec!["--sky", "0.6,0.7,0.9", "--ground", "0.6,0.7,0.9"]),
         ("sunset-uniform", vec!["--sky", "1,0.5,0.2", "--ground", "0.1,0.1,0.1"]),
         ("overcast", vec!["--sky", "0.7,0.7,0.75", "--ground", "0.3,0.3,0.3"]),
-        ("sunset-map", vec!["--env", s(&map)]),
+        ("sunset-map", vec!["--env", SUNSET_GRADIENT]),
         ("sunset-photo", vec!["--env", SUNSET_PHOTO]),
     ] {
         let relit = dir.path().join(format!("{name}.exr"));
@@ -448,6 +473,9 @@ fn compare_measures_relit_volumes_against_fresh_bakes() {
     assert!(vs_fresh(&same, "doi+relit") < 1e-5, "{same}");
     assert!(vs_fresh(&same, "doi+skyocc") > 1e-3, "{same}");
     assert!(same["methods"]["doi"].get("vs_fresh").is_none());
+    // Beside it, the sky's band-limit error at the transfer's order: none for a uniform sky.
+    assert_eq!(same["methods"]["doi+relit"]["sky_order"], 3, "{same}");
+    assert!(same["methods"]["doi+relit"]["sky_band_limit"].as_f64().unwrap() < 1e-4, "{same}");
     let other = report("sky:0.2,0.2,0.3");
     assert!(rmse(&other, "doi+relit").is_finite() && rmse(&other, "doi+relit") > 0.0);
     let dir = tempfile::tempdir().unwrap();
