@@ -19,8 +19,9 @@
 //!   places at most [`FLATTEN_AT_MOST`](crate::bvh::FLATTEN_AT_MOST) triangles is traced
 //!   through one level: then the tracer's bytes are per *placed* triangle, plus the placed
 //!   triangles written out for its build;
-//! - textures: 12 bytes (RGB f32) per texel, 4 more for alpha — counted as if every image
-//!   had alpha, since the header does not say whether its alpha is used.
+//! - textures: 4 bytes per texel, the 8-bit RGBA codes a texture keeps (it decodes them
+//!   at lookup, [`crate::base_color::Texture`]); while one image decodes, its decoded copy
+//!   lives beside it for a moment, which the largest scenes' triangles dwarf.
 //!
 //! Loaded with [`LoadOptions::flatten_instances`](crate::LoadOptions) (the surface bake),
 //! every placement is written out, and the model is [`SceneMemory::from_counts`] of the
@@ -58,8 +59,8 @@ pub fn instance_bytes() -> u64 {
 /// two UV sets (f64).
 pub const VERTEX_BYTES: u64 = (3 + 3 + 4 + 2 + 2) * 8;
 
-/// Decoded texture bytes per texel: RGB f32 plus an alpha f32.
-pub const TEXEL_BYTES: u64 = 16;
+/// Texture bytes per texel: the 8-bit RGBA codes a loaded texture keeps.
+pub const TEXEL_BYTES: u64 = 4;
 
 /// The tracer's own arrays per triangle (see the module docs).
 #[must_use]

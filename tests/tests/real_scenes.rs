@@ -55,7 +55,7 @@ fn every_vendored_scene_is_inspected_and_bakes() {
             ["geometry_bytes", "tracer_bytes", "texture_bytes"].iter().map(|k| m[*k].as_u64().unwrap()).sum();
         assert_eq!(m["total_bytes"].as_u64().unwrap(), parts);
         if file.starts_with("breakfast_room") {
-            // Its textures: marble.jpg, picture3.jpg and tiles.png, 16 bytes a texel.
+            // Its textures: marble.jpg, picture3.jpg and tiles.png, 4 bytes a texel.
             assert!(m["texture_bytes"].as_u64().unwrap() > 0, "{file}: textures counted");
         }
         // The text form names the same counts.
