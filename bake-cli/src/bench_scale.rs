@@ -6,6 +6,9 @@
 //!   10 m pitch, [`lightvol_scene::layout`]) on one fixed grid, so that time and memory
 //!   show what instanced triangles cost at equal unique triangles, grid and rays;
 //! - the built-in scenes.
+//!
+//! `lightvol bench --whole-bake [--vs OTHER]` times one bake as users run it (the Breakfast
+//! Room at 0.2 m and 256 samples) from outside its process, beside another executable's.
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -101,4 +104,82 @@ pub(crate) fn run(data: &Path, samples: u32) -> anyhow::Result<Value> {
         "layouts": layouts,
         "builtin": builtins,
     }))
+}
+
+/// The whole-bake figure's scene (under `--data`), spacing and samples: a bake as users
+/// run it, with the default method.
+const WHOLE_BAKE: (&str, &str, &str) = ("breakfast_room/BreakfastRoom.gltf", "0.2", "256");
+
+/// One whole bake by `exe` into `out`, timed from outside the process: wall seconds.
+fn timed_bake(exe: &Path, scene: &Path, out: &Path) -> anyhow::Result<f64> {
+    let (_, spacing, samples) = WHOLE_BAKE;
+    let t0 = std::time::Instant::now();
+    let o = Command::new(exe)
+        .arg("bake")
+        .arg(scene)
+        .args(["--spacing", spacing, "--samples", samples, "--quiet", "-o"])
+        .arg(out)
+        .output()
+        .with_context(|| format!("running {}", exe.display()))?;
+    let wall = t0.elapsed().as_secs_f64();
+    if !o.status.success() {
+        bail!("{} failed: {}", exe.display(), String::from_utf8_lossy(&o.stderr).trim());
+    }
+    Ok(wall)
+}
+
+/// The median of `v` (the mean of the middle two for an even count).
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 { v[n / 2] } else { 0.5 * (v[n / 2 - 1] + v[n / 2]) }
+}
+
+/// `bench --whole-bake`: the wall time of the Breakfast Room baked at 0.2 m and 256
+/// samples, `runs` times, each run its own process; with `vs` (another lightvol
+/// executable) the same bake by it, the two alternating run by run so that drift in the
+/// machine's speed falls on both, with the ratio of the medians and whether both wrote
+/// the same bytes.
+pub(crate) fn whole_bake(data: &Path, vs: Option<&Path>, runs: u32) -> anyhow::Result<Value> {
+    let (rel, spacing, samples) = WHOLE_BAKE;
+    let scene = data.join(rel);
+    if runs == 0 {
+        bail!("--bake-runs must be at least 1");
+    }
+    if !scene.is_file() {
+        bail!("{} not found (--data names the folder of the vendored scenes)", scene.display());
+    }
+    let exe = std::env::current_exe().context("locating the lightvol executable")?;
+    let dir = tempfile::tempdir().context("creating a temporary directory")?;
+    let (ours_out, theirs_out) = (dir.path().join("ours.exr"), dir.path().join("theirs.exr"));
+    let (mut ours, mut theirs) = (Vec::new(), Vec::new());
+    for run in 0..runs {
+        ours.push(timed_bake(&exe, &scene, &ours_out)?);
+        if let Some(vs) = vs {
+            theirs.push(timed_bake(vs, &scene, &theirs_out)?);
+        }
+        eprintln!("whole bake: run {} of {runs}", run + 1);
+    }
+    let ours_median = median(ours.clone());
+    let mut report = json!({
+        "scene": rel,
+        "spacing": spacing.parse::<f64>().unwrap_or(f64::NAN),
+        "samples": samples.parse::<u32>().unwrap_or(0),
+        "runs": runs,
+        "wall_seconds": ours,
+        "median_wall_seconds": ours_median,
+    });
+    if let Some(vs) = vs {
+        let theirs_median = median(theirs.clone());
+        let same = std::fs::read(&ours_out).context("reading our bake")?
+            == std::fs::read(&theirs_out).context("reading the other bake")?;
+        report["vs"] = json!({
+            "executable": vs.display().to_string(),
+            "wall_seconds": theirs,
+            "median_wall_seconds": theirs_median,
+            "speedup": theirs_median / ours_median,
+            "same_bytes": same,
+        });
+    }
+    Ok(report)
 }

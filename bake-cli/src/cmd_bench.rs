@@ -48,7 +48,21 @@ pub(crate) struct BenchArgs {
     /// placed triangles, 63,720 stored) and the built-in scenes.
     #[arg(long, conflicts_with = "embree")]
     bakes: bool,
-    /// With --bakes: the folder holding the vendored scenes.
+    /// Instead: the wall time of a whole bake as users run it (the Breakfast Room under
+    /// `--data` at 0.2 m spacing and 256 samples, the default method), `--bake-runs` times,
+    /// each run its own process, timed from outside; with `--vs` beside another lightvol
+    /// executable's.
+    #[arg(long, conflicts_with_all = ["embree", "bakes"])]
+    whole_bake: bool,
+    /// With --whole-bake: another lightvol executable (an earlier build) that bakes the
+    /// same scene alternately with this one; reports both medians, the speed-up and
+    /// whether both wrote the same bytes.
+    #[arg(long, requires = "whole_bake")]
+    vs: Option<std::path::PathBuf>,
+    /// With --whole-bake: runs of each executable.
+    #[arg(long, default_value_t = 3)]
+    bake_runs: u32,
+    /// With --bakes or --whole-bake: the folder holding the vendored scenes.
     #[arg(long, default_value = "data/scenes")]
     pub(crate) data: std::path::PathBuf,
     /// With --bakes: samples per cell of each doi bake.
@@ -116,6 +130,11 @@ fn lookups_per_second(
 pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     if args.bakes {
         let report = crate::bench_scale::run(&args.data, args.bake_samples.get())?;
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    if args.whole_bake {
+        let report = crate::bench_scale::whole_bake(&args.data, args.vs.as_deref(), args.bake_runs)?;
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(ExitCode::SUCCESS);
     }

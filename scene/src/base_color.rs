@@ -66,9 +66,7 @@ enum Texels {
 /// The linear value of each 8-bit sRGB code, rounded to f32 (IEC 61966-2-1).
 fn srgb8_table() -> &'static [f32; 256] {
     static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
-    TABLE.get_or_init(|| {
-        std::array::from_fn(|c| lightvol_core::color::srgb_decode(c as f64 / 255.0) as f32)
-    })
+    TABLE.get_or_init(|| std::array::from_fn(|c| lightvol_core::color::srgb_decode(c as f64 / 255.0) as f32))
 }
 
 /// Each 8-bit code as an f32 in [0, 1] (`c / 255`): alpha is stored linear.
@@ -237,7 +235,9 @@ impl Texture {
                 let lut = unorm8_table();
                 self.taps(uv).iter().map(|&(i, w)| w * f64::from(lut[rgba[i][3] as usize])).sum()
             }
-            Texels::Linear { alpha: Some(a), .. } => self.taps(uv).iter().map(|&(i, w)| w * f64::from(a[i])).sum(),
+            Texels::Linear { alpha: Some(a), .. } => {
+                self.taps(uv).iter().map(|&(i, w)| w * f64::from(a[i])).sum()
+            }
             _ => 1.0,
         }
     }
