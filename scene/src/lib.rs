@@ -118,4 +118,30 @@ mod vendored_scene_tests {
         let l = load_scene(&data("living_room/living_room.glb"), &LoadOptions::default()).unwrap();
         assert!(l.materials.iter().all(|m| m.double_sided));
     }
+
+    /// Images decode in parallel, and the loaded textures are the same on 1 and 2 threads:
+    /// the same order, sizes and texels (on a lattice over each image), and materials
+    /// that name the same texture.
+    #[test]
+    fn textures_load_the_same_on_any_thread_count() {
+        let load = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+            pool.install(|| load_scene(&data("breakfast_room/BreakfastRoom.gltf"), &LoadOptions::default()))
+                .unwrap()
+        };
+        let (one, two) = (load(1), load(2));
+        assert_eq!(one.textures.len(), 3);
+        assert_eq!(two.textures.len(), one.textures.len());
+        for (a, b) in one.textures.iter().zip(&two.textures) {
+            assert_eq!((a.width(), a.height(), a.has_alpha()), (b.width(), b.height(), b.has_alpha()));
+            for y in (0..i64::from(a.height())).step_by(7) {
+                for x in (0..i64::from(a.width())).step_by(5) {
+                    assert_eq!(a.texel(x, y), b.texel(x, y));
+                }
+            }
+        }
+        let tex = |s: &Scene| s.materials.iter().map(|m| m.albedo_texture).collect::<Vec<_>>();
+        assert_eq!(tex(&one), tex(&two));
+        assert!(tex(&one).iter().flatten().count() >= 3);
+    }
 }

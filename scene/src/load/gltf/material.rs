@@ -18,8 +18,8 @@ use crate::builder::SceneBuilder;
 use crate::load::options::{DEFAULT_ALBEDO, LoadOptions};
 use crate::material::{AlphaMode, Material};
 
-/// Most texels an image may have: 2^26 (8192 × 8192; 1 GiB as linear RGB and alpha
-/// floats). The decoder's own limit is on its bytes (512 MiB), which a PNG of a few hundred
+/// Most texels an image may have: 2^26 (8192 × 8192; 256 MiB as the 8-bit RGBA a texture
+/// keeps, with the decoder's own copy beside it while it decodes). The decoder's own limit is on its bytes (512 MiB), which a PNG of a few hundred
 /// KB reaches: a 261 KB 16384 × 16384 grey PNG used to become 4.3 GB of texture.
 pub(crate) const MAX_TEXELS: u64 = 1 << 26;
 
@@ -91,6 +91,8 @@ pub(crate) struct Materials<'a> {
     /// (image, wrap) → scene texture id, or why it could not be read.
     textures: HashMap<(u64, [Wrap; 2]), Result<u32, String>>,
     by_index: HashMap<Option<u64>, MaterialUse>,
+    /// Base-colour images decoded ahead ([`Self::decode_all`]), taken on first use.
+    decoded: HashMap<u64, Result<Texture, String>>,
 }
 
 impl<'a> Materials<'a> {
@@ -100,7 +102,40 @@ impl<'a> Materials<'a> {
         base: Option<&'a Path>,
         opts: LoadOptions,
     ) -> Self {
-        Self { json, buffers, base, opts, textures: HashMap::new(), by_index: HashMap::new() }
+        Self {
+            json,
+            buffers,
+            base,
+            opts,
+            textures: HashMap::new(),
+            by_index: HashMap::new(),
+            decoded: HashMap::new(),
+        }
+    }
+
+    /// Decodes every image that a material's base-colour texture names, in parallel:
+    /// decoding is most of the time it takes to load a textured scene, and each image
+    /// decodes on its own, so the textures are the same on any thread count. Materials
+    /// then take their image from here; an image that fails keeps its reason for the
+    /// warning of the material that uses it.
+    pub(crate) fn decode_all(&mut self) {
+        use rayon::prelude::*;
+        let textures = self.json.get("textures");
+        let mut sources: Vec<u64> = self
+            .json
+            .get("materials")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+            .filter_map(|m| m.pointer("/pbrMetallicRoughness/baseColorTexture/index")?.as_u64())
+            .filter_map(|t| textures?.get(t as usize)?.get("source")?.as_u64())
+            .collect();
+        sources.sort_unstable();
+        sources.dedup();
+        let this = &*self;
+        let decoded: Vec<(u64, Result<Texture, String>)> =
+            sources.par_iter().map(|&source| (source, this.decode(source))).collect();
+        self.decoded = decoded.into_iter().collect();
     }
 
     /// The material `index` (`None`: the primitive has none), converted on first use.
@@ -222,7 +257,8 @@ impl<'a> Materials<'a> {
         if let Some(r) = self.textures.get(&key) {
             return r.clone();
         }
-        let r = self.decode(source).map(|t| b.add_texture(t.with_wrap(wrap)));
+        let decoded = self.decoded.remove(&source).unwrap_or_else(|| self.decode(source));
+        let r = decoded.map(|t| b.add_texture(t.with_wrap(wrap)));
         self.textures.insert(key, r.clone());
         r
     }

@@ -95,6 +95,7 @@ pub fn load_gltf_slice(
         report.up = opts.up;
     }
     let mut materials = Materials::new(&doc.json, &buffers, base, *opts);
+    materials.decode_all();
     loader.walk(&mut materials).map_err(|e| match e {
         SceneError::Gltf { message, .. } => gerr(message),
         // These quote names from the file (meshes, lights), which may hold line breaks.
