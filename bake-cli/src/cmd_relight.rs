@@ -25,7 +25,8 @@ pub(crate) struct RelightArgs {
     #[arg(long, value_name = "R,G,B[:R,G,B]", conflicts_with = "env")]
     pub(crate) sky: Option<String>,
     /// A new sky from a latitude-longitude EXR environment map (as `bake --env` reads it),
-    /// projected to the volume's sky transfer order.
+    /// projected to the volume's sky transfer order; the projection's band-limit error (the
+    /// open sky's irradiance against the projection's) is printed.
     #[arg(long, value_name = "FILE.exr")]
     pub(crate) env: Option<PathBuf>,
     /// For a file of lighting scenarios: their blend, `NAME=W;NAME=W` (scenarios not named
@@ -101,12 +102,19 @@ pub(crate) fn run(args: &RelightArgs) -> anyhow::Result<ExitCode> {
     if let Some(env) = sky {
         let (_, n) = grouped.sky_transfer().ok_or_else(|| {
             anyhow::anyhow!(
-                "{} has no sky transfer: bake it with --sky-transfer 2 or 3 to relight its sky",
+                "{} has no sky transfer: bake it with --sky-transfer 2, 3 or 4 to relight its sky",
                 path.display()
             )
         })?;
         let coeffs = lightvol_scene::light_groups::sky_coefficients(&env, n);
         scales = grouped.sky_scales(&coeffs, Some(&scales)).context("--sky")?;
+        let order = (n as f64).sqrt().round();
+        let loss = lightvol_scene::band_limit::irradiance_band_limit_error(&env, n);
+        eprintln!(
+            "the new sky at SH order {order}: its open-sky irradiance is off by {:.2}% (relative RMS over \
+             normals); points that see part of the sky can see more of it",
+            100.0 * loss
+        );
     }
     let relit = grouped.relit(&scales).context("relighting")?;
     let out = args.output.as_ref().expect("clap requires --output without --list");
