@@ -7,6 +7,7 @@ use crate::error::SceneError;
 use crate::scene::Scene;
 
 pub mod gltf;
+pub(crate) mod image;
 pub mod obj;
 pub mod options;
 

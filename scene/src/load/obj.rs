@@ -11,6 +11,7 @@ use crate::error::SceneError;
 use crate::material::Material;
 use crate::scene::Scene;
 
+use super::image::decode_texture;
 use super::options::{DEFAULT_ALBEDO, LoadOptions};
 
 /// Loads an OBJ file and its MTL library. A missing MTL or texture is a warning in
@@ -38,6 +39,25 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
             Vec::new()
         }
     };
+    // Every texture file once, decoded in parallel (each on its own, so the textures are
+    // the same on any thread count), then given ids in the materials' order.
+    let mut files: Vec<PathBuf> =
+        materials.iter().filter_map(|m| m.diffuse_texture.as_ref()).map(|t| base.join(t.trim())).collect();
+    files.sort();
+    files.dedup();
+    let mut decoded: HashMap<PathBuf, Result<Texture, String>> = {
+        use rayon::prelude::*;
+        files
+            .into_par_iter()
+            .map(|tp| {
+                let label = tp.display().to_string();
+                let t = std::fs::read(&tp)
+                    .map_err(|e| format!("{label}: {e}"))
+                    .and_then(|bytes| decode_texture(&bytes, &label));
+                (tp, t)
+            })
+            .collect()
+    };
     let mut textures: HashMap<PathBuf, Option<u32>> = HashMap::new();
     let mut mat_ids = Vec::with_capacity(materials.len());
     for m in &materials {
@@ -51,14 +71,12 @@ pub fn load_obj(path: &Path, opts: &LoadOptions) -> Result<Scene, SceneError> {
             let id = match textures.get(&tp) {
                 Some(id) => *id,
                 None => {
-                    let id = match image::open(&tp).ok().and_then(|img| Texture::from_image(&img)) {
-                        Some(t) => Some(b.add_texture(t)),
-                        None => {
-                            b.warn(format!(
-                                "material '{}': texture {} not loaded; using Kd",
-                                m.name,
-                                tp.display()
-                            ));
+                    let decoded =
+                        decoded.remove(&tp).unwrap_or_else(|| Err(format!("{} not read", tp.display())));
+                    let id = match decoded {
+                        Ok(t) => Some(b.add_texture(t)),
+                        Err(why) => {
+                            b.warn(format!("material '{}': texture not loaded ({why}); using Kd", m.name));
                             None
                         }
                     };
@@ -159,6 +177,18 @@ mod tests {
         assert_eq!(s.materials[0].albedo, [0.5, 0.25, 0.125]);
         assert_eq!(s.materials[0].albedo_texture, None);
         assert!(s.report.warnings.iter().any(|w| w.contains("missing.png")), "{:?}", s.report.warnings);
+
+        // A file the decoder does not read is refused with its reason, as glTF images are.
+        std::fs::write(d.path().join("t.dds"), b"DDS \x7c\0\0\0").unwrap();
+        write(d.path(), "c.mtl", "newmtl t\nKd 0.5 0.5 0.5\nmap_Kd t.dds\n");
+        let p = write(d.path(), "c.obj", "mtllib c.mtl\nusemtl t\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+        let s = load_obj(&p, &LoadOptions::default()).unwrap();
+        assert_eq!(s.materials[0].albedo_texture, None);
+        assert!(
+            s.report.warnings.iter().any(|w| w.contains("t.dds is DDS, which this build does not decode")),
+            "{:?}",
+            s.report.warnings
+        );
     }
 
     #[test]
@@ -168,7 +198,11 @@ mod tests {
             if (x, y) == (0, 1) { image::Rgb([255, 255, 255]) } else { image::Rgb([0, 0, 0]) }
         });
         img.save(d.path().join("t.png")).unwrap();
-        write(d.path(), "c.mtl", "newmtl t\nKd 0.5 0.5 0.5\nmap_Kd t.png\n");
+        write(
+            d.path(),
+            "c.mtl",
+            "newmtl t\nKd 0.5 0.5 0.5\nmap_Kd t.png\nnewmtl u\nKd 1 1 1\nmap_Kd t.png\n",
+        );
         let p = write(
             d.path(),
             "c.obj",
@@ -176,6 +210,9 @@ mod tests {
         );
         let s = load_obj(&p, &LoadOptions { up: UpAxis::Z, ..Default::default() }).unwrap();
         assert!(s.report.warnings.is_empty(), "{:?}", s.report.warnings);
+        // Two materials with one image share one texture.
+        assert_eq!(s.textures.len(), 1);
+        assert_eq!((s.materials[0].albedo_texture, s.materials[1].albedo_texture), (Some(0), Some(0)));
         // Vertex 0 sits on the centre of the bottom-left texel (image row 1), which is white.
         let a = s.albedo(0, 0.0, 0.0);
         assert!((a[0] - 0.5).abs() < 1e-9, "{a:?}");

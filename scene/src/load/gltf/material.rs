@@ -15,13 +15,9 @@ use serde_json::Value;
 use super::container::read_uri;
 use crate::base_color::{Texture, Wrap};
 use crate::builder::SceneBuilder;
+use crate::load::image::decode_texture;
 use crate::load::options::{DEFAULT_ALBEDO, LoadOptions};
 use crate::material::{AlphaMode, Material};
-
-/// Most texels an image may have: 2^26 (8192 × 8192; 256 MiB as the 8-bit RGBA a texture
-/// keeps, with the decoder's own copy beside it while it decodes). The decoder's own limit is on its bytes (512 MiB), which a PNG of a few hundred
-/// KB reaches: a 261 KB 16384 × 16384 grey PNG used to become 4.3 GB of texture.
-pub(crate) const MAX_TEXELS: u64 = 1 << 26;
 
 /// A 2×3 affine map of texture coordinates, `uv' = [a b c; d e f] · (u, v, 1)`.
 pub(crate) type UvTransform = [[f64; 3]; 2];
@@ -47,23 +43,6 @@ pub(crate) struct MaterialUse {
     pub uv_set: u32,
     /// Its texture transform, if any.
     pub uv_transform: Option<UvTransform>,
-}
-
-/// Image formats told apart by their first bytes.
-fn sniff(bytes: &[u8]) -> &'static str {
-    if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        "png"
-    } else if bytes.starts_with(&[0xff, 0xd8, 0xff]) {
-        "jpeg"
-    } else if bytes.starts_with(b"DDS ") {
-        "DDS"
-    } else if bytes.starts_with(b"\xabKTX 20\xbb") {
-        "KTX2"
-    } else if bytes.len() >= 12 && &bytes[..4] == b"RIFF" && &bytes[8..12] == b"WEBP" {
-        "WebP"
-    } else {
-        "unknown"
-    }
 }
 
 fn num(v: Option<&Value>, default: f64) -> f64 {
@@ -289,21 +268,7 @@ impl<'a> Materials<'a> {
         } else {
             return Err(format!("image {index} has neither uri nor bufferView"));
         };
-        let format = match sniff(&bytes) {
-            "png" => image::ImageFormat::Png,
-            "jpeg" => image::ImageFormat::Jpeg,
-            other => return Err(format!("image {index} is {other}, which this build does not decode")),
-        };
-        // The size comes from the header, before anything is decoded.
-        let reader = || image::ImageReader::with_format(std::io::Cursor::new(&bytes[..]), format);
-        let (w, h) = reader().into_dimensions().map_err(|e| format!("image {index}: {e}"))?;
-        if u64::from(w) * u64::from(h) > MAX_TEXELS {
-            return Err(format!(
-                "image {index} is {w}×{h}, more than the {MAX_TEXELS} texels a texture may have"
-            ));
-        }
-        let decoded = reader().decode().map_err(|e| format!("image {index}: {e}"))?;
-        Texture::from_image(&decoded).ok_or_else(|| format!("image {index} is empty"))
+        decode_texture(&bytes, &format!("image {index}"))
     }
 }
 
@@ -323,14 +288,5 @@ mod tests {
         let m = texture_transform([0.5, 0.25], std::f64::consts::FRAC_PI_2, [2.0, 3.0]);
         // S(1, 1) = (2, 3); R → (-3, 2); T → (-2.5, 2.25).
         assert!(close(apply(&m, DVec2::ONE), DVec2::new(-2.5, 2.25)));
-    }
-
-    #[test]
-    fn image_formats_are_sniffed() {
-        assert_eq!(sniff(b"DDS \x7c\0\0\0"), "DDS");
-        assert_eq!(sniff(b"\xabKTX 20\xbb\r\n"), "KTX2");
-        assert_eq!(sniff(b"RIFF\0\0\0\0WEBPVP8 "), "WebP");
-        assert_eq!(sniff(b"\x89PNG\r\n\x1a\n"), "png");
-        assert_eq!(sniff(b"xyz"), "unknown");
     }
 }
