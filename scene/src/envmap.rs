@@ -25,6 +25,11 @@ pub struct EnvMap {
     total: f64,
 }
 
+/// Most texels a map may have: 2^26 (8192 × 8192; about 1.3 GB with its sampling tables).
+/// The size is read from the header and refused before anything is allocated, so a map
+/// whose header claims more (a damaged or hostile file) is a one-line error, not an abort.
+pub const MAX_TEXELS: usize = 1 << 26;
+
 /// Rec. 709 luminance, the sampling weight of a texel.
 #[must_use]
 #[inline]
@@ -69,6 +74,14 @@ impl EnvMap {
     pub fn from_exr(path: &Path) -> Result<Self, SceneError> {
         if !path.exists() {
             return Err(SceneError::NotFound(path.to_owned()));
+        }
+        let err = |message: String| SceneError::EnvironmentMap { path: path.to_owned(), message };
+        let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(e.to_string()))?;
+        for h in &meta.headers {
+            let (w, ht) = (h.layer_size.width(), h.layer_size.height());
+            if w.checked_mul(ht).is_none_or(|n| n > MAX_TEXELS) {
+                return Err(err(format!("{w}×{ht} texels, more than the {MAX_TEXELS} a map may have")));
+            }
         }
         let img = exr::prelude::read_first_rgba_layer_from_file(
             path,
@@ -242,5 +255,24 @@ mod tests {
         let d = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
         assert_eq!(m.radiance(d), [4.0, 1.0, 0.5]);
         assert!(matches!(EnvMap::from_exr(&dir.path().join("none.exr")), Err(SceneError::NotFound(_))));
+    }
+
+    /// A header that claims more texels than [`MAX_TEXELS`] is refused in one line before
+    /// anything is allocated (the file's real pixels are a few bytes).
+    #[test]
+    fn oversized_map_is_refused_from_its_header() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("env.exr");
+        exr::prelude::write_rgb_file(&path, 8, 4, |_, _| (1.0f32, 1.0f32, 1.0f32)).unwrap();
+        let mut bytes = std::fs::read(&path).unwrap();
+        // Both windows (box2i: x_min, y_min, x_max, y_max) claim 100000 × 100000 texels.
+        for name in [&b"dataWindow\0box2i\0"[..], &b"displayWindow\0box2i\0"[..]] {
+            let at = bytes.windows(name.len()).position(|w| w == name).unwrap() + name.len() + 4;
+            bytes[at + 8..at + 16]
+                .copy_from_slice(&[99_999i32.to_le_bytes(), 99_999i32.to_le_bytes()].concat());
+        }
+        std::fs::write(&path, &bytes).unwrap();
+        let e = EnvMap::from_exr(&path).unwrap_err().to_string();
+        assert!(e.contains("100000×100000 texels, more than") && !e.contains('\n'), "{e}");
     }
 }
