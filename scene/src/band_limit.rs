@@ -41,7 +41,7 @@ pub fn irradiance_band_limit_error(env: &Environment, coeffs: usize) -> f64 {
     let irr: Vec<f64> = proj
         .iter()
         .enumerate()
-        .map(|(j, &c)| cosine_lobe_factor(f64::from(j as u32).sqrt().floor() as u32) * c)
+        .map(|(j, &c)| cosine_lobe_factor(lightvol_sh::index::sh_lm(j).0) * c)
         .collect();
     let rule = SphereQuadrature::hemisphere(RULE.0, RULE.1);
     let sky: Vec<(DVec3, f64)> = rule
