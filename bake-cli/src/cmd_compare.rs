@@ -188,7 +188,9 @@ pub(crate) fn flag_error(e: EvalError) -> anyhow::Error {
         EvalError::PlateOutsideGrid { height, min, max } => {
             anyhow::anyhow!("--plate-height {height} is outside the grid's z range [{min}, {max}]")
         }
-        EvalError::PlateResolution(_) => anyhow::anyhow!("--plate-res must be at least 2"),
+        EvalError::PlateResolution(_) => {
+            anyhow::anyhow!("--plate-res must be between 2 and {}", PlateConfig::MAX_RES)
+        }
         EvalError::BasisNeedsCells { .. } => anyhow::anyhow!(
             "--gradients basis needs cell samples (prefilter, doi-paper); use --gradient-estimator central with point, doi or doi-node"
         ),

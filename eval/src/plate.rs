@@ -55,6 +55,10 @@ pub struct PlateConfig {
 impl PlateConfig {
     /// Default [`res`](Self::res).
     pub const DEFAULT_RES: u32 = 128;
+    /// The most plate points along the longer side: 4096 (16.8 M points, each path-traced
+    /// for the reference; about 1 GiB of per-point data with a few methods). Beyond it the
+    /// request is refused before anything is allocated.
+    pub const MAX_RES: u32 = 4096;
     /// Default [`reference_samples`](Self::reference_samples).
     pub const DEFAULT_REFERENCE_SAMPLES: Samples = samples(512);
     /// Default [`classify_dirs`](Self::classify_dirs).
@@ -72,7 +76,7 @@ impl PlateConfig {
     }
 
     /// Checks the plate against `grid`: a finite height inside its z range, at least 2
-    /// points along the longer side.
+    /// and at most [`Self::MAX_RES`] points along the longer side.
     ///
     /// # Errors
     /// [`EvalError::PlateHeightNotFinite`], [`EvalError::PlateOutsideGrid`],
@@ -86,7 +90,7 @@ impl PlateConfig {
         if !(min[2]..=max[2]).contains(&height) {
             return Err(EvalError::PlateOutsideGrid { height, min: min[2], max: max[2] });
         }
-        if self.res < 2 {
+        if !(2..=Self::MAX_RES).contains(&self.res) {
             return Err(EvalError::PlateResolution(self.res));
         }
         Ok(())
@@ -315,6 +319,10 @@ mod tests {
             EvalError::PlateHeightNotFinite(_)
         ));
         assert!(matches!(bad(PlateConfig { res: 1, ..config }), EvalError::PlateResolution(1)));
+        let huge = PlateConfig::MAX_RES + 1;
+        assert!(
+            matches!(bad(PlateConfig { res: huge, ..config }), EvalError::PlateResolution(r) if r == huge)
+        );
     }
 
     #[test]

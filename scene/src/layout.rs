@@ -15,6 +15,11 @@ use serde_json::{Map, Value, json};
 use crate::error::SceneError;
 use crate::load::gltf::container;
 
+/// The most nodes a layout writes: 2^21 (2,097,152; each is a JSON object while the file is
+/// assembled, a few hundred bytes). A layout that would write more is refused before it is
+/// assembled: a 32 × 32 layout of the 17-mesh occlusion room writes 18,432.
+pub const MAX_LAYOUT_NODES: u64 = 1 << 21;
+
 /// Writes `<dir>/<stem>_<nx>x<ny>.gltf` (and its `.bin` when the source is a GLB): the
 /// default scene of `src` repeated on `counts[0] × counts[1]` tiles `pitch` apart. Returns
 /// the glTF's path. Files are written whole or not at all.
@@ -22,7 +27,8 @@ use crate::load::gltf::container;
 /// # Errors
 /// [`SceneError::NotFound`]/[`SceneError::Io`] for unreadable or unwritable files,
 /// [`SceneError::Gltf`] for a source that does not parse or has no scene to repeat, and
-/// [`SceneError::NonFinite`] for a pitch that is not finite or counts of zero.
+/// [`SceneError::NonFinite`] for a pitch that is not finite or counts of zero, and
+/// [`SceneError::Gltf`] for a layout of more than [`MAX_LAYOUT_NODES`] nodes.
 pub fn write_grid_layout(
     src: &Path,
     dir: &Path,
@@ -84,6 +90,20 @@ pub fn write_grid_layout(
         .and_then(Value::as_array)
         .map(|a| a.iter().filter_map(Value::as_u64).collect())
         .ok_or_else(|| gerr(format!("scene {scene_index} does not exist or has no nodes")))?;
+    // One tile's nodes (its root and copies of the scene's trees), counted before anything
+    // is assembled.
+    let mut per_tile = Vec::new();
+    for &r in &roots {
+        copy_tree(&nodes, r, &mut per_tile).map_err(gerr)?;
+    }
+    let total = (per_tile.len() as u64 + 1) * u64::from(counts[0]) * u64::from(counts[1]);
+    if total > MAX_LAYOUT_NODES {
+        return Err(gerr(format!(
+            "a {}x{} layout writes {total} nodes, more than the {MAX_LAYOUT_NODES} a layout may have",
+            counts[0], counts[1]
+        )));
+    }
+    drop(per_tile);
     let mut out: Vec<Value> = Vec::new();
     let mut tiles = Vec::new();
     for j in 0..counts[1] {
@@ -187,5 +207,10 @@ mod tests {
             write_grid_layout(&src, dir.path(), [0, 2], 10.0),
             Err(SceneError::NonFinite { .. })
         ));
+        // Too many nodes: refused in one line, nothing written.
+        let big = dir.path().join("big");
+        let e = write_grid_layout(&src, &big, [100_000, 100_000], 10.0).unwrap_err().to_string();
+        assert!(e.contains("more than the 2097152 a layout may have") && !e.contains('\n'), "{e}");
+        assert!(!big.exists());
     }
 }
