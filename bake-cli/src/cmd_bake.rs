@@ -23,6 +23,7 @@ use crate::setup::with_threads;
 
 /// Runs `lightvol bake`.
 pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
+    args.sampling.check_memory(args.grid.memory_limit())?;
     if args.adaptive.adaptive {
         return crate::adaptive_bake::run(args);
     }

@@ -127,7 +127,16 @@ fn lookups_per_second(
 }
 
 /// Runs `lightvol bench`.
+/// The most rays or lookups one measurement takes: 2^26 (67,108,864; the rays alone are
+/// 3 GiB as f64 origins and directions). More is refused in one line, not allocated.
+const MAX_PER_MEASUREMENT: usize = 1 << 26;
+
 pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
+    for (flag, n) in [("--rays", args.rays), ("--lookups", args.lookups)] {
+        if n == 0 || n > MAX_PER_MEASUREMENT {
+            anyhow::bail!("{flag} must be between 1 and {MAX_PER_MEASUREMENT}, got {n}");
+        }
+    }
     if args.bakes {
         let report = crate::bench_scale::run(&args.data, args.bake_samples.get())?;
         println!("{}", serde_json::to_string_pretty(&report)?);

@@ -279,15 +279,18 @@ pub(crate) fn compare(args: &CompareArgs) -> anyhow::Result<CompareReport> {
         return Err(flag_error(EvalError::NoMethods));
     }
     args.sampling.noise_target()?;
+    args.sampling.check_memory(args.grid.memory_limit())?;
     let loaded = args.scene.load_within(args.grid.memory_limit())?;
     let grid = args.grid.grid(&loaded, methods.iter().any(|m| m.entry.records_node_reach()))?;
     if grid.placement().is_some() {
         return Err(flag_error(EvalError::PlacedGrid));
     }
     let height = plate_height(args, &loaded);
-    if !height.is_finite() {
-        return Err(flag_error(EvalError::PlateHeightNotFinite(height)));
-    }
+    // The plate is checked before the output folder is made: a refused request leaves
+    // nothing behind.
+    PlateConfig { res: args.plate_res, ..PlateConfig::at_height(height) }
+        .validate(&grid)
+        .map_err(flag_error)?;
     let views = cameras(&args.views, &loaded, &grid)?;
     args.views.config(views.clone()).validate().map_err(flag_error)?;
     std::fs::create_dir_all(&args.output).with_context(|| format!("creating {}", args.output.display()))?;

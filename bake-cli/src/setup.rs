@@ -373,6 +373,15 @@ impl SampleArgs {
         self.path.transport()
     }
 
+    /// Refuses a sample count whose units would not fit in `limit` bytes on the threads
+    /// the bake runs (the cap under `--noise`), in one line, before anything is loaded.
+    pub(crate) fn check_memory(&self, limit: u128) -> anyhow::Result<()> {
+        let most = if self.noise.is_some() { self.max_samples.max(self.samples) } else { self.samples };
+        let threads = resolve_threads(self.threads)?.unwrap_or_else(rayon::current_num_threads);
+        scene_setup::check_sample_memory(u64::from(most.get()), threads, limit)
+            .map_err(|e| anyhow::anyhow!("{e} (lower --samples or raise --max-memory-mib)"))
+    }
+
     /// The noise target of `--noise` and `--max-samples`, checked: a positive, finite
     /// error and a cap no lower than `--samples`.
     pub(crate) fn noise_target(&self) -> anyhow::Result<Option<lightvol_sampler::noise::NoiseTarget>> {

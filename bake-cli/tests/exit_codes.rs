@@ -21,6 +21,34 @@ fn errors_are_one_line_and_exit_1() {
     }
 }
 
+/// Requests too large for memory are refused in one line before anything is allocated
+/// (each of these used to be killed for memory or abort on a failed allocation).
+#[test]
+fn requests_too_large_for_memory_are_refused_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = |name: &str| dir.path().join(name).to_string_lossy().into_owned();
+    let (bake, compare) = (out("b.exr"), out("c"));
+    for (args, want) in [
+        (vec!["bake", "builtin:city", "--samples", "4000000000", "-o", &bake], "samples per unit on"),
+        (
+            vec!["bake", "builtin:city", "--noise", "0.01", "--max-samples", "4000000000", "-o", &bake],
+            "samples per unit on",
+        ),
+        (
+            vec!["compare", "builtin:city", "--plate-res", "100000", "-o", &compare],
+            "--plate-res must be between",
+        ),
+        (vec!["bench", "--rays", "10000000000"], "--rays must be between"),
+    ] {
+        let o = lightvol(&args);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{args:?}: {stderr}");
+        assert!(stderr.contains(want), "{args:?}: {stderr}");
+    }
+    assert!(std::fs::read_dir(dir.path()).unwrap().next().is_none(), "nothing written");
+}
+
 #[test]
 fn help_explains_and_exits_0() {
     let out = lightvol(&["bake", "--help"]);
