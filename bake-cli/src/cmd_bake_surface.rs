@@ -36,7 +36,7 @@ use lightvol_surface::{
 
 use crate::imaging::write_atomic;
 use crate::progress::with_bar;
-use crate::setup::{SceneArgs, shard_option, with_threads};
+use crate::setup::{SceneArgs, resolve_threads, shard_option, with_threads};
 
 /// The texel records of basis `tag` from `--from-shards` (lightvol-surface's
 /// `shard_io::texel_set_records`).
@@ -221,6 +221,21 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
         bail!("output {} exists and is not a directory", args.output.display());
     }
     let shard = shard_option(args.shard.as_deref(), args.shards)?;
+    // A texel's samples are held while it is integrated: refuse counts that cannot fit
+    // in half the available memory on the threads the bake runs, before anything loads.
+    let threads = resolve_threads(args.threads)?.unwrap_or_else(rayon::current_num_threads);
+    let (need, limit) = (
+        lightvol_surface::texel::sample_memory_bytes(u64::from(args.samples.get()), threads),
+        lightvol_sampler::scene_setup::memory_limit(None),
+    );
+    if need > limit {
+        bail!(
+            "--samples {} on {threads} threads: the texels in flight hold about {} of samples, more than the {} allowed",
+            args.samples,
+            lightvol_sampler::scene_setup::gib(need),
+            lightvol_sampler::scene_setup::gib(limit)
+        );
+    }
     let loaded = args.scene.load_flattened()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };
     let ts = args.path.transport();

@@ -39,6 +39,10 @@ fn requests_too_large_for_memory_are_refused_in_one_line() {
             "--plate-res must be between",
         ),
         (vec!["bench", "--rays", "10000000000"], "--rays must be between"),
+        (
+            vec!["bake-surface", "builtin:city", "--samples", "4000000000", "-o", &compare],
+            "texels in flight hold",
+        ),
     ] {
         let o = lightvol(&args);
         let stderr = String::from_utf8_lossy(&o.stderr);
