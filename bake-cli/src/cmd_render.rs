@@ -24,6 +24,9 @@ use crate::setup::with_threads;
 
 /// Runs `lightvol render`.
 pub(crate) fn run(args: &RenderArgs) -> anyhow::Result<ExitCode> {
+    if let Some(e) = args.exposure.filter(|e| !(e.is_finite() && *e > 0.0)) {
+        bail!("--exposure must be a positive finite scale, got {e}");
+    }
     if let Some(dir) = &args.surface {
         if args.quantity != "shaded" || !args.path.is_default() {
             anyhow::bail!(

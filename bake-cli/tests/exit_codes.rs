@@ -8,9 +8,12 @@ fn lightvol(args: &[&str]) -> std::process::Output {
 
 #[test]
 fn errors_are_one_line_and_exit_1() {
-    for args in
-        [&["info", "/nonexistent/v.exr"][..], &["bake", "builtin:city", "--res", "0,0,0"], &["nonsense-verb"]]
-    {
+    for args in [
+        &["info", "/nonexistent/v.exr"][..],
+        &["bake", "builtin:city", "--res", "0,0,0"],
+        &["nonsense-verb"],
+        &["render", "builtin:city", "--reference", "--exposure", "nan", "-o", "/nonexistent/r.png"],
+    ] {
         let out = lightvol(args);
         assert_eq!(out.status.code(), Some(1), "{args:?}");
         let stderr = String::from_utf8_lossy(&out.stderr);
