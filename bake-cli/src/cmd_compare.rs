@@ -188,9 +188,7 @@ pub(crate) fn flag_error(e: EvalError) -> anyhow::Error {
         EvalError::PlateOutsideGrid { height, min, max } => {
             anyhow::anyhow!("--plate-height {height} is outside the grid's z range [{min}, {max}]")
         }
-        EvalError::PlateResolution(_) => {
-            anyhow::anyhow!("--plate-res must be between 2 and {}", PlateConfig::MAX_RES)
-        }
+        EvalError::PlateResolution { max, .. } => anyhow::anyhow!("--plate-res must be between 2 and {max}"),
         EvalError::BasisNeedsCells { .. } => anyhow::anyhow!(
             "--gradients basis needs cell samples (prefilter, doi-paper); use --gradient-estimator central with point, doi or doi-node"
         ),

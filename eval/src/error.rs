@@ -87,10 +87,15 @@ pub enum EvalError {
         /// The grid's highest z.
         max: f64,
     },
-    /// Fewer than 2 plate points along the longer side, or more than
-    /// [`crate::plate::PlateConfig::MAX_RES`].
-    #[error("plate resolution {0} is outside 2..={max}", max = crate::plate::PlateConfig::MAX_RES)]
-    PlateResolution(u32),
+    /// Fewer than 2 plate points along the longer side, or more than the most a plate may
+    /// have (`max`).
+    #[error("plate resolution {res} is outside 2..={max}")]
+    PlateResolution {
+        /// The resolution asked for.
+        res: u32,
+        /// The most accepted.
+        max: u32,
+    },
     /// No plate point is inside the domain of interest: nothing to measure.
     #[error("no plate point at height {0} sees the scene from inside the domain of interest")]
     NoValidPoints(f64),

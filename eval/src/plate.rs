@@ -91,7 +91,7 @@ impl PlateConfig {
             return Err(EvalError::PlateOutsideGrid { height, min: min[2], max: max[2] });
         }
         if !(2..=Self::MAX_RES).contains(&self.res) {
-            return Err(EvalError::PlateResolution(self.res));
+            return Err(EvalError::PlateResolution { res: self.res, max: Self::MAX_RES });
         }
         Ok(())
     }
@@ -318,10 +318,10 @@ mod tests {
             bad(PlateConfig { height: f64::NAN, ..config }),
             EvalError::PlateHeightNotFinite(_)
         ));
-        assert!(matches!(bad(PlateConfig { res: 1, ..config }), EvalError::PlateResolution(1)));
+        assert!(matches!(bad(PlateConfig { res: 1, ..config }), EvalError::PlateResolution { res: 1, .. }));
         let huge = PlateConfig::MAX_RES + 1;
         assert!(
-            matches!(bad(PlateConfig { res: huge, ..config }), EvalError::PlateResolution(r) if r == huge)
+            matches!(bad(PlateConfig { res: huge, ..config }), EvalError::PlateResolution { res, max } if res == huge && max == PlateConfig::MAX_RES)
         );
     }
 

@@ -125,8 +125,8 @@ impl BackFaceTest {
 /// One direction a point traced: its index in the stream, the direction and what it met.
 type Traced = (u64, DVec3, Option<Hit>);
 
-/// Bytes a unit holds per sample while it is traced (its [`Traced`] record): what
-/// [`crate::scene_setup::sample_memory_bytes`] counts.
+/// Bytes a unit holds per sample while it is traced (its [`Traced`] record): the unit of
+/// the bake's check that its samples fit in memory.
 pub(crate) const TRACED_BYTES: u128 = size_of::<Traced>() as u128;
 
 /// The directions `first..first + count` of `h` traced from `x`, stopping at the first
