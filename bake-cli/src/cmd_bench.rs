@@ -126,11 +126,11 @@ fn lookups_per_second(
     Ok(pts.len() as f64 / t0.elapsed().as_secs_f64())
 }
 
-/// Runs `lightvol bench`.
 /// The most rays or lookups one measurement takes: 2^26 (67,108,864; the rays alone are
 /// 3 GiB as f64 origins and directions). More is refused in one line, not allocated.
 const MAX_PER_MEASUREMENT: usize = 1 << 26;
 
+/// Runs `lightvol bench`.
 pub(crate) fn run(args: &BenchArgs) -> anyhow::Result<ExitCode> {
     for (flag, n) in [("--rays", args.rays), ("--lookups", args.lookups)] {
         if n == 0 || n > MAX_PER_MEASUREMENT {
