@@ -224,18 +224,13 @@ pub(crate) fn run(args: &BakeSurfaceArgs) -> anyhow::Result<ExitCode> {
     // A texel's samples are held while it is integrated: refuse counts that cannot fit
     // in half the available memory on the threads the bake runs, before anything loads.
     let threads = resolve_threads(args.threads)?.unwrap_or_else(rayon::current_num_threads);
-    let (need, limit) = (
-        lightvol_surface::texel::sample_memory_bytes(u64::from(args.samples.get()), threads),
+    lightvol_sampler::scene_setup::check_sample_memory(
+        u64::from(args.samples.get()),
+        threads,
+        lightvol_surface::texel::SAMPLE_BYTES,
         lightvol_sampler::scene_setup::memory_limit(None),
-    );
-    if need > limit {
-        bail!(
-            "--samples {} on {threads} threads: the texels in flight hold about {} of samples, more than the {} allowed",
-            args.samples,
-            lightvol_sampler::scene_setup::gib(need),
-            lightvol_sampler::scene_setup::gib(limit)
-        );
-    }
+    )
+    .map_err(|e| anyhow::anyhow!("{e} (lower --samples)"))?;
     let loaded = args.scene.load_flattened()?;
     let uv_set = if args.uv == 0 { UvSet::Base } else { UvSet::Lightmap };
     let ts = args.path.transport();

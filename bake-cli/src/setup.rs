@@ -378,7 +378,7 @@ impl SampleArgs {
     pub(crate) fn check_memory(&self, limit: u128) -> anyhow::Result<()> {
         let most = if self.noise.is_some() { self.max_samples.max(self.samples) } else { self.samples };
         let threads = resolve_threads(self.threads)?.unwrap_or_else(rayon::current_num_threads);
-        scene_setup::check_sample_memory(u64::from(most.get()), threads, limit)
+        scene_setup::check_sample_memory(u64::from(most.get()), threads, scene_setup::SAMPLE_BYTES, limit)
             .map_err(|e| anyhow::anyhow!("{e} (lower --samples or raise --max-memory-mib)"))
     }
 

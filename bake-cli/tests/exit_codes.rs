@@ -44,7 +44,7 @@ fn requests_too_large_for_memory_are_refused_in_one_line() {
         (vec!["bench", "--rays", "10000000000"], "--rays must be between"),
         (
             vec!["bake-surface", "builtin:city", "--samples", "4000000000", "-o", &compare],
-            "texels in flight hold",
+            "samples per unit on",
         ),
     ] {
         let o = lightvol(&args);

@@ -252,12 +252,16 @@ pub fn bake_memory_bytes(res: [u64; 3], coeffs: usize, node_reach: bool) -> u128
     nodes * ((k + 2) * SUM_BYTES + (k + 1) * 8 + (k + 1) * 4 + reach)
 }
 
+/// Bytes a bake's unit (node or cell) holds per sample while it is traced: each sample's
+/// direction and first hit.
+pub const SAMPLE_BYTES: u128 = crate::probe::TRACED_BYTES;
+
 /// Bytes the units traced at once hold for their samples: `samples` (a unit's most, the
-/// cap under `--noise`) records of each sample's direction and first hit, on each of
-/// `threads` threads.
+/// cap under `--noise`) records of `bytes_per_sample` ([`SAMPLE_BYTES`] for a volume bake),
+/// on each of `threads` threads.
 #[must_use]
-pub fn sample_memory_bytes(samples: u64, threads: usize) -> u128 {
-    u128::from(samples) * threads as u128 * crate::probe::TRACED_BYTES
+pub fn sample_memory_bytes(samples: u64, threads: usize, bytes_per_sample: u128) -> u128 {
+    u128::from(samples) * threads as u128 * bytes_per_sample
 }
 
 /// Refuses a sample count whose units would not fit in `limit` bytes
@@ -265,8 +269,13 @@ pub fn sample_memory_bytes(samples: u64, threads: usize) -> u128 {
 ///
 /// # Errors
 /// A one-line reason with the bytes needed and allowed.
-pub fn check_sample_memory(samples: u64, threads: usize, limit: u128) -> Result<(), String> {
-    let need = sample_memory_bytes(samples, threads);
+pub fn check_sample_memory(
+    samples: u64,
+    threads: usize,
+    bytes_per_sample: u128,
+    limit: u128,
+) -> Result<(), String> {
+    let need = sample_memory_bytes(samples, threads, bytes_per_sample);
     if need > limit {
         return Err(format!(
             "{samples} samples per unit on {threads} threads hold about {} of directions and hits, more than the {} allowed",
@@ -518,10 +527,10 @@ mod tests {
         let bad = |c: GridChoice| c.resolve(&m).unwrap_err().to_string();
         assert!(bad(GridChoice { res: Some([1.0, 4.0, 4.0]), ..base.clone() }).contains("at least 2"));
         // The samples units hold: 4e9 on 2 threads is far beyond 1 GiB; 4096 is not.
-        let e = check_sample_memory(4_000_000_000, 2, 1 << 30).unwrap_err();
+        let e = check_sample_memory(4_000_000_000, 2, SAMPLE_BYTES, 1 << 30).unwrap_err();
         assert!(e.contains("4000000000 samples per unit on 2 threads") && !e.contains('\n'), "{e}");
-        assert!(check_sample_memory(4096, 2, 1 << 30).is_ok());
-        assert_eq!(sample_memory_bytes(10, 3), 30 * crate::probe::TRACED_BYTES);
+        assert!(check_sample_memory(4096, 2, SAMPLE_BYTES, 1 << 30).is_ok());
+        assert_eq!(sample_memory_bytes(10, 3, SAMPLE_BYTES), 30 * crate::probe::TRACED_BYTES);
         assert!(bad(GridChoice { res: Some([2.5, 4.0, 4.0]), ..base.clone() }).contains("whole number"));
         assert!(bad(GridChoice { spacing: Some(0.0), ..base.clone() }).contains("spacing"));
         assert!(

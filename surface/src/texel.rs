@@ -81,12 +81,9 @@ struct Candidate {
     hit: Option<Hit>,
 }
 
-/// Bytes one texel holds per sample while it is integrated (a kept candidate: its index,
-/// origin, tangent frame, direction and first hit), on each thread.
-#[must_use]
-pub fn sample_memory_bytes(samples: u64, threads: usize) -> u128 {
-    u128::from(samples) * threads as u128 * size_of::<Candidate>() as u128
-}
+/// Bytes a texel holds per sample while it is integrated: a kept candidate (its index,
+/// origin, tangent frame, direction and first hit).
+pub const SAMPLE_BYTES: u128 = size_of::<Candidate>() as u128;
 
 impl TexelJob<'_> {
     fn stream(&self, texel: u32) -> u64 {
