@@ -87,6 +87,11 @@ pub(crate) struct BakeArgs {
     /// The --target fit's weight toward the baked values (0: a pure least-squares fit).
     #[arg(long, value_name = "LAMBDA", default_value_t = lightvol_sampler::target::DEFAULT_TARGET_LAMBDA)]
     pub(crate) target_lambda: f64,
+    /// Before the --target fit, smooth the `doi` bake's node values where their own samples
+    /// say they are noisy: TAU is the relative difference between neighbouring nodes'
+    /// light the smoothing expects (smaller smooths more); `off`: no smoothing.
+    #[arg(long, value_name = "TAU|off", default_value_t = lightvol_sampler::denoise::DEFAULT_SMOOTHING.to_string())]
+    pub(crate) target_smoothing: String,
     /// Split the bake by light group, from the same paths (no extra rays): the file keeps
     /// the whole bake and one volume per group, and scaling and summing the groups (`lightvol
     /// relight`) gives the volume of any brightness and colour per group. `each` gives every
@@ -406,6 +411,7 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         scenarios: !args.scenario.is_empty(),
         target: Some(TargetSettings {
             lambda: args.target_lambda,
+            smoothing: threshold("--target-smoothing", Some(&args.target_smoothing), None)?,
             ..TargetSettings::new(args.target, args.sampling.seed)
         }),
     };

@@ -99,6 +99,12 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
             r.relative_rms_before,
             r.relative_rms_after
         );
+        if let Some(m) = r.smoothing {
+            eprintln!(
+                "smoothed {} noisy nodes first (median estimated error {:.3}, {} edges, {} CG iterations)",
+                m.nodes, m.median_error, m.edges, m.iterations
+            );
+        }
     }
     let vol = &bake.volume;
     match (&bake.gradients, &bake.groups) {

@@ -184,7 +184,8 @@ mod tests {
             noise: None,
         };
         assert_eq!(target_warning(&r, Some("bevy")), None);
-        r.target = Some(lightvol_volume::TargetRecord { lookup: "three".into(), lambda: 0.5 });
+        r.target =
+            Some(lightvol_volume::TargetRecord { lookup: "three".into(), lambda: 0.5, smoothing: None });
         assert_eq!(target_warning(&r, Some("three")), None);
         let w = target_warning(&r, Some("bevy")).unwrap();
         assert!(w.contains("fitted for the three lookup") && w.contains("--target bevy"), "{w}");

@@ -203,10 +203,10 @@ pub fn run_targeted(
     lookup: EngineLookup,
     plate: &Plate,
 ) -> Result<MethodRun, EvalError> {
-    run_set_for_lookup(ctx, grid, name, method, lookup, plate, |baked, valid| {
-        let (vol, report) =
-            fit_for_lookup(&ctx.transport, baked, &TargetSettings::new(lookup, ctx.seed), Some(valid))
-                .map_err(EvalError::at("fitting for the target lookup"))?;
+    run_set_for_lookup(ctx, grid, name, method, lookup, plate, |baked, valid, errors| {
+        let settings = TargetSettings::new(lookup, ctx.seed);
+        let (vol, report) = fit_for_lookup(&ctx.transport, baked, &settings, Some(valid), errors)
+            .map_err(EvalError::at("fitting for the target lookup"))?;
         Ok((vol, report.rays))
     })
 }
@@ -231,7 +231,7 @@ pub fn run_bound(
         .filter(|&i| plate.valid[i])
         .map(|i| KnownPoint { p: plate.points[i].to_array(), n: up, to_eye: up, value: plate.truth[i] })
         .collect();
-    run_set_for_lookup(ctx, grid, name, Method::Doi, lookup, plate, |baked, valid| {
+    run_set_for_lookup(ctx, grid, name, Method::Doi, lookup, plate, |baked, valid, _errors| {
         let vol = best_for_points(baked, lookup, Some(valid), &points)
             .map_err(EvalError::at("fitting the plate's reference"))?;
         Ok((vol, 0))
@@ -249,16 +249,22 @@ fn run_set_for_lookup(
     method: Method,
     lookup: EngineLookup,
     plate: &Plate,
-    set: impl FnOnce(&IrradianceVolume, ValidityMask) -> Result<(IrradianceVolume, u64), EvalError>,
+    set: impl FnOnce(
+        &IrradianceVolume,
+        ValidityMask,
+        Option<&[f32]>,
+    ) -> Result<(IrradianceVolume, u64), EvalError>,
 ) -> Result<MethodRun, EvalError> {
     let settings = ctx.settings(method);
-    let out = ctx
+    let mut out = ctx
         .stage(name, |c| lightvol_sampler::bake(&ctx.transport, grid, &settings, c))
         .map_err(EvalError::at("baking"))?;
     let valid = own_samples_mask(&out.accumulator);
+    let errors = std::mem::take(&mut out.node_error);
+    let errors = (errors.len() == valid.len()).then_some(errors);
     let (baked, mut stats) = out.finish();
     let t0 = Instant::now();
-    let (vol, rays) = set(&baked, valid)?;
+    let (vol, rays) = set(&baked, valid, errors.as_deref())?;
     stats.rays.query += rays;
     let seconds = stats.wall_time.as_secs_f64() + t0.elapsed().as_secs_f64();
     let estimate = plate.engine_estimate(&vol, lookup);

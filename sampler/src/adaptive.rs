@@ -406,7 +406,8 @@ fn drive(
                     i + 1
                 )));
             }
-            BakeOutput { accumulator: (*base).clone(), stats: base_stats.clone() }.finish()
+            BakeOutput { accumulator: (*base).clone(), stats: base_stats.clone(), node_error: Vec::new() }
+                .finish()
         }
     };
     done.fetch_add(planned.load(Ordering::Relaxed), Ordering::Relaxed);

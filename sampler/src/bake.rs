@@ -52,6 +52,12 @@ pub struct BakeOutput {
     pub accumulator: Accumulator,
     /// Counters and timing.
     pub stats: BakeStats,
+    /// `doi` only: each of the shard's nodes' estimated relative error of its estimate
+    /// (in unit order from the shard's first node; [`crate::noise`]'s prefix estimate over
+    /// its kept samples), NaN where the estimate cannot judge it (fewer than
+    /// [`crate::noise::MIN_VALUES`] kept samples, or no positive mean). Empty for the other
+    /// methods. Not part of the sums: shards do not carry it.
+    pub node_error: Vec<f32>,
 }
 
 impl BakeOutput {
@@ -109,10 +115,16 @@ pub(crate) fn bake_with_sink(
     };
     let range = lightvol_core::shard::shard_range(units, (k, n));
     let lo = range.start;
-    let mut relocated = vec![None; if settings.method == Method::Doi { range.len() } else { 0 }];
+    let doi_nodes = if settings.method == Method::Doi { range.len() } else { 0 };
+    let mut relocated = vec![None; doi_nodes];
+    let mut node_error = vec![f32::NAN; doi_nodes];
     let mut record = |out: &UnitOut| {
-        if let Some(y) = out.relocated {
-            relocated[out.nodes[0] - lo] = Some(y);
+        if settings.method == Method::Doi {
+            if let Some(y) = out.relocated {
+                relocated[out.nodes[0] - lo] = Some(y);
+            }
+            let e = crate::noise::relative_error_of(&out.sample_values()).filter(|e| e.is_finite());
+            node_error[out.nodes[0] - lo] = e.map_or(f32::NAN, |e| e as f32);
         }
         sink(out);
     };
@@ -133,7 +145,7 @@ pub(crate) fn bake_with_sink(
         }
         stats.wall_time += t0.elapsed();
     }
-    Ok(BakeOutput { accumulator: acc, stats })
+    Ok(BakeOutput { accumulator: acc, stats, node_error })
 }
 
 /// Where a bake's contributions go: the dense [`Accumulator`], or the sparse sums of a

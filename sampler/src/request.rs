@@ -148,10 +148,14 @@ impl BakeRequest {
         })
     }
 
-    /// The engine lookup the node values are fitted for, when not lightvol's own.
+    /// The engine lookup the node values are fitted for, when not lightvol's own; the
+    /// smoothing before the fit only where the bake estimates each node's error (`doi`).
     #[must_use]
     pub fn effective_target(&self) -> Option<TargetSettings> {
-        self.target.filter(|t| t.lookup != EngineLookup::Lightvol)
+        let doi = self.method == BakeMethod::Grid(Method::Doi);
+        self.target
+            .filter(|t| t.lookup != EngineLookup::Lightvol)
+            .map(|t| TargetSettings { smoothing: t.smoothing.filter(|_| doi), ..t })
     }
 
     /// The method label in reports and file metadata: the method's name, with the fit when it
@@ -188,9 +192,11 @@ impl BakeRequest {
             russian_roulette: self.transport.russian_roulette,
             direct_light: self.transport.direct.name().to_owned(),
             octree: self.adaptive.as_ref().map(|a| a.settings.clone()),
-            target: self
-                .effective_target()
-                .map(|t| TargetRecord { lookup: t.lookup.name().to_owned(), lambda: t.lambda }),
+            target: self.effective_target().map(|t| TargetRecord {
+                lookup: t.lookup.name().to_owned(),
+                lambda: t.lambda,
+                smoothing: t.smoothing,
+            }),
             noise: self
                 .noise
                 .map(|n| NoiseRecord { relative_error: n.relative_error, max_samples: n.max_samples.get() }),
@@ -604,9 +610,11 @@ pub fn bake_uniform(
         Some(t) => {
             // APV's lookup renormalises over valid nodes: those with samples of their own.
             let valid = own_samples_mask(&output.accumulator);
+            // `doi`'s per-node errors, for the smoothing before the fit.
+            let node_error = (output.node_error.len() == valid.len()).then_some(output.node_error.as_slice());
             // The fitted volume keeps the bake's metadata.
-            let (fitted, report) =
-                fit_for_lookup(transport, &volume, &t, Some(valid)).map_err(UniformBakeError::Target)?;
+            let (fitted, report) = fit_for_lookup(transport, &volume, &t, Some(valid), node_error)
+                .map_err(UniformBakeError::Target)?;
             output.stats.rays.query += report.rays;
             (fitted, Some(report))
         }

@@ -32,6 +32,10 @@
 //! (validity and node reach, [`IrradianceVolume::irradiance_reference`]): the fit moves
 //! the bake's light, estimated once, into the target's reconstruction, and traces no
 //! light path: the rays above are its whole cost ([`TargetReport::rays`]).
+//!
+//! **Noise.** Given the bake's per-node error estimates, the bake's values are first
+//! smoothed where they are noisy ([`crate::denoise`], `TargetSettings::smoothing`), and
+//! `ĉ` and the samples' values above are then the smoothed volume's.
 
 use std::f64::consts::PI;
 
@@ -45,6 +49,7 @@ use lightvol_volume::validity::ValidityMask;
 use lightvol_volume::{Accumulator, EngineLookup, IrradianceVolume};
 use rayon::prelude::*;
 
+use crate::denoise::{DEFAULT_SMOOTHING, SmoothingReport, smooth_by_noise};
 use crate::error::BakeError;
 
 /// Rays traced from each node to find its samples: each gives up to two (a surface and a
@@ -65,14 +70,6 @@ pub const TARGET_REACH_CELLS: f64 = 2.0;
 /// most of the engine's error in place; 0.5 was best or near it on most.
 pub const DEFAULT_TARGET_LAMBDA: f64 = 0.5;
 
-/// Relative residual at which conjugate gradients stop: node values are stored as f32
-/// (relative precision 6e-8); 1e-7 leaves the solver's error below that of the rounding.
-const CG_TOLERANCE: f64 = 1e-7;
-
-/// Iteration cap: a guard against a broken input, far above the few hundred iterations
-/// the regularised system needs.
-const CG_MAX_ITERATIONS: usize = 2000;
-
 /// `(A_0 Y_0)²`: the squared factor of the constant coefficient in the irradiance
 /// expansion, `(π · 1/(2√π))² = π/4`.
 const DC_FACTOR_SQUARED: f64 = PI / 4.0;
@@ -88,13 +85,22 @@ pub struct TargetSettings {
     pub rays_per_node: u32,
     /// Seed of the rays' directions.
     pub seed: u64,
+    /// With the bake's per-node error estimates: the noise-weighted smoothing's `τ`
+    /// ([`crate::denoise`]) applied to the bake's values before the fit; `None`: none.
+    pub smoothing: Option<f64>,
 }
 
 impl TargetSettings {
     /// The fit for `lookup` with the default λ and rays, seeded by `seed`.
     #[must_use]
     pub fn new(lookup: EngineLookup, seed: u64) -> Self {
-        Self { lookup, lambda: DEFAULT_TARGET_LAMBDA, rays_per_node: TARGET_RAYS_PER_NODE, seed }
+        Self {
+            lookup,
+            lambda: DEFAULT_TARGET_LAMBDA,
+            rays_per_node: TARGET_RAYS_PER_NODE,
+            seed,
+            smoothing: Some(DEFAULT_SMOOTHING),
+        }
     }
 }
 
@@ -118,6 +124,8 @@ pub struct TargetReport {
     pub relative_rms_before: f64,
     /// The same with the fitted values.
     pub relative_rms_after: f64,
+    /// The noise-weighted smoothing before the fit, where there was one.
+    pub smoothing: Option<SmoothingReport>,
 }
 
 /// One sample: where the engine is asked, and what it should answer.
@@ -216,16 +224,20 @@ pub fn own_samples_mask(acc: &Accumulator) -> ValidityMask {
 /// has the bake's grid and metadata, no node reach (no engine reads one) and, for
 /// [`EngineLookup::Apv`], the validity mask `valid` (APV's lookup renormalises over the
 /// valid nodes; `None`: every node valid). [`EngineLookup::Lightvol`] returns the volume as
-/// it is: the bake is already chosen for lightvol's lookup.
+/// it is: the bake is already chosen for lightvol's lookup. With the bake's per-node error
+/// estimates `node_error` ([`crate::bake::BakeOutput::node_error`]) and
+/// `settings.smoothing`, the bake's values are first smoothed where they are noisy
+/// ([`smooth_by_noise`]), and the fit starts from and aims at the smoothed values.
 ///
 /// # Errors
-/// [`BakeError::Settings`] for a negative or non-finite λ, a mask of the wrong size, or a
-/// grid with a placement transform.
+/// [`BakeError::Settings`] for a negative or non-finite λ, a mask or error list of the
+/// wrong size, a bad smoothing `τ`, or a grid with a placement transform.
 pub fn fit_for_lookup(
     transport: &Transport<'_>,
     volume: &IrradianceVolume,
     settings: &TargetSettings,
     valid: Option<ValidityMask>,
+    node_error: Option<&[f32]>,
 ) -> Result<(IrradianceVolume, TargetReport), BakeError> {
     if !(settings.lambda >= 0.0 && settings.lambda.is_finite()) {
         return Err(BakeError::Settings(format!("target λ must be >= 0 (got {})", settings.lambda)));
@@ -240,6 +252,18 @@ pub fn fit_for_lookup(
             valid.map_or(0, |m| m.len())
         )));
     }
+    let mut smoothing = None;
+    let smoothed;
+    let volume = match (node_error, settings.smoothing) {
+        (Some(errors), Some(tau)) => {
+            let all = ValidityMask::new(vec![true; nodes]);
+            let (v, r) = smooth_by_noise(volume, valid.as_ref().unwrap_or(&all), errors, tau)?;
+            smoothing = Some(r);
+            smoothed = v;
+            &smoothed
+        }
+        _ => volume,
+    };
     // Nodes without samples of their own (filled from their neighbours) shoot no rays.
     let shoots = |node: usize| valid.as_ref().is_none_or(|m| m.is_valid(node));
     let per_node: Vec<(Vec<Sample>, u64)> = (0..nodes)
@@ -251,7 +275,8 @@ pub fn fit_for_lookup(
         )
         .collect();
     let mut fitted = as_read_by(volume, settings.lookup, valid)?;
-    let mut report = TargetReport { rays: per_node.iter().map(|(_, r)| r).sum(), ..TargetReport::default() };
+    let mut report =
+        TargetReport { rays: per_node.iter().map(|(_, r)| r).sum(), smoothing, ..TargetReport::default() };
     let samples: Vec<Sample> = per_node.into_iter().flat_map(|(s, _)| s).collect();
     report.surface_samples = samples.iter().filter(|s| s.surface).count();
     report.free_samples = samples.len() - report.surface_samples;
@@ -414,57 +439,9 @@ fn solve(vol: &IrradianceVolume, rows: &[Row], lambda: f64) -> (Vec<f64>, usize,
             if active[node] && d > 0.0 { 1.0 / d } else { 0.0 }
         })
         .collect();
-    let (delta, iterations) = conjugate_gradient(apply, &b, &precond);
+    let (delta, iterations) = crate::cg::conjugate_gradient_rgb(apply, &b, &precond);
     let x = x0.iter().zip(&delta).map(|(a, d)| a + d).collect();
     (x, fitted, iterations)
-}
-
-/// Jacobi-preconditioned conjugate gradients on the three channels at once (interleaved
-/// `[..][rgb]`, each with its own step), from zero; returns the solution and the
-/// iterations of the slowest channel.
-fn conjugate_gradient(apply: impl Fn(&[f64], &mut [f64]), b: &[f64], precond: &[f64]) -> (Vec<f64>, usize) {
-    let len = b.len();
-    let dot3 = |u: &[f64], v: &[f64]| {
-        let mut s = [0.0; 3];
-        for i in 0..len {
-            s[i % 3] += u[i] * v[i];
-        }
-        s
-    };
-    let b_norm = dot3(b, b).map(f64::sqrt);
-    let mut x = vec![0.0; len];
-    let mut r = b.to_vec();
-    let mut z: Vec<f64> = r.iter().zip(precond).map(|(r, m)| r * m).collect();
-    let mut p = z.clone();
-    let mut rz = dot3(&r, &z);
-    let mut ap = vec![0.0; len];
-    let mut done = b_norm.map(|n| n == 0.0);
-    let mut iterations = 0;
-    while !done.iter().all(|&d| d) && iterations < CG_MAX_ITERATIONS {
-        apply(&p, &mut ap);
-        let pap = dot3(&p, &ap);
-        let alpha: [f64; 3] =
-            std::array::from_fn(|ch| if done[ch] || !(pap[ch] > 0.0) { 0.0 } else { rz[ch] / pap[ch] });
-        for i in 0..len {
-            x[i] += alpha[i % 3] * p[i];
-            r[i] -= alpha[i % 3] * ap[i];
-            z[i] = r[i] * precond[i];
-        }
-        let rz_new = dot3(&r, &z);
-        let rr = dot3(&r, &r);
-        for ch in 0..3 {
-            if alpha[ch] == 0.0 || rr[ch].sqrt() <= CG_TOLERANCE * b_norm[ch] {
-                done[ch] = true;
-            }
-        }
-        let beta: [f64; 3] = std::array::from_fn(|ch| if rz[ch] > 0.0 { rz_new[ch] / rz[ch] } else { 0.0 });
-        rz = rz_new;
-        for i in 0..len {
-            p[i] = z[i] + beta[i % 3] * p[i];
-        }
-        iterations += 1;
-    }
-    (x, iterations)
 }
 
 #[cfg(test)]

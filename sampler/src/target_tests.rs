@@ -88,12 +88,16 @@ fn fits_bring_each_engine_closer_to_lightvols_reading() {
         let settings = BakeSettings { samples: samples(32), seed: 5, ..BakeSettings::default() };
         let out = crate::bake(&t, &b.grid, &settings, &BakeControl::default()).unwrap();
         let valid = own_samples_mask(&out.accumulator);
+        let errors = out.node_error.clone();
         let (vol, _) = out.finish();
         assert!(vol.reach().is_some());
         let nodes = b.grid.node_count();
+        assert_eq!(errors.len(), nodes);
+        let e = Some(errors.as_slice());
         for lookup in [EngineLookup::Three, EngineLookup::Bevy, EngineLookup::Trilinear, EngineLookup::Apv] {
             let s = TargetSettings::new(lookup, 5);
-            let (fitted, r) = fit_for_lookup(&t, &vol, &s, Some(valid.clone())).unwrap();
+            let (fitted, r) = fit_for_lookup(&t, &vol, &s, Some(valid.clone()), e).unwrap();
+            assert!(r.smoothing.is_some_and(|m| m.nodes > 0 && m.edges > 0), "{lookup}: {r:?}");
             assert!(r.rays > 0 && r.rays <= nodes as u64 * u64::from(TARGET_RAYS_PER_NODE), "{r:?}");
             assert!(r.surface_samples > nodes && r.free_samples > nodes, "{lookup}: {r:?}");
             // The default λ holds the values near the bake's and still removes part of the
@@ -101,7 +105,7 @@ fn fits_bring_each_engine_closer_to_lightvols_reading() {
             // follow SH9's directional detail: 0.174 to 0.132 on the city).
             assert!(r.relative_rms_after < 0.95 * r.relative_rms_before, "{lookup} on {name}: {r:?}");
             let loose = TargetSettings { lambda: 0.02, ..s };
-            let (_, rl) = fit_for_lookup(&t, &vol, &loose, Some(valid.clone())).unwrap();
+            let (_, rl) = fit_for_lookup(&t, &vol, &loose, Some(valid.clone()), e).unwrap();
             assert!(
                 rl.relative_rms_after < 0.8 * rl.relative_rms_before,
                 "{lookup} on {name}, λ 0.02: {rl:?}"
@@ -109,11 +113,11 @@ fn fits_bring_each_engine_closer_to_lightvols_reading() {
             assert!(fitted.reach().is_none());
             assert_eq!(fitted.validity().is_some(), lookup == EngineLookup::Apv);
             let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-            let (again, r1) = one.install(|| fit_for_lookup(&t, &vol, &s, Some(valid.clone())).unwrap());
+            let (again, r1) = one.install(|| fit_for_lookup(&t, &vol, &s, Some(valid.clone()), e).unwrap());
             assert_eq!((again.data(), r1), (fitted.data(), r), "{lookup}: thread count");
         }
         let (same, r) =
-            fit_for_lookup(&t, &vol, &TargetSettings::new(EngineLookup::Lightvol, 5), None).unwrap();
+            fit_for_lookup(&t, &vol, &TargetSettings::new(EngineLookup::Lightvol, 5), None, e).unwrap();
         assert_eq!((same.data(), r.rays), (vol.data(), 0));
     }
 }
@@ -127,7 +131,7 @@ fn bad_lambda_is_refused() {
     let vol = IrradianceVolume::from_fn(b.grid.clone(), 4, |_| vec![[1.0; 3]; 4]).unwrap();
     for lambda in [-1.0, f64::NAN, f64::INFINITY] {
         let s = TargetSettings { lambda, ..TargetSettings::new(EngineLookup::Three, 1) };
-        let e = fit_for_lookup(&t, &vol, &s, None).unwrap_err();
+        let e = fit_for_lookup(&t, &vol, &s, None, None).unwrap_err();
         assert!(e.to_string().contains("λ must be >= 0"), "{e}");
     }
 }

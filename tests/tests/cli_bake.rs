@@ -291,6 +291,20 @@ fn target_bakes_record_the_engine_and_refuse_what_they_cannot_do() {
     assert_eq!(vt.metadata().method, "doi target=three");
     let rec = vt.metadata().settings.as_ref().and_then(|r| r.target.clone()).expect("a target record");
     assert_eq!((rec.lookup.as_str(), rec.lambda), ("three", lightvol_sampler::target::DEFAULT_TARGET_LAMBDA));
+    assert_eq!(rec.smoothing, Some(lightvol_sampler::denoise::DEFAULT_SMOOTHING));
+    // Without the smoothing the fit starts from the bake's own values: another volume,
+    // recorded without a τ.
+    let unsmoothed = d.join("unsmoothed.exr");
+    let mut a =
+        vec!["bake", "builtin:maze", "--target", "three", "--target-smoothing", "off", "-o", s(&unsmoothed)];
+    a.extend_from_slice(&common);
+    ok(&a);
+    let vu = read_exr(&unsmoothed).unwrap();
+    assert_ne!(vu.data(), vt.data());
+    assert_eq!(
+        vu.metadata().settings.as_ref().and_then(|r| r.target.clone()).and_then(|r| r.smoothing),
+        None
+    );
     assert_eq!(vp.spec(), vt.spec());
     assert_ne!(vp.data(), vt.data());
     assert!(vp.reach().is_some() && vt.reach().is_none(), "no engine reads a reach");
@@ -311,6 +325,7 @@ fn target_bakes_record_the_engine_and_refuse_what_they_cannot_do() {
         (&["--adaptive"][..], "an octree bake"),
         (&["--gradients"][..], "gradients"),
         (&["--target-lambda=-1"][..], "--target-lambda"),
+        (&["--target-smoothing", "0"][..], "--target-smoothing"),
     ] {
         let out = d.join("refused.exr");
         let mut a = vec!["bake", "builtin:maze", "--target", "bevy", "-o", s(&out)];

@@ -112,7 +112,8 @@ fn target_fits_stay_within_their_ray_budget() {
         let doi = out.stats.rays.total();
         let (vol, _) = out.finish();
         let (_, r) =
-            fit_for_lookup(&t, &vol, &TargetSettings::new(EngineLookup::Three, 3), Some(valid)).unwrap();
+            fit_for_lookup(&t, &vol, &TargetSettings::new(EngineLookup::Three, 3), Some(valid), None)
+                .unwrap();
         let share = r.rays as f64 / doi as f64;
         eprintln!("{name}: doi {doi} rays, the fit {} more ({:.2}%)", r.rays, 100.0 * share);
         assert!(r.rays > 0 && share <= TARGET_RAY_BUDGET, "{name}: the fit adds {:.2}%", 100.0 * share);

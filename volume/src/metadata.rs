@@ -63,6 +63,10 @@ pub struct TargetRecord {
     pub lookup: String,
     /// The regularisation weight λ toward the bake's own values.
     pub lambda: f64,
+    /// The noise-weighted smoothing's τ applied before the fit (lightvol-sampler's
+    /// `denoise`), `None` without one (and in files written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub smoothing: Option<f64>,
 }
 
 /// How node values came from their samples.

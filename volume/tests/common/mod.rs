@@ -82,7 +82,11 @@ pub fn random_volume(coeffs: usize, res: [u32; 3], seed: u64) -> IrradianceVolum
                 memory_budget: Some(1 << 20),
                 ..lightvol_volume::OctreeSettings::default()
             }),
-            target: Some(lightvol_volume::TargetRecord { lookup: "three".into(), lambda: 0.05 }),
+            target: Some(lightvol_volume::TargetRecord {
+                lookup: "three".into(),
+                lambda: 0.05,
+                smoothing: Some(0.3),
+            }),
             noise: Some(lightvol_volume::NoiseRecord { relative_error: 0.01, max_samples: 4096 }),
         }),
     })
