@@ -85,8 +85,10 @@ pub(crate) struct BakeArgs {
     #[arg(long, value_name = "ENGINE", default_value_t = lightvol_volume::EngineLookup::Lightvol)]
     pub(crate) target: lightvol_volume::EngineLookup,
     /// The --target fit's weight toward the baked values (0: a pure least-squares fit).
-    #[arg(long, value_name = "LAMBDA", default_value_t = lightvol_sampler::target::DEFAULT_TARGET_LAMBDA)]
-    pub(crate) target_lambda: f64,
+    /// Default: 0.1 for three and apv (they read the grid away from the shading point, so
+    /// the fit needs room to move the values), 0.5 for bevy and trilinear.
+    #[arg(long, value_name = "LAMBDA")]
+    pub(crate) target_lambda: Option<f64>,
     /// Before the --target fit, smooth the `doi` bake's node values where their own samples
     /// say they are noisy: TAU is the relative difference between neighbouring nodes'
     /// light the smoothing expects (smaller smooths more); `off`: no smoothing.
@@ -410,13 +412,15 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         light_groups: args.light_groups.is_some() || args.sky_transfer.is_some(),
         scenarios: !args.scenario.is_empty(),
         target: Some(TargetSettings {
-            lambda: args.target_lambda,
+            lambda: args
+                .target_lambda
+                .unwrap_or_else(|| lightvol_sampler::target::default_target_lambda(args.target)),
             smoothing: threshold("--target-smoothing", Some(&args.target_smoothing), None)?,
             ..TargetSettings::new(args.target, args.sampling.seed)
         }),
     };
-    if !(args.target_lambda >= 0.0 && args.target_lambda.is_finite()) {
-        bail!("--target-lambda must be a number >= 0 (got {})", args.target_lambda);
+    if let Some(lambda) = args.target_lambda.filter(|l| !(*l >= 0.0 && l.is_finite())) {
+        bail!("--target-lambda must be a number >= 0 (got {lambda})");
     }
     request.validate().map_err(request_error)?;
     Ok(request)

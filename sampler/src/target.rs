@@ -69,11 +69,30 @@ pub const TARGET_RAYS_PER_NODE: u32 = 12;
 /// the trilinear supports of the node's neighbours that a surface point there reads.
 pub const TARGET_REACH_CELLS: f64 = 2.0;
 
-/// Default λ: how strongly node values stay at the bake's. Measured on six scenes through
-/// three.js's and Bevy's lookups at 0.05, 0.5 and 2 (sampler README): 0.05 lets nodes that
-/// few samples reach swing (Bevy's plate error on zdm2 rose from 0.047 to 0.131), 2 leaves
-/// most of the engine's error in place; 0.5 was best or near it on most.
-pub const DEFAULT_TARGET_LAMBDA: f64 = 0.5;
+/// Default λ for a lookup that reads the grid where the bake aimed, at the shading point
+/// (Bevy's, plain trilinear): how strongly node values stay at the bake's. Measured on the
+/// eight scenes of the README's method table at 0.1, 0.25, 0.5, 1 and 2 (sampler README):
+/// below 0.5 nodes that few samples reach swing (Bevy's plate error on zdm2 rose from 0.067
+/// to 0.118 at 0.1), above it more of the engine's error stays; 0.5 gave the lowest
+/// trilinear mean, and Bevy's within 0.6% of its lowest (at 1).
+pub const TARGET_LAMBDA_AT_POINT: f64 = 0.5;
+
+/// Default λ for a lookup that reads the grid away from the shading point (three.js half a
+/// cell along the normal, Unity APV by its normal and view biases): there the bake's own
+/// values are not what the lookup should read, and the fit needs the freedom to move them.
+/// Measured at 0.05, 0.1, 0.2 and 0.5 (sampler README): 0.1 gave the lowest means through
+/// both lookups, on two seeds.
+pub const TARGET_LAMBDA_OFFSET: f64 = 0.1;
+
+/// The default λ of a fit for `lookup` ([`TARGET_LAMBDA_OFFSET`] for the lookups that read
+/// away from the shading point, [`TARGET_LAMBDA_AT_POINT`] for the others).
+#[must_use]
+pub const fn default_target_lambda(lookup: EngineLookup) -> f64 {
+    match lookup {
+        EngineLookup::Three | EngineLookup::Apv => TARGET_LAMBDA_OFFSET,
+        EngineLookup::Lightvol | EngineLookup::Trilinear | EngineLookup::Bevy => TARGET_LAMBDA_AT_POINT,
+    }
+}
 
 /// `(A_0 Y_0)²`: the squared factor of the constant coefficient in the irradiance
 /// expansion, `(π · 1/(2√π))² = π/4`.
@@ -96,12 +115,13 @@ pub struct TargetSettings {
 }
 
 impl TargetSettings {
-    /// The fit for `lookup` with the default λ and rays, seeded by `seed`.
+    /// The fit for `lookup` with its default λ ([`default_target_lambda`]) and rays, seeded
+    /// by `seed`.
     #[must_use]
     pub fn new(lookup: EngineLookup, seed: u64) -> Self {
         Self {
             lookup,
-            lambda: DEFAULT_TARGET_LAMBDA,
+            lambda: default_target_lambda(lookup),
             rays_per_node: TARGET_RAYS_PER_NODE,
             seed,
             smoothing: Some(DEFAULT_SMOOTHING),

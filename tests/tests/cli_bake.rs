@@ -290,7 +290,7 @@ fn target_bakes_record_the_engine_and_refuse_what_they_cannot_do() {
     let (vp, vt) = (read_exr(&plain).unwrap(), read_exr(&three).unwrap());
     assert_eq!(vt.metadata().method, "doi target=three");
     let rec = vt.metadata().settings.as_ref().and_then(|r| r.target.clone()).expect("a target record");
-    assert_eq!((rec.lookup.as_str(), rec.lambda), ("three", lightvol_sampler::target::DEFAULT_TARGET_LAMBDA));
+    assert_eq!((rec.lookup.as_str(), rec.lambda), ("three", lightvol_sampler::target::TARGET_LAMBDA_OFFSET));
     assert_eq!(rec.smoothing, Some(lightvol_sampler::denoise::DEFAULT_SMOOTHING));
     // Without the smoothing the fit starts from the bake's own values: another volume,
     // recorded without a τ.
