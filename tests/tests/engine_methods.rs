@@ -120,15 +120,14 @@ fn reference() -> &'static Frame {
     REFERENCE.get_or_init(|| path_traced(&shot(), &LIGHT))
 }
 
-/// How much farther from the path-traced view than a fix's frame the targeted `doi`'s frame
-/// may be: through three.js the three bakes differ by less than their seed noise. Measured
-/// at seed 1: three.js doi 0.1742, APV 0.1780, DDGI 0.1818; Bevy 0.1799, 0.1972, 0.3488. At
-/// seed 2: three.js 0.1662, 0.1659, 0.1682 (a tie with APV); Bevy 0.1777, 0.1897, 0.3252.
-/// The seed moves each frame's error by up to 7%, so a strict inequality would test noise.
-const FRAME_TIE: f64 = 0.01;
+// Measured (relative RMSE of each frame against the path-traced view), seed 1: three.js
+// doi 0.1558, APV 0.1787, DDGI 0.1825; Bevy 0.1590, 0.1975, 0.3499. Seed 2: three.js
+// 0.1545, 0.1657, 0.1680; Bevy 0.1608, 0.1896, 0.3247. The targeted doi leads the nearest
+// fix by 12.8% at seed 1 (the seed of these bakes) and by 6.8% at seed 2, so the comparison
+// is strict.
 
 /// Each method's frame drawn by `engine` against the path-traced view; the targeted `doi`
-/// must be closer than both engine fixes, within [`FRAME_TIE`].
+/// must be closer than both engine fixes.
 fn targeted_doi_beats_the_fixes(engine: Engine) {
     let truth = reference();
     let interior = edge_mask(&shot());
@@ -147,12 +146,7 @@ fn targeted_doi_beats_the_fixes(engine: Engine) {
     }
     let doi = errors[0].1;
     for &(method, err) in &errors[1..] {
-        assert!(
-            doi <= err * (1.0 + FRAME_TIE),
-            "{}: doi --target {} {doi} against {method} {err}",
-            engine.name(),
-            engine.name()
-        );
+        assert!(doi < err, "{}: doi --target {} {doi} against {method} {err}", engine.name(), engine.name());
     }
 }
 
