@@ -342,6 +342,15 @@ fn print_report(args: &BakeArgs, report: &BakeReport) -> anyhow::Result<()> {
                 report.filled_nodes
             );
         }
+        if let Some(n) = &report.node_noise {
+            eprintln!(
+                "noise of the {} sampled nodes (estimated relative error of each one's mean): median {:.1}%, 90% at most {:.1}%, worst {:.1}% (--noise N samples each until it is below N)",
+                n.nodes,
+                100.0 * n.median,
+                100.0 * n.p90,
+                100.0 * n.max
+            );
+        }
         if let Some(n) = &report.noise {
             eprintln!(
                 "until converged: {} units to a relative error of {} with {} samples in their final rounds (mean {:.0} per unit), {} stopped at --max-samples {}",

@@ -148,7 +148,9 @@ pub(crate) struct SampleArgs {
     /// from how far the mean of the unit's first half and first quarter of samples lie from
     /// the mean of all of them. Each unit's count depends only on its own
     /// samples, so results stay bit-identical for any thread or shard count; the report
-    /// says how many samples were spent and how many units stopped at the cap.
+    /// says how many samples were spent and how many units stopped at the cap. Every `doi`
+    /// bake reports how noisy its nodes came out (median, 90th percentile, worst), with or
+    /// without it, to choose N from.
     #[arg(long, value_name = "N")]
     pub(crate) noise: Option<f64>,
     /// The most samples a unit gets under --noise.

@@ -79,6 +79,10 @@ pub struct BakeReport {
     /// The samples a bake until converged spent, when it had a noise target.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub noise: Option<NoiseReport>,
+    /// How noisy the nodes' estimates came out (`doi`, the method that keeps each node's
+    /// error estimate, [`crate::bake::BakeOutput::node_error`]; a shard's nodes in a shard).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub node_noise: Option<NodeNoiseReport>,
     /// The light groups, when the bake was split by them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub light_groups: Option<LightGroupsReport>,
@@ -115,6 +119,38 @@ pub struct NoiseReport {
     pub final_samples: u64,
     /// Units that reached the cap before the target.
     pub capped_units: u64,
+}
+
+/// The spread of the nodes' estimated relative errors ([`crate::noise`]'s prefix estimate
+/// of each node's mean over its kept samples): what a bake at a fixed sample count reached,
+/// to judge it by, or to choose a `--noise` target from.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NodeNoiseReport {
+    /// Nodes with an estimate (samples of their own, enough of them and some light).
+    pub nodes: usize,
+    /// The median estimate.
+    pub median: f64,
+    /// The 90th percentile: nine nodes in ten are at most this noisy.
+    pub p90: f64,
+    /// The largest estimate.
+    pub max: f64,
+}
+
+impl NodeNoiseReport {
+    /// The spread of `node_error` (NaN where a node has no estimate); `None` when no node
+    /// has one. Percentiles are nearest-rank (`⌈p n⌉`-th smallest).
+    #[must_use]
+    pub fn of(node_error: &[f32]) -> Option<Self> {
+        let mut e: Vec<f64> = node_error.iter().filter(|x| x.is_finite()).map(|&x| f64::from(x)).collect();
+        e.sort_by(f64::total_cmp);
+        let rank = |p: f64| e[((p * e.len() as f64).ceil() as usize).clamp(1, e.len()) - 1];
+        (!e.is_empty()).then(|| Self {
+            nodes: e.len(),
+            median: rank(0.5),
+            p90: rank(0.9),
+            max: e[e.len() - 1],
+        })
+    }
 }
 
 /// Size and cost figures of a bake (flattened into [`BakeReport`]).
@@ -201,6 +237,7 @@ impl BakeReport {
             filled_nodes: bake.fill.filled,
             reach_rays: s.reach_rays,
             mrays_per_second: s.mrays_per_second(),
+            node_noise: NodeNoiseReport::of(&bake.output.node_error),
             noise: request.noise.map(|n| NoiseReport {
                 relative_error: n.relative_error,
                 max_samples: n.max_samples.get(),
@@ -300,6 +337,7 @@ impl BakeReport {
             gradients: None,
             baseline: None,
             noise: None,
+            node_noise: None,
             light_groups: None,
         }
     }
@@ -463,12 +501,45 @@ mod tests {
         assert_eq!((r.scale.triangles, r.scale.unique_triangles, r.scale.instances), (tris, tris, 0));
         assert_eq!(r.scale.estimated_memory_bytes, estimate(&loaded));
         assert_eq!(r.scale.total_seconds, 1.5);
-        assert!(r.gradients.is_none() && r.baseline.is_none());
+        assert!(r.gradients.is_none() && r.baseline.is_none() && r.node_noise.is_none());
         // The scale is flattened between the throughput and the output; absent parts are left out.
         let json = serde_json::to_string(&r).unwrap();
         let at = |k: &str| json.find(&format!("\"{k}\":")).unwrap_or_else(|| panic!("{k} in {json}"));
         assert!(at("mrays_per_second") < at("triangles") && at("total_seconds") < at("output"), "{json}");
         assert!(!json.contains("\"gradients\"") && !json.contains("\"baseline\""), "{json}");
+    }
+
+    /// Nearest-rank percentiles over the nodes with an estimate; NaN and infinite ones are
+    /// left out, and a bake without any has no report.
+    #[test]
+    fn node_noise_is_the_spread_of_the_estimates() {
+        let mut e: Vec<f32> = (1..=10).rev().map(|i| i as f32 / 100.0).collect();
+        e.extend([f32::NAN, f32::INFINITY, f32::NAN]);
+        let r = NodeNoiseReport::of(&e).unwrap();
+        assert_eq!(r.nodes, 10);
+        assert_eq!((r.median, r.p90, r.max), (f64::from(0.05f32), f64::from(0.09f32), f64::from(0.1f32)));
+        let one = NodeNoiseReport::of(&[0.25]).unwrap();
+        assert_eq!((one.nodes, one.median, one.p90, one.max), (1, 0.25, 0.25, 0.25));
+        assert!(NodeNoiseReport::of(&[f32::NAN; 4]).is_none());
+        assert!(NodeNoiseReport::of(&[]).is_none());
+    }
+
+    /// A `doi` bake reports its nodes' noise (the other methods keep no per-node estimate).
+    #[test]
+    fn a_doi_bake_reports_its_nodes_noise() {
+        let (loaded, grid) = maze();
+        let tracer = Tracer::new(&loaded.scene);
+        let t = Transport::new(&loaded.scene, &tracer, Default::default());
+        let request = BakeRequest::new(BakeMethod::Grid(Method::Doi), samples(64));
+        let p = Provenance { frame: loaded.frame, key: "k" };
+        let bake = bake_uniform(&t, &loaded.scene, &grid, &request, p, &BakeControl::default()).unwrap();
+        let r = BakeReport::uniform(&loaded, &grid, &request, &bake, run());
+        let n = r.node_noise.clone().expect("a doi bake estimates its nodes' errors");
+        assert_eq!(Some(n.clone()), NodeNoiseReport::of(&bake.output.node_error));
+        assert!(n.nodes > 0 && n.nodes <= grid.node_count(), "{n:?}");
+        assert!(0.0 <= n.median && n.median <= n.p90 && n.p90 <= n.max, "{n:?}");
+        let json = serde_json::to_value(&r).unwrap();
+        assert_eq!(json["node_noise"]["nodes"], n.nodes);
     }
 
     #[test]
