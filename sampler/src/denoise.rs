@@ -93,20 +93,26 @@ fn light_of(values: &[f32]) -> f64 {
 fn neighbourhood_mean(spec: &GridSpec, i: usize, value: impl Fn(usize) -> Option<f64>) -> f64 {
     let at = spec.node_coords(i);
     let res = spec.res();
-    let mut nodes = vec![i];
+    let (mut sum, mut n) = (0.0, 0.0);
+    let mut add = |node: usize| {
+        if let Some(v) = value(node) {
+            sum += v;
+            n += 1.0;
+        }
+    };
+    add(i);
     for a in 0..3 {
         if at[a] > 0 {
             let mut c = at;
             c[a] -= 1;
-            nodes.push(spec.node_index(c[0], c[1], c[2]));
+            add(spec.node_index(c[0], c[1], c[2]));
         }
         if at[a] + 1 < res[a] {
             let mut c = at;
             c[a] += 1;
-            nodes.push(spec.node_index(c[0], c[1], c[2]));
+            add(spec.node_index(c[0], c[1], c[2]));
         }
     }
-    let (sum, n) = nodes.into_iter().filter_map(value).fold((0.0, 0.0), |(s, n), v| (s + v, n + 1.0));
     sum / n
 }
 
