@@ -37,7 +37,8 @@ fn scene_label(scene: &str) -> String {
     Path::new(scene).file_stem().map_or_else(|| scene.to_owned(), |s| s.to_string_lossy().into_owned())
 }
 
-/// The rows of one `report.json`.
+/// The rows of one `report.json`: its plate's, then each view's (`SCENE (CAMERA view)`,
+/// whose `too_dark_near` column holds the share of the view's pixels that are too dark).
 fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
     let (file, v) = read_report(path)?;
     let scene = v["scene"].as_str().with_context(|| format!("{}: no \"scene\"", file.display()))?;
@@ -66,6 +67,36 @@ fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
     }
     if rows.is_empty() {
         bail!("{}: no methods", file.display());
+    }
+    // Each view through a camera: one more entry per method, its error over the view's
+    // pixels, from the same bake (its rays and seconds).
+    let plates = rows.clone();
+    for view in v["views"].as_array().into_iter().flatten() {
+        let camera = view["camera"]
+            .as_str()
+            .with_context(|| format!("{}: a view without \"camera\"", file.display()))?;
+        let of = view["methods"]
+            .as_object()
+            .with_context(|| format!("{}: view {camera} has no \"methods\" object", file.display()))?;
+        for (name, m) in of {
+            let (method, lookup) = name.rsplit_once('@').unwrap_or((name.as_str(), first));
+            let plate =
+                plates.iter().find(|r| r.method == method && r.lookup == lookup).with_context(|| {
+                    format!("{}: view {camera} has {name}, the plate does not", file.display())
+                })?;
+            let num = |k: &str| {
+                m[k].as_f64().with_context(|| {
+                    format!("{}: {name} in view {camera} has no number \"{k}\"", file.display())
+                })
+            };
+            rows.push(TableRow {
+                scene: format!("{} ({camera} view)", scene_label(scene)),
+                rel_rmse: num("rel_rmse")?,
+                too_dark_near: num("too_dark")?,
+                too_bright: num("too_bright")?,
+                ..plate.clone()
+            });
+        }
     }
     // The ways in the order the comparison read them (the methods map is sorted by name).
     if let Some(ways) = v["lookups"].as_array() {
@@ -189,5 +220,44 @@ mod tests {
         let c = report(dir.path(), "c.json", "hall.glb", 256, 0.25, 0.35);
         let e = samples_plot(&[a, c], &stem).unwrap_err().to_string();
         assert!(e.contains("room, hall"), "{e}");
+    }
+
+    /// A view of a report becomes one more entry per method, after the plate's, with the
+    /// view's error and the bake's rays and seconds; a view naming a method the plate lacks
+    /// is refused.
+    #[test]
+    fn views_are_entries_of_their_own() {
+        let dir = tempfile::tempdir().unwrap();
+        let entry = |e: f64| serde_json::json!({"rel_rmse": e, "too_dark_near": 0.1, "too_bright": 0.2, "rays": {"total": 7}, "seconds": 1.5});
+        let view = |e: f64| serde_json::json!({"rel_rmse": e, "too_dark": 0.3, "too_bright": 0.4});
+        let write = |name: &str, view_method: &str| {
+            let v = serde_json::json!({
+                "scene": "data/room.glb",
+                "methods": {"doi": entry(0.2), "point+apv": entry(0.4)},
+                "views": [{"camera": "Main", "methods": {"doi": view(0.25), view_method: view(0.5)}}]
+            });
+            let p = dir.path().join(name);
+            std::fs::write(&p, v.to_string()).unwrap();
+            p
+        };
+        let rows = rows_of(&write("a.json", "point+apv")).unwrap();
+        let got: Vec<(&str, &str, f64, f64, u64)> = rows
+            .iter()
+            .map(|r| (r.scene.as_str(), r.method.as_str(), r.rel_rmse, r.too_dark_near, r.rays))
+            .collect();
+        assert_eq!(
+            got,
+            vec![
+                ("room", "doi", 0.2, 0.1, 7),
+                ("room", "point+apv", 0.4, 0.1, 7),
+                ("room (Main view)", "doi", 0.25, 0.3, 7),
+                ("room (Main view)", "point+apv", 0.5, 0.3, 7),
+            ]
+        );
+        // The means run over plates and views: doi (0.2 + 0.25) / 2 against 0.45.
+        let table = markdown_table(&rows);
+        assert!(table.contains("| doi | 0.225 | 2 | 0.50 |"), "{table}");
+        let e = rows_of(&write("b.json", "point+vlm")).unwrap_err().to_string();
+        assert!(e.contains("point+vlm"), "{e}");
     }
 }
