@@ -61,17 +61,7 @@ where
             print!("{e}");
             return Ok(ExitCode::SUCCESS);
         }
-        Err(e) => {
-            return Err(anyhow::anyhow!(
-                "{}",
-                e.to_string()
-                    .lines()
-                    .next()
-                    .unwrap_or("invalid arguments")
-                    .trim_start_matches("error: ")
-                    .to_owned()
-            ));
-        }
+        Err(e) => return Err(anyhow::anyhow!("{}", clap_message(&e.to_string()))),
     };
     // A kernel named in the environment that this machine cannot run is refused here, in
     // one line, rather than silently replaced (results are the same on every kernel).
@@ -148,8 +138,42 @@ fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
     text.starts_with("failed printing to stdout") && text.contains("Broken pipe")
 }
 
+/// A clap error's message on one line: its first paragraph (the usage and the hints that
+/// follow are left out), whose lines, such as the names of missing arguments under "the
+/// following required arguments were not provided:", are joined.
+fn clap_message(text: &str) -> String {
+    let first: Vec<&str> = text.lines().map(str::trim).take_while(|l| !l.is_empty()).collect();
+    let joined = first.join(" ");
+    let message = joined.trim_start_matches("error: ");
+    if message.is_empty() { "invalid arguments".to_owned() } else { message.to_owned() }
+}
+
 /// The error and its context chain on one line.
 #[must_use]
 fn one_line(err: &anyhow::Error) -> String {
     format!("{err:#}").replace('\n', " ")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A clap error keeps what its first paragraph lists (the missing arguments) and drops
+    /// the usage and the hints.
+    #[test]
+    fn clap_errors_keep_their_first_paragraph() {
+        let missing = "error: the following required arguments were not provided:\n  --target <ENGINE>\n\nUsage: lightvol bake --target <ENGINE> <SCENE>\n\nFor more information, try '--help'.\n";
+        assert_eq!(
+            clap_message(missing),
+            "the following required arguments were not provided: --target <ENGINE>"
+        );
+        let unknown =
+            "error: unexpected argument '--foo' found\n\n  tip: to pass '--foo' as a value, use '-- --foo'\n";
+        assert_eq!(clap_message(unknown), "unexpected argument '--foo' found");
+        assert_eq!(clap_message(""), "invalid arguments");
+        // Through the binary's parser: the missing argument is named on the one line.
+        let e = run_from_args(["lightvol", "bake", "builtin:maze", "--target-lambda", "0.3"]).unwrap_err();
+        let line = one_line(&e);
+        assert!(line.contains("--target <ENGINE>") && !line.contains('\n'), "{line}");
+    }
 }
