@@ -73,26 +73,29 @@ pub(crate) struct BakeArgs {
     /// method's own: `basis` for prefilter and doi-paper, `central` for the others.
     #[arg(long, value_enum, value_name = "ESTIMATOR", num_args = 0..=1)]
     pub(crate) gradients: Option<Option<GradientEstimatorArg>>,
-    /// Choose the node values for this engine's lookup instead of lightvol's: `three`
-    /// (three.js LightProbeGrid), `bevy` (Bevy's irradiance volume), `apv` (Unity APV's
-    /// lookup; the file gets a validity mask), `trilinear` (any engine that filters the
-    /// texture trilinearly, Godot) or `lightvol` (the default: no fit). After the bake,
+    /// Choose the node values for this engine's lookup: `three` (three.js
+    /// LightProbeGrid), `bevy` (Bevy's irradiance volume), `apv` (Unity APV's lookup; the
+    /// file gets a validity mask), `trilinear` (any engine that filters the texture
+    /// trilinearly, Godot) or `lightvol` (lightvol's own lookup and shaders). After the bake,
+    /// the `doi` bake's noisy nodes are smoothed (--target-smoothing) and, for an engine,
     /// a least-squares fit makes the engine's reconstruction match lightvol's own reading
     /// of the bake over points near surfaces and in free space in the domain of interest,
     /// held to the baked values by --target-lambda (12 extra rays per node find the points;
-    /// no light path is traced). The file records the target, and `export` warns when it
-    /// writes the volume for another engine. Uniform bakes only, not sharded.
-    #[arg(long, value_name = "ENGINE", default_value_t = lightvol_volume::EngineLookup::Lightvol)]
-    pub(crate) target: lightvol_volume::EngineLookup,
+    /// no light path is traced; `lightvol` fits nothing and traces no extra ray). Without
+    /// --target the bake's values are written as sampled. The file records the target, and
+    /// `export` warns when it writes the volume for another engine. Uniform bakes only, not
+    /// sharded.
+    #[arg(long, value_name = "ENGINE")]
+    pub(crate) target: Option<lightvol_volume::EngineLookup>,
     /// The --target fit's weight toward the baked values (0: a pure least-squares fit).
     /// Default: 0.1 for three and apv (they read the grid away from the shading point, so
     /// the fit needs room to move the values), 0.5 for bevy and trilinear.
-    #[arg(long, value_name = "LAMBDA")]
+    #[arg(long, value_name = "LAMBDA", requires = "target")]
     pub(crate) target_lambda: Option<f64>,
-    /// Before the --target fit, smooth the `doi` bake's node values where their own samples
-    /// say they are noisy: TAU is the relative difference between neighbouring nodes'
+    /// With --target, smooth the `doi` bake's node values where their own samples say
+    /// they are noisy (before the fit, if any): TAU is the relative difference between neighbouring nodes'
     /// light the smoothing expects (smaller smooths more); `off`: no smoothing.
-    #[arg(long, value_name = "TAU|off", default_value_t = lightvol_sampler::denoise::DEFAULT_SMOOTHING.to_string())]
+    #[arg(long, value_name = "TAU|off", requires = "target", default_value_t = lightvol_sampler::denoise::DEFAULT_SMOOTHING.to_string())]
     pub(crate) target_smoothing: String,
     /// Split the bake by light group, from the same paths (no extra rays): the file keeps
     /// the whole bake and one volume per group, and scaling and summing the groups (`lightvol
@@ -411,13 +414,16 @@ pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> any
         noise: args.sampling.noise_target()?,
         light_groups: args.light_groups.is_some() || args.sky_transfer.is_some(),
         scenarios: !args.scenario.is_empty(),
-        target: Some(TargetSettings {
-            lambda: args
-                .target_lambda
-                .unwrap_or_else(|| lightvol_sampler::target::default_target_lambda(args.target)),
-            smoothing: threshold("--target-smoothing", Some(&args.target_smoothing), None)?,
-            ..TargetSettings::new(args.target, args.sampling.seed)
-        }),
+        target: match args.target {
+            Some(lookup) => Some(TargetSettings {
+                lambda: args
+                    .target_lambda
+                    .unwrap_or_else(|| lightvol_sampler::target::default_target_lambda(lookup)),
+                smoothing: threshold("--target-smoothing", Some(&args.target_smoothing), None)?,
+                ..TargetSettings::new(lookup, args.sampling.seed)
+            }),
+            None => None,
+        },
     };
     if let Some(lambda) = args.target_lambda.filter(|l| !(*l >= 0.0 && l.is_finite())) {
         bail!("--target-lambda must be a number >= 0 (got {lambda})");

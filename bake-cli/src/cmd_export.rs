@@ -151,9 +151,9 @@ fn grouped_volume(path: &std::path::Path) -> anyhow::Result<Option<lightvol_volu
 /// lightvol's own lookup and shader code read); `None` when they agree or there is no target.
 fn target_warning(record: &lightvol_volume::BakeRecord, reads: Option<&str>) -> Option<String> {
     let t = record.target.as_ref()?;
-    (reads != Some(t.lookup.as_str())).then(|| {
+    (reads.unwrap_or("lightvol") != t.lookup.as_str()).then(|| {
         format!(
-            "warning: the volume's node values were fitted for the {} lookup (bake --target {}); {} reads them differently, so the fit's gain is lost there: bake again with --target {} for it",
+            "warning: the volume's node values were chosen for the {} lookup (bake --target {}); {} reads them differently, so the fit's gain is lost there: bake again with --target {} for it",
             t.lookup,
             t.lookup,
             reads.map_or("a texture read by lightvol's lookup".to_owned(), |r| format!("the {r} lookup")),
@@ -167,7 +167,8 @@ mod tests {
     use super::*;
 
     /// A volume fitted for three.js warns when exported for Bevy or as a plain texture, not
-    /// for three.js; a volume without a target never warns.
+    /// for three.js; one chosen for lightvol's lookup warns for an engine, not as a plain
+    /// texture; a volume without a target never warns.
     #[test]
     fn exports_for_another_engine_warn() {
         let mut r = lightvol_volume::BakeRecord {
@@ -188,8 +189,17 @@ mod tests {
             Some(lightvol_volume::TargetRecord { lookup: "three".into(), lambda: 0.5, smoothing: None });
         assert_eq!(target_warning(&r, Some("three")), None);
         let w = target_warning(&r, Some("bevy")).unwrap();
-        assert!(w.contains("fitted for the three lookup") && w.contains("--target bevy"), "{w}");
+        assert!(w.contains("chosen for the three lookup") && w.contains("--target bevy"), "{w}");
         let w = target_warning(&r, None).unwrap();
         assert!(w.contains("lightvol's lookup") && w.contains("--target lightvol"), "{w}");
+        // Smoothed for lightvol's own lookup: the plain textures read it as chosen.
+        r.target = Some(lightvol_volume::TargetRecord {
+            lookup: "lightvol".into(),
+            lambda: 0.5,
+            smoothing: Some(0.5),
+        });
+        assert_eq!(target_warning(&r, None), None);
+        let w = target_warning(&r, Some("three")).unwrap();
+        assert!(w.contains("chosen for the lightvol lookup") && w.contains("--target three"), "{w}");
     }
 }

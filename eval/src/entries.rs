@@ -12,7 +12,7 @@
 //! | `point`, `prefilter`, `doi`, `doi-paper`, `doi-node` | [`Entry::Uniform`] |
 //! | `BASE+average`, `BASE+lsq`, `BASE+lsq:λ` | [`Entry::Fitted`] |
 //! | `BASE+taylor`, `BASE+gtrilinear`, `BASE+hermite` | [`Entry::Gradient`] |
-//! | `BASE+three`, `BASE+bevy`, `BASE+trilinear`, `BASE+apv` | [`Entry::Targeted`] |
+//! | `BASE+three`, `BASE+bevy`, `BASE+trilinear`, `BASE+apv`, `BASE+lightvol` | [`Entry::Targeted`] |
 //! | `BASE+relit`, `BASE+relit2`, `BASE+relit4` | [`Entry::Relit`] |
 //! | `BASE+skyocc` | [`Entry::SkyOcclusion`] |
 //! | `adaptive` (= `adaptive2`), `adaptive1`, `adaptive3` | [`Entry::Adaptive`] |
@@ -197,9 +197,7 @@ pub fn parse_entry(s: &str) -> Result<Entry, EvalError> {
             fit.parse::<Fit>().map_err(|message| EvalError::Fit { entry: s.to_owned(), message })?,
         )),
         Some((base, lookup)) => match EngineLookup::parse(lookup) {
-            Some(engine) if engine != EngineLookup::Lightvol => {
-                Ok(Entry::Targeted(parse_method(base)?, engine))
-            }
+            Some(engine) => Ok(Entry::Targeted(parse_method(base)?, engine)),
             _ => Ok(Entry::Gradient(parse_method(base)?, parse_lookup(lookup)?)),
         },
     }
@@ -364,11 +362,15 @@ mod tests {
         assert_eq!(parse_entry("doi+skyocc").unwrap(), Entry::SkyOcclusion(Method::Doi));
         assert_eq!(Entry::SkyOcclusion(Method::Point).to_string(), "point+skyocc");
         assert_eq!(parse_entry("doi+three").unwrap(), Entry::Targeted(Method::Doi, EngineLookup::Three));
+        assert_eq!(
+            parse_entry("doi+lightvol").unwrap(),
+            Entry::Targeted(Method::Doi, EngineLookup::Lightvol)
+        );
         assert_eq!(parse_entry("bound+three").unwrap(), Entry::Bound(EngineLookup::Three));
         assert_eq!(parse_entry("bound+lightvol").unwrap(), Entry::Bound(EngineLookup::Lightvol));
         assert_eq!(Entry::Bound(EngineLookup::Apv).to_string(), "bound+apv");
         assert!(parse_entry("bound+unity").unwrap_err().to_string().contains("'unity'"));
-        assert!(parse_entry("doi+lightvol").is_err(), "lightvol's lookup is the plain bake");
+        assert_eq!(Entry::Targeted(Method::Doi, EngineLookup::Lightvol).to_string(), "doi+lightvol");
         assert_eq!(parse_entry("point+vlm").unwrap(), Entry::Baseline(Baseline::Vlm));
         assert!(parse_entry("doi+lsq:-2").is_err());
         assert_eq!(parse_entry("adaptive1").unwrap(), Entry::Adaptive(1));

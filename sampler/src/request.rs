@@ -73,8 +73,9 @@ pub struct BakeRequest {
     pub keep_accumulator: bool,
     /// An octree bake instead of a uniform one.
     pub adaptive: Option<AdaptiveRequest>,
-    /// Node values chosen for this engine lookup ([`crate::target`]; `None` or
-    /// [`EngineLookup::Lightvol`]: for lightvol's own).
+    /// Node values chosen for this engine lookup ([`crate::target`]; `None`: the plain
+    /// bake; [`EngineLookup::Lightvol`]: for lightvol's own, the plain bake smoothed where
+    /// it is noisy).
     pub target: Option<TargetSettings>,
     /// Sample each unit until its estimate converges ([`crate::noise`]).
     pub noise: Option<NoiseTarget>,
@@ -148,14 +149,15 @@ impl BakeRequest {
         })
     }
 
-    /// The engine lookup the node values are fitted for, when not lightvol's own; the
-    /// smoothing before the fit only where the bake estimates each node's error (`doi`).
+    /// The engine lookup the node values are chosen for, with the smoothing before the fit
+    /// only where the bake estimates each node's error (`doi`). Lightvol's own lookup is a
+    /// target only with that smoothing (it fits nothing): without it the bake is plain.
     #[must_use]
     pub fn effective_target(&self) -> Option<TargetSettings> {
         let doi = self.method == BakeMethod::Grid(Method::Doi);
         self.target
-            .filter(|t| t.lookup != EngineLookup::Lightvol)
             .map(|t| TargetSettings { smoothing: t.smoothing.filter(|_| doi), ..t })
+            .filter(|t| t.lookup != EngineLookup::Lightvol || t.smoothing.is_some())
     }
 
     /// The method label in reports and file metadata: the method's name, with the fit when it

@@ -250,11 +250,13 @@ pub fn own_samples_mask(acc: &Accumulator) -> ValidityMask {
 /// through lightvol's lookup for the samples' values), over `transport`'s scene. The result
 /// has the bake's grid and metadata, no node reach (no engine reads one) and, for
 /// [`EngineLookup::Apv`], the validity mask `valid` (APV's lookup renormalises over the
-/// valid nodes; `None`: every node valid). [`EngineLookup::Lightvol`] returns the volume as
-/// it is: the bake is already chosen for lightvol's lookup. With the bake's per-node error
+/// valid nodes; `None`: every node valid). With the bake's per-node error
 /// estimates `node_error` ([`crate::bake::BakeOutput::node_error`]) and
 /// `settings.smoothing`, the bake's values are first smoothed where they are noisy
 /// ([`smooth_by_noise`]), and the fit starts from and aims at the smoothed values.
+/// [`EngineLookup::Lightvol`] fits nothing (the bake is already chosen for lightvol's
+/// lookup) and traces no ray: it returns the smoothed volume, reach and all, or the volume
+/// as it is without error estimates or smoothing.
 ///
 /// # Errors
 /// [`BakeError::Settings`] for a negative or non-finite λ, a mask or error list of the
@@ -268,9 +270,6 @@ pub fn fit_for_lookup(
 ) -> Result<(IrradianceVolume, TargetReport), BakeError> {
     if !(settings.lambda >= 0.0 && settings.lambda.is_finite()) {
         return Err(BakeError::Settings(format!("target λ must be >= 0 (got {})", settings.lambda)));
-    }
-    if settings.lookup == EngineLookup::Lightvol {
-        return Ok((volume.clone(), TargetReport::default()));
     }
     let nodes = volume.spec().node_count();
     if valid.as_ref().is_some_and(|m| m.len() != nodes) {
@@ -291,6 +290,10 @@ pub fn fit_for_lookup(
         }
         _ => volume,
     };
+    if settings.lookup == EngineLookup::Lightvol {
+        // The bake's values are already chosen for lightvol's lookup: smoothed, no fit.
+        return Ok((volume.clone(), TargetReport { smoothing, ..TargetReport::default() }));
+    }
     // Nodes without samples of their own (filled from their neighbours) shoot no rays.
     let shoots = |node: usize| valid.as_ref().is_none_or(|m| m.is_valid(node));
     let per_node: Vec<(Vec<Sample>, u64)> = (0..nodes)

@@ -77,8 +77,8 @@ fn the_solver_recovers_values_the_lookup_can_reproduce() {
 
 /// The fit on a real bake: for each engine, the engine's reading of the fitted volume is
 /// closer to lightvol's reading of the bake than its reading of the bake itself was; the
-/// result does not depend on the thread count; lightvol's own lookup leaves the bake as it
-/// is; the fit traces `TARGET_RAYS_PER_NODE` rays per node, and the fitted file keeps no
+/// result does not depend on the thread count; lightvol's own lookup only smooths the
+/// bake; the fit traces `TARGET_RAYS_PER_NODE` rays per node, and the fitted file keeps no
 /// reach (APV's gets the validity mask).
 #[test]
 fn fits_bring_each_engine_closer_to_lightvols_reading() {
@@ -116,9 +116,20 @@ fn fits_bring_each_engine_closer_to_lightvols_reading() {
             let (again, r1) = one.install(|| fit_for_lookup(&t, &vol, &s, Some(valid.clone()), e).unwrap());
             assert_eq!((again.data(), r1), (fitted.data(), r), "{lookup}: thread count");
         }
-        let (same, r) =
-            fit_for_lookup(&t, &vol, &TargetSettings::new(EngineLookup::Lightvol, 5), None, e).unwrap();
-        assert_eq!((same.data(), r.rays), (vol.data(), 0));
+        // Lightvol's own lookup: the smoothed bake (the smoothing's own result, reach and
+        // all), no ray; without error estimates or without the smoothing, the bake as it is.
+        let own = TargetSettings::new(EngineLookup::Lightvol, 5);
+        let (smoothed, r) = fit_for_lookup(&t, &vol, &own, Some(valid.clone()), e).unwrap();
+        let tau = own.smoothing.unwrap();
+        let (expect, sr) = smooth_by_noise(&vol, &valid, &errors, tau).unwrap();
+        assert_eq!((smoothed.data(), r.rays, r.smoothing), (expect.data(), 0, Some(sr)), "{name}");
+        assert!(smoothed.reach().is_some() && smoothed.reach() == vol.reach(), "{name}: the reach is kept");
+        assert_ne!(smoothed.data(), vol.data(), "{name}: 32 samples leave noise to smooth");
+        for (errs, smoothing) in [(None, own.smoothing), (e, None)] {
+            let s = TargetSettings { smoothing, ..own };
+            let (same, r) = fit_for_lookup(&t, &vol, &s, Some(valid.clone()), errs).unwrap();
+            assert_eq!((same.data(), r.rays), (vol.data(), 0));
+        }
     }
 }
 

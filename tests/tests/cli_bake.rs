@@ -273,7 +273,7 @@ fn least_squares_fit_bakes_and_refuses_what_it_cannot_do() {
 /// `bake --target`: the fitted volume records its target in the file and in every export's
 /// sidecar, changes the node values but not the grid, and is refused where the fit cannot
 /// run (a shard, an engine baseline, an octree, gradients, a negative λ) in one line,
-/// writing nothing.
+/// writing nothing; `--target lightvol` only smooths.
 #[test]
 fn target_bakes_record_the_engine_and_refuse_what_they_cannot_do() {
     let dir = tempfile::tempdir().unwrap();
@@ -313,12 +313,29 @@ fn target_bakes_record_the_engine_and_refuse_what_they_cannot_do() {
     let sidecar: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("three.ktx2.json")).unwrap()).unwrap();
     assert_eq!(sidecar["bake"]["settings"]["target"]["lookup"], "three");
-    // `--target lightvol` is the plain bake.
-    let same = d.join("same.exr");
-    let mut a = vec!["bake", "builtin:maze", "--target", "lightvol", "-o", s(&same)];
+    // `--target lightvol` smooths the bake's noisy nodes and fits nothing: the same grid and
+    // node reach, other values, the target recorded; without the smoothing it is the plain
+    // bake.
+    let smoothed = d.join("lightvol.exr");
+    let mut a = vec!["bake", "builtin:maze", "--target", "lightvol", "-o", s(&smoothed)];
     a.extend_from_slice(&common);
     ok(&a);
-    assert_eq!(read_exr(&same).unwrap().data(), vp.data());
+    let vl = read_exr(&smoothed).unwrap();
+    assert_eq!(vl.metadata().method, "doi target=lightvol");
+    assert_eq!(vl.spec(), vp.spec());
+    assert!(vl.reach().is_some() && vl.reach() == vp.reach(), "the node reach is kept");
+    assert_ne!(vl.data(), vp.data());
+    let same = d.join("same.exr");
+    let mut a =
+        vec!["bake", "builtin:maze", "--target", "lightvol", "--target-smoothing", "off", "-o", s(&same)];
+    a.extend_from_slice(&common);
+    ok(&a);
+    let vs = read_exr(&same).unwrap();
+    assert_eq!((vs.data(), vs.metadata().method.as_str()), (vp.data(), "doi"));
+    // The fit's settings without a target are refused.
+    let e =
+        run(&["bake", "builtin:maze", "--target-lambda", "0.3", "-o", s(&same)]).expect_err("needs --target");
+    assert!(e.contains("--target"), "{e}");
     for (extra, says) in [
         (&["--shard", "0/2"][..], "a shard"),
         (&["--method", "point+apv"][..], "an engine baseline"),
