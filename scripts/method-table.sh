@@ -17,7 +17,7 @@ out=${1:-method-table}
 root=$(cd "$(dirname "$0")/.." && pwd)
 cargo build --release -q -p lightvol --manifest-path "$root/Cargo.toml"
 lv="$root/target/release/lightvol"
-methods=point,prefilter,doi-paper,doi-node,doi,doi+three,doi+bevy,doi+trilinear,doi+apv,point+validity,point+apv,point+vlm,point+ddgi
+methods=point,prefilter,doi-paper,doi-node,doi,doi+lightvol,doi+three,doi+bevy,doi+trilinear,doi+apv,point+validity,point+apv,point+vlm,point+ddgi
 lookups=lightvol,native,three,bevy,trilinear,apv
 dirs=""
 for scene in builtin:city builtin:interior builtin:maze \
