@@ -87,24 +87,7 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     if let (Some(t), Some(r), false) = (request.effective_target(), &bake.target, args.json) {
-        eprintln!(
-            "fitted for the {} lookup (λ = {}): {} nodes from {} surface and {} free-space samples ({} rays, {} CG iterations); the engine's reading differs from lightvol's by {:.4} relative RMS before the fit, {:.4} after",
-            t.lookup,
-            t.lambda,
-            r.nodes_fitted,
-            r.surface_samples,
-            r.free_samples,
-            r.rays,
-            r.iterations,
-            r.relative_rms_before,
-            r.relative_rms_after
-        );
-        if let Some(m) = r.smoothing {
-            eprintln!(
-                "smoothed {} noisy nodes first (median estimated error {:.3}, {} edges, {} CG iterations)",
-                m.nodes, m.median_error, m.edges, m.iterations
-            );
-        }
+        print_target(t, r);
     }
     let vol = &bake.volume;
     match (&bake.gradients, &bake.groups) {
@@ -375,4 +358,37 @@ fn print_report(args: &BakeArgs, report: &BakeReport) -> anyhow::Result<()> {
         eprintln!("wrote {}", args.output.display());
     }
     Ok(())
+}
+
+/// The plain report's lines on a `--target` bake: the fit (none for lightvol's own lookup)
+/// and the smoothing before it.
+fn print_target(t: lightvol_sampler::target::TargetSettings, r: &lightvol_sampler::target::TargetReport) {
+    if t.lookup != lightvol_volume::EngineLookup::Lightvol {
+        eprintln!(
+            "fitted for the {} lookup (λ = {}): {} nodes from {} surface and {} free-space samples ({} rays, {} CG iterations); the engine's reading differs from lightvol's by {:.4} relative RMS before the fit, {:.4} after",
+            t.lookup,
+            t.lambda,
+            r.nodes_fitted,
+            r.surface_samples,
+            r.free_samples,
+            r.rays,
+            r.iterations,
+            r.relative_rms_before,
+            r.relative_rms_after
+        );
+    }
+    if let Some(m) = r.smoothing {
+        eprintln!(
+            "smoothed {} noisy nodes{} (median estimated error {:.3}, {} edges, {} CG iterations)",
+            m.nodes,
+            if t.lookup == lightvol_volume::EngineLookup::Lightvol {
+                " for lightvol's lookup"
+            } else {
+                " first"
+            },
+            m.median_error,
+            m.edges,
+            m.iterations
+        );
+    }
 }
