@@ -363,7 +363,8 @@ fn print_report(args: &BakeArgs, report: &BakeReport) -> anyhow::Result<()> {
 /// The plain report's lines on a `--target` bake: the fit (none for lightvol's own lookup)
 /// and the smoothing before it.
 fn print_target(t: lightvol_sampler::target::TargetSettings, r: &lightvol_sampler::target::TargetReport) {
-    if t.lookup != lightvol_volume::EngineLookup::Lightvol {
+    let own = t.lookup == lightvol_volume::EngineLookup::Lightvol;
+    if !own {
         eprintln!(
             "fitted for the {} lookup (λ = {}): {} nodes from {} surface and {} free-space samples ({} rays, {} CG iterations); the engine's reading differs from lightvol's by {:.4} relative RMS before the fit, {:.4} after",
             t.lookup,
@@ -381,11 +382,7 @@ fn print_target(t: lightvol_sampler::target::TargetSettings, r: &lightvol_sample
         eprintln!(
             "smoothed {} noisy nodes{} (median estimated error {:.3}, {} edges, {} CG iterations)",
             m.nodes,
-            if t.lookup == lightvol_volume::EngineLookup::Lightvol {
-                " for lightvol's lookup"
-            } else {
-                " first"
-            },
+            if own { " for lightvol's lookup" } else { " first" },
             m.median_error,
             m.edges,
             m.iterations

@@ -70,7 +70,7 @@ fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
     }
     // Each view through a camera: one more entry per method, its error over the view's
     // pixels, from the same bake (its rays and seconds).
-    let plates = rows.clone();
+    let plates = rows.len();
     for view in v["views"].as_array().into_iter().flatten() {
         let camera = view["camera"]
             .as_str()
@@ -80,8 +80,11 @@ fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
             .with_context(|| format!("{}: view {camera} has no \"methods\" object", file.display()))?;
         for (name, m) in of {
             let (method, lookup) = name.rsplit_once('@').unwrap_or((name.as_str(), first));
-            let plate =
-                plates.iter().find(|r| r.method == method && r.lookup == lookup).with_context(|| {
+            let plate = rows[..plates]
+                .iter()
+                .find(|r| r.method == method && r.lookup == lookup)
+                .cloned()
+                .with_context(|| {
                     format!("{}: view {camera} has {name}, the plate does not", file.display())
                 })?;
             let num = |k: &str| {
@@ -94,7 +97,7 @@ fn rows_of(path: &Path) -> anyhow::Result<Vec<TableRow>> {
                 rel_rmse: num("rel_rmse")?,
                 too_dark_near: num("too_dark")?,
                 too_bright: num("too_bright")?,
-                ..plate.clone()
+                ..plate
             });
         }
     }
