@@ -83,8 +83,10 @@ pub(crate) struct BakeArgs {
     /// held to the baked values by --target-lambda (12 extra rays per node find the points;
     /// no light path is traced; `lightvol` fits nothing and traces no extra ray). Without
     /// --target the bake's values are written as sampled. The file records the target, and
-    /// `export` warns when it writes the volume for another engine. Uniform bakes only, not
-    /// sharded.
+    /// `export` warns when it writes the volume for another engine. Uniform bakes only. With
+    /// --checkpoint any target runs on the finished bake; shards (and --keep-accumulator)
+    /// take `lightvol` only: they carry their nodes' error estimates and `merge` smooths the
+    /// merged set, while an engine's fit traces rays in the scene, which a merge has not.
     #[arg(long, value_name = "ENGINE")]
     pub(crate) target: Option<lightvol_volume::EngineLookup>,
     /// The --target fit's weight toward the baked values (0: a pure least-squares fit).

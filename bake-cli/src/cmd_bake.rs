@@ -87,7 +87,12 @@ pub(crate) fn run(args: &BakeArgs) -> anyhow::Result<ExitCode> {
         );
     }
     if let (Some(t), Some(r), false) = (request.effective_target(), &bake.target, args.json) {
-        print_target(t, r);
+        print_target(t.lookup, t.lambda, r);
+    }
+    if let (Some(_), Some(_), false) = (request.effective_target(), request.shard, args.json || args.quiet) {
+        eprintln!(
+            "note: the shard carries its nodes' error estimates; `lightvol merge` smooths the merged set for lightvol's lookup"
+        );
     }
     let vol = &bake.volume;
     match (&bake.gradients, &bake.groups) {
@@ -168,6 +173,9 @@ fn run_checkpointed(
             .with_context(|| format!("writing {}", acc_path.display()))?;
     }
     let merged = &done.merged;
+    if let (Some(t), Some(r), false) = (request.effective_target(), &merged.target, quiet) {
+        print_target(t.lookup, t.lambda, r);
+    }
     match (&merged.gradients, &merged.groups) {
         (_, Some(g)) => write_grouped_exr(&args.output, g, &ExrOptions::default()),
         (None, None) => write_exr(&args.output, &merged.volume, &ExrOptions::default()),
@@ -362,13 +370,17 @@ fn print_report(args: &BakeArgs, report: &BakeReport) -> anyhow::Result<()> {
 
 /// The plain report's lines on a `--target` bake: the fit (none for lightvol's own lookup)
 /// and the smoothing before it.
-fn print_target(t: lightvol_sampler::target::TargetSettings, r: &lightvol_sampler::target::TargetReport) {
-    let own = t.lookup == lightvol_volume::EngineLookup::Lightvol;
+pub(crate) fn print_target(
+    lookup: lightvol_volume::EngineLookup,
+    lambda: f64,
+    r: &lightvol_sampler::target::TargetReport,
+) {
+    let own = lookup == lightvol_volume::EngineLookup::Lightvol;
     if !own {
         eprintln!(
             "fitted for the {} lookup (λ = {}): {} nodes from {} surface and {} free-space samples ({} rays, {} CG iterations); the engine's reading differs from lightvol's by {:.4} relative RMS before the fit, {:.4} after",
-            t.lookup,
-            t.lambda,
+            lookup,
+            lambda,
             r.nodes_fitted,
             r.surface_samples,
             r.free_samples,

@@ -3,7 +3,8 @@
 //! Each input is a shard's exact accumulator (`.lvacc`, written by `bake --shard` or
 //! `bake --keep-accumulator`) or an EXR whose sibling `.lvacc` exists. The Eq. 6 sums are
 //! added as exact fixed-point integers (any order gives the same bits), then finalized; the
-//! result is the unsharded bake's file byte for byte. The merge is lightvol-sampler's
+//! result is the unsharded bake's file byte for byte (a set baked with `--target lightvol`
+//! smoothed under the per-node errors its shards carry). The merge is lightvol-sampler's
 //! `merge` (`merge_shards`, `finish_merged`); this verb words its errors and writes the
 //! files.
 
@@ -96,6 +97,12 @@ pub(crate) fn run(args: &MergeArgs) -> anyhow::Result<ExitCode> {
             "least-squares fit (λ = {lambda}): {} nodes, {} CG iterations, residual {:.1e}",
             solve.active_nodes, solve.max_iterations, solve.max_relative_residual
         );
+    }
+    if let (Some(r), Some(record)) =
+        (&merged.target, merged.volume.metadata().settings.as_ref().and_then(|s| s.target.as_ref()))
+        && let Some(lookup) = lightvol_volume::EngineLookup::parse(&record.lookup)
+    {
+        crate::cmd_bake::print_target(lookup, record.lambda, r);
     }
     let (vol, fill) = (&merged.volume, merged.fill);
     match &merged.gradients {

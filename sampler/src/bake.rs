@@ -56,7 +56,8 @@ pub struct BakeOutput {
     /// (in unit order from the shard's first node; [`crate::noise`]'s prefix estimate over
     /// its kept samples), NaN where the estimate cannot judge it (fewer than
     /// [`crate::noise::MIN_VALUES`] kept samples, or no positive mean). Empty for the other
-    /// methods. Not part of the sums: shards do not carry it.
+    /// methods. Shards, kept accumulators and checkpoints of a targeted bake carry it in
+    /// their sums ([`crate::noise::attach_node_errors`]) for the merged set's smoothing.
     pub node_error: Vec<f32>,
 }
 

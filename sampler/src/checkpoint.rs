@@ -18,7 +18,9 @@
 //! twice or lost. The fixed-point sums add as integers in any grouping
 //! ([`lightvol_volume::Accumulator::merge`]), so the finished volume
 //! ([`crate::merge::finish_merged`]) is the unsharded bake's, bit for bit, however often the
-//! bake was interrupted.
+//! bake was interrupted. A targeted bake's pieces carry `doi`'s per-node error estimates
+//! in their sums, and the target's step (smoothing, and an engine's fit with its rays)
+//! runs once, on the finished sums ([`crate::merge::finish_merged_with`]).
 
 use std::path::{Path, PathBuf};
 
@@ -29,7 +31,8 @@ use lightvol_scene::transport::Transport;
 use lightvol_volume::io::accumulator::{read_accumulator, write_accumulator};
 use lightvol_volume::{Accumulator, BakeMetadata, GridSpec, VolumeError};
 
-use crate::merge::{MergeError, MergedVolume, finish_merged};
+use crate::merge::{MergeError, MergedVolume, finish_merged_with};
+use crate::noise::attach_node_errors;
 use crate::request::{BakeRequest, Provenance, UniformBakeError, bake_uniform};
 
 /// Pieces of a checkpointed bake unless asked otherwise: a kill loses at most a
@@ -195,14 +198,27 @@ pub fn bake_checkpointed(
         }
     };
     let resumed = state.done.clone();
+    request.validate().map_err(|e| CheckpointError::Bake(0, Box::new(e.into())))?;
+    let target = request.effective_target();
     let mut rays_this_run = RayCounts::default();
     for k in 0..pieces {
         if state.done.contains(&k) {
             continue;
         }
-        let piece = BakeRequest { shard: Some((k, pieces)), keep_accumulator: false, ..request.clone() };
-        let bake = bake_uniform(transport, scene, grid, &piece, provenance, control)
+        // A piece is a shard of the whole bake without its target step, which runs on the
+        // finished sums (below): the pieces carry `doi`'s per-node errors for it.
+        let piece = BakeRequest {
+            shard: Some((k, pieces)),
+            keep_accumulator: false,
+            target: None,
+            ..request.clone()
+        };
+        let mut bake = bake_uniform(transport, scene, grid, &piece, provenance, control)
             .map_err(|e| CheckpointError::Bake(k, Box::new(e)))?;
+        if target.is_some() && !bake.output.node_error.is_empty() {
+            let first = lightvol_core::shard::shard_range(grid.node_count(), (k, pieces)).start;
+            attach_node_errors(&mut bake.output.accumulator, first, &bake.output.node_error);
+        }
         rays_this_run.add(&bake.output.stats.rays);
         let meta = bake.volume.metadata();
         sums = Some(match sums.take() {
@@ -229,7 +245,16 @@ pub fn bake_checkpointed(
     let (accumulator, mut metadata) = sums.ok_or(CheckpointError::Pieces(pieces))?;
     metadata.shard_index = 0;
     metadata.shard_count = 1;
-    let merged = finish_merged(&accumulator, metadata.clone())?;
+    if target.is_some() {
+        // The whole bake's metadata: its label and record name the target.
+        metadata = request.metadata(scene, provenance.frame, provenance.key, metadata.sampling_rays);
+    }
+    let merged = finish_merged_with(&accumulator, metadata.clone(), target.as_ref().map(|t| (transport, t)))?;
+    // The target's rays (an engine's fit) are traced on every run that finishes the bake.
+    if let Some(r) = &merged.target {
+        rays_this_run.query += r.rays;
+        state.rays += r.rays;
+    }
     for f in [STATE_FILE, state.sums.as_str()] {
         let _ = std::fs::remove_file(dir.join(f));
     }

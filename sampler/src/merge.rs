@@ -21,6 +21,10 @@ use crate::adaptive_shard::{BASE_SUFFIX, LEVEL_EXTENSION};
 use crate::error::BakeError;
 use crate::gradient_bake::{GradientReport, ShardGradients};
 use crate::node_fit::{Fit, FitReport, MassMatrix, finalize_least_squares, solve_least_squares};
+use crate::noise::node_errors_of;
+use crate::target::{TargetReport, TargetSettings, fit_for_lookup, own_samples_mask, smooth_for_target};
+use lightvol_scene::transport::Transport;
+use lightvol_volume::EngineLookup;
 
 /// The accumulator file beside the volume file `volume` (its path with the extension
 /// [`ACC_EXTENSION`]): where a shard or a kept accumulator is written, and where a merge
@@ -219,6 +223,8 @@ pub struct MergedVolume {
     pub least_squares: Option<(f64, FitReport)>,
     /// The volume split by light group, when the shards carry groups.
     pub groups: Option<lightvol_volume::GroupedVolume>,
+    /// The target step, when the set was baked for a target lookup (`bake --target`).
+    pub target: Option<TargetReport>,
 }
 
 /// Why merged sums could not be finalized.
@@ -239,17 +245,48 @@ pub enum MergeError {
     /// The light groups the shards carry.
     #[error("finalizing the light groups")]
     Groups(#[source] VolumeError),
+    /// The set was baked for an engine's lookup, whose fit traces rays in the scene.
+    #[error(
+        "the shards were baked for {0}'s lookup, whose fit traces rays in the scene; a merge can only finish sets baked without --target or with --target lightvol"
+    )]
+    TargetNeedsScene(String),
+    /// The set asks for the noise-weighted smoothing but carries no per-node errors.
+    #[error(
+        "the shards ask for the noise-weighted smoothing but carry no per-node error estimates (written by an older lightvol?); rebake them"
+    )]
+    NoNodeErrors,
+    /// The target step itself.
+    #[error("the target lookup's step")]
+    Target(#[source] BakeError),
 }
 
 /// Finalizes the merged sums of a whole shard set (the same bits as the unsharded bake
 /// gives, [`crate::request::bake_uniform`]) under `meta`: the least-squares fit over the
 /// whole set where the shards carry its mass matrix (λ the set's recorded fit,
-/// [`recorded_lambda`]), and the gradients the shards carry (the basis estimator's systems
-/// solved on the merged volume, or the central differences restored).
+/// [`recorded_lambda`]), the gradients the shards carry (the basis estimator's systems
+/// solved on the merged volume, or the central differences restored), and, for a set
+/// baked with `--target lightvol`, the noise-weighted smoothing under the per-node errors
+/// the shards carry ([`crate::noise::node_errors_of`], [`smooth_for_target`]).
+///
+/// # Errors
+/// [`MergeError`]; [`MergeError::TargetNeedsScene`] for a set baked for an engine's lookup
+/// (see [`finish_merged_with`]).
+pub fn finish_merged(acc: &Accumulator, meta: BakeMetadata) -> Result<MergedVolume, MergeError> {
+    finish_merged_with(acc, meta, None)
+}
+
+/// [`finish_merged`], with the scene's light transport and the target's settings for a set
+/// baked for an engine's lookup (whose fit traces rays: [`fit_for_lookup`]); a checkpointed
+/// bake, which has both, finishes its pieces so.
 ///
 /// # Errors
 /// [`MergeError`].
-pub fn finish_merged(acc: &Accumulator, meta: BakeMetadata) -> Result<MergedVolume, MergeError> {
+pub fn finish_merged_with(
+    acc: &Accumulator,
+    meta: BakeMetadata,
+    fit: Option<(&Transport<'_>, &TargetSettings)>,
+) -> Result<MergedVolume, MergeError> {
+    let record = meta.settings.as_ref().and_then(|s| s.target.clone());
     let grad_sums = ShardGradients::from_accumulator(acc).map_err(MergeError::GradientSums)?;
     let (volume, fill, least_squares) = match MassMatrix::from_accumulator(acc) {
         None => {
@@ -269,8 +306,37 @@ pub fn finish_merged(acc: &Accumulator, meta: BakeMetadata) -> Result<MergedVolu
         None => None,
         Some(g) => Some(g.finish(&volume).map_err(MergeError::Gradients)?),
     };
+    let (volume, target) = match record {
+        None => (volume, None),
+        Some(record) => {
+            // As the whole bake: the nodes with samples of their own, the merged estimates.
+            let valid = own_samples_mask(acc);
+            let errors = node_errors_of(acc);
+            let smoothing = fit.map_or(record.smoothing, |(_, t)| t.smoothing);
+            if smoothing.is_some() && errors.is_none() {
+                return Err(MergeError::NoNodeErrors);
+            }
+            match fit {
+                Some((transport, t)) => {
+                    let (v, r) = fit_for_lookup(transport, &volume, t, Some(valid), errors.as_deref())
+                        .map_err(MergeError::Target)?;
+                    (v, Some(r))
+                }
+                None if record.lookup == EngineLookup::Lightvol.name() => {
+                    let (smoothed, r) =
+                        smooth_for_target(&volume, Some(&valid), errors.as_deref(), smoothing)
+                            .map_err(MergeError::Target)?;
+                    (
+                        smoothed.unwrap_or(volume),
+                        Some(TargetReport { smoothing: r, ..TargetReport::default() }),
+                    )
+                }
+                None => return Err(MergeError::TargetNeedsScene(record.lookup)),
+            }
+        }
+    };
     let groups = acc.finalize_grouped(&volume).transpose().map_err(MergeError::Groups)?;
-    Ok(MergedVolume { volume, fill, gradients, least_squares, groups })
+    Ok(MergedVolume { volume, fill, gradients, least_squares, groups, target })
 }
 
 #[cfg(test)]
@@ -341,6 +407,50 @@ mod tests {
         assert_eq!((part.metadata.shard_index, part.metadata.shard_count), (0, 3));
         let twice = [accumulator_path(&volume(0)), accumulator_path(&volume(0))];
         assert!(matches!(merge_shards(&twice, false), Err(MergeShardsError::Twice(p)) if p == twice[0]));
+    }
+
+    /// The maze on a 4 × 4 × 3 grid, `doi --target lightvol` at 16 samples, whole or one
+    /// shard.
+    fn smoothed(shard: Option<(u32, u32)>) -> UniformBake {
+        let maze = lightvol_scene::builtin("maze").unwrap();
+        let (lo, hi) = maze.grid.bounds();
+        let grid = GridSpec::new(lo, hi, [4, 4, 3]).unwrap();
+        let tracer = Tracer::new(&maze.scene);
+        let t = Transport::new(&maze.scene, &tracer, Default::default());
+        let request = BakeRequest {
+            shard,
+            target: Some(TargetSettings::new(EngineLookup::Lightvol, 1)),
+            ..BakeRequest::new(BakeMethod::Grid(Method::Doi), samples(16))
+        };
+        let p = Provenance { frame: lightvol_scene::UpAxis::Z, key: "maze" };
+        bake_uniform(&t, &maze.scene, &grid, &request, p, &BakeControl::default()).unwrap()
+    }
+
+    #[test]
+    fn merged_shards_are_smoothed_as_the_whole_bake() {
+        let whole = smoothed(None);
+        let r = whole.target.as_ref().and_then(|t| t.smoothing).expect("the whole bake smooths");
+        assert!(r.nodes > 0, "{r:?}");
+        // The shards merged in reverse order, as `merge` and a checkpoint add them.
+        let (b1, b0) = (smoothed(Some((1, 2))), smoothed(Some((0, 2))));
+        assert!(b1.target.is_none() && b0.target.is_none(), "a shard leaves the smoothing to the merge");
+        let mut acc = b1.output.accumulator.clone();
+        acc.merge(&b0.output.accumulator).unwrap();
+        let mut meta = b1.volume.metadata().clone();
+        meta.sampling_rays += b0.volume.metadata().sampling_rays;
+        (meta.shard_index, meta.shard_count) = (0, 1);
+        assert_eq!(&meta, whole.volume.metadata());
+        let v = finish_merged(&acc, meta.clone()).unwrap();
+        assert_eq!(v.volume.data(), whole.volume.data(), "smoothed bit for bit as the whole bake");
+        assert_eq!(v.volume.reach(), whole.volume.reach());
+        assert_eq!(v.target.and_then(|t| t.smoothing), Some(r));
+        // An engine's lookup needs the scene; sums without the estimates cannot smooth.
+        let mut engine = meta.clone();
+        engine.settings.as_mut().and_then(|s| s.target.as_mut()).unwrap().lookup = "three".into();
+        assert!(matches!(finish_merged(&acc, engine), Err(MergeError::TargetNeedsScene(l)) if l == "three"));
+        let mut bare = acc.clone();
+        bare.set_aux("unrelated", lightvol_volume::fixed::FixedSums::zeros(1));
+        assert!(matches!(finish_merged(&bare, meta), Err(MergeError::NoNodeErrors)));
     }
 
     #[test]

@@ -34,6 +34,8 @@
 
 use lightvol_core::samples::Samples;
 use lightvol_scene::envmap::luminance;
+use lightvol_volume::Accumulator;
+use lightvol_volume::fixed::FixedSums;
 
 /// Sample until the estimated relative error of a unit's estimate is at most
 /// `relative_error`, growing from the bake's samples up to `max_samples`.
@@ -116,6 +118,43 @@ pub(crate) fn next_samples(n: u32, error: f64, target: &NoiseTarget) -> u32 {
     }
     // `want` < cap ≤ u32::MAX, so the cast is exact after the ceiling.
     (want.ceil() as u32).next_power_of_two().max(doubled).min(cap).max(n)
+}
+
+/// Name of a `doi` bake's per-node error estimates ([`crate::bake::BakeOutput::node_error`])
+/// among an accumulator's auxiliary sums: what a shard file, a kept accumulator or a
+/// checkpoint carries so that the merged set can be smoothed under its noise
+/// ([`crate::denoise`]) as the whole bake is.
+pub const NODE_ERROR_AUX: &str = "doi-node-error";
+
+/// Stores `errors`, the estimates of the nodes from `first` on (NaN where a node has none),
+/// in `acc`'s auxiliary sums under [`NODE_ERROR_AUX`]. Each node's entry is its estimate's
+/// f32 bits plus one (0: no estimate). Only the shard that samples a node writes its
+/// entry, so adding the shards' sums as integers gives every node its own estimate back,
+/// bit for bit ([`node_errors_of`]).
+///
+/// # Panics
+/// If `first + errors.len()` exceeds the grid's node count (a shard's node range always
+/// lies inside it).
+pub fn attach_node_errors(acc: &mut Accumulator, first: usize, errors: &[f32]) {
+    let mut raw = vec![0i128; acc.spec().node_count()];
+    for (slot, e) in raw[first..first + errors.len()].iter_mut().zip(errors) {
+        if e.is_finite() {
+            *slot = i128::from(e.to_bits()) + 1;
+        }
+    }
+    acc.set_aux(NODE_ERROR_AUX, FixedSums::from_raw(raw));
+}
+
+/// The per-node error estimates [`attach_node_errors`] stored in `acc` (merged or not), NaN
+/// where a node has none; `None` when `acc` carries none.
+#[must_use]
+pub fn node_errors_of(acc: &Accumulator) -> Option<Vec<f32>> {
+    let (name, sums) = acc.aux()?;
+    if name != NODE_ERROR_AUX || sums.len() != acc.spec().node_count() {
+        return None;
+    }
+    let decode = |v: i128| u32::try_from(v - 1).ok().map_or(f32::NAN, f32::from_bits);
+    Some(sums.raw().iter().map(|&v| decode(v)).collect())
 }
 
 #[cfg(test)]

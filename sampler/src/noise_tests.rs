@@ -102,3 +102,41 @@ fn rounds_grow_at_least_twofold_and_stop_at_the_cap() {
     let small = NoiseTarget { max_samples: samples(300), ..t };
     assert_eq!(next_samples(256, 0.011, &small), 300);
 }
+
+#[test]
+fn node_errors_travel_with_the_sums_and_merge_bit_for_bit() {
+    let grid = lightvol_volume::GridSpec::new([0.0; 3], [1.0; 3], [2, 2, 2]).unwrap();
+    // Eight nodes: a subnormal, a zero, large and small estimates, and nodes without one.
+    let all = [1e-40f32, 0.0, 0.25, f32::NAN, 3.5e7, f32::INFINITY, 1.0 / 3.0, 0.0625];
+    let mut whole = Accumulator::new(grid.clone(), 9).unwrap();
+    attach_node_errors(&mut whole, 0, &all);
+    // Two shards of the node range [0, 3) and [3, 8), merged in either order.
+    let shard = |first: usize, len: usize| {
+        let mut acc = Accumulator::new(grid.clone(), 9).unwrap();
+        attach_node_errors(&mut acc, first, &all[first..first + len]);
+        acc
+    };
+    for (a, b) in [(shard(0, 3), shard(3, 5)), (shard(3, 5), shard(0, 3))] {
+        let mut merged = a;
+        merged.merge(&b).unwrap();
+        let got = node_errors_of(&merged).unwrap();
+        let want = node_errors_of(&whole).unwrap();
+        assert_eq!(
+            got.iter().map(|e| e.to_bits()).collect::<Vec<_>>(),
+            want.iter().map(|e| e.to_bits()).collect::<Vec<_>>()
+        );
+    }
+    let got = node_errors_of(&whole).unwrap();
+    for (g, e) in got.iter().zip(&all) {
+        if e.is_finite() {
+            assert_eq!(g.to_bits(), e.to_bits(), "{e} must come back exactly");
+        } else {
+            assert!(g.is_nan(), "{e}: no estimate comes back as NaN, got {g}");
+        }
+    }
+    // Another auxiliary sum (a mass matrix) is not read as estimates.
+    let mut other = Accumulator::new(grid.clone(), 9).unwrap();
+    other.set_aux("lsq-mass-27", FixedSums::zeros(8));
+    assert!(node_errors_of(&other).is_none());
+    assert!(node_errors_of(&Accumulator::new(grid, 9).unwrap()).is_none());
+}

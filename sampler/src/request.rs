@@ -20,6 +20,7 @@ use crate::method::BakeMethod;
 use crate::method::Baseline;
 use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
 use crate::noise::NoiseTarget;
+use crate::noise::attach_node_errors;
 use crate::provenance;
 use crate::target::{TargetReport, TargetSettings, fit_for_lookup, own_samples_mask};
 use crate::{BakeError, BakeOutput, BakeSettings, Method};
@@ -278,15 +279,25 @@ impl BakeRequest {
     /// The first [`RequestError`] in the order: samples, then the baselines', octree's,
     /// fit's and gradients' rules.
     pub fn validate(&self) -> Result<(), RequestError> {
-        if self.effective_target().is_some() {
+        if let Some(t) = self.effective_target() {
+            // lightvol's own target only smooths, which a merge of the shards' sums repeats
+            // from the per-node errors they carry; an engine's fit traces rays in the scene,
+            // which a merge does not have.
+            let engine = t.lookup != EngineLookup::Lightvol;
             let refused = [
                 (
                     matches!(self.method, BakeMethod::Baseline(_)),
                     "an engine baseline (a fix for its own lookup)",
                 ),
                 (self.adaptive.is_some(), "an octree bake"),
-                (self.shard.is_some(), "a shard (the fit reads the whole volume)"),
-                (self.keep_accumulator, "keeping the accumulator"),
+                (
+                    engine && self.shard.is_some(),
+                    "a shard for an engine's lookup (the fit traces rays over the whole volume, which a merge cannot; bake whole or with --checkpoint, or shard with --target lightvol)",
+                ),
+                (
+                    engine && self.keep_accumulator,
+                    "keeping the accumulator for an engine's lookup (a merge of it cannot trace the fit's rays)",
+                ),
                 (self.gradients.is_some(), "gradients"),
             ];
             if let Some((_, with)) = refused.into_iter().find(|(set, _)| *set) {
@@ -585,6 +596,11 @@ pub fn bake_uniform(
         match &extra {
             Extra::Mass(mass) => mass.attach_to(&mut output.accumulator),
             Extra::Gradients(_, sums) => sums.attach_to(&mut output.accumulator),
+            // `doi`'s per-node errors, for the merged set's smoothing (`merge::finish_merged`).
+            Extra::None if request.effective_target().is_some() && !output.node_error.is_empty() => {
+                let first = lightvol_core::shard::shard_range(grid.node_count(), settings.shard).start;
+                attach_node_errors(&mut output.accumulator, first, &output.node_error);
+            }
             Extra::None => {}
         }
     }
@@ -608,7 +624,9 @@ pub fn bake_uniform(
         }
     };
     let (volume, target) = match request.effective_target() {
+        // A shard's volume is part of the whole: the merge smooths the merged set.
         None => (volume, None),
+        Some(_) if request.shard.is_some() => (volume, None),
         Some(t) => {
             // APV's lookup renormalises over valid nodes: those with samples of their own.
             let valid = own_samples_mask(&output.accumulator);

@@ -39,8 +39,12 @@
 //! light path: the rays above are its whole cost ([`TargetReport::rays`]).
 //!
 //! **Noise.** Given the bake's per-node error estimates, the bake's values are first
-//! smoothed where they are noisy ([`crate::denoise`], `TargetSettings::smoothing`), and
-//! `ĉ` and the samples' values above are then the smoothed volume's.
+//! smoothed where they are noisy ([`crate::denoise`], `TargetSettings::smoothing`;
+//! [`smooth_for_target`]), and `ĉ` and the samples' values above are then the smoothed
+//! volume's. A bake in pieces carries the estimates in its sums
+//! ([`crate::noise::attach_node_errors`]) and takes this step once the pieces are merged
+//! ([`crate::merge::finish_merged_with`]): a shard set baked for lightvol's lookup in `merge`, a
+//! checkpointed bake for any lookup (it has the scene for the fit's rays).
 //!
 //! **Lightvol's own lookup** ([`EngineLookup::Lightvol`]) needs no fit (the bake's values
 //! are chosen for it), but its noise is drawn all the same: the target smooths and stops
@@ -286,18 +290,8 @@ pub fn fit_for_lookup(
             valid.map_or(0, |m| m.len())
         )));
     }
-    let mut smoothing = None;
-    let smoothed;
-    let volume = match (node_error, settings.smoothing) {
-        (Some(errors), Some(tau)) => {
-            let all = ValidityMask::new(vec![true; nodes]);
-            let (v, r) = smooth_by_noise(volume, valid.as_ref().unwrap_or(&all), errors, tau)?;
-            smoothing = Some(r);
-            smoothed = v;
-            &smoothed
-        }
-        _ => volume,
-    };
+    let (smoothed, smoothing) = smooth_for_target(volume, valid.as_ref(), node_error, settings.smoothing)?;
+    let volume = smoothed.as_ref().unwrap_or(volume);
     if settings.lookup == EngineLookup::Lightvol {
         // The bake's values are already chosen for lightvol's lookup: smoothed, no fit.
         return Ok((volume.clone(), TargetReport { smoothing, ..TargetReport::default() }));
@@ -330,6 +324,35 @@ pub fn fit_for_lookup(
     (report.nodes_fitted, report.iterations) = solve_into(&mut fitted, &rows, settings.lambda)?;
     report.relative_rms_after = relative_rms(&fitted, &rows);
     Ok((fitted, report))
+}
+
+/// The first step of every target ([`fit_for_lookup`]): `volume`'s values smoothed under
+/// their estimated errors `node_error` with `τ = smoothing` ([`smooth_by_noise`], over the
+/// nodes of `valid`, every node without it), or `None` (and no report) without errors or
+/// smoothing. A merged shard set runs the same step on its merged estimates
+/// ([`crate::merge::finish_merged`]).
+///
+/// # Errors
+/// [`BakeError::Settings`] for an error list of the wrong size or a bad `τ`.
+pub fn smooth_for_target(
+    volume: &IrradianceVolume,
+    valid: Option<&ValidityMask>,
+    node_error: Option<&[f32]>,
+    smoothing: Option<f64>,
+) -> Result<(Option<IrradianceVolume>, Option<SmoothingReport>), BakeError> {
+    let (Some(errors), Some(tau)) = (node_error, smoothing) else {
+        return Ok((None, None));
+    };
+    let all;
+    let valid = match valid {
+        Some(m) => m,
+        None => {
+            all = ValidityMask::new(vec![true; volume.spec().node_count()]);
+            &all
+        }
+    };
+    let (v, r) = smooth_by_noise(volume, valid, errors, tau)?;
+    Ok((Some(v), Some(r)))
 }
 
 /// `volume` with what `lookup` reads besides the node values: lightvol's own lookup keeps

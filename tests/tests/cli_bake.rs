@@ -338,6 +338,7 @@ fn target_bakes_record_the_engine_and_refuse_what_they_cannot_do() {
     assert!(e.contains("--target"), "{e}");
     for (extra, says) in [
         (&["--shard", "0/2"][..], "a shard"),
+        (&["--keep-accumulator"][..], "keeping the accumulator"),
         (&["--method", "point+apv"][..], "an engine baseline"),
         (&["--adaptive"][..], "an octree bake"),
         (&["--gradients"][..], "gradients"),
@@ -351,5 +352,50 @@ fn target_bakes_record_the_engine_and_refuse_what_they_cannot_do() {
         let e = run(&a).expect_err("must be refused");
         assert!(e.contains(says) && !e.contains('\n'), "{extra:?}: {e}");
         assert!(!out.exists() && !out.with_extension("lvacc").exists(), "{extra:?}");
+    }
+}
+
+/// A targeted bake in pieces writes the whole bake's bytes: shards baked with `--target
+/// lightvol` carry their nodes' error estimates and the merge smooths the merged set; a
+/// checkpointed bake runs any target, an engine's fit included, on its finished sums; a
+/// kept accumulator merges back to its own bake.
+#[test]
+fn targeted_bakes_in_pieces_equal_the_whole_bake() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let bake = |name: &str, extra: &[&str]| {
+        let out = d.join(name);
+        let mut a = vec!["bake", "builtin:maze", "--samples", "16", "--seed", "5", "--quiet", "-o", s(&out)];
+        a.extend_from_slice(extra);
+        ok(&a);
+        out
+    };
+    let bytes = |p: &std::path::Path| std::fs::read(p).unwrap();
+    let whole = bake("whole.exr", &["--target", "lightvol"]);
+    let plain = bake("plain.exr", &[]);
+    assert_ne!(bytes(&whole), bytes(&plain), "the smoothing changes the maze's values at 16 samples");
+    let shards: Vec<_> = (0..3)
+        .map(|k| {
+            let shard = format!("{k}/3");
+            bake(&format!("s{k}.exr"), &["--target", "lightvol", "--shard", &shard]).with_extension("lvacc")
+        })
+        .collect();
+    let merged = d.join("merged.exr");
+    // In any order.
+    ok(&["merge", s(&shards[2]), s(&shards[0]), s(&shards[1]), "-o", s(&merged)]);
+    assert_eq!(bytes(&merged), bytes(&whole), "merged shards smoothed as the whole bake");
+    let kept = bake("kept.exr", &["--target", "lightvol", "--keep-accumulator"]);
+    assert_eq!(bytes(&kept), bytes(&whole));
+    let remerged = d.join("remerged.exr");
+    ok(&["merge", s(&kept.with_extension("lvacc")), "-o", s(&remerged)]);
+    assert_eq!(bytes(&remerged), bytes(&whole), "a kept accumulator merges back to its bake");
+    for target in ["lightvol", "three"] {
+        let w = bake(&format!("w-{target}.exr"), &["--target", target]);
+        let ck = d.join(format!("ck-{target}"));
+        let c = bake(
+            &format!("c-{target}.exr"),
+            &["--target", target, "--checkpoint", s(&ck), "--checkpoint-pieces", "4"],
+        );
+        assert_eq!(bytes(&c), bytes(&w), "--target {target} checkpointed");
     }
 }
