@@ -400,6 +400,16 @@ impl AdaptiveArgs {
 /// scheduler's environment), validated.
 pub(crate) fn request(args: &BakeArgs, adaptive: Option<AdaptiveRequest>) -> anyhow::Result<BakeRequest> {
     let shard = shard_option(args.shard.as_deref(), args.shards)?;
+    request_for_shard(args, adaptive, shard)
+}
+
+/// [`request`] for shard `shard` of the bake (`None`: the whole), whatever `--shard` says:
+/// the cluster verbs check what their jobs' shards will refuse.
+pub(crate) fn request_for_shard(
+    args: &BakeArgs,
+    adaptive: Option<AdaptiveRequest>,
+    shard: Option<(u32, u32)>,
+) -> anyhow::Result<BakeRequest> {
     let request = BakeRequest {
         method: args.method.parse::<BakeMethod>().map_err(anyhow::Error::msg)?,
         samples: args.sampling.samples,

@@ -171,6 +171,11 @@ fn shard_count(bake: &BakeArgs) -> anyhow::Result<u32> {
     if bake.adaptive.level.is_some() || !bake.adaptive.from_shards.is_empty() {
         bail!("--level and --from-shards are set by the jobs of an adaptive bake; give only --shards N");
     }
+    if !bake.adaptive.adaptive {
+        // What each job's bake would refuse as a shard (an engine's --target, say), refused
+        // here, before any job file is written.
+        crate::bake_args::request_for_shard(bake, None, Some((0, n)))?;
+    }
     Ok(n)
 }
 

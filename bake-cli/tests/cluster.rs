@@ -405,3 +405,21 @@ fn job_files_refuse_unsafe_values() {
     );
     assert!(!d.join("k").exists());
 }
+
+/// What a shard's bake refuses is refused before any job file is written (an engine's
+/// `--target`, whose fit a merge cannot run); `--target lightvol`, which the merge finishes,
+/// goes into the jobs' bake lines.
+#[test]
+fn job_files_refuse_what_a_shard_refuses() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let out = d.join("v.exr");
+    let o = lightvol(&["slurm", "builtin:city", "--shards", "2", "--target", "three", "-o", s(&out)], &[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("--target") && err.contains("a shard") && !err.trim_end().contains('\n'), "{err}");
+    assert!(!d.join("v.slurm").exists());
+    ok(&["slurm", "builtin:city", "--shards", "2", "--target", "lightvol", "-o", s(&out)], &[]);
+    let job = std::fs::read_to_string(d.join("v.slurm/bake.sbatch")).unwrap();
+    assert!(job.contains("--target lightvol"), "{job}");
+}
