@@ -1,6 +1,7 @@
 //! The binary on a cluster: `--shard auto` from the scheduler's variables, `lightvol k8s`
 //! manifests, and — on a real Slurm (`ci/slurm-up.sh`) — `lightvol slurm --submit --wait`
-//! producing the whole bake's file byte for byte, an `--array=1-8:2` job array with
+//! producing the whole bake's file byte for byte (plain, adaptive, and `--target
+//! lightvol`, smoothed by the merge job), an `--array=1-8:2` job array with
 //! `--shard auto`, and a failing shard that cancels the merge.
 //!
 //! The Slurm tests need `sbatch` and a configured cluster (`SLURM_CONF`). Without them
@@ -227,6 +228,42 @@ fn slurm_submit_wait_equals_the_whole_bake() {
             .count(),
         4
     );
+}
+
+/// `doi --target lightvol` on the cluster: the shard tasks carry their nodes' error
+/// estimates and the merge job smooths the merged set, giving the whole bake's file.
+#[test]
+fn slurm_targeted_bake_equals_the_whole_bake() {
+    if !slurm_available("slurm_targeted_bake_equals_the_whole_bake") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let target = ["--target", "lightvol", "--samples", "16"];
+    let whole = d.join("whole.exr");
+    let mut a = vec!["bake", "builtin:maze", "-o", s(&whole), "--quiet"];
+    a.extend_from_slice(&target);
+    ok(&a, &[]);
+    let plain = d.join("plain.exr");
+    ok(&["bake", "builtin:maze", "--samples", "16", "--quiet", "-o", s(&plain)], &[]);
+    assert_ne!(std::fs::read(&whole).unwrap(), std::fs::read(&plain).unwrap(), "the target smooths");
+    let merged = d.join("cluster.exr");
+    let mut a = vec![
+        "slurm",
+        "builtin:maze",
+        "--shards",
+        "3",
+        "--submit",
+        "--wait",
+        "--quiet",
+        "-o",
+        s(&merged),
+        "--lightvol",
+        BIN,
+    ];
+    a.extend_from_slice(&target);
+    ok(&a, &[]);
+    same_file(&merged, &whole);
 }
 
 /// An adaptive bake on the cluster: one job array per octree level, each after the one
