@@ -62,6 +62,17 @@ pub struct BakeOutput {
 }
 
 impl BakeOutput {
+    /// Stores [`Self::node_error`] in the accumulator's auxiliary sums
+    /// ([`crate::noise::attach_node_errors`]), for the merged set's smoothing; the output of
+    /// shard `shard` of a bake on `grid` (`(0, 1)`: the whole). Nothing for methods without
+    /// per-node errors.
+    pub fn keep_node_errors(&mut self, grid: &GridSpec, shard: (u32, u32)) {
+        if !self.node_error.is_empty() {
+            let first = lightvol_core::shard::shard_range(grid.node_count(), shard).start;
+            crate::noise::attach_node_errors(&mut self.accumulator, first, &self.node_error);
+        }
+    }
+
     /// Finalizes the volume (Eq. 6 division and lightvol-volume's zero-weight fill) and
     /// records the fill in the statistics.
     #[must_use]

@@ -32,7 +32,6 @@ use lightvol_volume::io::accumulator::{read_accumulator, write_accumulator};
 use lightvol_volume::{Accumulator, BakeMetadata, GridSpec, VolumeError};
 
 use crate::merge::{MergeError, MergedVolume, finish_merged_with};
-use crate::noise::attach_node_errors;
 use crate::request::{BakeRequest, Provenance, UniformBakeError, bake_uniform};
 
 /// Pieces of a checkpointed bake unless asked otherwise: a kill loses at most a
@@ -215,9 +214,8 @@ pub fn bake_checkpointed(
         };
         let mut bake = bake_uniform(transport, scene, grid, &piece, provenance, control)
             .map_err(|e| CheckpointError::Bake(k, Box::new(e)))?;
-        if target.is_some() && !bake.output.node_error.is_empty() {
-            let first = lightvol_core::shard::shard_range(grid.node_count(), (k, pieces)).start;
-            attach_node_errors(&mut bake.output.accumulator, first, &bake.output.node_error);
+        if target.is_some() {
+            bake.output.keep_node_errors(grid, (k, pieces));
         }
         rays_this_run.add(&bake.output.stats.rays);
         let meta = bake.volume.metadata();

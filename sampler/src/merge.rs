@@ -350,18 +350,20 @@ mod tests {
     use lightvol_volume::GridSpec;
     use lightvol_volume::io::accumulator::write_accumulator;
 
-    /// The maze on a 4 × 4 × 3 grid, doi-paper at 4 samples per cell, whole (`None`) or one
-    /// shard.
-    fn bake(shard: Option<(u32, u32)>) -> UniformBake {
+    /// `request` on the maze's 4 × 4 × 3 grid.
+    fn maze_bake(request: &BakeRequest) -> UniformBake {
         let maze = lightvol_scene::builtin("maze").unwrap();
         let (lo, hi) = maze.grid.bounds();
         let grid = GridSpec::new(lo, hi, [4, 4, 3]).unwrap();
         let tracer = Tracer::new(&maze.scene);
         let t = Transport::new(&maze.scene, &tracer, Default::default());
-        let request =
-            BakeRequest { shard, ..BakeRequest::new(BakeMethod::Grid(Method::DoiPaper), samples(4)) };
         let p = Provenance { frame: lightvol_scene::UpAxis::Z, key: "maze" };
-        bake_uniform(&t, &maze.scene, &grid, &request, p, &BakeControl::default()).unwrap()
+        bake_uniform(&t, &maze.scene, &grid, request, p, &BakeControl::default()).unwrap()
+    }
+
+    /// The maze, doi-paper at 4 samples per cell, whole (`None`) or one shard.
+    fn bake(shard: Option<(u32, u32)>) -> UniformBake {
+        maze_bake(&BakeRequest { shard, ..BakeRequest::new(BakeMethod::Grid(Method::DoiPaper), samples(4)) })
     }
 
     #[test]
@@ -409,21 +411,13 @@ mod tests {
         assert!(matches!(merge_shards(&twice, false), Err(MergeShardsError::Twice(p)) if p == twice[0]));
     }
 
-    /// The maze on a 4 × 4 × 3 grid, `doi --target lightvol` at 16 samples, whole or one
-    /// shard.
+    /// The maze, `doi --target lightvol` at 16 samples, whole or one shard.
     fn smoothed(shard: Option<(u32, u32)>) -> UniformBake {
-        let maze = lightvol_scene::builtin("maze").unwrap();
-        let (lo, hi) = maze.grid.bounds();
-        let grid = GridSpec::new(lo, hi, [4, 4, 3]).unwrap();
-        let tracer = Tracer::new(&maze.scene);
-        let t = Transport::new(&maze.scene, &tracer, Default::default());
-        let request = BakeRequest {
+        maze_bake(&BakeRequest {
             shard,
             target: Some(TargetSettings::new(EngineLookup::Lightvol, 1)),
             ..BakeRequest::new(BakeMethod::Grid(Method::Doi), samples(16))
-        };
-        let p = Provenance { frame: lightvol_scene::UpAxis::Z, key: "maze" };
-        bake_uniform(&t, &maze.scene, &grid, &request, p, &BakeControl::default()).unwrap()
+        })
     }
 
     #[test]

@@ -20,7 +20,6 @@ use crate::method::BakeMethod;
 use crate::method::Baseline;
 use crate::node_fit::{FitReport, bake_with_mass, finalize_least_squares, solve_least_squares};
 use crate::noise::NoiseTarget;
-use crate::noise::attach_node_errors;
 use crate::provenance;
 use crate::target::{TargetReport, TargetSettings, fit_for_lookup, own_samples_mask};
 use crate::{BakeError, BakeOutput, BakeSettings, Method};
@@ -597,9 +596,8 @@ pub fn bake_uniform(
             Extra::Mass(mass) => mass.attach_to(&mut output.accumulator),
             Extra::Gradients(_, sums) => sums.attach_to(&mut output.accumulator),
             // `doi`'s per-node errors, for the merged set's smoothing (`merge::finish_merged`).
-            Extra::None if request.effective_target().is_some() && !output.node_error.is_empty() => {
-                let first = lightvol_core::shard::shard_range(grid.node_count(), settings.shard).start;
-                attach_node_errors(&mut output.accumulator, first, &output.node_error);
+            Extra::None if request.effective_target().is_some() => {
+                output.keep_node_errors(grid, settings.shard)
             }
             Extra::None => {}
         }
