@@ -25,7 +25,7 @@ fn layout_estimate_counts_unique_triangles_and_instances() {
     // first u32, f64 bounds) and the loader's 136-byte (mesh, 4x4 matrix) record. The
     // tracer keeps 192 bytes per stored triangle (half of a 160-byte four-triangle leaf pack
     // and its four u32 slots, an f64 normal with its flag in 32 bytes, the f64 vertices)
-    // and the build 200 more; 432 per placement.
+    // and the build 320 more; 552 per placement.
     assert_eq!(instance_bytes(), 152 + 136);
     assert_eq!(m.geometry_bytes, unique * 128 + instances * 288);
     assert_eq!(
@@ -35,11 +35,11 @@ fn layout_estimate_counts_unique_triangles_and_instances() {
     );
     assert_eq!(m.texture_bytes, 0);
     assert_eq!(tracer_bytes_per_triangle(), (160 + 16) / 2 + 32 + 72);
-    assert_eq!(TLAS_BYTES_PER_PLACEMENT, 432);
-    // 44 MiB in all, from 65 M placed triangles:
-    // 63,720 × (128 + 192 + 200) + 17,408 × (288 + 432).
-    assert_eq!(m.total(), 63_720 * 520 + 17_408 * 720);
-    assert_eq!(m.total(), 45_668_160);
+    assert_eq!(TLAS_BYTES_PER_PLACEMENT, 552);
+    // 53 MiB in all, from 65 M placed triangles:
+    // 63,720 × (128 + 192 + 320) + 17,408 × (288 + 552).
+    assert_eq!(m.total(), 63_720 * 640 + 17_408 * 840);
+    assert_eq!(m.total(), 55_403_520);
     let flat = estimate_scene(&path, true).unwrap();
     assert_eq!(flat, SceneMemory::from_counts(1_024 * unique, flat.vertices, 0));
     assert!(flat.total() > 16 << 30, "{}", flat.total());

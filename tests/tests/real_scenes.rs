@@ -156,7 +156,7 @@ fn a_scene_over_the_memory_limit_is_refused_in_one_line() {
 }
 
 /// The 32 × 32 layout of the occlusion room places 65 M triangles and stores 63,720: the
-/// estimate (about 44 MiB with its grid) is refused under 32 MiB, in one line naming both
+/// estimate (about 53 MiB with its grid) is refused under 32 MiB, in one line naming both
 /// counts, without an output file, and the bake goes through under 256 MiB.
 #[test]
 fn a_1024_room_layout_bakes_within_its_instanced_estimate() {

@@ -99,6 +99,8 @@ struct ClosestPlacements<'a, 'b> {
 }
 
 impl Visit for ClosestPlacements<'_, '_> {
+    const NEAREST_FIRST: bool = true;
+
     #[inline(always)]
     fn tmax(&self) -> f32 {
         self.best.t
@@ -152,6 +154,10 @@ struct AnyPlacement<'a, 'b> {
 }
 
 impl Visit for AnyPlacement<'_, '_> {
+    /// The top level keeps nearest-first order for shadow rays too: a placement met first
+    /// is searched first, and its own tree then goes in slot order.
+    const NEAREST_FIRST: bool = true;
+
     #[inline(always)]
     fn tmax(&self) -> f32 {
         self.ray.tmax
