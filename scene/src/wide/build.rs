@@ -16,8 +16,10 @@
 //! AVX2, as lightvol's rays/s over Embree's in the same run, 1 thread: closest hits on the
 //! Breakfast Room 0.72× → 0.79×, the occlusion room 0.71× → 0.74×, zdm2 0.92× → 0.94×;
 //! the bake mix's closest hits 0.66× → 0.74×, 0.71× → 0.74× and 0.93× → 0.97×. A whole
-//! Breakfast Room bake (`lightvol bench --whole-bake`, 0.2 m, 256 samples) took 2.71 s
-//! against 2.83 s, the same bytes. (Shadow rays got slower on these trees with
+//! Breakfast Room bake (`lightvol bench --whole-bake --bake-runs 5`, 0.2 m, 256 samples,
+//! with the slot-order shadow rays of `traverse`) took 2.54 s against 2.79 s, the same
+//! bytes. The table costs eight f32 per binary node while the tree is emitted (about 80 ms
+//! of the Breakfast Room's 0.25 s build). (Shadow rays got slower on these trees with
 //! nearest-first order and faster than before in slot order: see `traverse`.) A binary
 //! leaf with more than
 //! [`LEAF_PRIMS`] primitives becomes a node of leaves under its box.
@@ -104,10 +106,11 @@ fn padded(b2: &Bvh2, i: usize) -> (Vec3A, Vec3A) {
     (min - pad, max + pad)
 }
 
-/// Each binary node's primitive count, and a pre-order of the tree (reversed, children
-/// before parents). (u32 indices: the cost table is the build's peak, and obvhs' indices
-/// are u32.)
-fn counts_and_order(b2: &Bvh2) -> (Vec<u32>, Vec<u32>) {
+/// Each binary node's primitive count, and the table `cost[n][j − 1]`: the least cost of
+/// binary node `n`'s subtree in at most `j` slots (module docs). Both are computed children
+/// first, in one pass over a pre-order of the tree reversed (u32 indices: the table is the
+/// build's peak, and obvhs' indices are u32).
+fn tables(b2: &Bvh2) -> (Vec<u32>, Vec<[f32; WIDTH]>) {
     let n = b2.nodes.len();
     let mut order: Vec<u32> = Vec::with_capacity(n);
     let mut stack = vec![0u32];
@@ -119,6 +122,7 @@ fn counts_and_order(b2: &Bvh2) -> (Vec<u32>, Vec<u32>) {
         }
     }
     let mut counts = vec![0u32; n];
+    let mut cost = vec![[0f32; WIDTH]; n];
     for &i in order.iter().rev() {
         let i = i as usize;
         let node = &b2.nodes[i];
@@ -128,15 +132,14 @@ fn counts_and_order(b2: &Bvh2) -> (Vec<u32>, Vec<u32>) {
             let l = node.first_index as usize;
             counts[l] + counts[l + 1]
         };
+        cost[i] = slot_row(b2, &counts, &cost, i);
     }
-    (counts, order)
+    (counts, cost)
 }
 
 /// The wide tree of a binary tree (module docs).
 pub(super) fn collapse(b2: &Bvh2) -> WideBvh {
-    let (counts, order) = counts_and_order(b2);
-    let cost = slot_costs(b2, &counts, &order);
-    drop(order);
+    let (counts, cost) = tables(b2);
     let mut c = Collapser { b2, counts, cost, out: empty() };
     c.out.root = c.emit(0);
     c.out
@@ -146,8 +149,7 @@ pub(super) fn collapse(b2: &Bvh2) -> WideBvh {
 /// emits it.
 #[cfg(test)]
 pub(super) fn collapse_cost(b2: &Bvh2) -> f32 {
-    let (counts, order) = counts_and_order(b2);
-    let cost = slot_costs(b2, &counts, &order);
+    let (counts, cost) = tables(b2);
     one_slot(b2, &counts, &cost, 0).0
 }
 
@@ -160,18 +162,6 @@ pub(crate) const NODE_COST: f32 = 1.0;
 /// Measured with `lightvol bench --embree` on the Breakfast Room at 0.5, 1, 2 and 4: 2 gave
 /// the fastest closest hits (0.5 the slowest, 4 within noise of 2).
 pub(crate) const PACK_COST: f32 = 2.0;
-
-/// `cost[n][j − 1]`: the least cost of binary node `n`'s subtree in at most `j` slots
-/// (module docs), computed children first (`order` is a pre-order of the tree).
-fn slot_costs(b2: &Bvh2, counts: &[u32], order: &[u32]) -> Vec<[f32; WIDTH]> {
-    let mut cost = vec![[0f32; WIDTH]; b2.nodes.len()];
-    for &i in order.iter().rev() {
-        let i = i as usize;
-        let row = slot_row(b2, counts, &cost, i);
-        cost[i] = row;
-    }
-    cost
-}
 
 /// Slot budgets for the two children of binary node `i` that fill `j` slots at least cost:
 /// `(cost, k)` with `k` slots to the left child and `j − k` to the right (the lowest `k`
@@ -192,9 +182,32 @@ fn best_split(b2: &Bvh2, cost: &[[f32; WIDTH]], i: usize, j: usize) -> (f32, usi
     best
 }
 
+/// The least costs of the two children of binary node `i` filling `j` slots between
+/// them, for each `j` (entry `j − 1`; infinite for `j = 1` and for a binary leaf): the
+/// costs of [`best_split`], all budgets in one pass over the children's rows.
+fn split_costs(b2: &Bvh2, cost: &[[f32; WIDTH]], i: usize) -> [f32; WIDTH] {
+    let mut out = [f32::INFINITY; WIDTH];
+    let node = &b2.nodes[i];
+    if node.is_leaf() {
+        return out;
+    }
+    let l = node.first_index as usize;
+    let (a, b) = (cost[l], cost[l + 1]);
+    for (j, o) in out.iter_mut().enumerate().skip(1) {
+        // j + 1 slots: k + 1 to the left, j − k to the right, as in `best_split`.
+        for k in 0..j {
+            let c = a[k] + b[j - 1 - k];
+            if c < *o {
+                *o = c;
+            }
+        }
+    }
+    out
+}
+
 /// Binary node `i` in one slot: `(cost, leaf)`, a leaf where that is no dearer than a wide
-/// node of its own.
-fn one_slot(b2: &Bvh2, counts: &[u32], cost: &[[f32; WIDTH]], i: usize) -> (f32, bool) {
+/// node of its own, given its children's split over eight slots `split8`.
+fn one_slot_with(b2: &Bvh2, counts: &[u32], i: usize, split8: f32) -> (f32, bool) {
     let node = &b2.nodes[i];
     let area = node.aabb().half_area();
     let n = counts[i] as usize;
@@ -203,16 +216,22 @@ fn one_slot(b2: &Bvh2, counts: &[u32], cost: &[[f32; WIDTH]], i: usize) -> (f32,
         // A big binary leaf: a node of leaves under its box.
         area * (NODE_COST + PACK_COST * n.div_ceil(LEAF_SIZE) as f32)
     } else {
-        area * NODE_COST + best_split(b2, cost, i, WIDTH).0
+        area * NODE_COST + split8
     };
     if as_leaf <= as_node { (as_leaf, true) } else { (as_node, false) }
 }
 
+/// Binary node `i` in one slot ([`one_slot_with`] its children's best split).
+fn one_slot(b2: &Bvh2, counts: &[u32], cost: &[[f32; WIDTH]], i: usize) -> (f32, bool) {
+    one_slot_with(b2, counts, i, best_split(b2, cost, i, WIDTH).0)
+}
+
 /// The row `cost[i]` from its children's rows.
 fn slot_row(b2: &Bvh2, counts: &[u32], cost: &[[f32; WIDTH]], i: usize) -> [f32; WIDTH] {
-    let mut row = [one_slot(b2, counts, cost, i).0; WIDTH];
-    for j in 2..=WIDTH {
-        row[j - 1] = row[j - 2].min(best_split(b2, cost, i, j).0);
+    let split = split_costs(b2, cost, i);
+    let mut row = [one_slot_with(b2, counts, i, split[WIDTH - 1]).0; WIDTH];
+    for j in 1..WIDTH {
+        row[j] = row[j - 1].min(split[j]);
     }
     row
 }
@@ -221,7 +240,7 @@ struct Collapser<'a> {
     b2: &'a Bvh2,
     /// Primitives under each binary node.
     counts: Vec<u32>,
-    /// The table of [`slot_costs`].
+    /// The table of [`tables`].
     cost: Vec<[f32; WIDTH]>,
     out: WideBvh,
 }
@@ -264,11 +283,13 @@ impl Collapser<'_> {
     }
 
     /// The binary nodes that fill at most `j` slots with subtree `i`: itself where one slot
-    /// costs no more than the best split over `j` (the split's cost only falls as `j` grows,
-    /// since each child's row is a least cost over budgets), else its children's cuts.
+    /// costs no more than the best split over `j` slots, else its children's cuts. The
+    /// split's cost only falls as `j` grows (each child's row is a least cost over
+    /// budgets), so the table's `cost[i][j − 1]` is the one-slot cost `cost[i][0]` exactly
+    /// when keeping `i` whole is no dearer.
     fn fill(&self, i: usize, j: usize, out: &mut Vec<usize>) {
-        let (one, _) = one_slot(self.b2, &self.counts, &self.cost, i);
-        if j < 2 || one <= best_split(self.b2, &self.cost, i, j).0 {
+        let row = &self.cost[i];
+        if j < 2 || row[j - 1] >= row[0] {
             out.push(i);
         } else {
             self.slots(i, j, out);
