@@ -163,30 +163,12 @@ pub(crate) const NODE_COST: f32 = 1.0;
 /// the fastest closest hits (0.5 the slowest, 4 within noise of 2).
 pub(crate) const PACK_COST: f32 = 2.0;
 
-/// Slot budgets for the two children of binary node `i` that fill `j` slots at least cost:
-/// `(cost, k)` with `k` slots to the left child and `j − k` to the right (the lowest `k`
-/// among equal costs); infinite for a binary leaf.
-fn best_split(b2: &Bvh2, cost: &[[f32; WIDTH]], i: usize, j: usize) -> (f32, usize) {
-    let node = &b2.nodes[i];
-    if node.is_leaf() {
-        return (f32::INFINITY, 0);
-    }
-    let l = node.first_index as usize;
-    let mut best = (f32::INFINITY, 0);
-    for k in 1..j {
-        let c = cost[l][k - 1] + cost[l + 1][j - k - 1];
-        if c < best.0 {
-            best = (c, k);
-        }
-    }
-    best
-}
-
-/// The least costs of the two children of binary node `i` filling `j` slots between
-/// them, for each `j` (entry `j − 1`; infinite for `j = 1` and for a binary leaf): the
-/// costs of [`best_split`], all budgets in one pass over the children's rows.
-fn split_costs(b2: &Bvh2, cost: &[[f32; WIDTH]], i: usize) -> [f32; WIDTH] {
-    let mut out = [f32::INFINITY; WIDTH];
+/// The best ways for the two children of binary node `i` to fill `j` slots between them,
+/// for each `j` (entry `j − 1`): `(cost, k)` with `k` slots to the left child and `j − k`
+/// to the right, the lowest `k` among equal costs; infinite cost for `j = 1` and for a
+/// binary leaf. All budgets in one pass over the children's rows.
+fn splits(b2: &Bvh2, cost: &[[f32; WIDTH]], i: usize) -> [(f32, usize); WIDTH] {
+    let mut out = [(f32::INFINITY, 0); WIDTH];
     let node = &b2.nodes[i];
     if node.is_leaf() {
         return out;
@@ -194,11 +176,11 @@ fn split_costs(b2: &Bvh2, cost: &[[f32; WIDTH]], i: usize) -> [f32; WIDTH] {
     let l = node.first_index as usize;
     let (a, b) = (cost[l], cost[l + 1]);
     for (j, o) in out.iter_mut().enumerate().skip(1) {
-        // j + 1 slots: k + 1 to the left, j − k to the right, as in `best_split`.
+        // j + 1 slots: k + 1 to the left, j − k to the right.
         for k in 0..j {
             let c = a[k] + b[j - 1 - k];
-            if c < *o {
-                *o = c;
+            if c < o.0 {
+                *o = (c, k + 1);
             }
         }
     }
@@ -223,15 +205,15 @@ fn one_slot_with(b2: &Bvh2, counts: &[u32], i: usize, split8: f32) -> (f32, bool
 
 /// Binary node `i` in one slot ([`one_slot_with`] its children's best split).
 fn one_slot(b2: &Bvh2, counts: &[u32], cost: &[[f32; WIDTH]], i: usize) -> (f32, bool) {
-    one_slot_with(b2, counts, i, best_split(b2, cost, i, WIDTH).0)
+    one_slot_with(b2, counts, i, splits(b2, cost, i)[WIDTH - 1].0)
 }
 
 /// The row `cost[i]` from its children's rows.
 fn slot_row(b2: &Bvh2, counts: &[u32], cost: &[[f32; WIDTH]], i: usize) -> [f32; WIDTH] {
-    let split = split_costs(b2, cost, i);
-    let mut row = [one_slot_with(b2, counts, i, split[WIDTH - 1]).0; WIDTH];
+    let split = splits(b2, cost, i);
+    let mut row = [one_slot_with(b2, counts, i, split[WIDTH - 1].0).0; WIDTH];
     for j in 1..WIDTH {
-        row[j] = row[j - 1].min(split[j]);
+        row[j] = row[j - 1].min(split[j].0);
     }
     row
 }
@@ -276,7 +258,7 @@ impl Collapser<'_> {
     /// The binary nodes that fill the `j` slots of wide node `i` (an internal binary node
     /// that is not a leaf): its children's subtrees cut by the table, left to right.
     fn slots(&self, i: usize, j: usize, out: &mut Vec<usize>) {
-        let (_, k) = best_split(self.b2, &self.cost, i, j);
+        let (_, k) = splits(self.b2, &self.cost, i)[j - 1];
         let l = self.b2.nodes[i].first_index as usize;
         self.fill(l, k, out);
         self.fill(l + 1, j - k, out);
