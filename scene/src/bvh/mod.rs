@@ -211,7 +211,7 @@ impl Placement {
     }
 
     /// The ray in this placement's BVH frame (the same `t` parametrises both).
-    #[inline]
+    #[inline(always)]
     fn local_ray(&self, origin: DVec3, dir: DVec3, tmin: f32, tmax: f32) -> RayK {
         match self.to_world {
             None => RayK::new(f32x3(origin), f32x3(dir), tmin, tmax),

@@ -341,3 +341,48 @@ fn collapse_is_the_cheapest_cut() {
     // Some trees needed more than one wide node (the search covered nested cuts).
     assert!(checked_nodes > 40, "{checked_nodes}");
 }
+
+/// A ray that meets the box of every node but no triangle until the last: 40,000 slanted
+/// triangles along the x axis whose boxes hold the ray and whose faces pass beside it,
+/// then a wall across it. Nearest-first traversal must open every node, so the stack
+/// outgrows its inline part and spills to the heap; every kernel still returns the
+/// brute-force hit, and occlusion agrees.
+#[test]
+fn a_traversal_that_spills_its_stack_finds_the_hit() {
+    let mut b = SceneBuilder::new("coplanar fan");
+    let m = b.add_material(Material::diffuse("m", [0.5; 3])).unwrap();
+    let n = 40_000;
+    let step = 0.001;
+    for k in 0..n {
+        let x0 = f64::from(k) * step;
+        // Seen along x, the triangle (1, 0), (0, 1), (1, 1) in (y, z): above y + z = 1,
+        // while the ray passes at (0.1, 0.1), inside the box [0, 1]².
+        let tri = [DVec3::new(x0, 1.0, 0.0), DVec3::new(x0, 0.0, 1.0), DVec3::new(x0 + step, 1.0, 1.0)];
+        b.add_triangle(tri, [DVec2::ZERO; 3], m).unwrap();
+    }
+    let wall = f64::from(n) * step + 1.0;
+    b.add_triangle(
+        [DVec3::new(wall, -1.0, -1.0), DVec3::new(wall, 1.0, -1.0), DVec3::new(wall, 0.0, 2.0)],
+        [DVec2::ZERO; 3],
+        m,
+    )
+    .unwrap();
+    let scene = b.build().unwrap();
+    let (o, d) = (DVec3::new(-1.0, 0.1, 0.1), DVec3::X);
+    let mut tracer = Tracer::new(&scene);
+    let want = tracer.closest_hit_brute_force(o, d, 0.0, f64::INFINITY).expect("the wall");
+    assert_eq!(want.triangle, n);
+    for isa in Isa::available() {
+        tracer.set_isa(isa).unwrap();
+        super::traverse::SPILLED.set(0);
+        let got = tracer.closest_hit(o, d, 0.0, f64::INFINITY).expect("the wall");
+        assert!(super::traverse::SPILLED.get() > 0, "{isa}: the stack never spilled");
+        assert_eq!(
+            (got.triangle, got.t.to_bits(), got.bary),
+            (want.triangle, want.t.to_bits(), want.bary),
+            "{isa}"
+        );
+        assert!(tracer.occluded(o, d, 0.0, f64::INFINITY), "{isa}");
+        assert!(!tracer.occluded(o, d, 0.0, wall - 1.5), "{isa}: only the wall blocks");
+    }
+}

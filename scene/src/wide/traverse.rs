@@ -19,8 +19,17 @@ use super::kernel::{Kernel, RayK, TriLanes};
 use super::{EMPTY, LEAF_BIT, Lanes, WIDTH, WideBvh};
 use crate::watertight::RawHit;
 
-/// Stack entries kept inline; deeper traversals spill to the heap.
-const INLINE_STACK: usize = 64;
+/// Stack entries kept inline; deeper traversals spill to the heap. The inline array is
+/// zeroed for every ray, so it is kept small: at 64 entries (512 bytes) the zeroing was a
+/// call to `memset` per ray, at 32 it is a few vector stores. Of a Breakfast Room bake's
+/// 12 M traversals at 0.2 m and 256 samples, 134 spilled at 32 entries (429,209 at 16).
+const INLINE_STACK: usize = 32;
+
+#[cfg(test)]
+thread_local! {
+    /// Entries this thread pushed past the inline array (tests: that a traversal spilled).
+    pub(crate) static SPILLED: std::cell::Cell<usize> = const { std::cell::Cell::new(0) };
+}
 
 /// The traversal stack.
 struct Stack {
@@ -41,6 +50,8 @@ impl Stack {
             self.items[self.len] = e;
             self.len += 1;
         } else {
+            #[cfg(test)]
+            SPILLED.set(SPILLED.get() + 1);
             self.spill.push(e);
         }
     }
@@ -79,6 +90,8 @@ pub(crate) fn walk<K: Kernel, V: Visit>(bvh: &WideBvh, ray: &RayK, v: &mut V) ->
     }
     let mut stack = Stack::new();
     let mut tnear = [0f32; WIDTH];
+    // Filled anew at each node (only `hits[..n]` is read); declared once per ray.
+    let mut hits = [(0u32, 0f32); WIDTH];
     let mut next = Some((bvh.root, ray.tmin));
     loop {
         let (r, entry) = match next.take() {
@@ -101,8 +114,7 @@ pub(crate) fn walk<K: Kernel, V: Visit>(bvh: &WideBvh, ray: &RayK, v: &mut V) ->
         let node = &bvh.nodes[r as usize];
         let mask = K::boxes(node, ray, tmax, &mut tnear);
         // Hit children, sorted by entry distance, nearest first (insertion sort of ≤ 8),
-        // or in slot order.
-        let mut hits = [(0u32, 0f32); WIDTH];
+        // or in slot order, in `hits[..n]`.
         let mut n = 0;
         for lane in Lanes(mask) {
             let e = (node.child[lane], tnear[lane]);
@@ -219,5 +231,28 @@ impl<F: Filter> Visit for Any<'_, F> {
             }
         }
         false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{INLINE_STACK, Stack};
+
+    /// Entries come back last in, first out across the inline array and its spill.
+    #[test]
+    fn stack_is_lifo_across_the_spill() {
+        let mut s = Stack::new();
+        let n = 3 * INLINE_STACK + 5;
+        for i in 0..n {
+            s.push((i as u32, i as f32 * 0.5));
+        }
+        for i in (0..n).rev() {
+            assert_eq!(s.pop(), Some((i as u32, i as f32 * 0.5)));
+        }
+        assert_eq!(s.pop(), None);
+        // Refilled after emptying: the inline part is used again.
+        s.push((7, 1.0));
+        assert_eq!(s.pop(), Some((7, 1.0)));
+        assert_eq!(s.pop(), None);
     }
 }
