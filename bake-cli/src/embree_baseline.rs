@@ -30,8 +30,9 @@ use serde_json::{Value, json};
 
 const SOURCE: &str = include_str!("../embree/embree_trace.c");
 
-/// Passes per measurement; the best is reported (the least disturbed by other load).
-const REPEATS: u32 = 3;
+/// Passes per measurement; the best is reported (the least disturbed by other load). The
+/// passes of lightvol and Embree alternate (each Embree pass its own run of the harness).
+const REPEATS: u32 = 5;
 
 /// Relative distance difference below which two hits count as the same surface point:
 /// both tracers intersect in f32, with differently ordered arithmetic (a few ulps, 1e-6),
@@ -87,22 +88,22 @@ enum EmbreeIsa {
     Sse2,
 }
 
-/// One workload through Embree: `(best seconds, build seconds, per-ray results, the ISA
-/// target it ran)`.
-fn run_embree(
-    exe: &Path,
+/// One workload's input for the Embree harness (the triangles in the world frame, one
+/// level, and the rays), written once to `dir/{tag}.bin` and traced by [`embree_pass`],
+/// one timed pass per run.
+fn embree_input(
     dir: &Path,
+    tag: &str,
     scene: &Scene,
     rays: &[(DVec3, DVec3)],
     occlusion: bool,
     threads: u32,
     isa: EmbreeIsa,
-) -> anyhow::Result<(f64, f64, Vec<f32>, String)> {
-    // Embree gets the triangles written out in the world frame (one level).
+) -> anyhow::Result<PathBuf> {
     let n = scene.triangle_count();
     let mut input = Vec::with_capacity(24 + n * 36 + rays.len() * 24);
     input.extend_from_slice(b"LVEB");
-    for v in [u32::from(occlusion), threads, REPEATS, u32::from(isa == EmbreeIsa::Sse2), n as u32] {
+    for v in [u32::from(occlusion), threads, 1, u32::from(isa == EmbreeIsa::Sse2), n as u32] {
         input.extend_from_slice(&v.to_le_bytes());
     }
     for t in scene.world_triangles() {
@@ -119,15 +120,22 @@ fn run_embree(
         }
     }
     input.extend_from_slice(&f32::INFINITY.to_le_bytes());
-    let (inp, outp) = (dir.join("rays.bin"), dir.join("hits.bin"));
-    std::fs::write(&inp, &input).context("writing the rays for Embree")?;
-    let st = Command::new(exe).arg(&inp).arg(&outp).output().context("running the Embree harness")?;
+    let path = dir.join(format!("{tag}.bin"));
+    std::fs::write(&path, &input).context("writing the rays for Embree")?;
+    Ok(path)
+}
+
+/// One timed pass of the Embree harness over `input` (`rays` rays): `(seconds, build
+/// seconds, per-ray results, the ISA target it ran)`.
+fn embree_pass(exe: &Path, input: &Path, rays: usize) -> anyhow::Result<(f64, f64, Vec<f32>, String)> {
+    let outp = input.with_extension("out");
+    let st = Command::new(exe).arg(input).arg(&outp).output().context("running the Embree harness")?;
     if !st.status.success() {
         bail!("the Embree harness failed: {}", String::from_utf8_lossy(&st.stderr).trim());
     }
     let b = std::fs::read(&outp).context("reading Embree's results")?;
-    if b.len() != 16 + 4 * rays.len() {
-        bail!("the Embree harness wrote {} bytes for {} rays", b.len(), rays.len());
+    if b.len() != 16 + 4 * rays {
+        bail!("the Embree harness wrote {} bytes for {rays} rays", b.len());
     }
     let f64_at = |i: usize| f64::from_le_bytes(b[i..i + 8].try_into().expect("8 bytes"));
     let res = b[16..].chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().expect("4 bytes"))).collect();
@@ -135,35 +143,42 @@ fn run_embree(
     Ok((f64_at(0), f64_at(8), res, isa))
 }
 
-/// One workload through lightvol's tracer on `threads` threads: `(best seconds, results)`
-/// in Embree's encoding.
-fn run_lightvol(
+/// One timed pass of lightvol's tracer over `rays` in `pool`: `(seconds, results)` in
+/// Embree's encoding.
+fn lightvol_pass(
     tracer: &Tracer,
+    pool: &rayon::ThreadPool,
     rays: &[(DVec3, DVec3)],
     occlusion: bool,
-    threads: usize,
-) -> anyhow::Result<(f64, Vec<f32>)> {
+) -> (f64, Vec<f32>) {
     use rayon::prelude::*;
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("thread pool")?;
-    let mut best = f64::INFINITY;
-    let mut out = Vec::new();
-    for _ in 0..REPEATS {
-        let t0 = Instant::now();
-        out = pool.install(|| {
-            rays.par_iter()
-                .with_min_len(4096)
-                .map(|(o, d)| {
-                    if occlusion {
-                        f32::from(u8::from(tracer.occluded(*o, *d, 0.0, f64::INFINITY)))
-                    } else {
-                        tracer.closest_hit(*o, *d, 0.0, f64::INFINITY).map_or(-1.0, |h| h.t as f32)
-                    }
-                })
-                .collect()
-        });
-        best = best.min(t0.elapsed().as_secs_f64());
+    let t0 = Instant::now();
+    let out = pool.install(|| {
+        rays.par_iter()
+            .with_min_len(4096)
+            .map(|(o, d)| {
+                if occlusion {
+                    f32::from(u8::from(tracer.occluded(*o, *d, 0.0, f64::INFINITY)))
+                } else {
+                    tracer.closest_hit(*o, *d, 0.0, f64::INFINITY).map_or(-1.0, |h| h.t as f32)
+                }
+            })
+            .collect()
+    });
+    (t0.elapsed().as_secs_f64(), out)
+}
+
+/// The fastest of a measurement's passes and the results of its last.
+struct Best<R> {
+    seconds: f64,
+    results: R,
+}
+
+impl<R> Best<R> {
+    fn offer(slot: &mut Option<Self>, seconds: f64, results: R) {
+        let seconds = slot.as_ref().map_or(seconds, |b| b.seconds.min(seconds));
+        *slot = Some(Self { seconds, results });
     }
-    Ok((best, out))
 }
 
 /// Ray-by-ray agreement of two result lists.
@@ -291,40 +306,68 @@ pub(crate) fn compare(
     ] {
         let mut entry = json!({});
         for threads in [1u32, 2] {
-            let (le, lres) = run_lightvol(&tracer, rays, occ, threads as usize)?;
-            let (ee, build, eres, isa) =
-                run_embree(&exe, dir.path(), scene, rays, occ, threads, EmbreeIsa::Native)?;
-            if threads == 1 && !occ {
-                out["build_seconds"]["embree_1_thread"] = json!(build);
+            // lightvol's SSE2 kernel (the one every x86-64 runs) and Embree's forced SSE2
+            // kernels stand beside the native ones on one thread.
+            let sse2_rows = threads == 1;
+            let native_in = embree_input(dir.path(), "native", scene, rays, occ, threads, EmbreeIsa::Native)?;
+            let sse2_in = if sse2_rows {
+                Some(embree_input(dir.path(), "sse2", scene, rays, occ, 1, EmbreeIsa::Sse2)?)
+            } else {
+                None
+            };
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads as usize)
+                .build()
+                .context("thread pool")?;
+            let (mut lv, mut lv_sse2, mut em, mut em_sse2) = (None, None, None, None);
+            let mut embree_build = f64::INFINITY;
+            // The passes of all four alternate, so that a burst of other load on a shared
+            // machine slows each of them alike instead of one whole measurement.
+            for _ in 0..REPEATS {
+                let (t, r) = lightvol_pass(&tracer, &pool, rays, occ);
+                Best::offer(&mut lv, t, r);
+                if sse2_rows && native != Isa::Sse2 {
+                    tracer.set_isa(Isa::Sse2).map_err(anyhow::Error::msg)?;
+                    let (t, _) = lightvol_pass(&tracer, &pool, rays, occ);
+                    tracer.set_isa(native).map_err(anyhow::Error::msg)?;
+                    Best::offer(&mut lv_sse2, t, ());
+                }
+                let (t, build, r, isa) = embree_pass(&exe, &native_in, rays.len())?;
+                embree_build = embree_build.min(build);
+                Best::offer(&mut em, t, (r, isa));
+                if let Some(input) = &sse2_in {
+                    let (t, _, r, isa) = embree_pass(&exe, input, rays.len())?;
+                    Best::offer(&mut em_sse2, t, (r, isa));
+                }
             }
-            out["embree_isa"] = json!(isa);
-            let (lm, em) = (count as f64 / le / 1e6, count as f64 / ee / 1e6);
+            let (Some(lv), Some(em)) = (lv, em) else { bail!("no passes were run") };
+            if threads == 1 && !occ {
+                out["build_seconds"]["embree_1_thread"] = json!(embree_build);
+            }
+            out["embree_isa"] = json!(em.results.1);
+            let mrays = |seconds: f64| count as f64 / seconds / 1e6;
+            let (lm, emr) = (mrays(lv.seconds), mrays(em.seconds));
             entry[format!("{threads}_thread")] = json!({
                 "lightvol_mrays_per_second": lm,
-                "embree_mrays_per_second": em,
-                "lightvol_over_embree": lm / em,
-                "agreement": agreement(&lres, &eres, occ),
+                "embree_mrays_per_second": emr,
+                "lightvol_over_embree": lm / emr,
+                "agreement": agreement(&lv.results, &em.results.0, occ),
             });
-            if threads == 1 && native != Isa::Sse2 {
-                // lightvol's SSE2 kernel, the one every x86-64 runs, against Embree's choice.
-                tracer.set_isa(Isa::Sse2).map_err(anyhow::Error::msg)?;
-                let (se, _) = run_lightvol(&tracer, rays, occ, 1)?;
-                tracer.set_isa(native).map_err(anyhow::Error::msg)?;
-                let sm = count as f64 / se / 1e6;
+            if let Some(s) = lv_sse2 {
+                let sm = mrays(s.seconds);
                 entry["1_thread_lightvol_sse2"] = json!({
                     "lightvol_isa": Isa::Sse2.name(),
                     "lightvol_mrays_per_second": sm,
-                    "lightvol_over_embree": sm / em,
+                    "lightvol_over_embree": sm / emr,
                 });
             }
-            if threads == 1 {
-                let (se, _, sres, sisa) = run_embree(&exe, dir.path(), scene, rays, occ, 1, EmbreeIsa::Sse2)?;
-                let sm = count as f64 / se / 1e6;
+            if let Some(s) = em_sse2 {
+                let sm = mrays(s.seconds);
                 entry["1_thread_embree_sse2"] = json!({
-                    "embree_isa": sisa,
+                    "embree_isa": s.results.1,
                     "embree_mrays_per_second": sm,
                     "lightvol_over_embree": lm / sm,
-                    "agreement": agreement(&lres, &sres, occ),
+                    "agreement": agreement(&lv.results, &s.results.0, occ),
                 });
             }
         }
