@@ -386,3 +386,39 @@ fn a_traversal_that_spills_its_stack_finds_the_hit() {
         assert!(!tracer.occluded(o, d, 0.0, wall - 1.5), "{isa}: only the wall blocks");
     }
 }
+
+/// The build runs on rayon's threads (obvhs' `parallel` feature) and gives the same tree,
+/// bit for bit, on 1, 2 and 5 threads: 20,000 random triangles, every node's planes and
+/// children and every leaf's primitives compared.
+#[test]
+fn the_tree_is_the_same_on_any_thread_count() {
+    use obvhs::triangle::Triangle as ObTriangle;
+    let mut rng = SplitMix64::new(12);
+    let tris: Vec<ObTriangle> = (0..20_000)
+        .map(|_| {
+            let c = glam::Vec3A::new(
+                rng.range(-20.0, 20.0) as f32,
+                rng.range(-5.0, 5.0) as f32,
+                rng.range(-20.0, 20.0) as f32,
+            );
+            let mut p =
+                || c + glam::Vec3A::new(rng.next_f64() as f32, rng.next_f64() as f32, rng.next_f64() as f32);
+            ObTriangle { v0: p(), v1: p(), v2: p() }
+        })
+        .collect();
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let bvh = pool.install(|| super::build::from_triangles(&tris, obvhs::BvhBuildParams::medium_build()));
+        let nodes: Vec<(Vec<u32>, [u32; WIDTH])> = bvh
+            .nodes
+            .iter()
+            .map(|n| (n.planes.iter().flatten().map(|x| x.to_bits()).collect(), n.child))
+            .collect();
+        (bvh.root, nodes, bvh.prims)
+    };
+    let one = build(1);
+    assert!(one.1.len() > 1_000, "{}", one.1.len());
+    for threads in [2, 5] {
+        assert!(build(threads) == one, "{threads} threads built another tree");
+    }
+}
