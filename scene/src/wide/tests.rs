@@ -1,12 +1,32 @@
 use glam::DVec3;
 use lightvol_sh::lowdisc::SplitMix64;
 
+use obvhs::triangle::Triangle as ObTriangle;
+
 use super::build::BOX_PAD_REL;
 use super::kernel::{FAR_SCALE, Kernel, RayK, Scalar, TINY_DIR};
 use super::{Isa, LEAF_SIZE, Node, WIDTH};
 use crate::builder::SceneBuilder;
 use crate::material::Material;
 use crate::{DVec2, Tracer};
+
+/// `count` random triangles: each a centre uniform in the box `±half`, and three vertices
+/// at that centre plus offsets uniform in `[lo, hi)³` (each coordinate drawn in f64, then
+/// rounded to f32).
+fn triangle_soup(
+    rng: &mut SplitMix64,
+    count: usize,
+    half: [f64; 3],
+    (lo, hi): (f64, f64),
+) -> Vec<ObTriangle> {
+    (0..count)
+        .map(|_| {
+            let c = glam::Vec3A::from_array(half.map(|h| rng.range(-h, h) as f32));
+            let mut p = || c + glam::Vec3A::from_array([(); 3].map(|()| rng.range(lo, hi) as f32));
+            ObTriangle { v0: p(), v1: p(), v2: p() }
+        })
+        .collect()
+}
 
 /// `FAR_SCALE` is at least `1 + 2γ₃` (Ize 2013), `γₙ = nu/(1 − nu)` with `u = 2⁻²⁴`
 /// computed here in f64, and not more than twice that margin.
@@ -136,20 +156,7 @@ fn no_ray_escapes_a_closed_mesh_through_the_tracer() {
 /// tree is smaller than the binary one it came from.
 #[test]
 fn collapse_keeps_every_triangle_once() {
-    use obvhs::triangle::Triangle as ObTriangle;
-    let mut rng = SplitMix64::new(4);
-    let tris: Vec<ObTriangle> = (0..5000)
-        .map(|_| {
-            let c = glam::Vec3A::new(
-                rng.range(-9.0, 9.0) as f32,
-                rng.range(-9.0, 9.0) as f32,
-                rng.range(-9.0, 9.0) as f32,
-            );
-            let mut p =
-                || c + glam::Vec3A::new(rng.next_f64() as f32, rng.next_f64() as f32, rng.next_f64() as f32);
-            ObTriangle { v0: p(), v1: p(), v2: p() }
-        })
-        .collect();
+    let tris = triangle_soup(&mut SplitMix64::new(4), 5000, [9.0; 3], (0.0, 1.0));
     let bvh = super::build::from_triangles(&tris, obvhs::BvhBuildParams::medium_build());
     let mut seen = vec![0u32; tris.len()];
     for leaf in bvh.leaves() {
@@ -174,7 +181,6 @@ fn collapse_keeps_every_triangle_once() {
 fn big_binary_leaves_become_nodes_of_leaves() {
     use super::traverse::{Best, Closest, Filter, walk};
     use crate::watertight::{RawHit, intersect_raw};
-    use obvhs::triangle::Triangle as ObTriangle;
     struct All;
     impl Filter for All {
         fn id(&self, prim: u32) -> u32 {
@@ -185,14 +191,8 @@ fn big_binary_leaves_become_nodes_of_leaves() {
         }
     }
     let mut rng = SplitMix64::new(8);
+    let tris = triangle_soup(&mut rng, 3000, [9.0; 3], (-1.0, 1.0));
     let mut r = |a: f64, b: f64| rng.range(a, b) as f32;
-    let tris: Vec<ObTriangle> = (0..3000)
-        .map(|_| {
-            let c = glam::Vec3A::new(r(-9.0, 9.0), r(-9.0, 9.0), r(-9.0, 9.0));
-            let mut p = || c + glam::Vec3A::new(r(-1.0, 1.0), r(-1.0, 1.0), r(-1.0, 1.0));
-            ObTriangle { v0: p(), v1: p(), v2: p() }
-        })
-        .collect();
     let mut params = obvhs::BvhBuildParams::medium_build();
     params.max_prims_per_leaf = 40;
     params.collapse_traversal_cost = 1000.0;
@@ -240,7 +240,6 @@ fn big_binary_leaves_become_nodes_of_leaves() {
 fn collapse_is_the_cheapest_cut() {
     use super::build::{NODE_COST, PACK_COST, collapse, collapse_cost};
     use obvhs::bvh2::Bvh2;
-    use obvhs::triangle::Triangle as ObTriangle;
     /// Both sides add the same f32 products in different orders: a few ulps per term.
     const SUM_ORDER_TOLERANCE: f32 = 1e-5;
     /// The emitted boxes are widened by `BOX_PAD_REL` of their largest coordinate (up to
@@ -313,15 +312,8 @@ fn collapse_is_the_cheapest_cut() {
     let mut checked_nodes = 0;
     for trial in 0..40 {
         let n = 5 + trial % 10;
-        let mut r = |a: f64, b: f64| rng.range(a, b) as f32;
         let spread = if trial % 2 == 0 { 9.0 } else { 2.0 };
-        let tris: Vec<ObTriangle> = (0..n)
-            .map(|_| {
-                let c = glam::Vec3A::new(r(-spread, spread), r(-spread, spread), r(-spread, spread));
-                let mut p = || c + glam::Vec3A::new(r(0.0, 0.2), r(0.0, 0.2), r(0.0, 0.2));
-                ObTriangle { v0: p(), v1: p(), v2: p() }
-            })
-            .collect();
+        let tris = triangle_soup(&mut rng, n, [spread; 3], (0.0, 0.2));
         let mut params = obvhs::BvhBuildParams::medium_build();
         params.max_prims_per_leaf = 1;
         let b2 =
@@ -392,20 +384,7 @@ fn a_traversal_that_spills_its_stack_finds_the_hit() {
 /// children and every leaf's primitives compared.
 #[test]
 fn the_tree_is_the_same_on_any_thread_count() {
-    use obvhs::triangle::Triangle as ObTriangle;
-    let mut rng = SplitMix64::new(12);
-    let tris: Vec<ObTriangle> = (0..20_000)
-        .map(|_| {
-            let c = glam::Vec3A::new(
-                rng.range(-20.0, 20.0) as f32,
-                rng.range(-5.0, 5.0) as f32,
-                rng.range(-20.0, 20.0) as f32,
-            );
-            let mut p =
-                || c + glam::Vec3A::new(rng.next_f64() as f32, rng.next_f64() as f32, rng.next_f64() as f32);
-            ObTriangle { v0: p(), v1: p(), v2: p() }
-        })
-        .collect();
+    let tris = triangle_soup(&mut SplitMix64::new(12), 20_000, [20.0, 5.0, 20.0], (0.0, 1.0));
     let build = |threads: usize| {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
         let bvh = pool.install(|| super::build::from_triangles(&tris, obvhs::BvhBuildParams::medium_build()));
