@@ -150,7 +150,7 @@ pub(super) fn collapse(b2: &Bvh2) -> WideBvh {
 #[cfg(test)]
 pub(super) fn collapse_cost(b2: &Bvh2) -> f32 {
     let (counts, cost) = tables(b2);
-    one_slot(b2, &counts, &cost, 0).0
+    one_slot_with(b2, &counts, 0, splits(b2, &cost, 0)[WIDTH - 1].0).0
 }
 
 /// The cost of one wide node's test of its eight child boxes, in the units of
@@ -203,11 +203,6 @@ fn one_slot_with(b2: &Bvh2, counts: &[u32], i: usize, split8: f32) -> (f32, bool
     if as_leaf <= as_node { (as_leaf, true) } else { (as_node, false) }
 }
 
-/// Binary node `i` in one slot ([`one_slot_with`] its children's best split).
-fn one_slot(b2: &Bvh2, counts: &[u32], cost: &[[f32; WIDTH]], i: usize) -> (f32, bool) {
-    one_slot_with(b2, counts, i, splits(b2, cost, i)[WIDTH - 1].0)
-}
-
 /// The row `cost[i]` from its children's rows.
 fn slot_row(b2: &Bvh2, counts: &[u32], cost: &[[f32; WIDTH]], i: usize) -> [f32; WIDTH] {
     let split = splits(b2, cost, i);
@@ -229,10 +224,11 @@ struct Collapser<'a> {
 
 impl Collapser<'_> {
     /// Emits binary node `i`, in one slot, as a leaf or a wide node (whichever
-    /// [`one_slot`] chose); returns its child reference.
+    /// [`one_slot_with`] chooses, given its children's best split); returns its child reference.
     fn emit(&mut self, i: usize) -> u32 {
         let b2 = self.b2;
-        let (_, leaf) = one_slot(b2, &self.counts, &self.cost, i);
+        let split = splits(b2, &self.cost, i);
+        let (_, leaf) = one_slot_with(b2, &self.counts, i, split[WIDTH - 1].0);
         if leaf {
             let prims = self.subtree_prims(i);
             return self.leaf(&prims);
@@ -243,7 +239,7 @@ impl Collapser<'_> {
             return self.prims_node(&prims, b);
         }
         let mut kids = Vec::with_capacity(WIDTH);
-        self.slots(i, WIDTH, &mut kids);
+        self.slots(i, WIDTH, split[WIDTH - 1].1, &mut kids);
         let index = self.out.nodes.len();
         self.out.nodes.push(Node::empty());
         let mut node = Node::empty();
@@ -256,9 +252,9 @@ impl Collapser<'_> {
     }
 
     /// The binary nodes that fill the `j` slots of wide node `i` (an internal binary node
-    /// that is not a leaf): its children's subtrees cut by the table, left to right.
-    fn slots(&self, i: usize, j: usize, out: &mut Vec<usize>) {
-        let (_, k) = splits(self.b2, &self.cost, i)[j - 1];
+    /// that is not a leaf), `k` of them to its left child ([`splits`]): its children's
+    /// subtrees cut by the table, left to right.
+    fn slots(&self, i: usize, j: usize, k: usize, out: &mut Vec<usize>) {
         let l = self.b2.nodes[i].first_index as usize;
         self.fill(l, k, out);
         self.fill(l + 1, j - k, out);
@@ -274,7 +270,7 @@ impl Collapser<'_> {
         if j < 2 || row[j - 1] >= row[0] {
             out.push(i);
         } else {
-            self.slots(i, j, out);
+            self.slots(i, j, splits(self.b2, &self.cost, i)[j - 1].1, out);
         }
     }
 
