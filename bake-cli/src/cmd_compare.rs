@@ -321,6 +321,12 @@ fn write_outputs(
 /// Runs `lightvol compare`.
 pub(crate) fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
     let report = compare(args)?;
+    if let Some(noise) = report.reference.noise {
+        eprintln!(
+            "plate reference: {} samples a point, noise {noise:.4} (relative RMSE; part of every method's)",
+            report.reference.samples
+        );
+    }
     eprintln!(
         "{:<14} {:>9} {:>8} {:>9} {:>13} {:>10} {:>10} {:>8} {:>10}",
         "method", "rel_rmse", "bias", "too_dark", "too_dark_near", "too_bright", "rays", "seconds", "memory"

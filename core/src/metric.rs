@@ -47,6 +47,17 @@ pub fn rel_rmse_of_sums(sum_sq_diff: f64, sum_truth: f64, n: usize) -> f64 {
     (sum_sq_diff / nf).sqrt() / (sum_truth / nf)
 }
 
+/// The estimated error of the mean `m_n` of an extensible quasi-Monte Carlo rule from the
+/// means of its prefixes, `m_{n/2}` of the first half and `m_{n/4}` of the first quarter of
+/// the same samples: `max(|m_n − m_{n/2}|, ½ |m_n − m_{n/4}|)` (Owen, *Monte Carlo theory,
+/// methods and examples*, §17; lightvol-sampler's `noise` module says why each term). The
+/// one place the formula is written: `bake --noise` stops on it, and `compare` reports
+/// its reference's noise with it.
+#[must_use]
+pub fn prefix_error(full: f64, half: f64, quarter: f64) -> f64 {
+    (full - half).abs().max(0.5 * (full - quarter).abs())
+}
+
 /// The relative RMSE of `(estimate, truth)` pairs (module docs).
 #[must_use]
 pub fn rel_rmse(pairs: impl IntoIterator<Item = (f64, f64)>) -> f64 {

@@ -9,7 +9,8 @@
 //! - *near* a surface when the nearest hit of [`NEAREST_DIRS`] spherical-Fibonacci rays is
 //!   closer than half the grid's largest cell edge: where leaks show (`too_dark_near`).
 //!
-//! The reference is [`reference_irradiance_many`] at every point with normal +Z.
+//! The reference is [`reference_irradiance_many_with_error`] at every point with normal +Z,
+//! with the error its samples' prefixes estimate ([`Plate::reference_noise`]).
 
 use lightvol_core::samples::{Samples, samples};
 use std::time::Instant;
@@ -25,7 +26,7 @@ use crate::observer::Observer;
 use lightvol_core::progress::Progress;
 use lightvol_sampler::domain::classify_point;
 use lightvol_scene::envmap::luminance;
-use lightvol_scene::reference::reference_irradiance_many;
+use lightvol_scene::reference::reference_irradiance_many_with_error;
 use lightvol_scene::scene::Scene;
 use lightvol_scene::transport::Transport;
 
@@ -124,6 +125,9 @@ pub struct Plate {
     pub near: Vec<bool>,
     /// Reference irradiance (RGB, normal +Z).
     pub truth: Vec<[f64; 3]>,
+    /// The estimated luminance error of each point's reference (`None` below four samples;
+    /// [`reference_irradiance_many_with_error`]).
+    pub truth_error: Vec<Option<f64>>,
     /// Wall time of the reference, in seconds.
     pub reference_seconds: f64,
 }
@@ -184,8 +188,14 @@ impl Plate {
         observer.stage_started("reference");
         observer.progress(Progress { done: 0, total: 1 });
         let pts: Vec<(DVec3, DVec3)> = points.iter().map(|&p| (p, DVec3::Z)).collect();
-        let truth =
-            reference_irradiance_many(transport, &pts, config.reference_samples, seed ^ REFERENCE_STREAM);
+        let (truth, truth_error) = reference_irradiance_many_with_error(
+            transport,
+            &pts,
+            config.reference_samples,
+            seed ^ REFERENCE_STREAM,
+        )
+        .into_iter()
+        .unzip();
         observer.stage_finished();
         Ok(Self {
             res,
@@ -194,6 +204,7 @@ impl Plate {
             valid: classes.iter().map(|c| c.0).collect(),
             near: classes.iter().map(|c| c.1).collect(),
             truth,
+            truth_error,
             reference_seconds: t0.elapsed().as_secs_f64(),
         })
     }
@@ -219,6 +230,24 @@ impl Plate {
             return None;
         }
         Some(valid_truth.iter().sum::<f64>() / valid_truth.len() as f64)
+    }
+
+    /// The reference's own noise in the units of the relative RMSE: the root mean square of
+    /// the valid points' estimated reference errors over their mean reference luminance.
+    /// A method's relative RMSE against the reference holds this noise too (independent of
+    /// the method's error, they add in quadrature), so it is the floor no method goes
+    /// below, and it draws every method's ratio to another toward 1. The prefix estimate
+    /// errs high (1.3 times the actual noise in `the_reference_noise_is_calibrated`).
+    /// `None` when no point is valid or the reference has fewer than four samples.
+    #[must_use]
+    pub fn reference_noise(&self) -> Option<f64> {
+        let errors: Vec<f64> = (0..self.points.len())
+            .filter(|&i| self.valid[i])
+            .map(|i| self.truth_error[i])
+            .collect::<Option<_>>()?;
+        let mean = self.mean_truth()?;
+        (!errors.is_empty() && mean > 0.0)
+            .then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt() / mean)
     }
 
     /// Irradiance (normal up) of a uniform volume at every point, by its trilinear f32
@@ -278,6 +307,7 @@ mod tests {
             valid: vec![true, true, true, false],
             near: vec![false, true, true, true],
             truth: vec![grey(2.0), grey(2.0), grey(4.0), grey(1.0)],
+            truth_error: vec![Some(0.2), Some(0.2), Some(0.4), Some(9.0)],
             reference_seconds: 0.0,
         };
         // Errors on the valid points: 0, -1 (too dark, near), +0.5 (within 1.25 T).
@@ -291,6 +321,43 @@ mod tests {
         assert_eq!((m.valid_points, m.near_points), (3, 2));
         assert_eq!((plate.valid_points(), plate.near_points()), (3, 2));
         assert!((plate.mean_truth().unwrap() - mean_t).abs() < 1e-12);
+        // The invalid point's error is left out: sqrt((0.04 + 0.04 + 0.16) / 3) / (8/3).
+        let noise = plate.reference_noise().unwrap();
+        assert!((noise - 0.08f64.sqrt() / mean_t).abs() < 1e-12, "{noise}");
+        let unknown = Plate { truth_error: vec![None; 4], ..plate };
+        assert_eq!(unknown.reference_noise(), None);
+    }
+
+    /// The reference's estimated noise is what it is: on the interior's plate (dark, lit
+    /// through windows, so its reference is noisy), the noise a 64-sample reference reports
+    /// is within a factor of 2 of its actual relative RMS difference from a 2,048-sample
+    /// reference (whose own noise adds about 3% of it), and the 2,048-sample reference
+    /// reports about `√32` times less.
+    #[test]
+    fn the_reference_noise_is_calibrated() {
+        let b = builtin::interior();
+        let tracer = Tracer::new(&b.scene);
+        let t = Transport::new(&b.scene, &tracer, TransportSettings::default());
+        let config = PlateConfig { height: 0.6, res: 24, reference_samples: samples(64), classify_dirs: 32 };
+        let rough = Plate::build(&t, &b.grid, &config, 3, &Silent).unwrap();
+        let fine = Plate::build(
+            &t,
+            &b.grid,
+            &PlateConfig { reference_samples: samples(2048), ..config },
+            3,
+            &Silent,
+        )
+        .unwrap();
+        let valid: Vec<usize> = (0..rough.points.len()).filter(|&i| rough.valid[i]).collect();
+        assert!(valid.len() > 100, "{} valid points", valid.len());
+        let actual = lightvol_core::metric::rel_rmse(
+            valid.iter().map(|&i| (luminance(rough.truth[i]), luminance(fine.truth[i]))),
+        );
+        let (estimated, fine_noise) = (rough.reference_noise().unwrap(), fine.reference_noise().unwrap());
+        eprintln!("reference noise: estimated {estimated:.4}, actual {actual:.4}; at 2048: {fine_noise:.4}");
+        assert!(actual > 0.01, "a noisy reference: {actual}");
+        assert!(estimated > 0.5 * actual && estimated < 2.0 * actual, "{estimated} against {actual}");
+        assert!(fine_noise < 0.5 * estimated, "{fine_noise} against {estimated}");
     }
 
     /// The plate covers the grid's horizontal extent with the grid's aspect, at texel

@@ -87,6 +87,11 @@ pub struct ReferenceSummary {
     pub mean: f64,
     /// Wall time of the reference.
     pub seconds: f64,
+    /// The plate reference's own noise in relative-RMSE units
+    /// ([`crate::plate::Plate::reference_noise`]): the part of every method's `rel_rmse`
+    /// that is the reference's, not the method's. Not estimated for views.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub noise: Option<f64>,
 }
 
 /// One camera's views in `report.json`.
@@ -265,6 +270,7 @@ pub fn compare_files(
             samples: config.plate.reference_samples.get(),
             mean: result.mean_truth,
             seconds: plate.reference_seconds,
+            noise: plate.reference_noise(),
         },
         methods,
         views: (!views.is_empty()).then_some(views),
@@ -322,6 +328,7 @@ pub fn view_files(
             samples: samples.get(),
             mean: view.mean_reference,
             seconds: view.reference_seconds,
+            noise: None,
         },
         methods,
     };

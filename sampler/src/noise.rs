@@ -32,6 +32,7 @@
 //! is bit-identical for any thread or shard count. Earlier rounds' rays are counted with
 //! the unit's, so the total stays honest.
 
+use lightvol_core::metric::prefix_error;
 use lightvol_core::samples::Samples;
 use lightvol_scene::envmap::luminance;
 use lightvol_volume::Accumulator;
@@ -83,7 +84,7 @@ pub(crate) fn relative_error_of(values: &[f64]) -> Option<f64> {
     }
     let mean = |k: usize| values[..k].iter().sum::<f64>() / k as f64;
     let (m, half, quarter) = (mean(n), mean(n / 2), mean(n / 4));
-    let e = (m - half).abs().max(0.5 * (m - quarter).abs());
+    let e = prefix_error(m, half, quarter);
     if e == 0.0 {
         return Some(0.0);
     }

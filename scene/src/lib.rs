@@ -36,7 +36,10 @@ pub use glam::{DVec2, DVec3};
 pub use lights::{Environment, PunctualLight, Sun};
 pub use load::{LoadOptions, load_gltf, load_obj, load_scene};
 pub use material::{AlphaMode, Material};
-pub use reference::{reference_irradiance, reference_irradiance_many};
+pub use reference::{
+    reference_irradiance, reference_irradiance_many, reference_irradiance_many_with_error,
+    reference_irradiance_with_error,
+};
 pub use scene::{ExtensionReport, LoadReport, Scene, SceneCamera, UpAxis};
 pub use stats::RayCounts;
 pub use transport::{PathRng, Transport, TransportSettings};

@@ -6,8 +6,10 @@ use glam::DVec3;
 use lightvol_core::samples::Samples;
 use rayon::prelude::*;
 
+use crate::envmap::luminance;
 use crate::stats::RayCounts;
 use crate::transport::{PathRng, Transport};
+use lightvol_core::metric::prefix_error;
 
 /// Reference irradiance at `x` for receiver normal `n` (unit) with `samples` QMC samples:
 /// the first five dimensions (cosine direction, light choice and position) come from a
@@ -22,20 +24,48 @@ pub fn reference_irradiance(
     seed: u64,
     stream: u64,
 ) -> ([f64; 3], RayCounts) {
+    let (e, _, rays) = reference_irradiance_with_error(t, x, n, samples, seed, stream);
+    (e, rays)
+}
+
+/// [`reference_irradiance`] (the same value, bit for bit) with an estimate of its error:
+/// the luminance error that the means of the first half and the first quarter of its
+/// samples say its mean has ([`prefix_error`], the estimate `bake --noise` stops on);
+/// `None` below four samples.
+#[must_use]
+pub fn reference_irradiance_with_error(
+    t: &Transport<'_>,
+    x: DVec3,
+    n: DVec3,
+    samples: Samples,
+    seed: u64,
+    stream: u64,
+) -> ([f64; 3], Option<f64>, RayCounts) {
     let h = Qmc::<5>::new(seed, stream);
     let x = x + n * t.epsilon();
     let mut rays = RayCounts::default();
     let mut sum = [0.0; 3];
-    for i in 0..u64::from(samples.get()) {
+    let count = u64::from(samples.get());
+    // Luminance of the sums of the first quarter and the first half.
+    let (mut quarter, mut half) = (0.0, 0.0);
+    for i in 0..count {
         let p = h.point(i);
         let mut rng = PathRng::new(seed, stream, i);
         let e = t.irradiance_sample(x, n, [p[0], p[1]], [p[2], p[3], p[4]], &mut rng, &mut rays);
         for c in 0..3 {
             sum[c] += e[c];
         }
+        if i + 1 == count / 4 {
+            quarter = luminance(sum);
+        }
+        if i + 1 == count / 2 {
+            half = luminance(sum);
+        }
     }
     let k = 1.0 / f64::from(samples.get());
-    (sum.map(|s| s * k), rays)
+    let error = (count >= 4)
+        .then(|| prefix_error(luminance(sum) * k, half / (count / 2) as f64, quarter / (count / 4) as f64));
+    (sum.map(|s| s * k), error, rays)
 }
 
 /// [`reference_irradiance`] over many points in parallel (point `i` uses stream `i`;
@@ -47,10 +77,25 @@ pub fn reference_irradiance_many(
     samples: Samples,
     seed: u64,
 ) -> Vec<[f64; 3]> {
+    reference_irradiance_many_with_error(t, points, samples, seed).into_iter().map(|(e, _)| e).collect()
+}
+
+/// [`reference_irradiance_with_error`] over many points in parallel (the streams of
+/// [`reference_irradiance_many`]).
+#[must_use]
+pub fn reference_irradiance_many_with_error(
+    t: &Transport<'_>,
+    points: &[(DVec3, DVec3)],
+    samples: Samples,
+    seed: u64,
+) -> Vec<([f64; 3], Option<f64>)> {
     points
         .par_iter()
         .enumerate()
-        .map(|(i, &(x, n))| reference_irradiance(t, x, n, samples, seed, i as u64).0)
+        .map(|(i, &(x, n))| {
+            let (e, error, _) = reference_irradiance_with_error(t, x, n, samples, seed, i as u64);
+            (e, error)
+        })
         .collect()
 }
 
