@@ -347,8 +347,9 @@ pub(crate) fn run(args: &CompareArgs) -> anyhow::Result<ExitCode> {
     }
     for v in report.views.iter().flatten() {
         let [w, h] = v.resolution;
+        let noise = v.reference.noise.map_or(String::new(), |n| format!(", noise {n:.4}"));
         eprintln!(
-            "view {} ({w}x{h}, {} reference samples): relative RMSE over pixels",
+            "view {} ({w}x{h}, {} reference samples{noise}): relative RMSE over pixels",
             v.camera, v.reference.samples
         );
         for (name, m) in &v.methods {

@@ -9,7 +9,7 @@
 //! - *near* a surface when the nearest hit of [`NEAREST_DIRS`] spherical-Fibonacci rays is
 //!   closer than half the grid's largest cell edge: where leaks show (`too_dark_near`).
 //!
-//! The reference is [`reference_irradiance_many_with_error`] at every point with normal +Z,
+//! The reference is [`reference_irradiance_many_prefixed`] at every point with normal +Z,
 //! with the error its samples' prefixes estimate ([`Plate::reference_noise`]).
 
 use lightvol_core::samples::{Samples, samples};
@@ -26,7 +26,7 @@ use crate::observer::Observer;
 use lightvol_core::progress::Progress;
 use lightvol_sampler::domain::classify_point;
 use lightvol_scene::envmap::luminance;
-use lightvol_scene::reference::reference_irradiance_many_with_error;
+use lightvol_scene::reference::reference_irradiance_many_prefixed;
 use lightvol_scene::scene::Scene;
 use lightvol_scene::transport::Transport;
 
@@ -126,7 +126,7 @@ pub struct Plate {
     /// Reference irradiance (RGB, normal +Z).
     pub truth: Vec<[f64; 3]>,
     /// The estimated luminance error of each point's reference (`None` below four samples;
-    /// [`reference_irradiance_many_with_error`]).
+    /// [`reference_irradiance_many_prefixed`]).
     pub truth_error: Vec<Option<f64>>,
     /// Wall time of the reference, in seconds.
     pub reference_seconds: f64,
@@ -188,13 +188,14 @@ impl Plate {
         observer.stage_started("reference");
         observer.progress(Progress { done: 0, total: 1 });
         let pts: Vec<(DVec3, DVec3)> = points.iter().map(|&p| (p, DVec3::Z)).collect();
-        let (truth, truth_error) = reference_irradiance_many_with_error(
+        let (truth, truth_error) = reference_irradiance_many_prefixed(
             transport,
             &pts,
             config.reference_samples,
             seed ^ REFERENCE_STREAM,
         )
         .into_iter()
+        .map(|e| (e.mean, e.error_of(luminance)))
         .unzip();
         observer.stage_finished();
         Ok(Self {

@@ -87,9 +87,9 @@ pub struct ReferenceSummary {
     pub mean: f64,
     /// Wall time of the reference.
     pub seconds: f64,
-    /// The plate reference's own noise in relative-RMSE units
-    /// ([`crate::plate::Plate::reference_noise`]): the part of every method's `rel_rmse`
-    /// that is the reference's, not the method's. Not estimated for views.
+    /// The reference's own noise in relative-RMSE units
+    /// ([`crate::plate::Plate::reference_noise`], [`crate::views::ComparedView::reference_noise`]):
+    /// the part of every method's `rel_rmse` that is the reference's, not the method's.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub noise: Option<f64>,
 }
@@ -328,7 +328,7 @@ pub fn view_files(
             samples: samples.get(),
             mean: view.mean_reference,
             seconds: view.reference_seconds,
-            noise: None,
+            noise: view.reference_noise,
         },
         methods,
     };

@@ -15,7 +15,7 @@
 //! view (`too_dark_near` is 0 with `near_points` 0). The images show every pixel.
 //!
 //! **Streams.** The path-traced view samples pixel `i` on stream
-//! `hash2(REFERENCE_STREAM, i)` of the comparison's seed ([`render_reference`]), so it is
+//! `hash2(REFERENCE_STREAM, i)` of the comparison's seed ([`lightvol_view::render_reference`]), so it is
 //! the image `lightvol render --reference` makes for the same camera, seed, samples and
 //! light paths, and it does not depend on the thread count.
 
@@ -35,7 +35,7 @@ use crate::runs::MethodRun;
 use lightvol_scene::envmap::luminance;
 use lightvol_scene::transport::Transport;
 use lightvol_view::{
-    Camera, Quantity, ReferenceConfig, ViewConfig, ViewImage, render_reference, render_volume,
+    Camera, Quantity, ReferenceConfig, ViewConfig, ViewImage, render_reference_with_noise, render_volume,
     visible_surface,
 };
 
@@ -145,6 +145,11 @@ pub struct ComparedView {
     pub reference_seconds: f64,
     /// Mean luminance of the path-traced view over the measured pixels.
     pub mean_reference: f64,
+    /// The path-traced view's own noise in relative-RMSE units: the root mean square of
+    /// the measured pixels' estimated errors
+    /// ([`lightvol_view::render_reference_with_noise`]) over `mean_reference`, the part of
+    /// every method's view error that is the reference's. `None` below four samples.
+    pub reference_noise: Option<f64>,
     /// Every entry's view, in the comparison's order.
     pub methods: Vec<MethodView>,
 }
@@ -235,9 +240,10 @@ pub fn compare_views(
         let t0 = Instant::now();
         observer.stage_started(&format!("view {}", c.label));
         let report = |p| observer.progress(p);
-        let reference = render_reference(transport, &c.camera, &config, &reference_config, Some(&report));
+        let reference =
+            render_reference_with_noise(transport, &c.camera, &config, &reference_config, Some(&report));
         observer.stage_finished();
-        let reference = reference?;
+        let (reference, pixel_errors) = reference?;
         let reference_seconds = t0.elapsed().as_secs_f64();
         let measured = measured_pixels(transport, grid, c);
         let lum: Vec<f64> = (0..reference.pixels.len())
@@ -248,6 +254,11 @@ pub fn compare_views(
         if !(mean_reference > 0.0) {
             return Err(EvalError::BlackView(c.label.clone()));
         }
+        let errors: Option<Vec<f64>> =
+            (0..pixel_errors.len()).filter(|&i| measured[i]).map(|i| pixel_errors[i]).collect();
+        let reference_noise = errors
+            .filter(|e| !e.is_empty())
+            .map(|e| (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt() / mean_reference);
         let mut methods = runs
             .iter()
             .map(|run| {
@@ -277,6 +288,7 @@ pub fn compare_views(
             measured,
             reference_seconds,
             mean_reference,
+            reference_noise,
             methods,
         });
     }
@@ -371,7 +383,8 @@ mod tests {
         let cam = &config.views.cameras[0];
         let reference = ReferenceConfig { samples: samples(4), seed: config.seed };
         assert_eq!(
-            render_reference(&transport, &cam.camera, &cam.view_config(), &reference, None).unwrap(),
+            lightvol_view::render_reference(&transport, &cam.camera, &cam.view_config(), &reference, None)
+                .unwrap(),
             v.reference
         );
         let surface = v.reference.surface_pixels();

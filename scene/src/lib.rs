@@ -37,8 +37,8 @@ pub use lights::{Environment, PunctualLight, Sun};
 pub use load::{LoadOptions, load_gltf, load_obj, load_scene};
 pub use material::{AlphaMode, Material};
 pub use reference::{
-    reference_irradiance, reference_irradiance_many, reference_irradiance_many_with_error,
-    reference_irradiance_with_error,
+    PrefixedEstimate, reference_irradiance, reference_irradiance_many, reference_irradiance_many_prefixed,
+    reference_irradiance_prefixed,
 };
 pub use scene::{ExtensionReport, LoadReport, Scene, SceneCamera, UpAxis};
 pub use stats::RayCounts;

@@ -6,7 +6,6 @@ use glam::DVec3;
 use lightvol_core::samples::Samples;
 use rayon::prelude::*;
 
-use crate::envmap::luminance;
 use crate::stats::RayCounts;
 use crate::transport::{PathRng, Transport};
 use lightvol_core::metric::prefix_error;
@@ -24,30 +23,50 @@ pub fn reference_irradiance(
     seed: u64,
     stream: u64,
 ) -> ([f64; 3], RayCounts) {
-    let (e, _, rays) = reference_irradiance_with_error(t, x, n, samples, seed, stream);
-    (e, rays)
+    let (e, rays) = reference_irradiance_prefixed(t, x, n, samples, seed, stream);
+    (e.mean, rays)
 }
 
-/// [`reference_irradiance`] (the same value, bit for bit) with an estimate of its error:
-/// the luminance error that the means of the first half and the first quarter of its
-/// samples say its mean has ([`prefix_error`], the estimate `bake --noise` stops on);
-/// `None` below four samples.
+/// A reference estimate with the means of the first half and the first quarter of its
+/// samples, which say how far the mean is from converged ([`Self::error_of`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PrefixedEstimate {
+    /// The mean of all samples: [`reference_irradiance`]'s value.
+    pub mean: [f64; 3],
+    /// The mean of the first half of the samples.
+    pub half: [f64; 3],
+    /// The mean of the first quarter of the samples.
+    pub quarter: [f64; 3],
+    /// Samples in the mean.
+    pub samples: u32,
+}
+
+impl PrefixedEstimate {
+    /// The estimated error of `f(mean)` for a quantity `f` affine in the irradiance (its
+    /// luminance, a pixel's shaded value): [`prefix_error`] of `f` at the three means, the
+    /// estimate `bake --noise` stops on. `None` below four samples.
+    #[must_use]
+    pub fn error_of(&self, f: impl Fn([f64; 3]) -> f64) -> Option<f64> {
+        (self.samples >= 4).then(|| prefix_error(f(self.mean), f(self.half), f(self.quarter)))
+    }
+}
+
+/// [`reference_irradiance`] (the same value, bit for bit) with its prefixes' means.
 #[must_use]
-pub fn reference_irradiance_with_error(
+pub fn reference_irradiance_prefixed(
     t: &Transport<'_>,
     x: DVec3,
     n: DVec3,
     samples: Samples,
     seed: u64,
     stream: u64,
-) -> ([f64; 3], Option<f64>, RayCounts) {
+) -> (PrefixedEstimate, RayCounts) {
     let h = Qmc::<5>::new(seed, stream);
     let x = x + n * t.epsilon();
     let mut rays = RayCounts::default();
     let mut sum = [0.0; 3];
     let count = u64::from(samples.get());
-    // Luminance of the sums of the first quarter and the first half.
-    let (mut quarter, mut half) = (0.0, 0.0);
+    let (mut quarter, mut half) = ([0.0; 3], [0.0; 3]);
     for i in 0..count {
         let p = h.point(i);
         let mut rng = PathRng::new(seed, stream, i);
@@ -56,16 +75,14 @@ pub fn reference_irradiance_with_error(
             sum[c] += e[c];
         }
         if i + 1 == count / 4 {
-            quarter = luminance(sum);
+            quarter = sum.map(|s| s / (count / 4) as f64);
         }
         if i + 1 == count / 2 {
-            half = luminance(sum);
+            half = sum.map(|s| s / (count / 2) as f64);
         }
     }
     let k = 1.0 / f64::from(samples.get());
-    let error = (count >= 4)
-        .then(|| prefix_error(luminance(sum) * k, half / (count / 2) as f64, quarter / (count / 4) as f64));
-    (sum.map(|s| s * k), error, rays)
+    (PrefixedEstimate { mean: sum.map(|s| s * k), half, quarter, samples: samples.get() }, rays)
 }
 
 /// [`reference_irradiance`] over many points in parallel (point `i` uses stream `i`;
@@ -77,25 +94,22 @@ pub fn reference_irradiance_many(
     samples: Samples,
     seed: u64,
 ) -> Vec<[f64; 3]> {
-    reference_irradiance_many_with_error(t, points, samples, seed).into_iter().map(|(e, _)| e).collect()
+    reference_irradiance_many_prefixed(t, points, samples, seed).into_iter().map(|e| e.mean).collect()
 }
 
-/// [`reference_irradiance_with_error`] over many points in parallel (the streams of
+/// [`reference_irradiance_prefixed`] over many points in parallel (the streams of
 /// [`reference_irradiance_many`]).
 #[must_use]
-pub fn reference_irradiance_many_with_error(
+pub fn reference_irradiance_many_prefixed(
     t: &Transport<'_>,
     points: &[(DVec3, DVec3)],
     samples: Samples,
     seed: u64,
-) -> Vec<([f64; 3], Option<f64>)> {
+) -> Vec<PrefixedEstimate> {
     points
         .par_iter()
         .enumerate()
-        .map(|(i, &(x, n))| {
-            let (e, error, _) = reference_irradiance_with_error(t, x, n, samples, seed, i as u64);
-            (e, error)
-        })
+        .map(|(i, &(x, n))| reference_irradiance_prefixed(t, x, n, samples, seed, i as u64).0)
         .collect()
 }
 

@@ -9,7 +9,7 @@ pub use camera::{Camera, CameraSpec, DEFAULT_FOV_DEG};
 pub use error::ViewError;
 pub use render::{
     MAX_PIXELS, Quantity, REFERENCE_STREAM, ReferenceConfig, ViewConfig, ViewImage, VisibleSurface,
-    render_reference, render_volume, visible_surface,
+    render_reference, render_reference_with_noise, render_volume, visible_surface,
 };
 
 #[cfg(test)]
