@@ -70,8 +70,8 @@ pub const TEXEL_BYTES: u64 = 4;
 #[must_use]
 pub fn tracer_bytes_per_triangle() -> u64 {
     // A leaf pack of four triangles and its four primitive slots, shared by at least two
-    // triangles (leaves hold subtrees of one to four; measured 3.07 on average on the
-    // Breakfast Room).
+    // triangles (leaves hold subtrees of one to eight in one or two packs; measured 3.0 to
+    // 3.2 a pack on the vendored scenes).
     let pack = (size_of::<crate::wide::Tri4>() + 4 * crate::wide::LEAF_SIZE) as u64 / 2;
     pack + size_of::<(DVec3, bool)>() as u64 + size_of::<[DVec3; 3]>() as u64
 }

@@ -5,8 +5,9 @@
 //! way of cutting it (the dynamic programme of Ylitie, Karras & Laine 2017, §3.1, \[YKL17\]):
 //! for each binary node `n` and slot budget `j ≤ 8`, `cost[n][j]` is the least expected cost
 //! of representing `n`'s subtree in at most `j` child slots of one wide node, where a slot is
-//! either a leaf (a subtree of at most [`LEAF_PRIMS`] primitives, one pack test,
-//! [`PACK_COST`]) or a wide node of its own (one test of eight boxes, [`NODE_COST`], plus its
+//! either a leaf (a subtree of at most [`LEAF_PRIMS`] primitives, priced as one pack test,
+//! [`PACK_COST`], whether it fills one pack or two: the setting measured in `PACK_BITS`'s
+//! docs) or a wide node of its own (one test of eight boxes, [`NODE_COST`], plus its
 //! eight slots), each weighted by its box's surface area (the probability that a ray
 //! meeting the parent meets it, \[MB90\]). Children are computed before
 //! parents; the choices are recomputed from the table while the wide tree is emitted.

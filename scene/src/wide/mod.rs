@@ -1,13 +1,13 @@
 //! The tracer's wide BVH: an 8-wide tree laid out for CPU SIMD, collapsed from obvhs'
-//! binary BVH, with leaves of up to four triangles stored side by side.
+//! binary BVH, with leaves of up to eight triangles stored four side by side.
 //!
 //! obvhs builds the binary tree (PLOC, reinsertion, optional pre-splits); `build`
 //! collapses it into nodes of eight children whose boxes are stored as uncompressed f32
 //! planes in structure-of-arrays form (`lo_x[8] hi_x[8] lo_y[8] …`), so that one ray tests
 //! all eight at once (\[WBB08\] §3; the layout of Embree's BVH8, \[WWB14\] §4, and of
-//! tinybvh's `BVH8_CPU`). A child subtree of at most four primitives becomes one
-//! leaf; a triangle leaf is one `Tri4` pack, its four triangles' vertices side by side, so
-//! that the watertight test ([`crate::watertight`], \[WBW13\]) runs on all four at once.
+//! tinybvh's `BVH8_CPU`). A child subtree of at most eight primitives becomes one
+//! leaf; a triangle leaf is one or two `Tri4` packs, each four triangles' vertices side by
+//! side, so that the watertight test ([`crate::watertight`], \[WBW13\]) runs on four at once.
 //!
 //! Traversal (`traverse`) is written once over a `kernel::Kernel`, the box test of
 //! eight children and the triangle test of one pack, and instantiated for each kernel the
@@ -42,10 +42,16 @@ pub(crate) const EMPTY: u32 = u32::MAX;
 /// primitives `prims[4k ..]`, and in a triangle tree the packs `packs[k ..]`).
 pub(crate) const LEAF_BIT: u32 = 1 << 31;
 
-/// Bits of a leaf reference that count its packs: 0, one pack per leaf. (Leaves of up to
-/// two packs, subtrees of up to eight triangles, measured no faster on the vendored scenes:
-/// fewer nodes, more triangle tests.)
-pub(crate) const PACK_BITS: u32 = 0;
+/// Bits of a leaf reference that count its packs: 1, leaves of one or two packs (subtrees
+/// of up to eight triangles). Against one pack per leaf (`lightvol bench --embree`, 300 k
+/// rays, AVX2, 1 thread, the two builds alternating, best of 5), lightvol's rays/s rose on
+/// 11 of 12 cells: closest hits +9.1%, +5.4% and +1.8% on the Breakfast Room, the occlusion
+/// room and zdm2, the bake mix's closest hits +4.9%, +2.4% and +2.4%, its shadow rays
+/// +1.6%, +3.0% and +3.0%, uniform shadow rays −0.7%, +0.3% and +4.6%. The trees have
+/// fewer nodes (the Breakfast Room 9,399 against 17,088), and 3.0-3.2 triangles a pack on
+/// the vendored scenes. (Testing both packs of a leaf at once in eight AVX2 lanes was
+/// slower on shadow rays, 7-9%, and no faster on closest hits.)
+pub(crate) const PACK_BITS: u32 = 1;
 
 /// Packs per leaf at most.
 pub(crate) const MAX_LEAF_PACKS: usize = 1 << PACK_BITS;
@@ -119,9 +125,9 @@ impl Tri4 {
 }
 
 /// A wide BVH over triangles (with [`Tri4`] packs) or over boxes (the top level over
-/// placements, whose leaves list placement indices). Every leaf is one pack of up to
-/// [`LEAF_SIZE`] primitives, named by its index in the child reference itself, so that a
-/// leaf costs no lookup beyond its pack.
+/// placements, whose leaves list placement indices). Every leaf is one or two packs of up to
+/// [`LEAF_SIZE`] primitives each ([`PACK_BITS`]), named by its first pack's index and
+/// count in the child reference itself, so that a leaf costs no lookup beyond its packs.
 #[derive(Clone, Debug)]
 pub(crate) struct WideBvh {
     /// The root reference: node 0, a single leaf, or [`EMPTY`] for no primitives.
