@@ -47,6 +47,16 @@ pub fn rel_rmse_of_sums(sum_sq_diff: f64, sum_truth: f64, n: usize) -> f64 {
     (sum_sq_diff / nf).sqrt() / (sum_truth / nf)
 }
 
+/// The relative RMSE that differences `errors` (each `E − T`, e.g. a reference's own
+/// estimated error at each point) amount to over references of mean `mean_truth`
+/// ([`rel_rmse_of_sums`]); `None` for no errors or a mean that is not positive.
+#[must_use]
+pub fn rel_rmse_of_errors(errors: &[f64], mean_truth: f64) -> Option<f64> {
+    let n = errors.len();
+    (n > 0 && mean_truth > 0.0)
+        .then(|| rel_rmse_of_sums(errors.iter().map(|e| e * e).sum(), mean_truth * n as f64, n))
+}
+
 /// The estimated error of the mean `m_n` of an extensible quasi-Monte Carlo rule from the
 /// means of its prefixes, `m_{n/2}` of the first half and `m_{n/4}` of the first quarter of
 /// the same samples: `max(|m_n − m_{n/2}|, ½ |m_n − m_{n/4}|)` (Owen, *Monte Carlo theory,
@@ -81,6 +91,11 @@ mod tests {
         assert!((r - 0.322_748_6).abs() < 1e-7);
         assert_eq!(rel_rmse([(4.0, 4.0); 3]), 0.0);
         assert_eq!(rel_rmse(std::iter::empty()), 0.0);
+        // The same case from its errors alone and the mean truth.
+        let e = rel_rmse_of_errors(&[0.5, 0.0, -1.0], 2.0).unwrap();
+        assert!((e - r).abs() < 1e-15, "{e} against {r}");
+        assert_eq!(rel_rmse_of_errors(&[], 2.0), None);
+        assert_eq!(rel_rmse_of_errors(&[0.5], 0.0), None);
     }
 
     /// It is scale-free: scaling estimates and truths together leaves it unchanged, and a

@@ -246,9 +246,7 @@ impl Plate {
             .filter(|&i| self.valid[i])
             .map(|i| self.truth_error[i])
             .collect::<Option<_>>()?;
-        let mean = self.mean_truth()?;
-        (!errors.is_empty() && mean > 0.0)
-            .then(|| (errors.iter().map(|e| e * e).sum::<f64>() / errors.len() as f64).sqrt() / mean)
+        lightvol_core::metric::rel_rmse_of_errors(&errors, self.mean_truth()?)
     }
 
     /// Irradiance (normal up) of a uniform volume at every point, by its trilinear f32

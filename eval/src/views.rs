@@ -256,9 +256,8 @@ pub fn compare_views(
         }
         let errors: Option<Vec<f64>> =
             (0..pixel_errors.len()).filter(|&i| measured[i]).map(|i| pixel_errors[i]).collect();
-        let reference_noise = errors
-            .filter(|e| !e.is_empty())
-            .map(|e| (e.iter().map(|x| x * x).sum::<f64>() / e.len() as f64).sqrt() / mean_reference);
+        let reference_noise =
+            errors.and_then(|e| lightvol_core::metric::rel_rmse_of_errors(&e, mean_reference));
         let mut methods = runs
             .iter()
             .map(|run| {
