@@ -91,7 +91,7 @@ pub(crate) struct BakeArgs {
     pub(crate) target: Option<lightvol_volume::EngineLookup>,
     /// The --target fit's weight toward the baked values (0: a pure least-squares fit).
     /// Default: 0.1 for three and apv (they read the grid away from the shading point, so
-    /// the fit needs room to move the values), 0.5 for bevy and trilinear.
+    /// the fit needs room to move the values), 0.15 for bevy and trilinear.
     #[arg(long, value_name = "LAMBDA", requires = "target")]
     pub(crate) target_lambda: Option<f64>,
     /// With --target, smooth the `doi` bake's node values where their own samples say

@@ -22,21 +22,36 @@
 //!
 //! **The samples.** From every node with samples of its own (not filled from its
 //! neighbours), [`TARGET_RAYS_PER_NODE`] rays (Halton directions keyed by seed and node)
-//! find the surfaces near it: a front face met within [`TARGET_REACH_CELLS`] cells gives a
-//! *surface sample* (the point, its shading normal, viewed from the node), and a point on
-//! the unobstructed part of the ray gives a *free-space sample* with a uniform normal. The
-//! free point lies at `∛u` of that part's length, so that the free samples are uniform in
-//! the space around the node (where a moving object may be), not crowded near it (uniform
-//! in distance, density `∝ 1/r²`), where every lookup already reads the node itself: over
-//! the eight scenes of the README's method table this lowered the means through
-//! three.js's, Bevy's and the trilinear lookups by 0.6-1.4% (two seeds; sampler README).
-//! A node any of whose rays meets a back face gives none (it stands inside
-//! a solid, or outside a room whose walls face inward: Kontkanen & Laine's test of the
-//! domain of interest, on the node's rays). These are the points an engine shades and a
-//! moving object passes through. Their value `E_s` is the bake's irradiance read by lightvol's own lookup
-//! (validity and node reach, [`IrradianceVolume::irradiance_reference`]): the fit moves
-//! the bake's light, estimated once, into the target's reconstruction, and traces no
-//! light path: the rays above are its whole cost ([`TargetReport::rays`]).
+//! find the surfaces near it. The unobstructed part of each ray (up to the first surface or
+//! [`TARGET_REACH_CELLS`] cells) gives [`TARGET_FREE_SAMPLES_PER_RAY`] *free-space samples*,
+//! each at `∛u` of that part's length, so that they are uniform in the space around the
+//! node (where a moving object may be), not crowded near it (uniform in distance, density
+//! `∝ 1/r²`), where every lookup already reads the node itself. A front face met within
+//! reach gives a *surface sample* (the point, its shading normal, viewed from the node).
+//! A node any of whose rays meets a back face gives none (it stands inside a solid, or
+//! outside a room whose walls face inward: Kontkanen & Laine's test of the domain of
+//! interest, on the node's rays). These are the points an engine shades and a moving object
+//! passes through.
+//!
+//! A free sample's normal is uniform on the sphere for the plain trilinear lookup, and the
+//! grid axis nearest to a uniform normal for three.js's, Bevy's and APV's. Bevy's ambient
+//! cube stores six values, exact on the six axis normals and blended by `n²` in between:
+//! fitted over all normals, the cube that is best on average reads an axis-facing surface
+//! (a floor, a wall) a quarter of the up-down difference too bright or too dark (the 5/4 of
+//! `bevys_cube_fitted_over_all_normals_overshoots_the_axis_by_five_quarters`), while the
+//! blend between exact axis values is the cube's own. three.js reads half a cell along the
+//! normal and APV a normal bias along it, so there a normal also chooses *where* the grid
+//! is read: axis normals fit the reads along a grid axis that floors, walls and ceilings
+//! make. (For the plain trilinear lookup, which reads SH9 at the point, axis normals made no
+//! difference.)
+//!
+//! A sample's value `E_s` is the bake's irradiance read by lightvol's own lookup (validity
+//! and node reach, [`IrradianceVolume::irradiance_reference`]), at the free point itself
+//! and, for a surface sample, [`TARGET_SURFACE_READ_CELLS`] of a cell in front of the
+//! surface. The fit moves the bake's light, estimated once, into the target's
+//! reconstruction, and traces no light path: the rays above are its whole cost
+//! ([`TargetReport::rays`]). The sampler README gives what each of these choices changed on
+//! the README's method table.
 //!
 //! **Noise.** Given the bake's per-node error estimates, the bake's values are first
 //! smoothed where they are noisy ([`crate::denoise`], `TargetSettings::smoothing`;
@@ -69,25 +84,40 @@ use rayon::prelude::*;
 use crate::denoise::{DEFAULT_SMOOTHING, SmoothingReport, smooth_by_noise};
 use crate::error::BakeError;
 
-/// Rays traced from each node to find its samples: each gives up to two (a surface and a
-/// free-space point). Twelve cost at most 5% of the rays of a 128-sample `doi` bake on
-/// every built-in and vendored scene (whose probe samples each trace a path and a shadow
-/// ray; the living room, with the shortest paths, is the dearest; test
-/// `target_fits_stay_within_their_ray_budget`). Sixteen gave lower plate errors through
-/// three.js's lookup than eight on six of six scenes, but cost 5.9% on the living room.
+/// Rays traced from each node to find its samples: each gives a surface sample where it
+/// meets one within reach and [`TARGET_FREE_SAMPLES_PER_RAY`] free-space points. Twelve
+/// cost at most 5% of the rays of a 128-sample `doi` bake on every built-in and vendored
+/// scene (whose probe samples each trace a path and a shadow ray; the living room, with the
+/// shortest paths, is the dearest; test `target_fits_stay_within_their_ray_budget`).
+/// Sixteen gave lower plate errors through three.js's lookup than eight on six of six
+/// scenes, but cost 5.9% on the living room.
 pub const TARGET_RAYS_PER_NODE: u32 = 12;
 
 /// How far, in the largest cell size, a node's rays look for surfaces: two cells covers
 /// the trilinear supports of the node's neighbours that a surface point there reads.
 pub const TARGET_REACH_CELLS: f64 = 2.0;
 
+/// Free-space samples taken along each ray's unobstructed part (each at its own `∛u` of
+/// the part's length, with its own normal): the points cost no ray, and three rather than
+/// one lowered the means through three.js's, Bevy's and the trilinear lookups on the
+/// README's method table (sampler README, "Fitting for an engine's lookup").
+pub const TARGET_FREE_SAMPLES_PER_RAY: u32 = 3;
+
+/// Where a surface sample's value is read, in the smallest cell size in front of the
+/// surface along its normal: half a cell, where three.js's lookup reads (module docs).
+/// lightvol's reading at the surface itself carries the bake's error at contact (the
+/// corners and the floor under furniture, which no grid resolves); half a cell out, the
+/// Breakfast Room's camera views of every engine fit came 0.02-0.04 closer to the path
+/// tracer, at a cost to the floors of the coarse built-in grids (sampler README).
+pub const TARGET_SURFACE_READ_CELLS: f64 = 0.5;
+
 /// Default λ for a lookup that reads the grid where the bake aimed, at the shading point
 /// (Bevy's, plain trilinear): how strongly node values stay at the bake's. Measured on the
-/// eight scenes of the README's method table at 0.1, 0.25, 0.5, 1 and 2 (sampler README):
-/// below 0.5 nodes that few samples reach swing (Bevy's plate error on zdm2 rose from 0.067
-/// to 0.118 at 0.1), above it more of the engine's error stays; 0.5 gave the lowest
-/// trilinear mean, and Bevy's within 0.6% of its lowest (at 1).
-pub const TARGET_LAMBDA_AT_POINT: f64 = 0.5;
+/// eight scenes of the README's method table (sampler README): with one free sample per ray
+/// and surface values read at the surface, 0.5 of 0.1-2 gave the lowest means; with three
+/// free samples per ray and surface values read half a cell out, 0.15 of 0.12-1 did (below
+/// it, nodes that few samples reach swing: zdm2's plate).
+pub const TARGET_LAMBDA_AT_POINT: f64 = 0.15;
 
 /// Default λ for a lookup that reads the grid away from the shading point (three.js half a
 /// cell along the normal, Unity APV by its normal and view biases): there the bake's own
@@ -165,12 +195,14 @@ pub struct TargetReport {
     pub smoothing: Option<SmoothingReport>,
 }
 
-/// One sample: where the engine is asked, and what it should answer.
+/// One sample: where the engine is asked (`p`, with normal `n` and towards-the-eye `v`),
+/// and where lightvol's lookup is read for what it should answer (`read`, with normal `n`).
 #[derive(Clone, Copy, Debug)]
 struct Sample {
     p: [f64; 3],
     n: [f64; 3],
     v: [f64; 3],
+    read: [f64; 3],
     surface: bool,
 }
 
@@ -186,32 +218,59 @@ fn node_samples(
     let spec = vol.spec();
     let [i, j, k] = spec.node_coords(node);
     let x = DVec3::from_array(spec.node_position_world(i, j, k));
-    let reach = TARGET_REACH_CELLS * spec.cell_size().into_iter().fold(0.0, f64::max);
-    let h = Qmc::<5>::new(settings.seed, hash2(node as u64, 0x7461_7267_6574));
+    let cell = spec.cell_size();
+    let reach = TARGET_REACH_CELLS * cell.into_iter().fold(0.0, f64::max);
+    let read_offset = TARGET_SURFACE_READ_CELLS * cell.into_iter().fold(f64::INFINITY, f64::min);
+    let dirs = Qmc::<2>::new(settings.seed, hash2(node as u64, 0x7461_7267_6574));
+    let free = Qmc::<3>::new(settings.seed, hash2(node as u64, 0x6672_6565));
+    let per_ray = u64::from(TARGET_FREE_SAMPLES_PER_RAY);
     let eps = t.epsilon();
-    let mut out = Vec::with_capacity(2 * settings.rays_per_node as usize);
+    let mut out = Vec::with_capacity(((per_ray + 1) * u64::from(settings.rays_per_node)) as usize);
     for s in 0..u64::from(settings.rays_per_node) {
-        let q = h.point(s);
+        let q = dirs.point(s);
         let dir = DVec3::from_array(sample_uniform_sphere([q[0], q[1]]));
         let hit = t.tracer().closest_hit(x, dir, 0.0, f64::INFINITY);
         if hit.is_some_and(|h| h.back_face) {
             return (Vec::new(), s + 1);
         }
         let end = hit.map_or(reach, |h| h.t.min(reach));
-        let n = sample_uniform_sphere([q[3], q[4]]);
-        // Uniform in the ball the unobstructed rays sweep (distance ∝ ∛u), not in distance.
-        let r = q[2].cbrt() * end;
-        out.push(Sample { p: (x + dir * r).to_array(), n, v: n, surface: false });
+        for f in 0..per_ray {
+            let u = free.point(s * per_ray + f);
+            let n = free_normal(settings.lookup, sample_uniform_sphere([u[1], u[2]]));
+            // Uniform in the ball the unobstructed rays sweep (distance ∝ ∛u), not in distance.
+            let p = (x + dir * (u[0].cbrt() * end)).to_array();
+            out.push(Sample { p, n, v: n, read: p, surface: false });
+        }
         if let Some(h) = hit.filter(|h| h.t <= reach) {
             // The face the node sees, and the engine's shading normal on that side.
             let face = if h.from_behind { -h.normal } else { h.normal };
             let shading = t.scene().shading_normal(h.triangle, h.bary[0], h.bary[1]).unwrap_or(face);
             let n = if shading.dot(face) < 0.0 { -shading } else { shading };
             let p = x + dir * h.t + face * eps;
-            out.push(Sample { p: p.to_array(), n: n.to_array(), v: (-dir).to_array(), surface: true });
+            let read = (p + n * read_offset).to_array();
+            out.push(Sample { p: p.to_array(), n: n.to_array(), v: (-dir).to_array(), read, surface: true });
         }
     }
     (out, u64::from(settings.rays_per_node))
+}
+
+/// A free-space sample's normal for `lookup`, from the uniform normal `n`: for three.js's,
+/// Bevy's and APV's lookups the grid axis nearest to `n` (each of the six with probability
+/// 1/6; module docs), for the others `n` itself.
+fn free_normal(lookup: EngineLookup, n: [f64; 3]) -> [f64; 3] {
+    if !matches!(lookup, EngineLookup::Three | EngineLookup::Bevy | EngineLookup::Apv) {
+        return n;
+    }
+    nearest_axis(n)
+}
+
+/// The signed grid axis nearest to the unit vector `n` (the largest component's, the first
+/// on a tie).
+fn nearest_axis(n: [f64; 3]) -> [f64; 3] {
+    let a = (1..3).fold(0, |best, a| if n[a].abs() > n[best].abs() { a } else { best });
+    let mut axis = [0.0; 3];
+    axis[a] = if n[a] < 0.0 { -1.0 } else { 1.0 };
+    axis
 }
 
 /// A sample's row: the target's linear form and the value it should give.
@@ -316,7 +375,7 @@ pub fn fit_for_lookup(
         .into_par_iter()
         .filter_map(|s| {
             let w = fitted.engine_weights(settings.lookup, s.p, s.n, s.v);
-            w.lit().then(|| Row { w, value: volume.irradiance_reference(s.p, s.n) })
+            w.lit().then(|| Row { w, value: volume.irradiance_reference(s.read, s.n) })
         })
         .collect();
     report.unlit_samples = report.surface_samples + report.free_samples - rows.len();
