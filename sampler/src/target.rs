@@ -42,8 +42,8 @@
 //! blend between exact axis values is the cube's own. three.js reads half a cell along the
 //! normal and APV a normal bias along it, so there a normal also chooses *where* the grid
 //! is read: axis normals fit the reads along a grid axis that floors, walls and ceilings
-//! make. (For the plain trilinear lookup, which reads SH9 at the point, axis normals made no
-//! difference.)
+//! make. (For the plain trilinear lookup, which reads SH9 at the point, axis normals gave a
+//! worse mean: sampler README.)
 //!
 //! A sample's value `E_s` is the bake's irradiance read by lightvol's own lookup (validity
 //! and node reach, [`IrradianceVolume::irradiance_reference`]), at the free point itself
@@ -98,18 +98,20 @@ pub const TARGET_RAYS_PER_NODE: u32 = 12;
 pub const TARGET_REACH_CELLS: f64 = 2.0;
 
 /// Free-space samples taken along each ray's unobstructed part (each at its own `∛u` of
-/// the part's length, with its own normal): the points cost no ray, and three rather than
-/// one lowered the means through three.js's, Bevy's and the trilinear lookups on the
-/// README's method table (sampler README, "Fitting for an engine's lookup").
-pub const TARGET_FREE_SAMPLES_PER_RAY: u32 = 3;
+/// the part's length, with its own normal): the points cost no ray, and more of them
+/// lowered the means through three.js's, Bevy's and the trilinear lookups on the README's
+/// method table, by less each time (one → three → five; sampler README, "Fitting for an
+/// engine's lookup").
+pub const TARGET_FREE_SAMPLES_PER_RAY: u32 = 5;
 
 /// Where a surface sample's value is read, in the smallest cell size in front of the
-/// surface along its normal: half a cell, where three.js's lookup reads (module docs).
-/// lightvol's reading at the surface itself carries the bake's error at contact (the
-/// corners and the floor under furniture, which no grid resolves); half a cell out, the
-/// Breakfast Room's camera views of every engine fit came 0.02-0.04 closer to the path
-/// tracer, at a cost to the floors of the coarse built-in grids (sampler README).
-pub const TARGET_SURFACE_READ_CELLS: f64 = 0.5;
+/// surface along its normal (module docs). lightvol's reading at the surface itself
+/// carries the bake's error at contact (the corners and the floor under furniture, which
+/// no grid resolves); read in front of it, the Breakfast Room's camera views of every
+/// engine fit came 0.02-0.04 closer to the path tracer, at a cost to the floors of the
+/// coarse built-in grids. A quarter of a cell gave a worse mean than a half, and three
+/// quarters and a whole cell better and alike (sampler README).
+pub const TARGET_SURFACE_READ_CELLS: f64 = 0.75;
 
 /// Default λ for a lookup that reads the grid where the bake aimed, at the shading point
 /// (Bevy's, plain trilinear): how strongly node values stay at the bake's. Measured on the
