@@ -167,8 +167,10 @@ impl IrradianceVolume {
     }
 
     /// Whether world point `q` lies outside the engines' box of this grid, half a cell
-    /// beyond the outermost nodes on every axis, grown by `margin` cells.
-    fn outside_engine_box(&self, q: [f64; 3], margin: f64) -> bool {
+    /// beyond the outermost nodes on every axis (Bevy's cube of the probe texture), grown
+    /// by `margin` cells.
+    #[must_use]
+    pub fn outside_engine_box(&self, q: [f64; 3], margin: f64) -> bool {
         let spec = self.spec();
         let g = spec.to_grid(q);
         let (lo, hi) = spec.bounds();
