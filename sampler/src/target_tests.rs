@@ -104,12 +104,8 @@ fn bevys_cube_fitted_over_all_normals_overshoots_the_axis_by_five_quarters() {
                 w.lit().then(|| Row { w, value: truth.irradiance_reference(p, n) })
             })
             .collect();
-        let (x, _, _) = solve(&truth, &rows, 1e-6);
         let mut fitted = truth.clone();
-        for node in 0..fitted.spec().node_count() {
-            let v: Vec<f32> = x[node * 27..(node + 1) * 27].iter().map(|&v| v as f32).collect();
-            fitted.set_node(node, &v).unwrap();
-        }
+        solve_into(&mut fitted, &rows, 1e-6).unwrap();
         fitted
     };
     let p = [1.3, 0.9, 1.1];
